@@ -1,0 +1,1 @@
+"""tactile firmware: MicroPython code for the F/T sampling board (also runs under CPython)."""

@@ -1,0 +1,82 @@
+"""``tactile`` entry point: a registry of subcommands, each imported only when used.
+
+A subcommand module defines ``add_arguments(parser)`` and ``run(args) -> int``.
+Modules only parse, call and print; the work lives in the library.
+"""
+
+import argparse
+import importlib
+import sys
+
+from tactile import __version__
+from tactile.errors import TactileError
+
+# name -> (module, one-line help).  Keep alphabetical within groups.
+COMMANDS = {
+    "demo": ("tactile.cli.cmd_demo", "run the main job on the board emulator and print the result"),
+    "ports": ("tactile.cli.cmd_ports", "list serial ports"),
+    "info": ("tactile.cli.cmd_info", "show a board's INFO"),
+    "config": ("tactile.cli.cmd_config", "set sample rate, contact gate and streams"),
+    "tare": ("tactile.cli.cmd_tare", "bias the F/T sensor"),
+    "record": ("tactile.cli.cmd_record", "record a stream: raw capture, contacts CSV, metadata"),
+    "live": ("tactile.cli.cmd_live", "terminal view of force/torque and contact state"),
+    "decode": ("tactile.cli.cmd_decode", "decode a raw byte capture into JSON lines"),
+    "emulate": ("tactile.cli.cmd_emulate", "serve a simulated board on a pseudo-terminal"),
+    "flash": ("tactile.cli.cmd_flash", "copy the firmware onto a MicroPython board"),
+    "ep1": ("tactile.cli.cmd_ep1", "EP1: curvature at a point from rolling probes (ch. 3)"),
+    "ep2": ("tactile.cli.cmd_ep2", "EP2: patch fit and shape classification (ch. 4)"),
+    "sim": ("tactile.cli.cmd_sim", "simulate EP1 probes or EP2 sweeps into files"),
+    "study": ("tactile.cli.cmd_study", "reproduce the thesis's simulation studies"),
+    "plot": ("tactile.cli.cmd_plot", "draw contacts, fitted patches and S/C maps as PNG"),
+}
+
+
+def _top_parser():
+    lines = [f"  {name:<9} {help_}" for name, (_, help_) in COMMANDS.items()]
+    parser = argparse.ArgumentParser(
+        prog="tactile",
+        description="Tactile shape exploration: board, emulator, EP1 and EP2.",
+        epilog="commands:\n" + "\n".join(lines) + "\n\n'tactile COMMAND --help' for details.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"tactile {__version__}")
+    parser.add_argument("command", choices=list(COMMANDS), metavar="COMMAND")
+    return parser
+
+
+def _load(name):
+    module_name, help_ = COMMANDS[name]
+    try:
+        return importlib.import_module(module_name), help_
+    except ModuleNotFoundError as exc:
+        if exc.name == module_name:
+            raise TactileError(f"'{name}' is not available in this build") from None
+        raise
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    top = _top_parser()
+    if not argv or argv[0].startswith("-"):
+        top.parse_args(argv or ["--help"])
+        return 0
+    top.parse_args(argv[:1])  # validates the command name
+    name = argv[0]
+    try:
+        module, help_ = _load(name)
+        parser = argparse.ArgumentParser(prog=f"tactile {name}", description=help_)
+        module.add_arguments(parser)
+        args = parser.parse_args(argv[1:])
+        return int(module.run(args) or 0)
+    except TactileError as exc:
+        print(f"tactile {name}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f"tactile {name}: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,46 @@
+"""The host's error tree.  The CLI turns any of these into one line and an exit code.
+
+- ``TactileError``: base; ``exit_code`` is what the CLI returns.
+- ``InputError`` (2): bad user input; the message names file, line, column/field.
+- ``DataError`` (3): the data are well formed but do not determine a result.
+- ``BoardError`` (IOError, 4): talking to a board or emulator failed;
+  ``BoardTimeout``, ``ProtocolVersionError`` and ``PortError`` refine it.
+"""
+
+
+class TactileError(Exception):
+    exit_code = 1
+
+
+class InputError(TactileError, ValueError):
+    exit_code = 2
+
+
+class DataError(TactileError):
+    exit_code = 3
+
+
+class BoardError(TactileError, IOError):
+    exit_code = 4
+
+
+class BoardTimeout(BoardError):
+    pass
+
+
+class ProtocolVersionError(BoardError):
+    pass
+
+
+class PortError(BoardError):
+    """The serial port is missing, busy or not permitted."""
+
+
+def where(path, line=None, column=None):
+    """Format a location prefix: ``file.csv:12: column 'nz'``."""
+    out = str(path)
+    if line is not None:
+        out += f":{line}"
+    if column is not None:
+        out += f": column '{column}'"
+    return out

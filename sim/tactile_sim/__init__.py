@@ -1,0 +1,1 @@
+"""tactile simulation: object geometry, rolling and sweeping, F/T sensor model, board emulator."""
