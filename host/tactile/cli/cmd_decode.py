@@ -1,0 +1,46 @@
+"""``tactile decode CAPTURE.bin [--json]``: raw byte capture -> one message per line.
+
+Damaged input is not an error: it is skipped, counted, and the counters
+close the output (exit 0).  Only an unreadable file is an error (exit 2).
+"""
+
+import sys
+
+from tactile.errors import InputError
+
+CHUNK = 1 << 16
+
+
+def add_arguments(parser):
+    parser.add_argument("capture", help="raw bytes as read from the serial port")
+    parser.add_argument("--json", action="store_true", help="JSON lines (default: readable text)")
+
+
+def run(args):
+    from tactile.jsonout import dumps
+    from tactile.stream_decoder import StreamDecoder
+
+    decoder = StreamDecoder()
+    write = sys.stdout.write
+    fmt = dumps if args.json else _text
+    try:
+        handle = open(args.capture, "rb")
+    except OSError as exc:
+        raise InputError(f"{args.capture}: cannot read: {exc.strerror}") from None
+    with handle:
+        while chunk := handle.read(CHUNK):
+            for msg in decoder.feed(chunk):
+                write(fmt(msg.to_dict()) + "\n")
+    summary = decoder.counters.as_dict()
+    summary["pending_bytes"] = decoder.pending_bytes
+    write((dumps({"summary": summary}) if args.json else _text_summary(summary)) + "\n")
+    return 0
+
+
+def _text(d):
+    fields = " ".join(f"{k}={v}" for k, v in d.items() if k != "type")
+    return f"{d['type']:<8} {fields}"
+
+
+def _text_summary(s):
+    return "summary  " + " ".join(f"{k}={v}" for k, v in s.items())

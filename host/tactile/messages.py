@@ -1,0 +1,39 @@
+"""Host-side message objects, generated from the protocol's one table (``SPECS``).
+
+Each message type is a named tuple ``(seq, timestamp_us, *fields)`` with
+class attributes ``type_code`` and ``type_name``.  ``to_dict`` gives the
+JSON form used by ``tactile decode``.  Units: PROTOCOL.md §4.
+"""
+
+from collections import namedtuple
+
+from tactile_protocol.messages import SPECS
+
+
+def _to_dict(self):
+    out = {"type": self.type_name}
+    for name, value in zip(self._fields, self):
+        if isinstance(value, bytes):
+            value = value.rstrip(b"\0").decode("ascii", "replace")
+        out[name] = value
+    return out
+
+
+def _make(mtype, name, fields):
+    cls = namedtuple(name.title().replace("_", ""), ("seq", "timestamp_us") + tuple(fields))
+    cls.type_code = mtype
+    cls.type_name = name
+    cls.to_dict = _to_dict
+    return cls
+
+
+CLASSES = {mtype: _make(mtype, name, fields) for mtype, name, _, fields in SPECS}
+BY_NAME = {cls.type_name: cls for cls in CLASSES.values()}
+
+Hello = BY_NAME["HELLO"]
+Info = BY_NAME["INFO"]
+Sample = BY_NAME["SAMPLE"]
+Contact = BY_NAME["CONTACT"]
+Status = BY_NAME["STATUS"]
+Ack = BY_NAME["ACK"]
+Nak = BY_NAME["NAK"]

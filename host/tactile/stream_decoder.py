@@ -1,0 +1,193 @@
+"""Streaming frame decoder: bytes in, messages out, never raises (PROTOCOL.md §5).
+
+``StreamDecoder.feed(data)`` returns the valid messages completed by
+``data`` and updates ``counters``.  Memory stays bounded: at most
+``MAX_ENCODED`` bytes of an unfinished frame are kept.  COBS decoding uses
+the C ``cobs`` package when installed and the protocol's pure-Python codec
+otherwise; the CRC uses ``binascii.crc_hqx`` (CRC-16/CCITT-FALSE with
+init 0xFFFF), both tested against the protocol implementation.
+"""
+
+import struct
+from binascii import crc_hqx
+
+from tactile.messages import CLASSES
+from tactile_protocol.constants import CRC_SIZE, HEADER_SIZE, MAX_ENCODED, MSG_HELLO
+from tactile_protocol.constants import PROTOCOL_VERSION as VERSION
+from tactile_protocol.messages import BY_TYPE
+
+try:  # the C extension of the ``cobs`` package
+    from cobs.cobs import DecodeError as _CobsError
+    from cobs.cobs import decode as _cobs_decode
+except ImportError:  # pragma: no cover - exercised by forcing the fallback in tests
+    from tactile_protocol.cobs_codec import decode as _cobs_decode
+
+    _CobsError = ValueError
+
+_DECODE_ERRORS = (_CobsError, ValueError)  # the package's error, the pure codec's
+
+COUNTER_NAMES = (
+    "bytes",
+    "frames",
+    "crc_errors",
+    "oversize",
+    "undecodable",
+    "version_mismatch",
+    "seq_gaps",
+    "lost_frames",
+    "out_of_order",
+    "salvaged",
+)
+
+
+class Counters:
+    """What the decoder saw.  ``lost_frames`` sums the sequence gaps."""
+
+    __slots__ = COUNTER_NAMES + ("last_version",)
+
+    def __init__(self):
+        for name in COUNTER_NAMES:
+            setattr(self, name, 0)
+        self.last_version = None
+
+    def as_dict(self):
+        out = {name: getattr(self, name) for name in COUNTER_NAMES}
+        out["last_version"] = self.last_version
+        return out
+
+    @property
+    def damaged(self):
+        return self.crc_errors + self.oversize + self.undecodable
+
+
+def _layouts():
+    """type -> (Struct skipping version and type, message class, body length)."""
+    out = {}
+    for mtype, (_, _, full, size, _, _) in BY_TYPE.items():
+        fmt = "<xx" + full[3:]  # skip version and type: unpack gives seq, ts, fields
+        out[mtype] = (struct.Struct(fmt), CLASSES[mtype], size)
+    return out
+
+
+_LAYOUTS = _layouts()
+# Encoded length of each type's frame (body + CRC < 254 bytes: COBS adds one byte).
+_ENCODED_LENGTHS = sorted({size + CRC_SIZE + 1 for _, _, size in _LAYOUTS.values()}, reverse=True)
+
+
+class StreamDecoder:
+    """Decode a device's byte stream; see the module docstring."""
+
+    def __init__(self, cobs_decode=None):
+        self.counters = Counters()
+        self._pending = b""
+        self._truncated = False  # the pending span lost its head (too long)
+        self._expected_seq = None
+        self._decode = cobs_decode or _cobs_decode
+
+    @property
+    def pending_bytes(self):
+        """Bytes of an unfinished frame held (at most MAX_ENCODED)."""
+        return len(self._pending)
+
+    def feed(self, data):
+        """Add bytes; return the list of messages they completed."""
+        c = self.counters
+        c.bytes += len(data)
+        if self._pending:
+            data = self._pending + bytes(data)
+        spans = bytes(data).split(b"\0")
+        tail = spans.pop()
+        out = []
+        for span in spans:
+            if span:
+                if self._truncated:
+                    c.oversize += 1
+                    self._truncated = False
+                    self._salvage(span, out)
+                else:
+                    self._span(span, out)
+            elif self._truncated:
+                c.oversize += 1
+                self._truncated = False
+        if len(tail) > MAX_ENCODED:
+            tail = tail[-MAX_ENCODED:]
+            self._truncated = True
+        self._pending = tail
+        return out
+
+    def _span(self, span, out):
+        msg = self._parse(span) if len(span) <= MAX_ENCODED else None
+        if msg is not None:
+            self._deliver(msg, out)
+            return
+        if len(span) > MAX_ENCODED:
+            self.counters.oversize += 1
+        self._salvage(span, out)
+
+    def _parse(self, span, count=True):
+        """One encoded frame -> message, or None (counted when ``count``)."""
+        c = self.counters
+        try:
+            body = self._decode(span)
+        except _DECODE_ERRORS:
+            if count:
+                c.undecodable += 1
+            return None
+        n = len(body) - CRC_SIZE
+        if n < HEADER_SIZE:
+            if count:
+                c.undecodable += 1
+            return None
+        if crc_hqx(body[:n], 0xFFFF) != body[n] | (body[n + 1] << 8):
+            if count:
+                c.crc_errors += 1
+            return None
+        if body[0] != VERSION:
+            if count:
+                c.version_mismatch += 1
+                c.last_version = body[0]
+            return None
+        layout = _LAYOUTS.get(body[1])
+        if layout is None or layout[2] != n:
+            if count:
+                c.undecodable += 1
+            return None
+        return layout[1]._make(layout[0].unpack_from(body))
+
+    def _salvage(self, span, out):
+        """Deliver a valid frame at the end of a damaged span (PROTOCOL.md §5)."""
+        for length in _ENCODED_LENGTHS:
+            if length < len(span):
+                msg = self._parse(span[-length:], count=False)
+                if msg is not None:
+                    self.counters.salvaged += 1
+                    self._deliver(msg, out)
+                    return
+
+    def _deliver(self, msg, out):
+        c = self.counters
+        c.frames += 1
+        seq = msg.seq
+        expected = self._expected_seq
+        if expected is not None and seq != expected:
+            if msg.type_code == MSG_HELLO and seq == 0:
+                pass  # the device rebooted: its sequence restarts
+            else:
+                gap = (seq - expected) & 0xFFFF
+                if gap < 0x8000:
+                    c.seq_gaps += 1
+                    c.lost_frames += gap
+                else:
+                    c.out_of_order += 1
+        self._expected_seq = (seq + 1) & 0xFFFF
+        out.append(msg)
+
+
+def decode_bytes(data, chunk=65536):
+    """Decode a whole capture; return ``(messages, counters)``."""
+    decoder = StreamDecoder()
+    messages = []
+    view = memoryview(data)
+    for start in range(0, len(data), chunk):
+        messages.extend(decoder.feed(view[start : start + chunk]))
+    return messages, decoder.counters

@@ -1,0 +1,205 @@
+"""Generate vectors.json, the golden bytes of protocol version 1 (PROTOCOL.md §6).
+
+Run once per protocol version: ``python protocol/make_vectors.py``.  The
+file is then frozen; tests compare every implementation with it.  Frame
+bytes come from ``tactile_protocol``; stream counters come from the host
+decoder acting as the oracle, after the delivered frames are checked
+against the expectation written next to each case.
+"""
+
+import json
+import os
+import random
+import struct
+
+from tactile_protocol import constants as C
+from tactile_protocol.cobs_codec import encode
+from tactile_protocol.crc16 import crc16
+from tactile_protocol.framing import encode_frame
+from tactile_protocol.messages import BY_NAME, SPECS, field_codes
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def _hex(b):
+    return bytes(b).hex()
+
+
+def crc_cases():
+    data = [b"123456789", b"", b"\x00", bytes(range(256)), b"\xff" * 32]
+    return [{"data_hex": _hex(d), "crc": crc16(d)} for d in data]
+
+
+def cobs_cases():
+    rng = random.Random(7)
+    nz = bytes(rng.randrange(1, 256) for _ in range(600))
+    cases = [
+        ("empty", "empty payload", b""),
+        ("zeros", "one zero", b"\x00"),
+        ("zeros", "two zeros", b"\x00\x00"),
+        ("zeros", "zeros inside", b"\x11\x22\x00\x33"),
+        ("zeros", "zero at the end", b"\x11\x22\x33\x44\x00"),
+        ("zeros", "all zeros, maximum body", bytes(C.MAX_BODY)),
+        ("runs", "253 non-zero bytes", nz[:253]),
+        ("runs", "254 non-zero bytes", nz[:254]),
+        ("runs", "255 non-zero bytes", nz[:255]),
+        ("runs", "254 non-zero then zero", nz[:254] + b"\x00"),
+        ("runs", "zero then 254 non-zero", b"\x00" + nz[:254]),
+        ("runs", "508 non-zero bytes", nz[:508]),
+        ("maximum", "maximum body, mixed", bytes(rng.choice((0, 1, 255, 7)) for _ in range(250))),
+    ]
+    return [
+        {"group": g, "name": n, "decoded_hex": _hex(d), "encoded_hex": _hex(encode(d))}
+        for g, n, d in cases
+    ]
+
+
+def _extreme(code, high):
+    if code.endswith("s"):
+        return b"\xff" * int(code[:-1]) if high else b""
+    if code == "f":
+        return 3.4028234663852886e38 if high else -1.5
+    lo_hi = {"B": (0, 255), "H": (0, 65535), "I": (0, 0xFFFFFFFF), "i": (-(2**31), 2**31 - 1)}
+    return lo_hi[code][1 if high else 0]
+
+
+TYPICAL = {
+    "HELLO": (1, 0, 0, 1, b"SIM-ADS1219x6", 1, 1000, 17, 0, 0, 0, 1000, 5000000, 4000000, 3, 0x0A),
+    "INFO": (1, 0, 0, 1, b"SIM-ADS1219x6", 3, 1000, 1, 2, 3, 0, 500, 5000000, 4000000, 2, 0x23),
+    "SAMPLE": (0, 0x40, 1234567, -2345678, 45, -1000, 2000, 0),
+    "CONTACT": (2, C.PHASE_BEGIN, 7, 0x40, 5100000, 0, -12, 1, 2, 3),
+    "STATUS": (C.FAULT_I2C | C.FAULT_RECOVERED, 0xFF, 5, 3, 0, 1, 2, 4, 100000),
+    "ACK": (C.CMD_CONFIG, 41),
+    "NAK": (C.CMD_CONFIG, 42, C.NAK_OUT_OF_RANGE, 0),
+    "PING": (),
+    "GET_INFO": (),
+    "CONFIG": (1000, 5000000, 4000000, 3, C.CFG_STREAM_CONTACTS | C.CFG_AUTOSTART),
+    "TARE": (0xFF, 64),
+    "START": (),
+    "STOP": (),
+    "SET_CAL": (0, 20260101) + tuple(float(i - 17) / 8 for i in range(36)),
+}
+
+
+def _fields_json(name, values):
+    fields = BY_NAME[name][4]
+    return {f: (v.hex() if isinstance(v, bytes) else v) for f, v in zip(fields, values)}
+
+
+def frame_cases():
+    cases = []
+    for name, values in TYPICAL.items():
+        cases.append(("typical", name, 513, 1000000, values))
+        codes = BY_NAME[name][5]
+        if codes:
+            for high in (False, True):
+                ext = tuple(_extreme(c, high) for c in codes)
+                label = "maximum" if high else "minimum"
+                cases.append((label, name, 65535 if high else 0, 0xFFFFFFFF if high else 0, ext))
+    out = []
+    for group, name, seq, ts, values in cases:
+        mtype = BY_NAME[name][0]
+        frame = encode_frame(mtype, seq, ts, values)
+        body = bytes.fromhex(_hex(frame))  # copy
+        out.append(
+            {
+                "group": group,
+                "type": name,
+                "type_code": mtype,
+                "seq": seq,
+                "timestamp_us": ts,
+                "fields": _fields_json(name, values),
+                "frame_hex": _hex(frame),
+                "body_len": len(body) - 2,
+            }
+        )
+    return out
+
+
+def _sample(seq):
+    return encode_frame(C.MSG_SAMPLE, seq, 1000 * seq, (0, 0, seq, -seq, 3, 4, 5, 6))
+
+
+def _flipped(seq):
+    """SAMPLE ``seq`` with one payload bit flipped after its CRC was computed."""
+    body = bytearray(struct.pack("<BBHI", 1, C.MSG_SAMPLE, seq, 1000 * seq))
+    body += struct.pack("<BB6i", 0, 0, seq, -seq, 3, 4, 5, 6)
+    crc = crc16(body)
+    body[12] ^= 0x04
+    return encode(bytes(body) + bytes((crc & 0xFF, crc >> 8))) + b"\x00"
+
+
+def stream_cases():
+    """(group, name, bytes, seqs that must be delivered)."""
+    f = [_sample(i) for i in range(6)]
+    flip = _flipped(1)
+    garbage = bytes([0x13, 0x37, 0xAA])
+    body = bytearray(struct.pack("<BBHI", 2, C.MSG_SAMPLE, 9, 0) + bytes(26))
+    c = crc16(body)
+    body += bytes((c & 0xFF, c >> 8))
+    other_version = encode(body) + b"\x00"
+    return [
+        ("clean", "three frames", f[0] + f[1] + f[2], [0, 1, 2]),
+        ("clean", "idle delimiters between frames", b"\x00\x00" + f[0] + b"\x00" + f[1], [0, 1]),
+        ("garbage before flag", "garbage then delimiter", garbage + b"\x00" + f[0] + f[1], [0, 1]),
+        ("garbage before flag", "garbage glued to a frame", garbage + f[0] + f[1], [0, 1]),
+        ("frame too short", "three bytes", b"\x04\x01\x02\x03\x00" + f[0], [0]),
+        ("truncated", "frame cut before its delimiter", f[0][:-7] + f[1] + f[2], [1, 2]),
+        ("crc mismatch", "one flipped bit", f[0] + bytes(flip) + f[2], [0, 2]),
+        ("dropped byte", "delimiter lost", f[0][:-1] + f[1] + f[2], [1, 2]),
+        ("dropped byte", "byte lost mid-frame", f[0][:9] + f[0][10:] + f[1], [1]),
+        ("oversize", "300 bytes without delimiter", b"\x01" * 300 + b"\x00" + f[3], [3]),
+        ("oversize", "long garbage glued to a frame", b"\x05" * 400 + f[4] + f[5], [4, 5]),
+        ("version", "frame of protocol version 2", other_version + f[0], [0]),
+        ("sequence", "gap of two frames", f[0] + f[3] + f[4], [0, 3, 4]),
+    ]
+
+
+def decode_case(data):
+    from tactile.stream_decoder import StreamDecoder  # the oracle (host package)
+
+    whole = StreamDecoder()
+    got = whole.feed(data)
+    return [m.seq for m in got], whole.counters.as_dict()
+
+
+def main():
+    streams = []
+    for group, name, data, expect in stream_cases():
+        seqs, counters = decode_case(data)
+        if seqs != expect:
+            raise SystemExit(f"stream case {name!r}: oracle delivered {seqs}, spec says {expect}")
+        streams.append(
+            {
+                "group": group,
+                "name": name,
+                "input_hex": _hex(data),
+                "delivered_seqs": seqs,
+                "counters": counters,
+            }
+        )
+    doc = {
+        "protocol_version": C.PROTOCOL_VERSION,
+        "limits": {
+            "max_payload": C.MAX_PAYLOAD,
+            "max_body": C.MAX_BODY,
+            "max_encoded": C.MAX_ENCODED,
+            "max_frame": C.MAX_FRAME,
+        },
+        "layouts": {
+            name: {"type_code": t, "format": fmt, "fields": list(fields)}
+            for t, name, fmt, fields in SPECS
+        },
+        "crc16": crc_cases(),
+        "cobs": cobs_cases(),
+        "frames": frame_cases(),
+        "streams": streams,
+    }
+    with open(os.path.join(HERE, "vectors.json"), "w") as fh:
+        json.dump(doc, fh, indent=1)
+        fh.write("\n")
+
+
+if __name__ == "__main__":
+    assert field_codes("B4I16s") == ["B", "I", "I", "I", "I", "16s"]
+    main()

@@ -1,0 +1,140 @@
+"""Every protocol implementation against protocol/vectors.json, and by an independent route."""
+
+import binascii
+import random
+import struct
+
+import pytest
+from cobs import cobs
+
+from tactile.stream_decoder import StreamDecoder
+from tactile_protocol import cobs_codec
+from tactile_protocol.constants import MAX_ENCODED, PROTOCOL_VERSION
+from tactile_protocol.crc16 import crc16
+from tactile_protocol.framing import FRAME_OK, FrameAssembler, FrameEncoder
+from tactile_protocol.messages import BY_NAME, SPECS, field_codes
+
+
+def _values(case, padded=False):
+    """The case's field values; ``padded``: strings NUL-padded as they decode."""
+    fields = BY_NAME[case["type"]][4]
+    codes = BY_NAME[case["type"]][5]
+    out = []
+    for f, c in zip(fields, codes):
+        v = case["fields"][f]
+        if c.endswith("s"):
+            v = bytes.fromhex(v)
+            v = v.ljust(int(c[:-1]), b"\0") if padded else v
+        out.append(v)
+    return tuple(out)
+
+
+def test_crc_matches_vectors_and_binascii(vectors):
+    assert crc16(b"123456789") == 0x29B1
+    for case in vectors["crc16"]:
+        data = bytes.fromhex(case["data_hex"])
+        assert crc16(data) == case["crc"]
+        assert binascii.crc_hqx(data, 0xFFFF) == case["crc"]
+
+
+def test_crc_over_a_window_needs_no_slice():
+    data = bytes(range(40))
+    assert crc16(data, 5, 30) == crc16(data[5:30])
+
+
+@pytest.mark.parametrize("impl", ["pure", "cobs-package"])
+def test_cobs_vectors(vectors, impl):
+    enc, dec = (
+        (cobs_codec.encode, cobs_codec.decode) if impl == "pure" else (cobs.encode, cobs.decode)
+    )
+    groups = {c["group"] for c in vectors["cobs"]}
+    assert {"empty", "zeros", "runs", "maximum"} <= groups
+    for case in vectors["cobs"]:
+        raw, encoded = bytes.fromhex(case["decoded_hex"]), bytes.fromhex(case["encoded_hex"])
+        assert enc(raw) == encoded, case["name"]
+        assert dec(encoded) == raw, case["name"]
+        assert 0 not in encoded
+
+
+@pytest.mark.parametrize("bad", [b"\x00", b"\x05\x01", b"\x03\x01\x00"])
+def test_pure_cobs_rejects_malformed(bad):
+    with pytest.raises(ValueError):
+        cobs_codec.decode(bad)
+
+
+def test_every_message_type_has_a_vector(vectors):
+    covered = {c["type"] for c in vectors["frames"]}
+    assert covered == {name for _, name, _, _ in SPECS}
+    assert vectors["protocol_version"] == PROTOCOL_VERSION
+
+
+def test_frame_encoder_reproduces_vectors(vectors):
+    for case in vectors["frames"]:
+        encoder = FrameEncoder(seq=case["seq"])
+        mtype = case["type_code"]
+        frame = bytes(encoder.encode(mtype, case["timestamp_us"], _values(case)))
+        assert frame.hex() == case["frame_hex"], (case["type"], case["group"])
+        assert len(frame) <= 252
+
+
+def test_vectors_by_independent_route(vectors):
+    """struct + binascii.crc_hqx + the cobs package, written from PROTOCOL.md alone."""
+    for case in vectors["frames"]:
+        fmt = "<BBHI" + vectors["layouts"][case["type"]]["format"]
+        body = struct.pack(
+            fmt, 1, case["type_code"], case["seq"], case["timestamp_us"], *_values(case)
+        )
+        body += struct.pack("<H", binascii.crc_hqx(body, 0xFFFF))
+        assert (cobs.encode(body) + b"\x00").hex() == case["frame_hex"]
+
+
+def test_host_decoder_and_board_assembler_read_vectors(vectors):
+    for case in vectors["frames"]:
+        frame = bytes.fromhex(case["frame_hex"])
+        (msg,) = StreamDecoder().feed(frame)
+        assert msg.type_name == case["type"]
+        assert (msg.seq, msg.timestamp_us) == (case["seq"], case["timestamp_us"])
+        assert tuple(msg)[2:] == _values(case, padded=True)
+        assembler = FrameAssembler()
+        results = [assembler.feed(b) for b in frame]
+        assert results[-1] == FRAME_OK
+        header = (case["type_code"], case["seq"], case["timestamp_us"])
+        assert assembler.message() == (*header, _values(case, padded=True))
+
+
+def _chunks(data, how, rng):
+    if how == "whole":
+        return [data]
+    if how == "bytewise":
+        return [data[i : i + 1] for i in range(len(data))]
+    cuts = sorted(rng.sample(range(1, len(data)), min(8, len(data) - 1)))
+    return [data[a:b] for a, b in zip([0, *cuts], [*cuts, len(data)])]
+
+
+@pytest.mark.parametrize("how", ["whole", "bytewise", "random"])
+@pytest.mark.parametrize("codec", ["cobs-package", "pure"])
+def test_stream_vectors(vectors, how, codec):
+    rng = random.Random(3)
+    groups = {c["group"] for c in vectors["streams"]}
+    assert {"garbage before flag", "frame too short", "crc mismatch", "oversize"} <= groups
+    for case in vectors["streams"]:
+        decoder = StreamDecoder(cobs_decode=cobs_codec.decode if codec == "pure" else None)
+        got = []
+        for chunk in _chunks(bytes.fromhex(case["input_hex"]), how, rng):
+            got += decoder.feed(chunk)
+        assert [m.seq for m in got] == case["delivered_seqs"], case["name"]
+        assert decoder.counters.as_dict() == case["counters"], case["name"]
+
+
+def test_memory_stays_bounded_without_delimiters():
+    decoder = StreamDecoder()
+    for _ in range(64):
+        decoder.feed(b"\x07" * 16384)
+    assert decoder.pending_bytes <= MAX_ENCODED
+    assert decoder.feed(b"\x00") == []
+    assert decoder.counters.oversize == 1
+
+
+def test_field_codes_expand_counts():
+    assert field_codes("BB6i") == ["B", "B"] + ["i"] * 6
+    assert field_codes("4I16sH") == ["I"] * 4 + ["16s", "H"]
