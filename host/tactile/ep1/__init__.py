@@ -1,0 +1,1 @@
+"""EP1 on the host: curvature at a point from rolling probes (thesis ch. 3)."""
