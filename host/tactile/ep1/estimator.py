@@ -2,7 +2,7 @@
 
 Each probe i gives, from eq. 29 with the fingertip metric of eq. 20,
 
-    b_i = M1 dp_i = S a_i,   a_i = [-dtheta_y, dtheta_x]^T,   S = (K1 + K2~)^-1 = [[k1, k2], [k2, k3]]
+    b_i = M1 dp_i = S a_i,  a_i = [-dtheta_y, dtheta_x]^T,  S = (K1 + K2~)^-1 = [[k1, k2], [k2, k3]]
 
 i.e. two rows [a_x, a_y, 0] and [0, a_x, a_y] of a linear system in (k1, k2, k3) (eq. 33).  The
 stack is solved by Householder QR (never the normal equations of eq. 32).  K1 = I / R1 is
@@ -107,7 +107,7 @@ def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
     codes = []
     for name, s in (("hi", s_hi), ("lo", s_lo)):
         ds = (noise_b + sigma_theta * np.abs(s)) / theta_safe + 1e-13 * (np.abs(s) + R1)
-        s_safe = np.where(s == 0.0, 1e-300, s)
+        s_safe = np.where(np.abs(s) < 1e-150, 1e-150, s)
         kappa = 1.0 / s_safe - 1.0 / R1
         inv_s_err = ds / s_safe**2
         code = np.full(s.shape, OK)

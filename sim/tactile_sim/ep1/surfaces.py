@@ -153,7 +153,10 @@ def plane(half_width=1e6):
 
 
 def paraboloid(C=1.0, half_width=2.0):
-    """Paraboloid of revolution of eq. 36: f = (u, v, -C (u^2 + v^2)), |u|, |v| < 2; convex for C > 0."""
+    """Paraboloid of revolution of eq. 36: f = (u, v, -C (u^2 + v^2)), |u|, |v| < 2.
+
+    Convex (positive curvature) for C > 0.
+    """
     w = half_width
     return _graph(
         "paraboloid",
