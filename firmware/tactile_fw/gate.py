@@ -1,0 +1,73 @@
+"""Contact gate: hysteresis on the force magnitude plus a debounce count (thesis §5.1).
+
+The thesis takes a sample "when the force sensor measures a force in the x-y
+plane with magnitude greater than 5 units" (§5.1).  A single threshold
+chatters when |F| hovers near it, so the gate has two levels: a contact
+begins after ``debounce`` consecutive samples with |F| > enter and ends after
+``debounce`` consecutive samples with |F| < exit (exit <= enter).  |F| is
+taken in the x-y plane (thesis) or in 3-D (CFG_GATE_3D).  Squared magnitudes
+are compared, so no square root is taken per sample.
+"""
+
+try:
+    from micropython import const
+except ImportError:  # CPython
+
+    def const(x):
+        return x
+
+
+NONE = const(-1)  # no CONTACT message for this sample
+BEGIN = const(0)  # = PHASE_BEGIN
+IN = const(1)  # = PHASE_IN
+END = const(2)  # = PHASE_END
+
+
+class ContactGate:
+    def __init__(self, enter, exit_, debounce, three_d=False):
+        self.in_contact = False
+        self.count = 0
+        self.contact_id = 0
+        self.configure(enter, exit_, debounce, three_d)
+
+    def configure(self, enter, exit_, debounce, three_d):
+        if not 0 <= exit_ <= enter or debounce < 1:
+            raise ValueError("gate: need 0 <= exit <= enter and debounce >= 1")
+        self.enter2 = float(enter) * float(enter)
+        self.exit2 = float(exit_) * float(exit_)
+        self.debounce = debounce
+        self.three_d = three_d
+        self.reset()
+
+    def reset(self):
+        self.in_contact = False
+        self.count = 0
+
+    def update(self, fx, fy, fz):
+        """Feed one sample; return BEGIN, IN, END or NONE (out of contact)."""
+        x = float(fx)
+        y = float(fy)
+        m2 = x * x + y * y
+        if self.three_d:
+            z = float(fz)
+            m2 += z * z
+        if not self.in_contact:
+            if m2 > self.enter2:
+                self.count += 1
+                if self.count >= self.debounce:
+                    self.in_contact = True
+                    self.count = 0
+                    self.contact_id = (self.contact_id + 1) & 0xFFFF
+                    return BEGIN
+            else:
+                self.count = 0
+            return NONE
+        if m2 < self.exit2:
+            self.count += 1
+            if self.count >= self.debounce:
+                self.in_contact = False
+                self.count = 0
+                return END
+        else:
+            self.count = 0
+        return IN
