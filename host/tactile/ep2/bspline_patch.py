@@ -1,0 +1,244 @@
+"""Tensor-product B-spline patch z = S(x, y) fitted to positions and slopes (§4.6, eqs. 52-58).
+
+Basis functions and their derivatives come from ``scipy.interpolate.BSpline``
+(the thesis's eqs. 55, 59 and 73 contain typos: eq. 55 repeats N (x) M for the
+y-tangent rows and eq. 59 gives S_xx a first-derivative factor).  Here the
+rows are, with (.) the row-wise Kronecker product:
+
+    position rows  N  (.) M      slope-x rows  N' (.) M      slope-y rows  N (.) M'
+
+Coordinates are normalised to u = (x - x0)/hx in [0, 1] before evaluating
+the basis, so everything that depends only on degree and knots is cached.
+The weighted system is column-scaled and solved by SVD (or QR / LAPACK gelsy):
+never the normal equations of eq. 57.  A rank-deficient system raises
+``DataError`` saying why.
+"""
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from tactile.errors import DataError
+
+ONE_LINE = "all contacts on one line (a single finger?): the patch needs contacts in two directions"
+RCOND = 1e-10  # smallest accepted singular value relative to the largest (column-scaled)
+
+
+@lru_cache(maxsize=256)
+def knots(degree, segments=1, breaks=None):
+    """Clamped knot vector on [0, 1] (a tuple): uniform interior knots, or ``breaks``.
+
+    A break repeated ``degree`` times makes the patch C0 there (a crease, §6.2.5).
+    """
+    inner = np.linspace(0.0, 1.0, segments + 1)[1:-1] if breaks is None else np.sort(breaks)
+    return tuple(np.concatenate([np.zeros(degree + 1), inner, np.ones(degree + 1)]).tolist())
+
+
+@lru_cache(maxsize=64)
+def _spline(degree, t):
+    n = len(t) - degree - 1
+    return BSpline(np.array(t), np.eye(n), degree, extrapolate=True)
+
+
+@lru_cache(maxsize=64)
+def _power_table(degree, t):
+    """Power-basis coefficients P ((k+1) x n) of a single-segment basis: B(u) = [1 u .. u^k] P.
+
+    Taken from ``scipy.interpolate.BSpline`` by exact interpolation at k + 1
+    Chebyshev nodes (the basis functions are polynomials of degree k on [0, 1]).
+    """
+    nodes = 0.5 - 0.5 * np.cos(np.pi * (np.arange(degree + 1) + 0.5) / (degree + 1))
+    vander = np.vander(nodes, degree + 1, increasing=True)
+    return np.linalg.solve(vander, _spline(degree, t)(nodes))
+
+
+def basis(u, degree, t, nu=0):
+    """Rows of all basis functions (or their nu-th derivative) at u (normalised)."""
+    return bases(u, degree, t, nu)[nu]
+
+
+def bases(u, degree, t, nu_max=2):
+    """[B, B', ..., B^(nu_max)] rows at u (normalised); ``t`` a knot tuple from ``knots``.
+
+    A single segment uses the cached power-basis table (one small product per
+    derivative order); more segments call ``BSpline`` directly.
+    """
+    u = np.asarray(u, float)
+    if len(t) != 2 * (degree + 1):
+        spline = _spline(degree, t)
+        return [spline(u, nu) for nu in range(nu_max + 1)]
+    table = _power_table(degree, t)
+    powers = u[:, None] ** np.arange(degree + 1)
+    out = []
+    for nu in range(nu_max + 1):
+        if nu > degree:
+            out.append(np.zeros((u.size, table.shape[1])))
+            continue
+        j = np.arange(nu, degree + 1)
+        fact = np.prod([j - i for i in range(nu)], axis=0) if nu else 1.0
+        out.append((powers[:, : degree + 1 - nu] * fact) @ table[nu:])
+    return out
+
+
+def rowwise_kron(a, b):
+    """Row-wise Kronecker product (the tensor-product rows of eq. 53)."""
+    return (a[:, :, None] * b[:, None, :]).reshape(a.shape[0], -1)
+
+
+@dataclass(frozen=True)
+class Domain:
+    """Affine map from patch-frame (x, y) to the unit square of the spline."""
+
+    x0: float
+    y0: float
+    hx: float
+    hy: float
+
+    @classmethod
+    def around(cls, x, y):
+        hx = float(np.ptp(x))
+        hy = float(np.ptp(y))
+        return cls(float(np.min(x)), float(np.min(y)), hx, hy)
+
+    def to_unit(self, x, y):
+        return (np.asarray(x) - self.x0) / self.hx, (np.asarray(y) - self.y0) / self.hy
+
+
+@dataclass(frozen=True)
+class SplineFit:
+    """A fitted patch: coefficients, their covariance factor and the fit's residual scale.
+
+    ``cov_factor`` (p, r) satisfies Cov(coef) = cov_factor @ cov_factor.T.
+    """
+
+    degree: tuple
+    tx: tuple
+    ty: tuple
+    domain: Domain
+    coef: np.ndarray
+    cov_factor: np.ndarray
+    chi2: float
+    dof: int
+    rank: int
+    cond: float
+    residuals: tuple  # unweighted (z, slope-x, slope-y) residuals at the contacts
+
+    def rows(self, x, y, first=0):
+        """Stacked design rows of (z, zx, zy, zxx, zxy, zyy)[first:] at patch-frame points."""
+        u, v = self.domain.to_unit(x, y)
+        kx, ky = self.degree
+        bx = [b / self.domain.hx**nu for nu, b in enumerate(bases(u, kx, self.tx, 2))]
+        by = [b / self.domain.hy**nu for nu, b in enumerate(bases(v, ky, self.ty, 2))]
+        pairs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))[first:]
+        return np.vstack([rowwise_kron(bx[i], by[j]) for i, j in pairs])
+
+    def derivatives(self, x, y, coef=None, first=0):
+        """(z, zx, zy, zxx, zxy, zyy)[first:] at points; ``coef`` may be (p, n_draws)."""
+        c = self.coef if coef is None else coef
+        n = np.size(x)
+        out = self.rows(x, y, first) @ c
+        return tuple(out[i * n : (i + 1) * n] for i in range(6 - first))
+
+
+def design(x, y, domain, degree, tx, ty):
+    """Position, slope-x and slope-y rows (unweighted) at the data points."""
+    u, v = domain.to_unit(x, y)
+    kx, ky = degree
+    nx0, nx1 = bases(u, kx, tx, 1)
+    my0, my1 = bases(v, ky, ty, 1)
+    nx1 = nx1 / domain.hx
+    my1 = my1 / domain.hy
+    return rowwise_kron(nx0, my0), rowwise_kron(nx1, my0), rowwise_kron(nx0, my1)
+
+
+def fit(
+    x, y, z, sx, sy, w_pos, w_sx, w_sy, degree=(2, 2), segments=(1, 1), solver="svd", domain=None
+):
+    """Weighted least-squares patch (eq. 56) to positions z and slopes sx, sy.
+
+    Weights multiply rows (1/sigma of each row's noise gives the
+    maximum-likelihood fit); a weight of 0 drops the row.
+    """
+    degree = (int(degree[0]), int(degree[1]))
+    tx = knots(degree[0], segments[0])
+    ty = knots(degree[1], segments[1])
+    domain = Domain.around(x, y) if domain is None else domain
+    _check_spread(x, y, domain)
+    a0, a1, a2 = design(x, y, domain, degree, tx, ty)
+    w = np.concatenate([np.broadcast_to(w, np.shape(x)) for w in (w_pos, w_sx, w_sy)])
+    A = np.vstack([a0, a1, a2]) * w[:, None]
+    rhs = np.concatenate([z, sx, sy]) * w
+    keep = w > 0
+    A, rhs = A[keep], rhs[keep]
+    coef, factor, rank, cond, resid = solve(A, rhs, solver)
+    if rank < A.shape[1]:
+        raise DataError(_why_rank_deficient(x, y, degree, segments, A.shape[1], rank))
+    dof = A.shape[0] - A.shape[1]
+    res = (z - a0 @ coef, sx - a1 @ coef, sy - a2 @ coef)
+    return SplineFit(degree, tx, ty, domain, coef, factor, float(resid), dof, rank, cond, res)
+
+
+def solve(A, b, solver="svd"):
+    """Column-scaled least squares.  Returns coef, covariance factor, rank, cond, RSS.
+
+    Cov(coef) = F F^T for unit-variance rows (``F = D^-1 V S^-1``).
+    """
+    scale = np.sqrt(np.einsum("ij,ij->j", A, A))
+    scale[scale == 0] = 1.0
+    As = A / scale
+    if solver == "svd":
+        U, s, Vt = np.linalg.svd(As, full_matrices=False)
+        rank = int(np.sum(s > RCOND * s[0])) if s.size else 0
+        cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
+        if rank < As.shape[1]:
+            return None, None, rank, cond, np.inf
+        y = (U.T @ b) / s
+        coef_s = Vt.T @ y
+        factor = Vt.T / s
+    elif solver == "qr":
+        from scipy.linalg import qr, solve_triangular
+
+        Q, R = qr(As, mode="economic", check_finite=False)
+        d = np.abs(np.diag(R))
+        rank = int(np.sum(d > RCOND * d.max())) if d.size else 0
+        cond = float(d.max() / d.min()) if d.min() > 0 else np.inf
+        if rank < As.shape[1]:
+            return None, None, rank, cond, np.inf
+        coef_s = solve_triangular(R, Q.T @ b, check_finite=False)
+        factor = solve_triangular(R, np.eye(R.shape[0]), check_finite=False)
+    elif solver == "gelsy":
+        from scipy.linalg import lstsq
+
+        coef_s, _, rank, _ = lstsq(As, b, cond=RCOND, lapack_driver="gelsy", check_finite=False)
+        if rank < As.shape[1]:
+            return None, None, rank, np.inf, np.inf
+        R = np.linalg.qr(As, mode="r")
+        factor = np.linalg.inv(R)
+        cond = float(np.linalg.cond(R))
+    else:
+        raise ValueError(f"unknown solver {solver!r} (svd, qr, gelsy)")
+    r = b - As @ coef_s
+    return coef_s / scale, factor / scale[:, None], rank, cond, float(r @ r)
+
+
+def _check_spread(x, y, domain):
+    if not (domain.hx > 0 and domain.hy > 0):
+        raise DataError(ONE_LINE)
+
+
+def _why_rank_deficient(x, y, degree, segments, p, rank):
+    pts = np.column_stack([x, y])
+    pts = pts - pts.mean(axis=0)
+    sv = np.linalg.svd(pts, compute_uv=False)
+    if sv[1] <= 1e-9 * max(sv[0], 1e-300):
+        return ONE_LINE
+    ux = np.unique(np.round(np.asarray(x) / (np.ptp(x) or 1.0), 9)).size
+    uy = np.unique(np.round(np.asarray(y) / (np.ptp(y) or 1.0), 9)).size
+    return (
+        f"too few points for degree {degree[0]}x{degree[1]}"
+        f" with {segments[0]}x{segments[1]} segment(s):"
+        f" {p} coefficients but the rows determine only {rank}"
+        f" ({len(x)} contacts, {ux} distinct x and {uy} distinct y); lower --order or add contacts"
+    )

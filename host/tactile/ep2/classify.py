@@ -1,0 +1,73 @@
+"""Shape labels with a confidence (§4.8.2, tables 1-3; beyond the thesis: intervals).
+
+Labels: plane, sphere, cylinder, saddle, concave_cylinder, concave_sphere
+(the S bands of ``shape_index.S_REGIONS``) or uncertain.
+
+- plane: the curvedness is below what the data resolve.  The grid-mean shape
+  operator t = (a, b, c) (symmetric 2x2 entries, so no k1 >= k2 ordering bias)
+  is tested against zero: d^2 = t^T Cov(t)^-1 t with Cov(t) from the
+  coefficient draws; plane when d^2 < chi^2_3(95 %) = 7.815, or when R is
+  below ``R_TOL`` relative to the patch size (the thesis's R < 1e-6, §4.8.1).
+  S and C are then null.  Confidence = the test's p-value P(chi^2_3 > d^2):
+  1 for an exactly flat fit, 0.05 at the edge of resolution.
+- otherwise the grid-mean S, with the standard deviation sd(S) of its
+  coefficient draws, gives each S band a probability (normal approximation);
+  the label is the most probable band if it holds at least ``MIN_VOTE``,
+  else ``uncertain``.  Confidence = that band's probability.
+"""
+
+import math
+
+import numpy as np
+
+from tactile.ep2.shape_index import S_EDGES, S_NAMES, s_class
+
+R_TOL = 1e-6  # curvedness x patch size below which a patch is flat whatever the noise
+MIN_VOTE = 0.95
+
+
+CHI2_3_95 = 7.814727903251178
+
+
+def flatness_distance(tensor, draws):
+    """Mahalanobis d^2 of the mean shape-operator entries (3,) given draws (3, n)."""
+    cov = np.cov(draws)
+    diff = tensor
+    w, v = np.linalg.eigh(cov)
+    keep = w > 1e-12 * max(w.max(), 1e-300)
+    if not keep.any():
+        return np.inf if np.any(tensor != 0) else 0.0
+    proj = v[:, keep].T @ diff
+    rest = diff - v[:, keep] @ proj
+    if np.linalg.norm(rest) > 1e-9 * max(np.linalg.norm(diff), 1e-300):
+        return np.inf  # curvature along a direction the data pin to zero spread
+    return float(np.sum(proj * proj / w[keep]))
+
+
+def is_plane(r_mean, d2):
+    """Plane test on R (relative to a unit patch) and on d^2 (None: no noise estimate)."""
+    if r_mean <= R_TOL:
+        return True
+    return d2 is not None and d2 < CHI2_3_95
+
+
+def plane_confidence(r_mean, d2):
+    """p-value P(chi^2_3 > d^2) of 'flat'; 1 below the R tolerance."""
+    if r_mean <= R_TOL or d2 is None:
+        return 1.0
+    x = float(d2)
+    return float(math.erfc(math.sqrt(x / 2)) + math.sqrt(2 * x / math.pi) * math.exp(-x / 2))
+
+
+def vote(s_mean, s_sd):
+    """Label and confidence: the probability mass of N(s_mean, s_sd) in each S band."""
+    if not s_sd:
+        return S_NAMES[int(s_class(s_mean))], 1.0, {}
+    edges = [-np.inf, *S_EDGES.tolist(), np.inf]
+    cdf = [0.5 * math.erfc(-(e - s_mean) / (s_sd * math.sqrt(2))) for e in edges]
+    shares = np.diff(cdf)
+    best = int(np.argmax(shares))
+    votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}
+    if shares[best] >= MIN_VOTE:
+        return S_NAMES[best], float(shares[best]), votes
+    return "uncertain", float(shares[best]), votes

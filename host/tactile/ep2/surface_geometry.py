@@ -1,0 +1,102 @@
+"""Differential geometry of a height field z = f(x, y) (§2.2, eqs. 5-16).
+
+Sign convention (§5.1.2 and issue 3): the unit normal points from the object
+toward the finger (+z of the patch frame) and curvatures are POSITIVE where the
+surface is convex toward the finger.  With the textbook second fundamental form
+L = f_xx / W taken against the +z normal a cap z = -r^2/(2R) has curvature
+-1/R, so here L, M, N are taken against the inward normal: L = -f_xx / W.
+
+Principal curvatures come from the shape operator written as a symmetric 2x2
+matrix P = C^-1 II C^-T in an orthonormal tangent basis (C is the Cholesky
+factor of the first fundamental form I = C C^T).  Its eigenvalues are
+k = m +/- hypot((a - c)/2, b) with m = (a + c)/2: exact at umbilics and
+planes, no k1 - k2 division and no square root of a negative round-off.
+"""
+
+import numpy as np
+
+
+def principal(zx, zy, zxx, zxy, zyy):
+    """Curvature quantities of z = f(x, y) from its partial derivatives.
+
+    All inputs broadcast together.  Returns a dict of arrays: ``k1 >= k2``
+    (principal curvatures), ``H`` (mean), ``K`` (Gaussian), ``dir1`` (unit 3-D
+    direction of k1 in the same frame, last axis x, y, z), ``E, F, G`` and
+    ``L, M, N`` (fundamental forms, eqs. 5-9).
+    """
+    a, b, c, basis = shape_operator(zx, zy, zxx, zxy, zyy)
+    m = 0.5 * (a + c)
+    h = np.hypot(0.5 * (a - c), b)
+    k1 = m + h
+    k2 = m - h
+    theta = 0.5 * np.arctan2(2.0 * b, a - c)  # angle of k1's eigenvector of P
+    e1, e2 = basis
+    d = np.cos(theta)[..., None] * e1 + np.sin(theta)[..., None] * e2
+    return {"k1": k1, "k2": k2, "H": m, "K": k1 * k2, "dir1": d}
+
+
+def shape_operator(zx, zy, zxx, zxy, zyy):
+    """Symmetric shape-operator entries (a, b, c) and its orthonormal 3-D basis.
+
+    The tangent vectors are X_x = (1, 0, zx) and X_y = (0, 1, zy).  With
+    I = [[E, F], [F, G]] = C C^T, C = [[sqrt E, 0], [F/sqrt E, W/sqrt E]]
+    (W^2 = EG - F^2 = 1 + zx^2 + zy^2), the orthonormal basis is
+    e1 = X_x / sqrt E and e2 = (E X_y - F X_x) / (sqrt E W).
+    """
+    zx, zy, zxx, zxy, zyy = np.broadcast_arrays(
+        *(np.asarray(v, float) for v in (zx, zy, zxx, zxy, zyy))
+    )
+    E = 1.0 + zx * zx
+    F = zx * zy
+    W2 = E + zy * zy
+    W = np.sqrt(W2)
+    L = -zxx / W
+    M = -zxy / W
+    N = -zyy / W
+    sE = np.sqrt(E)
+    # C^-1 = [[1/sE, 0], [-F/(sE W), sE/W]];  P = C^-1 II C^-T
+    a = L / E
+    b = (E * M - F * L) / (E * W)
+    c = (F * F * L - 2.0 * E * F * M + E * E * N) / (E * W2)
+    one = np.ones_like(zx)
+    zero = np.zeros_like(zx)
+    e1 = np.stack([one, zero, zx], axis=-1) / sE[..., None]
+    xy = np.stack([-F, E, E * zy - F * zx], axis=-1)
+    e2 = xy / (sE * W)[..., None]
+    return a, b, c, (e1, e2)
+
+
+def curvatures(zx, zy, zxx, zxy, zyy):
+    """Only (k1, k2) - the fast path used on the grid and for coefficient draws."""
+    return eigen(*shape_entries(zx, zy, zxx, zxy, zyy))
+
+
+def eigen(a, b, c):
+    """(k1, k2) of the symmetric matrix [[a, b], [b, c]]: m +/- sqrt(((a - c)/2)^2 + b^2).
+
+    The root of a sum of squares is never negative, so umbilics (a = c, b = 0)
+    give k1 = k2 exactly.  (np.hypot would also guard overflow beyond 1e154,
+    which normalised patch curvatures never reach, at four times the cost.)
+    """
+    m = 0.5 * (a + c)
+    d = 0.5 * (a - c)
+    h = np.sqrt(d * d + b * b)
+    return m + h, m - h
+
+
+def shape_entries(zx, zy, zxx, zxy, zyy):
+    """Entries (a, b, c) of the symmetric shape operator P (see ``shape_operator``).
+
+    a = L/E, b = (E M - F L)/(E W), c = (F^2 L - 2 E F M + E^2 N)/(E W^2) with
+    L, M, N = -(zxx, zxy, zyy)/W, written with few temporaries (hot path).
+    """
+    E = 1.0 + zx * zx
+    F = zx * zy
+    W2 = E + zy * zy
+    q = 1.0 / (E * np.sqrt(W2))  # 1/(E W)
+    a = -zxx * q
+    q /= W2  # 1/(E W^3)
+    Fzxx = F * zxx
+    b = (Fzxx - E * zxy) * (q * np.sqrt(W2))
+    c = -(F * (Fzxx - 2.0 * E * zxy) + E * E * zyy) * q
+    return a, b, c

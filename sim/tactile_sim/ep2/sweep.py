@@ -1,0 +1,70 @@
+"""The three-finger sweep of EP2 (§4.1, fig. 24; §5.1: 3 passes x 6 points x 2 samples).
+
+Fingers sit ``spacing`` apart along x and sweep ``length`` along y; each
+takes ``samples`` stops, ``repeats`` readings per stop.  Noise (seeded):
+Gaussian on each position coordinate (``noise_pos``, length unit) and a tilt
+of each normal by a Gaussian angle about a random tangent axis
+(``noise_normal``, rad).  ``tilt_deg`` turns the whole scene about the world x
+axis so the data arrive in a robot frame that is not the patch frame.
+"""
+
+import numpy as np
+
+
+def sweep(
+    obj,
+    fingers=3,
+    spacing=2.0,
+    length=4.0,
+    samples=6,
+    repeats=2,
+    origin=(0.0, 0.0),
+    noise_pos=0.0,
+    noise_normal=0.0,
+    tilt_deg=0.0,
+    seed=0,
+):
+    """Contacts as a dict of arrays: points (n, 3), normals (n, 3), finger (n,), stop (n,)."""
+    rng = np.random.default_rng(seed)
+    fx = origin[0] + spacing * np.arange(fingers)
+    sy = origin[1] + np.linspace(0.0, length, samples)
+    x = np.repeat(fx, samples * repeats)
+    y = np.tile(np.repeat(sy, repeats), fingers)
+    z, _, _ = obj.eval(x, y)
+    pts = np.column_stack([x, y, z])
+    nrm = obj.normals(x, y)
+    if noise_pos > 0:
+        pts = pts + noise_pos * rng.standard_normal(pts.shape)
+    if noise_normal > 0:
+        nrm = _tilt_normals(nrm, noise_normal, rng)
+    if tilt_deg:
+        a = np.radians(tilt_deg)
+        rot = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+        pts = pts @ rot.T
+        nrm = nrm @ rot.T
+    finger = np.repeat(np.arange(fingers), samples * repeats)
+    stop = np.tile(np.repeat(np.arange(samples), repeats), fingers)
+    return {"points": pts, "normals": nrm, "finger": finger, "stop": stop}
+
+
+def _tilt_normals(n, sigma, rng):
+    """Rotate each unit normal by N(0, sigma) rad about a uniformly random tangent axis."""
+    ref = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t1 = np.cross(n, ref)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(n, t1)
+    phi = rng.uniform(0, 2 * np.pi, len(n))
+    axis_t = np.cos(phi)[:, None] * t1 + np.sin(phi)[:, None] * t2
+    ang = sigma * rng.standard_normal(len(n))
+    return np.cos(ang)[:, None] * n + np.sin(ang)[:, None] * axis_t
+
+
+def write_csv(path, data, patch=None):
+    """Write the EP2 CSV contract: x,y,z,nx,ny,nz,finger[,patch]."""
+    header = "x,y,z,nx,ny,nz,finger" + (",patch" if patch is not None else "")
+    rows = np.column_stack([data["points"], data["normals"]])
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(header + "\n")
+        for r, f in zip(rows, data["finger"], strict=True):
+            cells = ",".join(f"{v:.10g}" for v in r)
+            fh.write(f"{cells},{int(f)}" + (f",{patch}" if patch is not None else "") + "\n")
