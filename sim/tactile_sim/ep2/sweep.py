@@ -61,10 +61,15 @@ def _tilt_normals(n, sigma, rng):
 
 def write_csv(path, data, patch=None):
     """Write the EP2 CSV contract: x,y,z,nx,ny,nz,finger[,patch]."""
-    header = "x,y,z,nx,ny,nz,finger" + (",patch" if patch is not None else "")
-    rows = np.column_stack([data["points"], data["normals"]])
     with open(path, "w", encoding="utf-8") as fh:
-        fh.write(header + "\n")
-        for r, f in zip(rows, data["finger"], strict=True):
-            cells = ",".join(f"{v:.10g}" for v in r)
-            fh.write(f"{cells},{int(f)}" + (f",{patch}" if patch is not None else "") + "\n")
+        write_rows(fh, data, patch)
+
+
+def write_rows(fh, data, patch=None, header=True):
+    """Append one sweep's rows to an open file (header first if asked)."""
+    if header:
+        fh.write("x,y,z,nx,ny,nz,finger" + (",patch" if patch is not None else "") + "\n")
+    rows = np.column_stack([data["points"], data["normals"]])
+    tail = f",{patch}" if patch is not None else ""
+    for r, f in zip(rows, data["finger"], strict=True):
+        fh.write(",".join(f"{v:.10g}" for v in r) + f",{int(f)}{tail}\n")

@@ -1,0 +1,56 @@
+"""The EP2 contacts CSV contract (issue 3).
+
+Header row; columns ``x,y,z,nx,ny,nz`` required, ``finger`` and ``patch``
+optional, other columns ignored, ``#`` comment lines allowed; any consistent
+length unit.  Rows are grouped by ``patch`` (first-appearance order; no column
+means one patch) and kept in file order within a patch, which is the sweep
+order the discontinuity check relies on.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tactile.errors import InputError, where
+from tactile.tabular import read_csv
+
+REQUIRED = ("x", "y", "z", "nx", "ny", "nz")
+
+
+@dataclass
+class Contacts:
+    """One patch's contacts: points and normals (n, 3), finger labels or None, source lines."""
+
+    patch: str | None
+    points: np.ndarray
+    normals: np.ndarray
+    finger: list | None
+    lines: list
+
+
+def read_contacts(path):
+    """Read ``path`` into a list of ``Contacts`` (one per patch)."""
+    table = read_csv(path, REQUIRED, optional_text=("finger", "patch"))
+    pts = table.array("x", "y", "z")
+    nrm = table.array("nx", "ny", "nz")
+    length = np.linalg.norm(nrm, axis=1)
+    bad = np.flatnonzero(~(length > 0))
+    if bad.size:
+        raise InputError(f"{where(path, table.lines[bad[0]], 'nx')}: zero-length normal (nx,ny,nz)")
+    finger = table.columns.get("finger")
+    patch = table.columns.get("patch")
+    if patch is None:
+        return [Contacts(None, pts, nrm, finger, list(table.lines))]
+    out = []
+    for name in dict.fromkeys(patch):
+        rows = [i for i, p in enumerate(patch) if p == name]
+        out.append(
+            Contacts(
+                name,
+                pts[rows],
+                nrm[rows],
+                None if finger is None else [finger[i] for i in rows],
+                [table.lines[i] for i in rows],
+            )
+        )
+    return out
