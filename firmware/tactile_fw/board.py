@@ -146,10 +146,10 @@ class Board:
         self._apply_settings()
         for i in range(self.n):
             self.cals[i] = calibration.load(self.storage, i)
+        self.send_info(MSG_HELLO)  # first frame after power-up, seq 0
         now = self.clock.ticks_us()
         for i in range(self.n):
             self._init_sensor(i, now)
-        self.send_info(MSG_HELLO)
         if self.settings.flags & CFG_AUTOSTART:
             self.start_streaming()
 
@@ -310,7 +310,7 @@ class Board:
         if bit == FAULT_I2C:
             self.i2c_errors += 1
         self.last_error = _errno(exc) if exc is not None else 0
-        if self.state[i] == S_FAULT:
+        if self.faults[i] & _SENSOR_FAULTS:  # failed again before a good sample
             self.backoff_us[i] = min(self.backoff_us[i] * 2, BACKOFF_MAX_US)
         new = not self.faults[i] & bit
         self.faults[i] |= bit
@@ -324,9 +324,13 @@ class Board:
             self._tare_fail()
 
     def _retry(self, i, now):
-        self.state[i] = S_OK
-        if self._init_sensor(i, now):
-            self.pending[i] = False
+        self.pending[i] = False
+        try:
+            self.sensors[i].init()
+        except OSError as exc:
+            self._fault(i, FAULT_I2C, exc, now)
+            return
+        self.state[i] = S_OK  # FAULT_RECOVERED goes out with the first good sample
 
     def _recovered(self, i, bits):
         self.faults[i] &= ~bits

@@ -32,6 +32,7 @@ from tactile_protocol.constants import (
 from tactile_protocol.messages import BY_TYPE
 
 MAX_TARE_SAMPLES = 10000
+DEFAULT_TARE_SAMPLES = 100  # TARE n_samples = 0 asks for this
 _TARE_SENSOR = 0
 _TARE_N = 1
 _CAL_SENSOR = 0
@@ -73,7 +74,9 @@ def _tare(board, seq, values):
     else:
         board.nak(CMD_TARE, seq, NAK_OUT_OF_RANGE, _TARE_SENSOR)
         return
-    if not 1 <= n_samples <= MAX_TARE_SAMPLES:
+    if n_samples == 0:
+        n_samples = DEFAULT_TARE_SAMPLES
+    if n_samples > MAX_TARE_SAMPLES:
         board.nak(CMD_TARE, seq, NAK_OUT_OF_RANGE, _TARE_N)
         return
     if board.tare_mask:

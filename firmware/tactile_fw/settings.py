@@ -63,7 +63,7 @@ def check(rate_hz, enter, exit_, debounce, flags, max_rate_hz):
     """Index of the first CONFIG field out of range, or -1 if all are valid."""
     if not MIN_RATE_HZ <= rate_hz <= max_rate_hz:
         return F_RATE
-    if enter < 1:
+    if enter < 0:
         return F_ENTER
     if not 0 <= exit_ <= enter:
         return F_EXIT

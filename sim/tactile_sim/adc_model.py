@@ -41,7 +41,6 @@ class ADS122C04Model:
         self.n_read = 0  # conversions consumed by RDATA
         self.code = 0
         self._ptr = None  # what the next read returns: a register index or "data"
-        self._frozen = None  # conversion count when DRDY got stuck
 
     def gain(self):
         return 1 << ((self.regs[0] >> 1) & 0x7)
@@ -65,10 +64,7 @@ class ADS122C04Model:
         if not self.regs[1] & 0x08:
             n = min(n, 1)
         if self.stuck_drdy:
-            if self._frozen is None:
-                self._frozen = n
-            return self._frozen
-        self._frozen = None
+            return self.n_read  # no conversion completes: DRDY stays low
         return n
 
     def code_for(self, volts):
