@@ -109,7 +109,8 @@ def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
         ds = (noise_b + sigma_theta * np.abs(s)) / theta_safe + 1e-13 * (np.abs(s) + R1)
         s_safe = np.where(np.abs(s) < 1e-150, 1e-150, s)
         kappa = 1.0 / s_safe - 1.0 / R1
-        inv_s_err = ds / s_safe**2
+        with np.errstate(over="ignore"):
+            inv_s_err = np.minimum(ds / s_safe / s_safe, 1e300)  # finite even for s ~ 0
         code = np.full(s.shape, OK)
         code = np.where(np.abs(kappa) <= inv_s_err, FLAT, code)
         singular = (np.abs(1.0 / s_safe) <= inv_s_err) | (np.abs(R1 / s_safe) < CANCEL_TOL)

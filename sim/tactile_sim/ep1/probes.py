@@ -32,6 +32,7 @@ __all__ = [
     "simulate_probes",
     "sphere_plus_probes",
     "measure",
+    "tile",
     "SENSORS",
 ]
 
@@ -116,6 +117,21 @@ def sphere_plus_probes(R1, R2, dtheta, u0=0.0, v0=0.0):
     ax[..., 0::2, :], ax[..., 1::2, :] = axes, -axes
     ds[..., 0::2], ds[..., 1::2] = s, s
     return Probes(th, ps, pe, ax, ds, ["done"] * 8)
+
+
+def tile(probes, trials):
+    """Probes repeated along a new leading Monte-Carlo axis of length ``trials`` (views)."""
+
+    def rep(a):
+        return np.broadcast_to(a, (trials,) + np.shape(a))
+
+    return probes._replace(
+        dtheta=rep(probes.dtheta),
+        p_start=rep(probes.p_start),
+        p_end=rep(probes.p_end),
+        axis=rep(probes.axis),
+        ds=rep(probes.ds),
+    )
 
 
 def measure(probes, R1, sigma_theta=0.0, resolution=0.0, sensor="exact", rng=None, offset=0.0):

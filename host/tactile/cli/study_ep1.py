@@ -1,0 +1,123 @@
+"""``tactile study ep1-noise|ep1-paraboloid|ep1-resolution|ep1-arclength|ep1-dtheta``.
+
+Each writes NAME.csv and NAME.png (fig. 20: one PNG per sensor model) into --out.
+"""
+
+import os
+
+from tactile.errors import InputError
+
+
+def _common(parser):
+    parser.add_argument("--out", default=".", help="output directory (created if missing)")
+    parser.add_argument("--finger-radius", type=float, default=1.0)
+    parser.add_argument("--trials", type=int, default=100, help="Monte-Carlo trials per cell")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-plot", action="store_true", help="CSV only")
+    parser.add_argument("--no-progress", action="store_true")
+
+
+def _setup(args):
+    if not args.finger_radius > 0:
+        raise InputError(f"--finger-radius: must be positive, got {args.finger_radius}")
+    if args.trials < 1:
+        raise InputError(f"--trials: must be at least 1, got {args.trials}")
+    try:
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--out: cannot create {args.out}: {exc.strerror}") from None
+    if args.no_progress:
+        return lambda it, **_: it
+    from tqdm import tqdm
+
+    return lambda it, desc="": tqdm(list(it), desc=desc, unit="step")
+
+
+def _finish(args, name, rows, plot):
+    from tactile_sim.ep1.studies import write_csv
+
+    csv_path = os.path.join(args.out, f"{name}.csv")
+    write_csv(csv_path, rows)
+    print(csv_path)
+    if not args.no_plot:
+        png = os.path.join(args.out, f"{name}.png")
+        plot(rows, png)
+        print(png)
+    return 0
+
+
+def run_noise(args):
+    progress = _setup(args)
+    from tactile_sim.ep1.plots import plot_noise
+    from tactile_sim.ep1.studies import study_noise
+
+    rows = study_noise(args.finger_radius, args.trials, args.seed, progress=progress)
+    return _finish(args, "ep1-noise", rows, plot_noise)
+
+
+def run_paraboloid(args):
+    progress = _setup(args)
+    from tactile_sim.ep1.plots import plot_paraboloid
+    from tactile_sim.ep1.studies import study_paraboloid
+
+    rows = study_paraboloid(args.finger_radius, args.trials, args.seed, progress=progress)
+    return _finish(args, "ep1-paraboloid", rows, plot_paraboloid)
+
+
+def run_resolution(args):
+    progress = _setup(args)
+    from tactile_sim.ep1.plots import plot_resolution
+    from tactile_sim.ep1.studies import study_resolution
+
+    rows = study_resolution(args.finger_radius, args.trials, args.seed, progress=progress)
+    return _finish(args, "ep1-resolution", rows, plot_resolution)
+
+
+def run_arclength(args):
+    _setup(args)
+    from tactile_sim.ep1.plots import plot_arclength
+    from tactile_sim.ep1.studies import study_arclength
+
+    return _finish(args, "ep1-arclength", study_arclength(args.finger_radius), plot_arclength)
+
+
+def add_dtheta(parser):
+    _common(parser)
+    parser.add_argument("--noise-theta", type=float, default=0.005, help="rad, 1 sigma")
+    parser.add_argument("--resolution", type=float, default=0.05, help="sensor step")
+    parser.add_argument("--sensor", choices=("array", "gauss", "bias"), default="array")
+
+
+def run_dtheta(args):
+    _setup(args)
+    from tactile.jsonout import dumps
+    from tactile_sim.ep1.plots import plot_optimal
+    from tactile_sim.ep1.studies import study_optimal_dtheta
+
+    rows, summary = study_optimal_dtheta(
+        args.finger_radius,
+        args.noise_theta,
+        args.resolution,
+        args.sensor,
+        trials=args.trials,
+        seed=args.seed,
+    )
+    print(dumps({"widest_range_within_25pct": summary}))
+    return _finish(args, "ep1-dtheta", rows, plot_optimal)
+
+
+SUBCOMMANDS = {
+    "ep1-noise": ("fig. 16: sphere error vs RCR, dtheta and angle noise", _common, run_noise),
+    "ep1-paraboloid": ("fig. 18: paraboloid error vs C, dtheta and noise", _common, run_paraboloid),
+    "ep1-resolution": (
+        "fig. 20: sphere error vs contact-sensor resolution",
+        _common,
+        run_resolution,
+    ),
+    "ep1-arclength": ("fig. 21: arc length vs RCR for a 90 degree roll", _common, run_arclength),
+    "ep1-dtheta": (
+        "beyond the thesis: best dtheta per radius for one sensor",
+        add_dtheta,
+        run_dtheta,
+    ),
+}
