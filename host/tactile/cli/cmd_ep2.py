@@ -19,7 +19,7 @@ def add_arguments(parser):
     p.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
     p.add_argument("--noise-pos", type=float, help="position noise sigma (length unit)")
     p.add_argument("--noise-normal", type=float, help="normal direction noise sigma (rad)")
-    p.add_argument("--no-align", action="store_true", help="skip the principal-frame refit")
+    p.add_argument("--align", action="store_true", help="refit in the principal frame (§4.10)")
     p.add_argument(
         "--max-normal-angle", type=float, default=70.0, help="limit from the mean normal (deg)"
     )
@@ -46,7 +46,7 @@ def run(args):
         grid=args.grid,
         noise_pos=args.noise_pos,
         noise_normal=args.noise_normal,
-        align=not args.no_align,
+        align=args.align,
         max_normal_angle=args.max_normal_angle,
         break_angle=args.break_angle,
     )

@@ -97,7 +97,7 @@ def analyze_patch(
     noise_pos=None,
     noise_normal=None,
     grid=8,
-    align=True,
+    align=False,
     solver="svd",
     max_normal_angle=patch_frame.MAX_NORMAL_ANGLE_DEG,
     n_draws=uncertainty.N_DRAWS,
@@ -120,7 +120,8 @@ def analyze_patch(
         weights every row by 1/sigma from ``noise_pos`` (length unit) and
         ``noise_normal`` (rad), estimating them from a first pass if not given.
     align : bool
-        Refit in the principal frame of a first pass (§4.10).
+        Refit in the principal frame of a first pass (§4.10).  Off by default:
+        measured, it makes S worse for this fit (docs/ep2.md, rotation study).
     finger : sequence or None
         Finger label per row (rows in sweep order) for discontinuity checks.
     maps : bool
@@ -311,7 +312,8 @@ def _analyse(fit, rows, scale, stated, n_draws, seed):
             )
             (lo, hi), _ = uncertainty.interval(kmax, np.maximum(np.abs(kk[0]), np.abs(kk[1])), 0.0)
             out["radius_interval"] = (scale / hi, scale / lo if lo > 0 else None)
-        out["shape"], out["confidence"], out["votes"] = classify.vote(s_mean, s_sd)
+        p_flat = 0.0 if d2 is None else classify.plane_confidence(r_mean, d2)
+        out["shape"], out["confidence"], out["votes"] = classify.vote(s_mean, s_sd, p_flat)
         pos = r > 0
         out.update(
             S_mean=s_mean,

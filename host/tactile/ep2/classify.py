@@ -6,14 +6,16 @@ Labels: plane, sphere, cylinder, saddle, concave_cylinder, concave_sphere
 - plane: the curvedness is below what the data resolve.  The grid-mean shape
   operator t = (a, b, c) (symmetric 2x2 entries, so no k1 >= k2 ordering bias)
   is tested against zero: d^2 = t^T Cov(t)^-1 t with Cov(t) from the
-  coefficient draws; plane when d^2 < chi^2_3(95 %) = 7.815, or when R is
+  coefficient draws; plane when d^2 < chi^2_3(99.9 %) = 16.27, or when R is
   below ``R_TOL`` relative to the patch size (the thesis's R < 1e-6, §4.8.1).
   S and C are then null.  Confidence = the test's p-value P(chi^2_3 > d^2):
-  1 for an exactly flat fit, 0.05 at the edge of resolution.
+  1 for an exactly flat fit, 0.001 at the edge of resolution.
 - otherwise the grid-mean S, with the standard deviation sd(S) of its
   coefficient draws, gives each S band a probability (normal approximation);
-  the label is the most probable band if it holds at least ``MIN_VOTE``,
-  else ``uncertain``.  Confidence = that band's probability.
+  confidence = that band's probability x (1 - p_flat), p_flat the flatness
+  test's p-value (so a barely resolved curvature cannot give a confident
+  label); the label is the band if the confidence reaches ``MIN_VOTE``, else
+  ``uncertain``.
 """
 
 import math
@@ -26,7 +28,7 @@ R_TOL = 1e-6  # curvedness x patch size below which a patch is flat whatever the
 MIN_VOTE = 0.95
 
 
-CHI2_3_95 = 7.814727903251178
+CHI2_3_999 = 16.26623619623813  # chi^2 with 3 dof, 99.9 % quantile
 
 
 def flatness_distance(tensor, draws):
@@ -48,7 +50,7 @@ def is_plane(r_mean, d2):
     """Plane test on R (relative to a unit patch) and on d^2 (None: no noise estimate)."""
     if r_mean <= R_TOL:
         return True
-    return d2 is not None and d2 < CHI2_3_95
+    return d2 is not None and d2 < CHI2_3_999
 
 
 def plane_confidence(r_mean, d2):
@@ -59,13 +61,13 @@ def plane_confidence(r_mean, d2):
     return float(math.erfc(math.sqrt(x / 2)) + math.sqrt(2 * x / math.pi) * math.exp(-x / 2))
 
 
-def vote(s_mean, s_sd):
-    """Label and confidence: the probability mass of N(s_mean, s_sd) in each S band."""
+def vote(s_mean, s_sd, p_flat=0.0):
+    """Label and confidence from N(s_mean, s_sd) over the S bands and the flatness p-value."""
     if not s_sd:
-        return S_NAMES[int(s_class(s_mean))], 1.0, {}
+        return S_NAMES[int(s_class(s_mean))], 1.0 - p_flat, {}
     edges = [-np.inf, *S_EDGES.tolist(), np.inf]
     cdf = [0.5 * math.erfc(-(e - s_mean) / (s_sd * math.sqrt(2))) for e in edges]
-    shares = np.diff(cdf)
+    shares = np.diff(cdf) * (1.0 - p_flat)
     best = int(np.argmax(shares))
     votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}
     if shares[best] >= MIN_VOTE:

@@ -3,8 +3,8 @@
 Fingers sit ``spacing`` apart along x and sweep ``length`` along y; each
 takes ``samples`` stops, ``repeats`` readings per stop.  Noise (seeded):
 Gaussian on each position coordinate (``noise_pos``, length unit) and a tilt
-of each normal by a Gaussian angle about a random tangent axis
-(``noise_normal``, rad).  ``tilt_deg`` turns the whole scene about the world x
+of each normal by a Gaussian angle about each tangent axis
+(``noise_normal``, rad per axis).  ``tilt_deg`` turns the whole scene about the world x
 axis so the data arrive in a robot frame that is not the patch frame.
 """
 
@@ -48,15 +48,15 @@ def sweep(
 
 
 def _tilt_normals(n, sigma, rng):
-    """Rotate each unit normal by N(0, sigma) rad about a uniformly random tangent axis."""
+    """Perturb each unit normal by sigma * (g1 t1 + g2 t2), g ~ N(0, 1), and renormalise:
+    an angular error of sigma rad per tangent axis (isotropic direction noise)."""
     ref = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     t1 = np.cross(n, ref)
     t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
     t2 = np.cross(n, t1)
-    phi = rng.uniform(0, 2 * np.pi, len(n))
-    axis_t = np.cos(phi)[:, None] * t1 + np.sin(phi)[:, None] * t2
-    ang = sigma * rng.standard_normal(len(n))
-    return np.cos(ang)[:, None] * n + np.sin(ang)[:, None] * axis_t
+    g = sigma * rng.standard_normal((len(n), 2))
+    out = n + g[:, :1] * t1 + g[:, 1:] * t2
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
 def write_csv(path, data, patch=None):
