@@ -1,0 +1,106 @@
+"""``tactile ep2 analyze`` and ``tactile sim ep2``: outputs and exit codes."""
+
+import json
+
+import pytest
+
+from tactile.cli.main import main
+
+
+@pytest.fixture
+def cyl_csv(tmp_path):
+    path = tmp_path / "cyl.csv"
+    code = main(
+        [
+            "sim",
+            "ep2",
+            "--object",
+            "cylinder",
+            "--radius",
+            "6.6",
+            "--rotation",
+            "30",
+            "--noise-pos",
+            "0.01",
+            "--noise-normal",
+            "0.01",
+            "--patches",
+            "3",
+            "-o",
+            str(path),
+        ]
+    )
+    assert code == 0
+    return path
+
+
+def test_sim_then_analyze_json(cyl_csv, capsys):
+    capsys.readouterr()
+    assert main(["ep2", "analyze", str(cyl_csv), "--json"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 3
+    for line in lines:
+        rec = json.loads(line)
+        assert rec["shape"] == "cylinder"
+        assert rec["radius"] == pytest.approx(6.6, rel=0.1)
+        lo, hi = rec["S_interval"]
+        assert lo < rec["S_mean"] < hi
+        assert "NaN" not in line and "Infinity" not in line
+    assert [json.loads(x)["patch"] for x in lines] == ["1", "2", "3"]
+
+
+def test_table_output_and_options(cyl_csv, capsys):
+    capsys.readouterr()
+    args = ["ep2", "analyze", str(cyl_csv), "--order", "3", "--weighting", "tangent", "--grid", "6"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[0].split()[:3] == ["patch", "n", "shape"]
+    assert out.count("cylinder") == 3
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    return str(path)
+
+
+@pytest.mark.parametrize(
+    "text,needle",
+    [
+        ("x,y,z,nx,ny\n0,0,0,0,0\n", "missing required column(s) nz"),
+        ("x,y,z,nx,ny,nz\n0,0,0,0,0,1\n1,0,abc,0,0,1\n", ":3: column 'z': not a number"),
+        ("x,y,z,nx,ny,nz\n# c\n0,0,nan,0,0,1\n", ":3: column 'z': not a finite number"),
+        ("x,y,z,nx,ny,nz\n0,0,0,0,0,1\n1,0,0,0,0,0\n", ":3: column 'nx': zero-length normal"),
+    ],
+)
+def test_bad_input_exit_2_one_line(tmp_path, capsys, text, needle):
+    assert main(["ep2", "analyze", _write(tmp_path, text)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert needle in err and len(err.splitlines()) == 1 and "Traceback" not in err
+
+
+def test_single_finger_exit_3(tmp_path, capsys):
+    rows = "\n".join(f"0,{y},0,0,0,1" for y in range(6))
+    assert main(["ep2", "analyze", _write(tmp_path, "x,y,z,nx,ny,nz\n" + rows + "\n")]) == 3
+    err = capsys.readouterr().err.strip()
+    assert "one line" in err and len(err.splitlines()) == 1
+
+
+def test_one_bad_patch_among_good_ones_exit_3_and_others_reported(cyl_csv, tmp_path, capsys):
+    text = cyl_csv.read_text() + "".join(f"0,{y},0,0,0,1,0,bad\n" for y in range(6))
+    path = tmp_path / "mixed.csv"
+    path.write_text(text)
+    capsys.readouterr()
+    assert main(["ep2", "analyze", str(path), "--json"]) == 3
+    cap = capsys.readouterr()
+    recs = [json.loads(x) for x in cap.out.splitlines()]
+    assert [r["shape"] for r in recs] == ["cylinder"] * 3 + [None]
+    assert "patch bad" in cap.err
+
+
+def test_sim_rejects_object_smaller_than_the_sweep(tmp_path, capsys):
+    code = main(
+        ["sim", "ep2", "--object", "sphere", "--radius", "1", "-o", str(tmp_path / "s.csv")]
+    )
+    assert code == 2
+    assert "sweep reaches beyond the object" in capsys.readouterr().err
