@@ -24,6 +24,8 @@ Every principal direction gets a status with the bound the data support:
 - ``underdetermined``: fewer than two independent probe directions.
 """
 
+import math
+from operator import mul as _mul
 from typing import NamedTuple
 
 import numpy as np
@@ -96,43 +98,137 @@ def estimate_batch(dtheta, dp, R1, u0=0.0, resolution=0.0, sigma_theta=0.0):
 
 
 def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta):
+    """Principal values of S, curvatures, intervals and status codes (NumPy, any shape)."""
     k1, k2, k3 = k[..., 0], k[..., 1], k[..., 2]
     mean = 0.5 * (k1 + k3)
     half = np.hypot(0.5 * (k1 - k3), k2)
-    s_hi, s_lo = mean + half, mean - half  # s_hi <-> smaller curvature
     angle_hi = 0.5 * np.arctan2(2.0 * k2, k1 - k3)
-    theta_safe = np.maximum(theta, 1e-300)
     noise_b = np.maximum(sigma_res, 0.5 * resolution)
+    theta_safe = np.maximum(theta, 1e-300)
     out = {"residual": residual, "theta": theta, "S": k}
-    codes = []
-    for name, s in (("hi", s_hi), ("lo", s_lo)):
+    for name, s in (("hi", mean + half), ("lo", mean - half)):  # s_hi: smaller curvature
         ds = (noise_b + sigma_theta * np.abs(s)) / theta_safe + 1e-13 * (np.abs(s) + R1)
-        s_safe = np.where(np.abs(s) < 1e-150, 1e-150, s)
-        kappa = 1.0 / s_safe - 1.0 / R1
-        with np.errstate(over="ignore"):
-            inv_s_err = np.minimum(ds / s_safe / s_safe, 1e300)  # finite even for s ~ 0
-        code = np.full(s.shape, OK)
-        code = np.where(np.abs(kappa) <= inv_s_err, FLAT, code)
-        singular = (np.abs(1.0 / s_safe) <= inv_s_err) | (np.abs(R1 / s_safe) < CANCEL_TOL)
-        code = np.where(singular & (code == OK), NEAR_SINGULAR, code)
-        code = np.where((s < 0.0) & ~singular, INCONSISTENT, code)
+        lo, hi = s - ds, s + ds
+        with np.errstate(over="ignore", divide="ignore"):
+            k_lo = 1.0 / np.where(hi > 0.0, hi, 1.0) - 1.0 / R1  # curvature lower bound
+            k_hi = 1.0 / np.where(lo > 0.0, lo, 1.0) - 1.0 / R1
+        k_lo, k_hi = np.minimum(k_lo, 1e300), np.minimum(k_hi, 1e300)
+        kappa = 1.0 / np.where(np.abs(s) < 1e-150, 1e-150, s) - 1.0 / R1
+        code = np.full(np.shape(s), OK)
+        code = np.where((k_lo <= 0.0) & (k_hi >= 0.0), FLAT, code)
+        code = np.where(
+            (lo > 0.0) & (R1 / np.maximum(lo, 1e-300) < CANCEL_TOL), NEAR_SINGULAR, code
+        )
+        code = np.where((lo <= 0.0) & (hi >= R1), NEAR_SINGULAR, code)
+        code = np.where((lo <= 0.0) & (hi > 0.0) & (hi < R1), BELOW_RES, code)
+        code = np.where(hi <= 0.0, INCONSISTENT, code)
         if resolution > 0.0:
             code = np.where(s * theta <= resolution, BELOW_RES, code)
         code = np.where(rank_ok, code, UNDERDET)
-        out["s_" + name], out["kappa_" + name], out["dkappa_" + name] = s, kappa, inv_s_err
-        out["code_" + name] = code
-        codes.append(code)
-    # k1 >= k2: the larger curvature belongs to the smaller s.
+        out["s_" + name], out["kappa_" + name], out["code_" + name] = s, kappa, code
+        out["klo_" + name], out["khi_" + name] = k_lo, k_hi
+        out["dkappa_" + name] = np.where(lo > 0.0, 0.5 * (k_hi - k_lo), 1e300)
     c, sn = np.cos(angle_hi), np.sin(angle_hi)
     ka, kb = out["kappa_hi"], out["kappa_lo"]
     out["kx"] = ka * c * c + kb * sn * sn  # Euler's equation (eq. 64)
     out["ky"] = ka * sn * sn + kb * c * c
     out["kxy"] = (ka - kb) * c * sn
-    out["k1"], out["k2"] = kb, ka
+    out["k1"], out["k2"] = kb, ka  # k1 >= k2: the larger curvature belongs to the smaller s
     out["angle1"] = angle_hi + 0.5 * np.pi  # direction of k1 (of s_lo)
-    out["code"] = np.maximum(*codes)
-    # FLAT never outranks a harder failure; harder codes are larger.
+    out["code"] = np.maximum(out["code_hi"], out["code_lo"])  # harder failures are larger
     return out
+
+
+def _solve_small(dtheta, dp, R1, u0):
+    """Least squares for (k1, k2, k3) of eq. 33 by modified Gram-Schmidt on the augmented
+    matrix [A b] (backward stable for least squares, Bjorck 1967), in plain floats so one
+    point costs microseconds, not NumPy's per-call overhead.
+
+    With P = -dtheta_y and Q = dtheta_x per probe the columns are c1 = [P; 0], c2 = [Q; P],
+    c3 = [0; Q], b = [R1 du; R1 cos(u0) dv]; the first step only touches the upper half.
+    """
+    cu = R1 * math.cos(u0)
+    P = [-t[1] for t in dtheta]
+    Q = [t[0] for t in dtheta]
+    bx = [R1 * d[0] for d in dp]
+    by = [cu * d[1] for d in dp]
+    theta = math.sqrt((_dot(P, P) + _dot(Q, Q)) / len(P))
+    scale = max(math.sqrt(_dot(P, P) + _dot(Q, Q)), 1e-300)
+    r11 = math.sqrt(_dot(P, P))
+    if r11 <= RANK_TOL * scale:
+        return [0.0, 0.0, 0.0], _dot(bx, bx) + _dot(by, by), False, theta
+    q1 = [x / r11 for x in P]
+    r12, r1b = _dot(q1, Q), _dot(q1, bx)
+    c2 = [x - r12 * y for x, y in zip(Q, q1)] + P  # noqa: B905 (equal lengths)
+    c3 = [0.0] * len(P) + Q
+    b = [x - r1b * y for x, y in zip(bx, q1)] + by  # noqa: B905
+    r22 = math.sqrt(_dot(c2, c2))
+    if r22 <= RANK_TOL * scale:
+        return [0.0, 0.0, 0.0], _dot(b, b), False, theta
+    q2 = [x / r22 for x in c2]
+    r23, r2b = _dot(q2, c3), _dot(q2, b)
+    c3 = [x - r23 * y for x, y in zip(c3, q2)]  # noqa: B905
+    b = [x - r2b * y for x, y in zip(b, q2)]  # noqa: B905
+    r33 = math.sqrt(_dot(c3, c3))
+    if r33 <= RANK_TOL * scale:
+        return [0.0, 0.0, 0.0], _dot(b, b), False, theta
+    r3b = _dot(c3, b) / r33
+    rss = max(_dot(b, b) - r3b * r3b, 0.0)  # b is already orthogonal to q1, q2
+    k3 = r3b / r33
+    k2 = (r2b - r23 * k3) / r22
+    k1 = (r1b - r12 * k2) / r11  # r13 = q1 . c3 = 0
+    return [k1, k2, k3], rss, True, theta
+
+
+def _dot(x, y):
+    return sum(map(_mul, x, y))
+
+
+def _from_s_scalar(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta):
+    """Scalar twin of ``_from_s`` (same formulas, ``math`` instead of NumPy)."""
+    k1, k2, k3 = k
+    mean = 0.5 * (k1 + k3)
+    half = math.hypot(0.5 * (k1 - k3), k2)
+    angle_hi = 0.5 * math.atan2(2.0 * k2, k1 - k3)
+    noise_b = max(sigma_res, 0.5 * resolution)
+    theta_safe = max(theta, 1e-300)
+    out = {"residual": residual, "theta": theta}
+    for name, s in (("hi", mean + half), ("lo", mean - half)):
+        ds = (noise_b + sigma_theta * abs(s)) / theta_safe + 1e-13 * (abs(s) + R1)
+        lo, hi = s - ds, s + ds
+        k_lo = min(_inv(hi if hi > 0.0 else 1.0) - 1.0 / R1, 1e300)
+        k_hi = min(_inv(lo if lo > 0.0 else 1.0) - 1.0 / R1, 1e300)
+        kappa = 1.0 / (1e-150 if abs(s) < 1e-150 else s) - 1.0 / R1
+        code = FLAT if k_lo <= 0.0 <= k_hi else OK
+        if lo > 0.0 and R1 / max(lo, 1e-300) < CANCEL_TOL:
+            code = NEAR_SINGULAR
+        if lo <= 0.0:
+            code = NEAR_SINGULAR if hi >= R1 else (BELOW_RES if hi > 0.0 else code)
+        if hi <= 0.0:
+            code = INCONSISTENT
+        if resolution > 0.0 and s * theta <= resolution:
+            code = BELOW_RES
+        if not rank_ok:
+            code = UNDERDET
+        out["s_" + name], out["kappa_" + name], out["code_" + name] = s, kappa, code
+        out["klo_" + name], out["khi_" + name] = k_lo, k_hi
+        out["dkappa_" + name] = 0.5 * (k_hi - k_lo) if lo > 0.0 else 1e300
+    c, sn = math.cos(angle_hi), math.sin(angle_hi)
+    ka, kb = out["kappa_hi"], out["kappa_lo"]
+    out["kx"] = ka * c * c + kb * sn * sn
+    out["ky"] = ka * sn * sn + kb * c * c
+    out["kxy"] = (ka - kb) * c * sn
+    out["k1"], out["k2"] = kb, ka
+    out["angle1"] = angle_hi + 0.5 * math.pi
+    out["code"] = max(out["code_hi"], out["code_lo"])
+    return out
+
+
+def _inv(x):
+    try:
+        return 1.0 / x
+    except ZeroDivisionError:
+        return 1e300
 
 
 def _direction(angle):
@@ -152,10 +248,19 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
     n = len(dtheta)
     if n < 2:
         return _underdetermined(n, "need probes in at least two independent directions")
-    r = estimate_batch(dtheta, dp, finger_radius, u0, resolution, sigma_theta)
-    k = r.pop("S")
-    f = {key: float(val) for key, val in r.items()}
-    S = [[float(k[0]), float(k[1])], [float(k[1]), float(k[2])]]
+    k, rss, rank_ok, theta = _solve_small(dtheta.tolist(), dp.tolist(), finger_radius, u0)
+    sigma_res = math.sqrt(rss / (2 * n - 3)) if 2 * n > 3 else 0.0
+    f = _from_s_scalar(
+        k,
+        finger_radius,
+        theta,
+        sigma_res,
+        math.sqrt(rss / (2 * n)),
+        rank_ok,
+        resolution,
+        sigma_theta,
+    )
+    S = [[k[0], k[1]], [k[1], k[2]]]
     code_hi, code_lo = int(f["code_hi"]), int(f["code_lo"])
     code = max(code_hi, code_lo)
     status = STATUSES[code]
@@ -163,16 +268,7 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
         return _underdetermined(n, "probe directions span fewer than two independent directions")
     bounds, notes = {}, []
     for label, which, c in (("k1", "lo", code_lo), ("k2", "hi", code_hi)):
-        note = _bound(
-            label,
-            c,
-            f["s_" + which],
-            f["kappa_" + which],
-            f["dkappa_" + which],
-            finger_radius,
-            f["theta"],
-            resolution,
-        )
+        note = _bound(label, c, f, which, finger_radius, resolution)
         if note:
             bounds[label] = note
             notes.append(note["text"])
@@ -200,27 +296,34 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
     )
 
 
-def _bound(label, code, s, kappa, dkappa, R1, theta, resolution):
+def _bound(label, code, f, which, R1, resolution):
+    s, k_lo, k_hi = f["s_" + which], f["klo_" + which], f["khi_" + which]
     if code == FLAT:
-        rmin = 1.0 / dkappa if dkappa > 0 else None
+        rmin = 1.0 / max(abs(k_lo), abs(k_hi), 1e-300)
         return {
+            "curvature_range": [k_lo, k_hi],
             "radius_min": rmin,
             "text": f"{label}: flat within noise (|radius| above {_fmt(rmin)})",
         }
     if code == NEAR_SINGULAR:
-        upper = -1.0 / R1 + abs(1.0 / s) + dkappa
-        rmax = -1.0 / upper if upper < 0 else None
+        rmin = 1.0 / -k_lo if k_lo < 0 else None
         return {
-            "curvature_range": [-1.0 / R1, upper],
-            "concave_radius_range": [R1, rmax],
-            "text": f"{label}: K1 + K2~ near singular: concave radius between {_fmt(R1)} "
-            f"and {_fmt(rmax)} (the object nearly fits the finger)",
+            "curvature_min": k_lo,
+            "concave_radius_min": rmin,
+            "text": f"{label}: K1 + K2~ indistinguishable from singular (the object may "
+            f"nearly fit the finger): curvature above {_fmt(k_lo)}"
+            + (f", a concave radius above {_fmt(rmin)}" if rmin else ""),
         }
     if code == BELOW_RES:
-        s_up = (max(s, 0.0) * theta + 0.5 * resolution) / max(theta, 1e-300)
-        k_low = 1.0 / s_up - 1.0 / R1
-        rmax = 1.0 / k_low if k_low > 0 else None
-        text = f"{label}: contact displacement at or below one sensor step ({_fmt(resolution)})" + (
+        theta = max(f["theta"], 1e-300)
+        if resolution > 0 and s * theta <= resolution:
+            # measured at most one step: the true displacement is below s theta + r / 2
+            k_min = 1.0 / max(max(s, 0.0) + 0.5 * resolution / theta, 1e-300) - 1.0 / R1
+        else:
+            k_min = k_lo
+        rmax = 1.0 / k_min if k_min > 0 else None
+        step = f"one sensor step ({_fmt(resolution)})" if resolution > 0 else "the noise"
+        text = f"{label}: contact displacement at or below {step}" + (
             f": radius below {_fmt(rmax)}" if rmax else ": increase dtheta"
         )
         return {"radius_max": rmax, "text": text}
