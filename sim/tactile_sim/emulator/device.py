@@ -1,0 +1,156 @@
+"""The emulated board: the real firmware (``tactile_fw.board.Board``) on simulated hardware.
+
+Per sensor: six ADS122C04 register models on a simulated I2C bus
+(``tactile_sim.adc_model``, ``tactile_sim.i2c_bus``), each converting one
+gauge of the transducer model.  The clock is simulated and jumps straight
+to the next thing that can happen (a due sample or a conversion end), so
+"as fast as possible" costs only the firmware's own work.  The byte link is
+the firmware's ``PipeLink``; the host side reads with ``take`` and writes
+with ``put``.  Nothing here frames, checksums or encodes: the firmware does.
+"""
+
+import importlib
+import math
+
+from tactile_fw import calibration, settings
+from tactile_fw.board import Board
+from tactile_fw.frontend import ADDRESS_PLAN, make_sensor
+from tactile_fw.link import PipeLink
+from tactile_fw.storage import MemoryStorage
+from tactile_fw.timing import ManualClock
+from tactile_protocol import constants as C
+from tactile_sim.adc_model import ADS122C04Model
+from tactile_sim.emulator.ft_model import FTModel
+from tactile_sim.emulator.scene import MOTIONS
+from tactile_sim.emulator.sensor_faults import FaultSchedule
+from tactile_sim.i2c_bus import SimI2C
+
+STREAM_FLAGS = {"samples": C.CFG_STREAM_SAMPLES, "contacts": C.CFG_STREAM_CONTACTS}
+LINK_CAPACITY = 1 << 16  # bytes the host side may leave unread (a USB/pty buffer)
+
+
+def build_motion(scene):
+    return importlib.import_module(MOTIONS[scene.motion["kind"]]).build(scene)
+
+
+def board_settings(scene, max_rate_hz):
+    """The settings a shipped scene stores on the board (streaming from boot)."""
+    b = scene.board
+    flags = C.CFG_GATE_3D if b["gate"] == "3d" else 0
+    for name in b["streams"]:
+        if name not in STREAM_FLAGS:
+            raise scene.error("[board] streams", f"unknown stream {name!r} (samples, contacts)")
+        flags |= STREAM_FLAGS[name]
+    if b["autostart"]:
+        flags |= C.CFG_AUTOSTART
+    s = settings.Settings(
+        int(b["rate_hz"]),
+        round(b["enter_threshold_N"] / C.FORCE_LSB_N),
+        round(b["exit_threshold_N"] / C.FORCE_LSB_N),
+        int(b["debounce"]),
+        flags,
+    )
+    bad = settings.check(*s.fields(), max_rate_hz)
+    if bad >= 0:
+        field = ("rate_hz", "enter_threshold_N", "exit_threshold_N", "debounce", "streams")[bad]
+        raise scene.error(f"[board] {field}", f"out of range (rate ceiling {max_rate_hz} Hz)")
+    return s
+
+
+class EmulatedBoard:
+    """Firmware + simulated sensors on simulated time; see the module docstring."""
+
+    def __init__(self, scene, motion=None):
+        self.scene = scene
+        self.motion = motion if motion is not None else build_motion(scene)
+        self.clock = ManualClock(0)
+        self.link = PipeLink(LINK_CAPACITY)
+        self.buses, self.adcs, self.models = [], [], []
+        sensors = [self._sensor(i) for i in range(int(scene.board["sensors"]))]
+        override = int(scene.board["max_rate_hz"]) or None
+        if override:
+            period = 1e6 / override
+            for adc in self.adcs:
+                adc.conv_period_override = period
+        storage = MemoryStorage()
+        self.board = Board(sensors, self.link, self.clock, storage, max_rate_hz=override)
+        board_settings(scene, self.board.max_rate_hz).save(storage)
+        for i, model in enumerate(self.models):
+            cal = calibration.Calibration(model.calibration_coefficients(), scene.sensor["cal_id"])
+            cal.save(storage, i)
+        self.faults = FaultSchedule.from_scene(scene, self)
+        self.board.boot()
+
+    def _sensor(self, i):
+        slot, bus_index = i % 2, i // 2
+        if bus_index == len(self.buses):
+            self.buses.append(SimI2C())
+        bus = self.buses[bus_index]
+        model = FTModel(
+            self.scene.sensor,
+            lambda t, i=i: self.motion.wrench_at(t, i),
+            seed=self.scene.seed * 7919 + i,
+        )
+        self.models.append(model)
+        for j, addr in enumerate(ADDRESS_PLAN[slot]):
+            adc = ADS122C04Model(self._now)
+            adc.source = self._gauge_source(model, adc, j)
+            bus.attach(addr, adc)
+            self.adcs.append(adc)
+        return make_sensor(bus, slot, bus_key=bus_index)
+
+    @staticmethod
+    def _gauge_source(model, adc, j):
+        def volts(t_us):
+            return model.gauges(t_us)[j] * adc.vref() / adc.gain() / (1 << 23)
+
+        return volts
+
+    def _now(self):
+        return self.clock.t_us
+
+    @property
+    def t_us(self):
+        return self.clock.t_us
+
+    def _next_conversion_us(self):
+        t = self.clock.t_us
+        best = None
+        for adc in self.adcs:
+            if adc.running:
+                period = adc.period_us()
+                k = math.floor((t - adc.t_start) / period) + 1
+                nxt = adc.t_start + k * period
+                best = nxt if best is None or nxt < best else best
+        return 1 if best is None else max(1, math.ceil(best - t))
+
+    def step(self, limit_us=None):
+        """One firmware poll, then advance simulated time to the next event."""
+        if self.faults is not None:
+            self.faults.update(self.clock.t_us)
+        self.board.poll()
+        dt = self.board.idle_us() or self._next_conversion_us()
+        if self.faults is not None and (nxt := self.faults.next_us()) is not None:
+            dt = max(1, min(dt, nxt - self.clock.t_us))
+        if limit_us is not None:
+            dt = max(0, min(dt, limit_us - self.clock.t_us))
+        self.clock.t_us += dt
+
+    def run_until(self, t_us):
+        """Run the firmware until simulated time ``t_us``."""
+        while self.clock.t_us < t_us:
+            self.step(t_us)
+        self.board.poll()
+
+    # host side of the link
+    def read_host(self):
+        return self.link.take()
+
+    def write_host(self, data):
+        self.link.put(data)
+
+    def host_opened(self):
+        self.link.host_open()
+
+    def set_host_reading(self, reading):
+        self.link.paused = not reading

@@ -1,0 +1,63 @@
+"""The F/T transducer seen by the ADCs: wrench -> six gauge signals (thesis ch. 5).
+
+Gauges respond linearly to the wrench, ``g = A w + bias + drift t + noise``
+(counts), and the board's calibration is ``C = A^-1`` (ATI's convention
+F/T = C (g - bias)).  ``A`` mixes every axis into every gauge like a real
+six-gauge transducer, with sensitivities chosen so that full-scale load
+reaches 60% of the converter's range.  Noise is specified in wrench units
+(the thesis's sensor: 0.20 ozf in x and y, 0.40 ozf in z) and mapped
+through ``A``; a noiseless model draws no random numbers.
+"""
+
+import numpy as np
+
+FULL_SCALE_CODE = 0.6 * (1 << 23)
+
+
+def sensitivity_matrix(force_range_n, torque_range_nm):
+    """A (counts per N or N*m): an orthogonal mixing times per-axis sensitivities."""
+    h = np.array(
+        [
+            [1, 1, 1, 1, 1, 1],
+            [1, -1, 1, -1, 1, -1],
+            [1, 1, -1, -1, 1, 1],
+            [1, -1, -1, 1, 1, -1],
+            [1, 1, 1, 1, -1, -1],
+            [1, -1, 1, -1, -1, 1],
+        ],
+        dtype=float,
+    )
+    q, _ = np.linalg.qr(h + 0.3 * np.eye(6))  # well conditioned, every gauge sees every axis
+    per_axis = np.array([force_range_n] * 3 + [torque_range_nm] * 3)
+    return q * (FULL_SCALE_CODE / per_axis)
+
+
+class FTModel:
+    """Gauge counts for a wrench trajectory; one instance per sensor."""
+
+    def __init__(self, sensor, wrench_at, seed=0):
+        self.A = sensitivity_matrix(sensor["force_range_N"], sensor["torque_range_Nm"])
+        self.C = np.linalg.inv(self.A)
+        self.bias = np.broadcast_to(np.asarray(sensor["bias_counts"], float), (6,)).copy()
+        self.drift = float(sensor["drift_counts_per_s"])
+        sigma = np.array(list(sensor["noise_force_N"]) + list(sensor["noise_torque_Nm"]), float)
+        self.sigma = sigma
+        self.rng = np.random.default_rng(seed) if np.any(sigma > 0) else None
+        self.wrench_at = wrench_at
+        self.saturation = None  # None, +1 or -1: force gauges to a rail (fault injection)
+        self._t = None
+        self._g = np.zeros(6)
+
+    def gauges(self, t_us):
+        """The six gauge counts (float) at simulated time ``t_us``; cached per instant."""
+        if t_us != self._t:
+            w = np.asarray(self.wrench_at(t_us * 1e-6), float)
+            if self.rng is not None:
+                w = w + self.rng.normal(0.0, 1.0, 6) * self.sigma
+            self._g = self.A @ w + self.bias + self.drift * t_us * 1e-6
+            self._t = t_us
+        return self._g
+
+    def calibration_coefficients(self):
+        """C row-major, the 36 float32 coefficients the board stores (N per count)."""
+        return [float(np.float32(v)) for v in self.C.ravel()]

@@ -1,0 +1,35 @@
+"""``kind = "press"``: a wrench given directly as keyframes, linearly interpolated.
+
+For protocol and gate tests: ``keyframes = [[t_s, fx, fy, fz, tx, ty, tz], ...]``
+(N and N*m, times increasing).  Before the first and after the last keyframe
+the wrench holds.  ``repeat = true`` loops the keyframes over their span.
+"""
+
+import numpy as np
+
+
+class PressMotion:
+    def __init__(self, keyframes, repeat=False):
+        self.t = keyframes[:, 0]
+        self.w = keyframes[:, 1:]
+        self.repeat = repeat
+        self.span = float(self.t[-1] - self.t[0]) if len(self.t) > 1 else 0.0
+
+    def wrench_at(self, t_s, sensor=0):
+        """Wrench at time ``t_s`` (a scalar, or an array giving a (6, n) array)."""
+        if self.repeat and self.span > 0:
+            t_s = self.t[0] + (t_s - self.t[0]) % self.span
+        return np.array([np.interp(t_s, self.t, self.w[:, k]) for k in range(6)])
+
+
+def build(scene):
+    m = scene.motion
+    try:
+        frames = np.asarray(m["keyframes"], dtype=float)
+    except (KeyError, ValueError, TypeError):
+        raise scene.error("[motion] keyframes", "need rows [t_s, fx, fy, fz, tx, ty, tz]") from None
+    if frames.ndim != 2 or frames.shape[1] != 7 or len(frames) < 1:
+        raise scene.error("[motion] keyframes", "need rows [t_s, fx, fy, fz, tx, ty, tz]")
+    if not np.all(np.isfinite(frames)) or np.any(np.diff(frames[:, 0]) <= 0):
+        raise scene.error("[motion] keyframes", "times must increase and values be finite")
+    return PressMotion(frames, bool(m.get("repeat", False)))

@@ -1,0 +1,169 @@
+"""The emulator runs the real firmware on simulated hardware (issue 6), in process."""
+
+import pathlib
+import re
+import subprocess
+import sys
+
+import pytest
+import serial
+
+from tactile.stream_decoder import StreamDecoder
+from tactile_protocol import constants as C
+from tactile_sim.emulator import SceneError, load_scene
+from tactile_sim.emulator.device import EmulatedBoard
+from tactile_sim.urlhandler import register
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+register()
+
+
+def _scene(tmp_path, text):
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    return path
+
+
+def _press(tmp_path, extra="", noise=True):
+    text = load_scene("press").path.read_text()
+    if not noise:
+        text = re.sub(r"noise_force_N = .*", "noise_force_N = [0.0, 0.0, 0.0]", text)
+    return _scene(tmp_path, text + "\n" + extra)
+
+
+def _run(url, seconds):
+    port = serial.serial_for_url(url, timeout=0.01)
+    decoder = StreamDecoder()
+    msgs = []
+    while port.emulator.t_us < seconds * 1e6:
+        msgs += decoder.feed(port.read(8192))
+    return port, msgs, decoder.counters
+
+
+def test_it_is_the_real_firmware():
+    from tactile_fw.board import Board
+
+    board = EmulatedBoard(load_scene("press"))
+    assert type(board.board) is Board
+
+
+def test_sim_holds_no_second_copy_of_the_protocol():
+    text = "\n".join(p.read_text() for p in (ROOT / "sim").rglob("*.py"))
+    assert "0x1021" not in text and "crc_hqx" not in text
+    assert not re.search(r"^\s*(from cobs|import cobs)", text, re.M)
+    assert not re.search(r"def (encode_into|crc16|pack_into)\b", text)
+    assert "struct.pack" not in text
+
+
+def test_contact_begin_and_end_land_where_the_scene_puts_them(tmp_path):
+    scene_path = _press(tmp_path, noise=False)
+    _, msgs, counters = _run(f"sim://{scene_path}", 4.0)
+    emu_scene = load_scene(scene_path)
+    enter, exit_ = emu_scene.board["enter_threshold_N"], emu_scene.board["exit_threshold_N"]
+    debounce = emu_scene.board["debounce"]
+    import numpy as np
+
+    motion = EmulatedBoard(emu_scene).motion
+    ts = np.arange(0, 4.0, 1e-5)
+    f = np.hypot(*motion.wrench_at(ts)[:2])
+    above, below = f > enter, f < exit_
+    onsets = ts[1:][above[1:] & ~above[:-1]]
+    ends = ts[1:][below[1:] & ~below[:-1] & (ts[1:] > onsets[0])]
+    begins = [m.timestamp_us for m in msgs if m.type_name == "CONTACT" and m.phase == C.PHASE_BEGIN]
+    finishes = [m.timestamp_us for m in msgs if m.type_name == "CONTACT" and m.phase == C.PHASE_END]
+    assert len(begins) == len(onsets) == 2 and len(finishes) == 2
+    period_us = 1000
+    for got, want in zip(begins, onsets):
+        expect = want * 1e6 + (debounce - 1) * period_us  # first sample above + debounce
+        assert abs(got - expect) <= period_us + 500, (got, expect)  # one sample + ADC latency
+    for got, want in zip(finishes, ends):
+        expect = want * 1e6 + (debounce - 1) * period_us
+        assert abs(got - expect) <= period_us + 500, (got, expect)
+    assert counters.lost_frames == 0
+
+
+def test_link_faults_are_counted_exactly(tmp_path):
+    corrupt = list(range(50, 3000, 97))
+    drop = list(range(101, 3000, 211))
+    extra = f"[link]\ncorrupt_frames = {corrupt}\ndrop_byte_frames = {drop}\n"
+    port, msgs, counters = _run(f"sim://{_press(tmp_path, extra)}", 3.5)
+    injected = port.faults.injected
+    assert injected["corrupted"] == len(corrupt) and injected["dropped_bytes"] == len(drop)
+    total = injected["corrupted"] + injected["dropped_bytes"]
+    assert counters.lost_frames == total
+    assert counters.crc_errors + counters.undecodable == total
+    seqs = [m.seq for m in msgs]
+    assert len(seqs) + total == seqs[-1] + 1  # every undamaged frame arrived
+
+
+def test_faults_can_be_turned_off_in_the_url(tmp_path):
+    extra = "[link]\ncorrupt_frames = [10, 20]\n"
+    _, _, counters = _run(f"sim://{_press(tmp_path, extra)}?faults=0", 0.5)
+    assert counters.lost_frames == 0
+
+
+def test_sensor_faults_give_status_and_recovery(tmp_path):
+    extra = (
+        '[[sensor_fault]]\nat_s = 0.5\nkind = "i2c_timeout"\ncount = 4\n'
+        '[[sensor_fault]]\nat_s = 1.2\nkind = "stuck_drdy"\nfor_s = 0.05\n'
+        '[[sensor_fault]]\nat_s = 2.5\nkind = "saturate"\nfor_s = 0.02\n'
+    )
+    _, msgs, _ = _run(f"sim://{_press(tmp_path, extra)}", 3.5)
+    status = [m for m in msgs if m.type_name == "STATUS"]
+    faults = [m.faults for m in status]
+    assert any(f & C.FAULT_I2C and not f & C.FAULT_RECOVERED for f in faults)
+    assert any(f & C.FAULT_DRDY_STUCK and not f & C.FAULT_RECOVERED for f in faults)
+    assert any(f & C.FAULT_SATURATION for f in faults)
+    assert sum(1 for f in faults if f & C.FAULT_RECOVERED) >= 2
+    late = [m for m in msgs if m.type_name == "SAMPLE" and m.timestamp_us > 3_000_000]
+    assert len(late) > 400  # the board kept running
+
+
+def test_noiseless_scene_draws_no_random_numbers(tmp_path):
+    board = EmulatedBoard(load_scene(_press(tmp_path, noise=False)))
+    assert all(model.rng is None for model in board.models)
+    noisy = EmulatedBoard(load_scene("press"))
+    assert all(model.rng is not None for model in noisy.models)
+
+
+def test_a_press_scene_loads_no_rolling_or_fitting_code():
+    code = (
+        "import sys; from tactile_sim.emulator import load_scene; "
+        "from tactile_sim.emulator.device import EmulatedBoard; "
+        "EmulatedBoard(load_scene('press')).run_until(100000); "
+        "print(sorted(m for m in sys.modules if m.startswith(('tactile_sim.ep1', "
+        "'tactile_sim.ep2', 'tactile.ep1', 'tactile.ep2', 'scipy', 'matplotlib'))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize(
+    "text, expect",
+    [
+        ('[motion]\nkind = "teleport"\n', "kind must be one of"),
+        (
+            '[board]\nrate_hz = "fast"\n[motion]\nkind = "press"\nkeyframes = [[0,0,0,0,0,0,0]]\n',
+            "rate_hz: expected int",
+        ),
+        (
+            '[board]\nspeed = 1\n[motion]\nkind = "press"\nkeyframes = [[0,0,0,0,0,0,0]]\n',
+            "unknown key",
+        ),
+        ('[motion]\nkind = "press"\nkeyframes = [[0, 1]]\n', "keyframes"),
+        ("[motion\n", "scene.toml"),
+        (
+            '[board]\nrate_hz = 99999\n[motion]\nkind = "press"\nkeyframes = [[0,0,0,0,0,0,0]]\n',
+            "rate_hz",
+        ),
+    ],
+)
+def test_bad_scenes_are_one_line_errors(tmp_path, text, expect):
+    with pytest.raises(SceneError, match=expect) as exc:
+        EmulatedBoard(load_scene(_scene(tmp_path, text)))
+    assert "\n" not in str(exc.value)
+
+
+def test_emulate_cli_reports_bad_scene(tmp_path, cli):
+    code, out, err = cli("emulate", tmp_path / "missing.toml")
+    assert code == 2 and "missing.toml" in err and "Traceback" not in err
