@@ -65,7 +65,7 @@ BACKOFF_MIN_US = const(1000)
 BACKOFF_MAX_US = const(1000000)
 STATUS_PERIOD_US = const(1000000)
 RX_CHUNK = const(64)  # bytes taken from the link per poll
-_SENSOR_FAULTS = const(FAULT_I2C | FAULT_DRDY_STUCK)
+_SENSOR_FAULTS = const(0x03)  # FAULT_I2C | FAULT_DRDY_STUCK (const() needs a literal)
 
 # sensor states
 S_OK = const(0)
