@@ -15,7 +15,7 @@ from tactile.localize.kinematics import (
     to_world,
 )
 from tactile.localize.pipeline import posed_contacts, scara_contacts
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
 from tactile.localize.wheel import rim_contact, wheel_contact, wheel_theta
 
 __all__ = [
@@ -28,6 +28,7 @@ __all__ = [
     "scara_pose",
     "to_world",
     "sphere_contact",
+    "sphere_contact_frictionless",
     "scara_contacts",
     "posed_contacts",
     "rim_contact",

@@ -22,7 +22,7 @@ from tactile.localize.contact import (
 )
 from tactile.localize.line import entry_root, line_of_action
 
-__all__ = ["sphere_contact"]
+__all__ = ["sphere_contact", "sphere_contact_frictionless"]
 
 
 def sphere_contact(
@@ -67,6 +67,29 @@ def sphere_contact(
         off = -np.einsum("...i,i->...", normal, pole) < np.cos(half_angle) - 1e-12
         status = np.where(off & (status != MISS), OFF_PROBE, status)
     return _finish(point, normal, status, residual, force, fnorm, threshold)
+
+
+def sphere_contact_frictionless(
+    force, centre, radius, threshold=0.0, axis=None, half_angle=0.5 * np.pi
+):
+    """Frictionless contact on a sphere from the force alone (the sphere analogue of eq. 61).
+
+    Without friction F is normal, so it passes through the centre: p = c - r F/|F| and the
+    object's normal is F/|F|.  Far less sensitive to noise than the line of action (no
+    moment, no lever arm), but biased by r atan(mu) along the surface under friction.
+    """
+    c = np.asarray(centre, dtype=float)
+    F = np.asarray(force, dtype=float)
+    fnorm = np.linalg.norm(F, axis=-1)
+    u = F / np.where(fnorm > 0.0, fnorm, 1.0)[..., None]
+    status = np.full(fnorm.shape, OK)
+    if axis is not None:
+        pole = np.asarray(axis, dtype=float)
+        pole = pole / np.linalg.norm(pole)
+        off = -np.einsum("...i,i->...", u, pole) < np.cos(half_angle) - 1e-12
+        status = np.where(off, OFF_PROBE, status)
+    zero = np.zeros(fnorm.shape)
+    return _finish(c - float(radius) * u, u, status, zero, F, fnorm, threshold)
 
 
 def _finish(point, normal, status, residual, force, fnorm, threshold, gate_norm=None):
