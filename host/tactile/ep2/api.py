@@ -7,6 +7,12 @@ shape (§4.8.2) - plus what the thesis leaves as future work: a refit in the
 principal frame (§4.10), noise-derived weights, coefficient-covariance
 intervals, and discontinuity checks (§6.2.5).
 
+Two shape indices are reported: ``S_mean``/``S_std``, the mean and spread of
+S over the grid (the thesis's statistic, §4.8.2), and ``S_patch``, S of the
+grid-mean shape operator (entries a, b, c averaged, then eigenvalues): the
+noise averages out before the non-linear S, so it is the more accurate
+estimate (bench/ep2_peers.py) and the one the label and ``S_interval`` use.
+
 Internally lengths are divided by the patch size L (the larger side of the
 contacts' bounding box in the patch frame), so weights and tolerances do not
 depend on the unit; curvatures are reported in 1/unit.
@@ -35,6 +41,8 @@ class PatchResult:
     shape: str
     confidence: float
     S_mean: float | None
+    S_patch: float | None
+    k_patch: tuple  # (k1, k2) of the grid-mean shape operator
     S_std: float | None
     R_mean: float
     R_std: float
@@ -64,8 +72,9 @@ class PatchResult:
 
     def to_dict(self, patch=None):
         keys = (
-            "n_points shape confidence S_mean S_std R_mean R_std C_mean k1_mean k2_mean k1_std"
-            " k2_std radius S_interval k1_interval k2_interval radius_interval hk_label"
+            "n_points shape confidence S_mean S_patch S_std R_mean R_std C_mean k1_mean k2_mean"
+            " k1_std k2_std k_patch radius S_interval k1_interval k2_interval radius_interval"
+            " hk_label"
             " direction1 degree weighting aligned cond votes"
         ).split()
         out = {"patch": patch} if patch is not None else {}
@@ -278,6 +287,7 @@ def _analyse(fit, rows, scale, stated, n_draws, seed):
     draws = None
     out = dict(
         S_mean=None,
+        S_patch=None,
         S_std=None,
         C_mean=None,
         radius=None,
@@ -303,24 +313,26 @@ def _analyse(fit, rows, scale, stated, n_draws, seed):
         out.update(shape="plane", confidence=classify.plane_confidence(r_mean, d2))
     else:
         s = shape_index(k1, k2)
-        s_mean = float(s.mean())
+        s_patch = float(shape_index(*eigen(a.mean(), b.mean(), c.mean())))
         kmax = max(abs(k1m), abs(k2m))
         s_sd = None
         if draws is not None:
-            out["S_interval"], s_sd = uncertainty.interval(
-                s_mean, shape_index(*draws).mean(axis=0), -1.0, 1.0
-            )
+            s_draws = shape_index(*eigen(da.mean(0), db.mean(0), dc.mean(0)))
+            out["S_interval"], s_sd = uncertainty.interval(s_patch, s_draws, -1.0, 1.0)
             (lo, hi), _ = uncertainty.interval(kmax, np.maximum(np.abs(kk[0]), np.abs(kk[1])), 0.0)
             out["radius_interval"] = (scale / hi, scale / lo if lo > 0 else None)
         p_flat = 0.0 if d2 is None else classify.plane_confidence(r_mean, d2)
-        out["shape"], out["confidence"], out["votes"] = classify.vote(s_mean, s_sd, p_flat)
+        out["shape"], out["confidence"], out["votes"] = classify.vote(s_patch, s_sd, p_flat)
         pos = r > 0
         out.update(
-            S_mean=s_mean,
+            S_patch=s_patch,
+            S_mean=float(s.mean()),
             S_std=float(s.std()),
             C_mean=float(curvedness_c(r[pos] / scale).mean()) if pos.any() else None,
             radius=scale / kmax,
         )
+    kp1, kp2 = eigen(a.mean(), b.mean(), c.mean())
+    out["k_patch"] = (float(kp1) / scale, float(kp2) / scale)
     eps_h, eps_k = _hk_eps(out["k1_interval"], out["k2_interval"], k1m / scale, k2m / scale)
     H, K = 0.5 * (k1 + k2) / scale, k1 * k2 / scale**2
     out.update(
