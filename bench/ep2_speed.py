@@ -1,0 +1,78 @@
+"""EP2 speed: one 36-contact patch on an 8 x 8 grid in process, and the CLI on 1000 patches.
+
+Run: .venv/bin/python bench/ep2_speed.py
+Targets (issue 3): fit + analysis <= 1 ms median; `tactile ep2 analyze` on 1000 patches
+<= 3 s wall in total.
+"""
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from tactile.ep2 import analyze_patch
+from tactile_sim.ep2 import make, sweep
+
+CASES = (
+    ("default (deg 2, auto, 64 draws)", {}),
+    ("noise stated", {"noise_pos": 0.01, "noise_normal": 0.01}),
+    ("no intervals (n_draws=0)", {"n_draws": 0}),
+    ("deg 3 tangent (thesis)", {"degree": 3, "weighting": "tangent"}),
+    ("deg 4 tangent", {"degree": 4, "weighting": "tangent"}),
+    ("align refit (§4.10)", {"align": True}),
+    ("maps kept", {"maps": True}),
+)
+
+
+def median_ms(d, kw, n=400):
+    analyze_patch(d["points"], d["normals"], **kw)
+    ts = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        analyze_patch(d["points"], d["normals"], **kw)
+        ts.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(ts))
+
+
+def main():
+    d = sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=1)
+    print("| configuration | median ms / patch (36 contacts, 8x8 grid) |")
+    print("|---|---|")
+    for name, kw in CASES:
+        print(f"| {name} | {median_ms(d, kw):.3f} |")
+    tactile = os.path.join(os.path.dirname(sys.executable), "tactile")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "p1000.csv")
+        subprocess.run(
+            [
+                tactile,
+                "sim",
+                "ep2",
+                "--object",
+                "sphere",
+                "--patches",
+                "1000",
+                "--noise-pos",
+                "0.01",
+                "--noise-normal",
+                "0.01",
+                "-o",
+                path,
+            ],
+            check=True,
+            capture_output=True,
+        )
+        for extra in ([], ["--json"]):
+            t0 = time.perf_counter()
+            subprocess.run(
+                [tactile, "ep2", "analyze", path, *extra], check=True, capture_output=True
+            )
+            wall = time.perf_counter() - t0
+            print(f"\n`tactile ep2 analyze` 1000 patches {' '.join(extra)}: {wall:.2f} s wall")
+
+
+if __name__ == "__main__":
+    main()
