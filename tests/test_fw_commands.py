@@ -259,11 +259,11 @@ def raw_frame(body):
 
 
 def test_malformed_commands_get_reasons(rig):
-    # a PING with a payload byte: bad length (detail: the expected payload size)
+    # a PING with a payload byte: bad length
     rig.link.put(raw_frame(struct.pack("<BBHI", 1, CMD_PING, 77, 0) + b"\x01"))
     # an unknown command type
     rig.link.put(raw_frame(struct.pack("<BBHI", 1, 0x7E, 78, 0)))
-    # another protocol version: detail names it
+    # another protocol version
     rig.link.put(raw_frame(struct.pack("<BBHI", 9, CMD_PING, 79, 0)))
     # a device-to-host type sent to the device
     rig.link.put(raw_frame(struct.pack("<BBHBH", 1, 0x06, 80, 0, 0x40) + b"\0\0\0"))
@@ -273,9 +273,9 @@ def test_malformed_commands_get_reasons(rig):
     rig.link.put(bytes(bad))
     rig.run(2000)
     frames = rig.frames()
-    assert only_reply(frames, 77)[3] == (CMD_PING, 77, NAK_BAD_LENGTH, 0)
+    assert only_reply(frames, 77)[3] == (CMD_PING, 77, NAK_BAD_LENGTH, NAK_DETAIL_NONE)
     assert only_reply(frames, 78)[3] == (0x7E, 78, NAK_UNKNOWN_COMMAND, NAK_DETAIL_NONE)
-    assert only_reply(frames, 79)[3] == (CMD_PING, 79, NAK_BAD_VERSION, 9)
+    assert only_reply(frames, 79)[3] == (CMD_PING, 79, NAK_BAD_VERSION, NAK_DETAIL_NONE)
     assert only_reply(frames, 80)[3] == (0x06, 80, NAK_UNKNOWN_COMMAND, NAK_DETAIL_NONE)
     assert not replies(frames, 81)
     assert rig.board.rx_errors == 1

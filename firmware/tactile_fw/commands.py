@@ -29,7 +29,6 @@ from tactile_protocol.constants import (
     PROTOCOL_VERSION,
     SENSOR_ALL,
 )
-from tactile_protocol.messages import BY_TYPE
 
 MAX_TARE_SAMPLES = 10000
 DEFAULT_TARE_SAMPLES = 100  # TARE n_samples = 0 asks for this
@@ -84,7 +83,7 @@ def _tare(board, seq, values):
         return
     for i in range(board.n):
         if mask & (1 << i) and board.state[i] != 0:
-            board.nak(CMD_TARE, seq, NAK_HARDWARE, i)
+            board.nak(CMD_TARE, seq, NAK_HARDWARE, _TARE_SENSOR)
             return
     board.start_tare(mask, n_samples, seq)  # ACK when the bias is captured
 
@@ -132,17 +131,17 @@ HANDLERS = {
 
 
 def _reject(board, body, n):
-    """NAK a frame whose CRC is good but whose layout is not a command's."""
+    """NAK a frame whose CRC is good but whose layout is not a command's (detail 0xFF)."""
     if n < HEADER_SIZE:
         return  # no sequence number to answer
     mtype = body[1]
     seq = body[2] | (body[3] << 8)
     if body[0] != PROTOCOL_VERSION:
-        board.nak(mtype, seq, NAK_BAD_VERSION, body[0])
+        board.nak(mtype, seq, NAK_BAD_VERSION)
     elif mtype not in HANDLERS:
         board.nak(mtype, seq, NAK_UNKNOWN_COMMAND)
     else:
-        board.nak(mtype, seq, NAK_BAD_LENGTH, BY_TYPE[mtype][3] - HEADER_SIZE)
+        board.nak(mtype, seq, NAK_BAD_LENGTH)
 
 
 def dispatch(board):
