@@ -151,3 +151,17 @@ def test_graph_frame_is_gram_schmidt_not_f_v():
 def test_make_rejects_unknown_kind():
     with pytest.raises(ValueError, match="unknown surface"):
         S.make("cube")
+
+
+def test_paraboloid_frame_derivative_against_appendix_b_eq85():
+    """x_u's z component is -2C/(1+4C^2u^2)^(3/2); eq. 85 prints +2C/sqrt(..) + 8C^3u^2/(..)^1.5."""
+    C, u, v = 1.0, 0.7, 0.2
+    surf = S.paraboloid(C)
+    xu = (S.local(surf, u + H, v).x - S.local(surf, u - H, v).x) / (2 * H)
+    E = 1 + 4 * C * C * u * u
+    assert xu[2] == pytest.approx(-2 * C / E**1.5, rel=1e-7)
+    assert xu[0] == pytest.approx(
+        -4 * C * C * u / E**1.5, rel=1e-7
+    )  # eq. 85's first entry is right
+    thesis = 2 * C / np.sqrt(E) + 8 * C**3 * u * u / E**1.5
+    assert abs(thesis - xu[2]) > 1.0

@@ -93,7 +93,8 @@ def plot_optimal(rows, path):
     keys = [k for k in rows[0] if k.startswith("err_dtheta_")]
     for k in keys[:: max(1, len(keys) // 5)]:
         ax.plot(radii, [100 * r[k] for r in rows], lw=0.8, label=k[4:])
-    ax.plot(radii, [100 * r["best_error"] for r in rows], "k", lw=2, label="best dtheta")
+    ax.plot(radii, [100 * r["oracle_error"] for r in rows], "k:", lw=1.5, label="oracle dtheta")
+    ax.plot(radii, [100 * r["adaptive_error"] for r in rows], "k", lw=2, label="adaptive dtheta")
     ax.axhline(25, color="k", lw=0.6, ls=":")
     ax.set_xscale("log")
     ax.set_yscale("log")

@@ -192,33 +192,72 @@ def study_optimal_dtheta(
     trials=200,
     seed=0,
     tolerance=0.25,
+    dtheta0=0.5,
 ):
-    """Beyond the thesis: for one sensor, the expected error over (radius, dtheta), the best
-    dtheta per radius and the widest radius range within ``tolerance``, against fixed dtheta.
+    """Beyond the thesis: choose dtheta per estimate for one sensor (spheres, R1 = 1 scale).
+
+    1. Expected error table E(dtheta, radius) by Monte Carlo.
+    2. Per trial: a first EP1 at ``dtheta0`` gives a radius estimate; dtheta is then chosen
+       from the table smoothed over +-0.2 decades of radius (the first estimate is
+       uncertain, and the array sensor's error has sharp dips where dp is a whole number of
+       elements); a second EP1 at that dtheta gives the reported estimate (fresh noise).
+    Returns (rows per radius, summary of the widest radius ranges within ``tolerance``:
+    adaptive, oracle best-per-true-radius, and every fixed dtheta).
     """
     rng = np.random.default_rng(seed)
     radii = np.logspace(-3, 3, 61) if radii is None else np.asarray(radii, float)
     dthetas = np.linspace(0.05, 1.5, 30) if dthetas is None else np.asarray(dthetas, float)
     k_true = np.stack([1.0 / radii, 1.0 / radii], axis=-1)
-    table = np.empty((len(dthetas), len(radii)))
-    for j, dth in enumerate(dthetas):
-        pr = sphere_plus_probes(R1, radii, dth)
-        tiled = tile(pr, trials)
+
+    def trial_errors(dth):
+        """EP1 at dtheta (scalar or (trials, radii)); returns (error, estimated radius)."""
+        pr = (
+            tile(sphere_plus_probes(R1, radii, dth), trials)
+            if np.ndim(dth) == 0
+            else (sphere_plus_probes(R1, radii, dth))
+        )
         offset = rng.uniform(-0.5, 0.5, (trials, 1, 1, 2))
-        meas = measure(tiled, R1, sigma_theta, resolution, sensor, rng, offset=offset)
-        err, _ = _errors(meas, R1, k_true, resolution, sigma_theta)
-        table[j] = err.mean(axis=0)
-    best = table.argmin(axis=0)
+        meas = measure(pr, R1, sigma_theta, resolution, sensor, rng, offset=offset)
+        from tactile.ep1.estimator import estimate_batch
+
+        out = estimate_batch(meas[..., :2], meas[..., 2:], R1, 0.0, resolution, sigma_theta)
+        k = 0.5 * (out["kx"] + out["ky"])
+        err = np.minimum(
+            0.5
+            * (np.abs(out["kx"] - k_true[:, 0]) + np.abs(out["ky"] - k_true[:, 1]))
+            / k_true[:, 0],
+            1.0,
+        )
+        return err, np.where(k > 0, 1.0 / np.maximum(k, 1e-300), np.inf)
+
+    table = np.array([trial_errors(d)[0].mean(axis=0) for d in dthetas])
+    kernel = np.ones(5) / 5.0
+    padded = np.pad(table, ((0, 0), (2, 2)), mode="edge")
+    smooth = np.array([np.convolve(row, kernel, mode="valid") for row in padded])
+    _, r_hat = trial_errors(dtheta0)
+    log_r = np.log(radii)
+    idx = np.clip(
+        np.searchsorted(log_r, np.log(np.clip(r_hat, radii[0], radii[-1]))), 0, len(radii) - 1
+    )
+    chosen = dthetas[smooth.argmin(axis=0)][idx]  # (trials, radii)
+    adaptive, _ = trial_errors(chosen)
+    adaptive_mean = adaptive.mean(axis=0)
+    oracle = table.min(axis=0)
     rows = [
         {
             "radius": float(r),
-            "best_dtheta": float(dthetas[best[i]]),
-            "best_error": float(table[best[i], i]),
+            "adaptive_error": float(adaptive_mean[i]),
+            "adaptive_mean_dtheta": float(chosen[:, i].mean()),
+            "oracle_error": float(oracle[i]),
+            "oracle_dtheta": float(dthetas[table[:, i].argmin()]),
             **{f"err_dtheta_{d:.3g}": float(table[j, i]) for j, d in enumerate(dthetas)},
         }
         for i, r in enumerate(radii)
     ]
-    summary = {"best": widest_range(radii, table.min(axis=0), tolerance)}
+    summary = {
+        "adaptive": widest_range(radii, adaptive_mean, tolerance),
+        "oracle": widest_range(radii, oracle, tolerance),
+    }
     for j, d in enumerate(dthetas):
         summary[f"{d:.3g}"] = widest_range(radii, table[j], tolerance)
     return rows, summary

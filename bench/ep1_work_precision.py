@@ -1,0 +1,98 @@
+"""Work-precision of the rolling simulation (eqs. 24-28) for every solve_ivp method.
+
+Error at the end of a 1 rad roll (omega = (0.6, 0.8, 0) in the contact frame) against the
+sphere's closed form (eq. 38 integrated) and against a DOP853 rtol=1e-13 reference for a
+paraboloid (eq. 36, C = 1 at (1.0, 0.1)) and an ellipsoid (1.5, 0.8, 1.2 at (0.2, 0.3))
+(that reference is itself checked against Radau at rtol=1e-12).  Time is the best of 3.
+
+Run: .venv/bin/python bench/ep1_work_precision.py [--png docs/ep1_work_precision.png]
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from tactile_sim.ep1 import surfaces as S
+from tactile_sim.ep1.rolling import roll, sphere_on_sphere
+
+METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
+RTOLS = (1e-3, 1e-5, 1e-7, 1e-9, 1e-11)
+OMEGA = (0.6, 0.8, 0.0)
+FINGER = S.fingertip(1.0)
+CASES = {
+    "sphere R2=2": (S.sphere(2.0), (0.0, 0.0)),
+    "paraboloid C=1": (S.paraboloid(1.0), (1.0, 0.1)),
+    "ellipsoid": (S.ellipsoid(1.5, 0.8, 1.2), (0.2, 0.3)),
+}
+
+
+def run(obj, p2, method, rtol):
+    return roll(
+        FINGER, obj, (0.1, -0.1), p2, 0.0, OMEGA, method=method, rtol=rtol, atol=rtol * 1e-2
+    )
+
+
+def reference(name, obj, p2):
+    if name.startswith("sphere"):
+        u, v, _ = sphere_on_sphere(1.0, 2.0, 0.1, -0.1, OMEGA[0], OMEGA[1], 1.0)
+        return np.array([u, v]), None
+    ref = run(obj, p2, "DOP853", 1e-13).y[:5]
+    check = run(obj, p2, "Radau", 1e-12).y[:5]
+    return ref, float(np.abs(ref - check).max())
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--png", default=None)
+    args = ap.parse_args()
+    results = []
+    print("| object | method | rtol | max error | time (ms) | nfev |")
+    print("|---|---|---:|---:|---:|---:|")
+    for name, (obj, p2) in CASES.items():
+        ref, agree = reference(name, obj, p2)
+        if agree is not None:
+            print(f"| {name} | (reference DOP853 1e-13 vs Radau 1e-12: {agree:.1e}) | | | | |")
+        for method in METHODS:
+            for rtol in RTOLS:
+                best, res = np.inf, None
+                for _ in range(3):
+                    t = time.perf_counter()
+                    res = run(obj, p2, method, rtol)
+                    best = min(best, time.perf_counter() - t)
+                err = float(np.abs(res.y[: len(ref)] - ref).max())
+                results.append((name, method, rtol, err, best))
+                print(
+                    f"| {name} | {method} | {rtol:.0e} | {err:.1e} | {best * 1e3:.1f} "
+                    f"| {res.nfev} |"
+                )
+    if args.png:
+        plot(results, args.png)
+
+
+def plot(results, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(CASES)
+    fig, axes = plt.subplots(1, len(names), figsize=(4.3 * len(names), 3.6), sharey=True)
+    for ax, name in zip(axes, names, strict=True):
+        for method in METHODS:
+            pts = [
+                (t * 1e3, max(e, 1e-16)) for n, m, _, e, t in results if n == name and m == method
+            ]
+            x, y = np.array(pts).T
+            ax.loglog(x, y, "o-", ms=3, label=method)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("run time (ms)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("max error at end of roll")
+    axes[-1].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+if __name__ == "__main__":
+    main()
