@@ -42,7 +42,7 @@ def entry_root(a, b, c):
     # b > 0: -b - root has no cancellation.  b <= 0: the larger root (-b + root)/a is stable
     # and the smaller one is c / (-b + root).
     big = -b + root
-    safe_big = np.where(big != 0.0, big, 1.0)
+    safe_big = np.where((b <= 0.0) & (big != 0.0), big, 1.0)  # only the branch that is used
     t = np.where(b > 0.0, (-b - root) / a, np.where(big != 0.0, c / safe_big, 0.0))
     t = np.where(disc >= 0.0, t, -b / a)
     return t, disc

@@ -108,7 +108,12 @@ def _place_and_touch(obj, rig, p, approach, delta, wrist, q3_fixed):
     if p is None:
         return nothing
     n = obj.distance(p)[1]
-    centre = p + (rig.L4 - delta) * n
+    # The rim is a horizontal circle: put it through p, its radial direction along the
+    # horizontal part of n (so it is tangent to the surface there), then press in by delta.
+    h = np.hypot(n[0], n[1])
+    if h < 1e-9:
+        return nothing  # a horizontal face cannot be felt with the x-y forces of the wheel
+    centre = p + rig.L4 * np.array([n[0] / h, n[1] / h, 0.0]) - delta * n
     try:
         if wrist == "fixed":
             guess = np.arctan2(approach[1], approach[0])
