@@ -92,10 +92,10 @@ def simulate_probes(finger, obj, p1, p2, dtheta, phis=PLUS, psi=0.0, back=True, 
 def sphere_plus_probes(R1, R2, dtheta, u0=0.0, v0=0.0):
     """Fast path: the eight '+' probes on a sphere from the closed form of eq. 38.
 
-    Exact for the '+' pattern (each roll follows a u- or v-line through the start, so the
-    finger turns about a fixed axis and the measured rotation equals the commanded one;
-    checked against the ODE in the tests).  ``R2`` and ``dtheta`` broadcast; the result has
-    shape (broadcast..., 8, ...).
+    The contact displacement is exact for any start (eq. 38 integrated).  The measured rotation
+    equals the commanded one when each roll follows a great circle, i.e. for the '+' pattern
+    from u0 = 0 (the studies' case; checked against the ODE in the tests).  ``R2`` and
+    ``dtheta`` broadcast; the result has shape (broadcast..., 8, ...).
     """
     R2, dtheta = np.broadcast_arrays(np.asarray(R2, float), np.asarray(dtheta, float))
     axes = np.stack([np.cos(PLUS), np.sin(PLUS)], axis=-1).round(15)

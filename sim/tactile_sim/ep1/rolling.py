@@ -29,7 +29,7 @@ __all__ = [
     "rhs",
     "roll",
     "finger_pose",
-    "initial_psi",
+    "r_psi",
     "sphere_on_sphere",
     "DEFAULT_METHOD",
     "DEFAULT_RTOL",
@@ -54,7 +54,8 @@ class RollResult(NamedTuple):
     nfev: int
 
 
-def _r_psi(psi):
+def r_psi(psi):
+    """R_psi of eq. 26 (symmetric, its own inverse)."""
     c, s = np.cos(psi), np.sin(psi)
     return np.array([[c, -s], [-s, -c]])
 
@@ -68,7 +69,7 @@ def rhs(t, y, finger, obj, omega):
     """Right-hand side of eqs. 24-28 for angular velocity ``omega = (wx, wy, wz)``."""
     g1 = local(finger, y[0], y[1])
     g2 = local(obj, y[2], y[3])
-    R = _r_psi(y[4])
+    R = r_psi(y[4])
     q = _solve2(g1.K + R @ g2.K @ R, np.array([-omega[1], omega[0]]))
     dp1 = _solve_upper(g1.M, q)
     r2 = R @ q
@@ -98,7 +99,7 @@ def _chart_events(finger, obj, check_contact=True):
         # Contact is stable only while K1 + K2~ is positive definite (eq. 24 invertible).
         g1 = local(finger, y[0], y[1])
         g2 = local(obj, y[2], y[3])
-        R = _r_psi(y[4])
+        R = r_psi(y[4])
         A = g1.K + R @ g2.K @ R
         return min(A[0, 0] + A[1, 1], A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
 
@@ -167,11 +168,6 @@ def finger_pose(finger, obj, y):
     F_psi = np.array([[c, -s, 0.0], [-s, -c, 0.0], [0.0, 0.0, -1.0]])
     R = _frame(g2) @ F_psi @ _frame(g1).T
     return R, g2.point - R @ g1.point
-
-
-def initial_psi():
-    """psi = 0: finger x1 along object x2, y1 = -y2 (z1 = -z2)."""
-    return 0.0
 
 
 def sphere_on_sphere(R1, R2, u0, v0, omega_x, omega_y, t=1.0):
