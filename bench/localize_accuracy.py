@@ -39,6 +39,10 @@ def _rms(x):
     return float(np.sqrt(np.mean(np.square(x)))) if len(x) else float("nan")
 
 
+def _f(v, digits=4):
+    return f"{v:.{digits}f}" if np.isfinite(v) else "null"
+
+
 def _angle_deg(a, b):
     return np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0)))
 
@@ -76,7 +80,7 @@ def wheel_noise_table(seeds):
                 ne.append(_angle_deg(c.normal, r["normal"])[ok])
             pe, ne = np.concatenate(pe), np.concatenate(ne)
             print(
-                f"| {factor:g} | {method} | {1e3 * _rms(pe):.3f} | "
+                f"| {factor:g} | {method} | {np.mean(used):.3f} | {1e3 * _rms(pe):.3f} | "
                 f"{1e3 * np.percentile(pe, 95):.3f} | {_rms(ne):.2f} |"
             )
 
@@ -106,7 +110,8 @@ def wheel_friction_table(seeds):
                 ne.append(_angle_deg(c.normal, r["normal"])[ok])
             pe, ne = np.concatenate(pe), np.concatenate(ne)
             print(
-                f"| {mu:g} | {method} | {1e3 * _rms(pe):.3f} | {1e3 * pe.max():.3f} | "
+                f"| {mu:g} | {method} | {np.mean(used):.3f} | {1e3 * _rms(pe):.3f} | "
+                f"{1e3 * pe.max():.3f} | "
                 f"{_rms(ne):.2f} |"
             )
 
@@ -117,7 +122,7 @@ def sphere_table(n):
         "friction (thesis noise)\n"
     )
     print(
-        "| radius (mm) | |F| (N) | mu | method | usable | RMS point error (mm) | "
+        "| radius (mm) | F (N) | mu | method | usable | RMS point error (mm) | "
         "RMS normal error (deg) |"
     )
     print("|---|---|---|---|---|---|---|")
@@ -185,7 +190,7 @@ def ep1_table(trials):
         "\n### EP1 through the F/T path: sphere R2 = 2 R1, dtheta = pi/3, thesis noise, "
         f"{trials} trials\n"
     )
-    print("| R1 (mm) | |F| (N) | method | estimates | median |k error| / k | p90 |")
+    print("| R1 (mm) | F (N) | method | estimates | median rel. k error | p90 |")
     print("|---|---|---|---|---|---|")
     rng = np.random.default_rng(2)
     for R1 in (0.01, 0.02, 0.05):
@@ -243,8 +248,8 @@ def ch5_table(seeds):
             th = THESIS[kind][weighting]
             lab = ", ".join(f"{k} {v}" for k, v in sorted(labels.items()))
             print(
-                f"| {kind} | {weighting} | {th[0]} | {mean[0]:.4f} | {th[1]} | {mean[1]:.4f} | "
-                f"{th[2]} | {mean[2]:.4f} | {th[4] or '-'} | {mean[3]:.2f} | {lab} |"
+                f"| {kind} | {weighting} | {th[0]} | {_f(mean[0])} | {th[1]} | {_f(mean[1])} | "
+                f"{th[2]} | {_f(mean[2])} | {th[4] or '-'} | {_f(mean[3], 2)} | {lab} |"
             )
 
 
