@@ -187,3 +187,24 @@ def test_measure_ft_with_noise_reports_usable_rows_only():
     assert rows.shape == (8, 4) and np.all(np.isfinite(rows))
     assert np.all(rows[~ok] == 0.0)
     assert np.abs(rows[ok, 2:] - measure(probes, R1)[ok, 2:]).max() < 1.0
+
+
+def test_timeline_onsets_and_loads_follow_the_geometry():
+    from tactile_sim.rig.timeline import timeline
+
+    r = probe_schedule(ch5_object("convex"), sigma_f=0, sigma_m=0)
+    tl = timeline(r, rate=1000.0, gap=0.002, speed=0.01)
+    f = np.linalg.norm(tl["force"], axis=1)
+    touching = f > 0.0
+    starts = tl["t"][np.flatnonzero(np.diff(touching.astype(int)) == 1) + 1]
+    ends = tl["t"][np.flatnonzero(np.diff(touching.astype(int)) == -1) + 1]
+    assert len(starts) == len(tl["onset"]) == 36
+    # first loaded sample within one sample period after the geometric onset/release
+    assert np.all((starts - tl["onset"] > 0) & (starts - tl["onset"] <= 1e-3 + 1e-12))
+    assert np.all((ends - tl["release"] > 0) & (ends - tl["release"] <= 1e-3 + 1e-12))
+    # the peak load of each touch is the scheduled wrench
+    for i in (0, 17, 35):
+        sel = tl["touch"] == i
+        k = np.argmax(f[sel])
+        np.testing.assert_allclose(tl["force"][sel][k], r["force"][i], rtol=1e-12)
+        np.testing.assert_allclose(tl["moment"][sel][k], r["moment"][i], rtol=1e-12)

@@ -7,6 +7,7 @@ normal are in the WORLD frame (rows that are not contacts stay zero).
 
 import numpy as np
 
+from tactile.localize.contact import NO_CONTACT
 from tactile.localize.kinematics import scara_pose, to_world
 from tactile.localize.sphere import sphere_contact
 from tactile.localize.wheel import rim_contact, wheel_contact
@@ -18,7 +19,7 @@ METHODS = ("force", "moment")
 
 def _world(contact, R, t):
     p, n = to_world(R, t, contact.point, contact.normal)
-    keep = contact.usable[..., None] | (contact.status[..., None] > 1)
+    keep = (contact.status != NO_CONTACT)[..., None]  # flagged rows keep their best guess
     return contact._replace(point=np.where(keep, p, 0.0), normal=np.where(keep, n, 0.0))
 
 
