@@ -146,7 +146,7 @@ def test_batch_equals_single_calls():
         assert STATUSES[int(out["code"][i])] == e.status
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(
     st.lists(st.tuples(*[st.floats(-1e3, 1e3, allow_nan=False)] * 4), min_size=0, max_size=9),
     st.floats(1e-3, 1e3),

@@ -35,8 +35,9 @@ __all__ = ["Estimate", "estimate", "estimate_batch", "euler_principal", "STATUSE
 STATUSES = ("ok", "flat", "near_singular", "below_resolution", "inconsistent", "underdetermined")
 EXIT_OK = ("ok", "flat")
 OK, FLAT, NEAR_SINGULAR, BELOW_RES, INCONSISTENT, UNDERDET = range(6)
-RANK_TOL = 1e-9  # relative size of R's smallest pivot below which A is rank deficient
-CANCEL_TOL = 1e-9  # |1/s| * R1 below this: K1 + K2~ singular to double precision
+RANK_TOL = 1e-6  # pivot of R relative to ||A||_F below which A counts as rank deficient
+CANCEL_TOL = 1e-9
+MIN_THETA = 1e-12  # rad RMS: smaller probe rotations determine nothing (and underflow)
 
 
 class Estimate(NamedTuple):
@@ -85,7 +86,10 @@ def estimate_batch(dtheta, dp, R1, u0=0.0, resolution=0.0, sigma_theta=0.0):
     Q, Rm = np.linalg.qr(A)
     qb = np.einsum("...ij,...i->...j", Q, b)
     diag = np.abs(np.diagonal(Rm, axis1=-2, axis2=-1))
-    rank_ok = diag.min(axis=-1) > RANK_TOL * np.maximum(diag.max(axis=-1), 1e-300)
+    # Pivots against ||A||_F (not against the largest pivot: without column pivoting an
+    # all-but-zero column can leave every pivot tiny while R's off-diagonal holds the size).
+    norm_a = np.sqrt(np.einsum("...ij,...ij->...", A, A))
+    rank_ok = diag.min(axis=-1) > RANK_TOL * np.maximum(norm_a, 1e-300)
     Rs = np.where(rank_ok[..., None, None], Rm, np.eye(3))
     k = np.linalg.solve(Rs, qb[..., None])[..., 0]
     k = np.where(rank_ok[..., None], k, 0.0)
@@ -94,11 +98,13 @@ def estimate_batch(dtheta, dp, R1, u0=0.0, resolution=0.0, sigma_theta=0.0):
     residual = np.sqrt(rss / m2)
     sigma_res = np.sqrt(rss / max(m2 - 3, 1)) if m2 > 3 else np.zeros_like(rss)
     theta = np.sqrt(np.mean(np.einsum("...i,...i->...", dtheta, dtheta), axis=-1))
+    rank_ok = rank_ok & (theta >= MIN_THETA)
     return _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
 
 
 def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta):
     """Principal values of S, curvatures, intervals and status codes (NumPy, any shape)."""
+    k = np.clip(k, -1e300, 1e300)  # absurd inputs (dtheta ~ 1e-320) stay finite
     k1, k2, k3 = k[..., 0], k[..., 1], k[..., 2]
     mean = 0.5 * (k1 + k3)
     half = np.hypot(0.5 * (k1 - k3), k2)
@@ -144,19 +150,31 @@ def _solve_small(dtheta, dp, R1, u0):
     matrix [A b] (backward stable for least squares, Bjorck 1967), in plain floats so one
     point costs microseconds, not NumPy's per-call overhead.
 
+    ``dtheta`` = (all dtheta_x, all dtheta_y) and ``dp`` = (all du, all dv) as lists.
     With P = -dtheta_y and Q = dtheta_x per probe the columns are c1 = [P; 0], c2 = [Q; P],
     c3 = [0; Q], b = [R1 du; R1 cos(u0) dv]; the first step only touches the upper half.
     """
-    cu = R1 * math.cos(u0)
-    P = [-t[1] for t in dtheta]
-    Q = [t[0] for t in dtheta]
-    bx = [R1 * d[0] for d in dp]
-    by = [cu * d[1] for d in dp]
-    theta = math.sqrt((_dot(P, P) + _dot(Q, Q)) / len(P))
-    scale = max(math.sqrt(_dot(P, P) + _dot(Q, Q)), 1e-300)
+    X, Y = dtheta
+    U, V = dp
+    theta = math.sqrt((_dot(X, X) + _dot(Y, Y)) / len(X))
+    # Scale A and b to unit max entry so that no dot product under- or overflows.
+    sa = max(map(abs, X + Y)) or 1.0
+    fu, fv = R1, R1 * math.cos(u0)
+    sb = max(max(map(abs, U)) * fu, max(map(abs, V)) * abs(fv)) or 1.0
+    ia, fu, fv = 1.0 / sa, fu / sb, fv / sb
+    P = [-y * ia for y in Y]
+    Q = [x * ia for x in X]
+    k, rss, ok = _mgs(P, Q, [x * fu for x in U], [x * fv for x in V])
+    ok = ok and theta >= MIN_THETA
+    ratio = sb / sa if sb / sa < 1e300 else 1e300
+    return [x * ratio for x in k], min(rss * sb * sb, 1e300), ok, theta
+
+
+def _mgs(P, Q, bx, by):
+    scale = max(math.sqrt(2.0 * (_dot(P, P) + _dot(Q, Q))), 1e-300)  # ||A||_F
     r11 = math.sqrt(_dot(P, P))
     if r11 <= RANK_TOL * scale:
-        return [0.0, 0.0, 0.0], _dot(bx, bx) + _dot(by, by), False, theta
+        return [0.0, 0.0, 0.0], _dot(bx, bx) + _dot(by, by), False
     q1 = [x / r11 for x in P]
     r12, r1b = _dot(q1, Q), _dot(q1, bx)
     c2 = [x - r12 * y for x, y in zip(Q, q1)] + P  # noqa: B905 (equal lengths)
@@ -164,20 +182,22 @@ def _solve_small(dtheta, dp, R1, u0):
     b = [x - r1b * y for x, y in zip(bx, q1)] + by  # noqa: B905
     r22 = math.sqrt(_dot(c2, c2))
     if r22 <= RANK_TOL * scale:
-        return [0.0, 0.0, 0.0], _dot(b, b), False, theta
+        return [0.0, 0.0, 0.0], _dot(b, b), False
     q2 = [x / r22 for x in c2]
     r23, r2b = _dot(q2, c3), _dot(q2, b)
     c3 = [x - r23 * y for x, y in zip(c3, q2)]  # noqa: B905
     b = [x - r2b * y for x, y in zip(b, q2)]  # noqa: B905
     r33 = math.sqrt(_dot(c3, c3))
     if r33 <= RANK_TOL * scale:
-        return [0.0, 0.0, 0.0], _dot(b, b), False, theta
-    r3b = _dot(c3, b) / r33
-    rss = max(_dot(b, b) - r3b * r3b, 0.0)  # b is already orthogonal to q1, q2
+        return [0.0, 0.0, 0.0], _dot(b, b), False
+    q3 = [x / r33 for x in c3]
+    r3b = _dot(q3, b)
+    b = [x - r3b * y for x, y in zip(b, q3)]  # noqa: B905
+    rss = _dot(b, b)  # residual vector itself, not |b|^2 - r3b^2 (cancellation)
     k3 = r3b / r33
     k2 = (r2b - r23 * k3) / r22
     k1 = (r1b - r12 * k2) / r11  # r13 = q1 . c3 = 0
-    return [k1, k2, k3], rss, True, theta
+    return [k1, k2, k3], rss, True
 
 
 def _dot(x, y):
@@ -186,7 +206,7 @@ def _dot(x, y):
 
 def _from_s_scalar(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta):
     """Scalar twin of ``_from_s`` (same formulas, ``math`` instead of NumPy)."""
-    k1, k2, k3 = k
+    k1, k2, k3 = (min(max(x, -1e300), 1e300) for x in k)
     mean = 0.5 * (k1 + k3)
     half = math.hypot(0.5 * (k1 - k3), k2)
     angle_hi = 0.5 * math.atan2(2.0 * k2, k1 - k3)
@@ -248,7 +268,7 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
     n = len(dtheta)
     if n < 2:
         return _underdetermined(n, "need probes in at least two independent directions")
-    k, rss, rank_ok, theta = _solve_small(dtheta.tolist(), dp.tolist(), finger_radius, u0)
+    k, rss, rank_ok, theta = _solve_small(dtheta.T.tolist(), dp.T.tolist(), finger_radius, u0)
     sigma_res = math.sqrt(rss / (2 * n - 3)) if 2 * n > 3 else 0.0
     f = _from_s_scalar(
         k,
