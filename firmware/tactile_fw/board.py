@@ -177,6 +177,9 @@ class Board:
         self._ticks_base = now
         link = self.link
         if link.opened():
+            # A new host session: frames queued for a host that went away are stale (the
+            # host counts them as a sequence gap); HELLO must not wait behind them.
+            self.tx.clear()
             self.send_info(MSG_HELLO)
         self._receive()
         if self.streaming or self.tare_mask:

@@ -6,7 +6,9 @@ current slave, so a simulated disconnect (the pty vanishes) and reconnect
 (a new pty) look like a cable pulled and plugged back.  The master sees
 ``POLLHUP`` while no host has the slave open: the board's writes then find
 no reader and the firmware drops and counts frames, as on USB; when a host
-opens the port the firmware is told (it answers with HELLO).
+opens the port the firmware is told (it answers with HELLO), after a short
+settle time: pyserial flushes the input buffer at the end of ``open()``, so a
+HELLO written the instant the port opens would be discarded.
 """
 
 import errno
@@ -14,6 +16,8 @@ import os
 import select
 import time
 import tty
+
+OPEN_SETTLE_S = 0.05  # wait this long after the host opens before announcing
 
 
 class PtyEndpoint:
@@ -70,6 +74,7 @@ class PtyServer:
         self.disconnects = sorted((int(a * 1e6), int(b * 1e6)) for a, b in disconnects)
         self.endpoint = None
         self._out = b""
+        self._present_since = None
         self.reconnects = 0
         self.stop = False
 
@@ -105,7 +110,7 @@ class PtyServer:
                 continue
             ahead = board.t_us / 1e6 - (time.monotonic() - start)
             if self.realtime and ahead > 0:  # never run ahead of the wall clock
-                self._exchange(ahead)
+                self._exchange(min(ahead, OPEN_SETTLE_S / 2))
                 continue
             target = board.t_us + int(tick_s * 1e6)
             if end_us is not None:
@@ -133,11 +138,16 @@ class PtyServer:
     def _exchange(self, wait_s):
         ep = self.endpoint
         readable, present = ep.wait(wait_s if wait_s > 0 else 0)
-        if present and not ep.host_present:
-            self.board.host_opened()
+        now = time.monotonic()
+        if present and self._present_since is None:
+            self._present_since = now
         if not present:
+            self._present_since = None
             self._out = b""
-        ep.host_present = present
+        announced = present and now - self._present_since >= OPEN_SETTLE_S
+        if announced and not ep.host_present:
+            self.board.host_opened()
+        ep.host_present = announced
         if readable:
             data = ep.read()
             if data:
@@ -159,6 +169,7 @@ class PtyServer:
                 if lag > 0:
                     time.sleep(lag)
         self._out = b""
+        self._present_since = None
         self.open()
         self.reconnects += 1
 
