@@ -86,3 +86,14 @@ def test_decode_imports_nothing_heavy():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_group_dispatch_skips_a_missing_module():
+    import argparse
+
+    from tactile.cli.dispatch import add_group
+
+    parser = argparse.ArgumentParser()
+    add_group(parser, ("tactile.cli.no_such_module", "tactile.cli.sim_ep1"), "what")
+    argv = ["ep1", "--object", "sphere", "--finger-radius", "1", "--dtheta", "0.1"]
+    assert callable(parser.parse_args(argv)._run)

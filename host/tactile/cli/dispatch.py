@@ -11,7 +11,12 @@ import importlib
 def add_group(parser, modules, dest):
     subs = parser.add_subparsers(dest=dest, metavar="NAME", required=True)
     for module_name in modules:
-        module = importlib.import_module(module_name)
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name != module_name:
+                raise
+            continue  # that family of subcommands is not in this build
         for name, (help_, add_arguments, run) in module.SUBCOMMANDS.items():
             sub = subs.add_parser(name, help=help_, description=help_)
             add_arguments(sub)
