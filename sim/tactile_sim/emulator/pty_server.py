@@ -143,8 +143,9 @@ class PtyServer:
             self._present_since = now
         if not present:
             self._present_since = None
-            self._out = b""
         announced = present and now - self._present_since >= OPEN_SETTLE_S
+        if not announced:
+            self._out = b""  # nobody is listening yet: the first thing a host sees is HELLO
         if announced and not ep.host_present:
             self.board.host_opened()
         ep.host_present = announced
