@@ -1,0 +1,78 @@
+"""``kind = "rig"``: the chapter 5 experiment, a SCARA probing an object point by point.
+
+The probe schedule (``tactile_sim.rig``: §5.1's three passes x six points x
+two samples, inverse kinematics, the contact wrench on the wheel) becomes a
+load history: approach, press, hold, retract, rest, per scheduled point.
+The sensor model adds the noise, so the schedule itself is noiseless.  The
+robot's joint angles are not on the F/T wire: ``poses`` holds them per time
+window, as the robot controller would log them (``write_pose_log``).
+
+Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
+``samples``, ``mu`` (Coulomb friction), ``hold_s``, ``speed_mps``.
+"""
+
+import numpy as np
+
+POSE_COLUMNS = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
+
+
+class RigMotion:
+    def __init__(self, schedule, line):
+        self.schedule = schedule
+        self.t = line["t"]
+        self.wrench = np.hstack([line["force"], line["moment"]])
+        self.onset = line["onset"]
+        self.release = line["release"]
+        self.touch = line["touch"]
+        self.duration_s = float(self.t[-1]) if len(self.t) else 0.0
+
+    def wrench_at(self, t_s, sensor=0):
+        t = np.asarray(t_s, float)
+        return np.array([np.interp(t, self.t, self.wrench[:, k]) for k in range(6)])
+
+    def poses(self):
+        """Rows (t_start_us, t_end_us, finger, q1, q2, q3, z): the joints during each touch."""
+        rows = []
+        for i in np.unique(self.touch[self.touch >= 0]):
+            ts = self.t[self.touch == i]
+            q = self.schedule["q"][i]
+            finger = int(self.schedule["finger"][i])
+            rows.append((int(ts[0] * 1e6), int(ts[-1] * 1e6), finger, *map(float, q)))
+        return rows
+
+    def write_pose_log(self, path):
+        with open(path, "w") as fh:
+            fh.write(",".join(POSE_COLUMNS) + "\n")
+            for row in self.poses():
+                fh.write(",".join(repr(v) for v in row) + "\n")
+
+
+def build(scene):
+    from tactile_sim.rig.objects import ch5_object
+    from tactile_sim.rig.schedule import probe_schedule
+    from tactile_sim.rig.timeline import timeline
+
+    m = scene.motion
+    kind = m.get("object", "plane")
+    try:
+        obj = ch5_object(kind)
+    except ValueError as exc:
+        raise scene.error("[motion] object", str(exc)) from None
+    schedule = probe_schedule(
+        obj,
+        passes=int(m.get("passes", 3)),
+        points=int(m.get("points", 6)),
+        samples=int(m.get("samples", 2)),
+        mu=float(m.get("mu", 0.0)),
+        sigma_f=0.0,
+        sigma_m=0.0,
+        seed=None,
+    )
+    rate = float(scene.board["rate_hz"])
+    line = timeline(
+        schedule,
+        rate=rate,
+        hold=float(m.get("hold_s", 0.05)),
+        speed=float(m.get("speed_mps", 0.01)),
+    )
+    return RigMotion(schedule, line)
