@@ -22,7 +22,7 @@ OBJECTS = (("cylinder", 10.0), ("sphere", 10.0), ("concave_cylinder", 10.0))
 
 def _ours(d, sig, grid_mean=False, **kw):
     """(k1, k2): of the grid-mean shape operator (S_patch, the default) or the grid maps."""
-    r = analyze_patch(d["points"], d["normals"], maps=grid_mean, n_draws=0, **kw)
+    r = analyze_patch(d["points"], d["normals"], maps=grid_mean, **kw)
     if grid_mean:
         return r.maps["k1"], r.maps["k2"]
     return np.array([r.k_patch[0]]), np.array([r.k_patch[1]])

@@ -19,7 +19,7 @@ from tactile_sim.ep2 import make, sweep
 CASES = (
     ("default (deg 2, auto, 64 draws)", {}),
     ("noise stated", {"noise_pos": 0.01, "noise_normal": 0.01}),
-    ("no intervals (n_draws=0)", {"n_draws": 0}),
+    ("no intervals", {"intervals": False}),
     ("deg 3 tangent (thesis)", {"degree": 3, "weighting": "tangent"}),
     ("deg 4 tangent", {"degree": 4, "weighting": "tangent"}),
     ("align refit (§4.10)", {"align": True}),

@@ -22,7 +22,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2 import bspline_patch, classify, discontinuity, patch_frame, uncertainty
+from tactile.ep2 import (
+    bspline_patch,
+    classify,
+    discontinuity,
+    jet_shrink,
+    patch_frame,
+    uncertainty,
+)
 from tactile.ep2.shape_index import curvedness_c, curvedness_r, hk_labels, s_region_map, shape_index
 from tactile.ep2.surface_geometry import eigen, principal, shape_entries
 from tactile.errors import DataError, InputError
@@ -31,6 +38,7 @@ WEIGHTINGS = ("auto", "tangent", "position")
 THESIS_RATIO = 100.0  # favoured : other rows (§4.9)
 NOISE_FLOOR = 1e-9  # relative noise floor so exact data keep finite weights
 ALIGN_SKIP_DEG = 2.0  # no principal-frame refit when the first pass is this close to aligned
+VC_PASSES = 2  # noise re-estimations before the final auto-weighted fit (measured: 2 = 4)
 
 
 @dataclass
@@ -109,8 +117,8 @@ def analyze_patch(
     align=False,
     solver="svd",
     max_normal_angle=patch_frame.MAX_NORMAL_ANGLE_DEG,
-    n_draws=uncertainty.N_DRAWS,
-    seed=0,
+    shrink=None,
+    intervals=True,
     finger=None,
     break_angle=discontinuity.BREAK_ANGLE_DEG,
     lines=None,
@@ -127,7 +135,15 @@ def analyze_patch(
     weighting : "auto" | "tangent" | "position"
         "tangent"/"position" favour one row type 100:1 as in §4.9; "auto"
         weights every row by 1/sigma from ``noise_pos`` (length unit) and
-        ``noise_normal`` (rad), estimating them from a first pass if not given.
+        ``noise_normal`` (rad), estimating the ones not given from the
+        residuals (per row type, leverage-corrected, ``VC_PASSES`` passes).
+    shrink : bool or None
+        Shrink the tensor-product excess toward the 2-jet (``jet_shrink``);
+        None = on for ``auto`` weighting, off for the thesis's fixed weightings.
+    intervals : bool
+        Compute the 95 % intervals (``uncertainty.intervals``); without them the
+        label's confidence comes from S alone (the covariance, plane test and
+        debiasing are kept).
     align : bool
         Refit in the principal frame of a first pass (§4.10).  Off by default:
         measured, it makes S worse for this fit (docs/ep2.md, rotation study).
@@ -156,8 +172,8 @@ def analyze_patch(
     gx, gy = _grid(p, grid)
     opts = dict(degree=(kx, ky), segments=seg, solver=solver)
     sig = _noise(noise_pos, noise_normal, scale)
-    stated = weighting == "auto" and sig is not None
-    fit, sig = _fit_weighted(p, sx, sy, weighting, sig, opts)
+    stated = weighting == "auto" and any(v is not None for v in sig)
+    fit, sig, design = _fit_weighted(p, sx, sy, weighting, sig, opts)
     rows = fit.rows(gx, gy, first=1)
     aligned = False
     if align:
@@ -168,10 +184,13 @@ def analyze_patch(
             p = _turn(p, c, s)
             sx, sy = c * sx + s * sy, -s * sx + c * sy
             gx, gy = c * gx + s * gy, -s * gx + c * gy
-            fit, _ = _fit_weighted(p, sx, sy, weighting, sig, opts)
+            fit, _, design = _fit_weighted(p, sx, sy, weighting, sig, opts)
             rows = fit.rows(gx, gy, first=1)
             aligned = True
-    result = _analyse(fit, rows, scale, stated, n_draws, seed)
+    s2 = uncertainty.residual_scale(fit.chi2, fit.dof, stated)
+    if (weighting == "auto" if shrink is None else shrink) and s2 is not None:
+        fit, _, _ = jet_shrink.shrink(fit, p[:, 2], sx, sy, s2, design)
+    result = _analyse(fit, rows, scale, s2, intervals)
     centre = fit.derivatives(np.array([gx.mean()]), np.array([gy.mean()]), first=1)
     result.update(
         n_points=len(pts),
@@ -218,39 +237,49 @@ def _turn(p, c, s):
 
 
 def _noise(noise_pos, noise_normal, scale):
-    if noise_pos is None and noise_normal is None:
-        return None
-    sp = max(float(noise_pos or 0.0) / scale, NOISE_FLOOR)
-    sn = max(float(noise_normal or 0.0), NOISE_FLOOR)
+    """Stated (sigma_pos / L, sigma_normal), None for a component not stated."""
+    sp = None if noise_pos is None else max(float(noise_pos) / scale, NOISE_FLOOR)
+    sn = None if noise_normal is None else max(float(noise_normal), NOISE_FLOOR)
     return sp, sn
 
 
 def _fit_weighted(p, sx, sy, weighting, sig, opts):
+    """Fit with the chosen weights; ``auto`` estimates the unstated noise (``VC_PASSES``)."""
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
-    if weighting == "tangent":
-        return bspline_patch.fit(x, y, z, sx, sy, 1.0, THESIS_RATIO, THESIS_RATIO, **opts), sig
-    if weighting == "position":
-        return bspline_patch.fit(x, y, z, sx, sy, THESIS_RATIO, 1.0, 1.0, **opts), sig
+    domain, rows = bspline_patch.prepare(x, y, opts["degree"], opts["segments"])
+    kw = dict(opts, domain=domain, rows=rows)
+    if weighting in ("tangent", "position"):
+        w_pos, w_s = (1.0, THESIS_RATIO) if weighting == "tangent" else (THESIS_RATIO, 1.0)
+        return bspline_patch.fit(x, y, z, sx, sy, w_pos, w_s, w_s, **kw), sig, rows
     g2 = sx * sx + sy * sy
-    if sig is None:  # first pass at 1:1 then per-row-type noise from the residuals
-        first = bspline_patch.fit(x, y, z, sx, sy, 1.0, 1.0, 1.0, **opts)
-        sig = _residual_noise(first, g2)
-    sp, sn = sig
-    w_pos = 1.0 / (sp * np.sqrt(1.0 + g2))
-    w_s = 1.0 / (sn * (1.0 + g2))
-    return bspline_patch.fit(x, y, z, sx, sy, w_pos, w_s, w_s, **opts), sig
+    stated = sig
+    sp, sn = (1.0 if s is None else s for s in sig)  # unstated: start at 1:1
+    passes = 0 if None not in stated else VC_PASSES
+    for i in range(passes + 1):
+        w_pos = 1.0 / (sp * np.sqrt(1.0 + g2))
+        w_s = 1.0 / (sn * (1.0 + g2))
+        fit = bspline_patch.fit(x, y, z, sx, sy, w_pos, w_s, w_s, **kw)
+        if i < passes:
+            fp, fs = _variance_factors(fit, w_pos, w_s)
+            sp = sp if stated[0] is not None else max(sp * np.sqrt(fp), NOISE_FLOOR)
+            sn = sn if stated[1] is not None else max(sn * np.sqrt(fs), NOISE_FLOOR)
+    return fit, (sp, sn), rows
 
 
-def _residual_noise(fit, g2):
-    """Per-row-type noise (position, slope) from a first pass's residuals, dof-corrected."""
+def _variance_factors(fit, w_pos, w_s):
+    """Per row type (position, slope): weighted RSS over its residual degrees of freedom
+    (rows minus the leverage they take, as in REML), 1 when a type has no spare rows."""
     rz, rx, ry = fit.residuals
-    m = 3 * rz.size
-    inflate = np.sqrt(m / max(m - fit.coef.size, 1))
-    rp = rz / np.sqrt(1.0 + g2)
-    rs = np.concatenate([rx, ry]) / np.tile(1.0 + g2, 2)
-    sp = max(float(np.sqrt(np.mean(rp * rp))) * inflate, NOISE_FLOOR)
-    sn = max(float(np.sqrt(np.mean(rs * rs))) * inflate, NOISE_FLOOR)
-    return sp, sn
+    n = rz.size
+    lev = fit.leverage
+    out = []
+    for r2, rows, used in (
+        (np.sum(np.square(rz * w_pos)), n, lev[:n].sum()),
+        (np.sum(np.square(rx * w_s)) + np.sum(np.square(ry * w_s)), 2 * n, lev[n:].sum()),
+    ):
+        spare = rows - used
+        out.append(r2 / spare if spare >= 1.0 and r2 > 0 else 1.0)
+    return out
 
 
 def _split(values, n):
@@ -275,64 +304,57 @@ def _principal_angle(fit, rows):
     return None if min(off, 90.0 - off) < ALIGN_SKIP_DEG else angle
 
 
-def _analyse(fit, rows, scale, stated, n_draws, seed):
-    """Grid statistics, intervals and label (§4.8); lengths still divided by ``scale``."""
+def _analyse(fit, rows, scale, s2, intervals=True):
+    """Grid statistics, patch curvature, intervals and label (§4.8); lengths still / ``scale``.
+
+    ``s2`` is the variance factor of the fit (None: no covariance, so no plane
+    test, no debiasing and no intervals; the label then comes from S alone).
+    """
     n = rows.shape[0] // 5
-    a, b, c = shape_entries(*_split(rows @ fit.coef, n))
+    channels = _split(rows @ fit.coef, n)
+    a, b, c = shape_entries(*channels)
     k1, k2 = eigen(a, b, c)
     k1m, k2m = float(k1.mean()), float(k2.mean())
     r = curvedness_r(k1, k2)
     r_mean = float(r.mean())
-    s2 = uncertainty.residual_scale(fit.chi2, fit.dof, stated)
-    draws = None
-    out = dict(
-        S_mean=None,
-        S_patch=None,
-        S_std=None,
-        C_mean=None,
-        radius=None,
-        S_interval=None,
-        radius_interval=None,
-        votes={},
-        k1_interval=None,
-        k2_interval=None,
-    )
-    d2 = None
-    if s2 is not None and n_draws > 0:
-        coefs = uncertainty.coefficient_draws(fit.coef, fit.cov_factor, s2, n_draws, seed)
-        da, db, dc = shape_entries(*_split(rows @ coefs, n))
-        draws = eigen(da, db, dc)
-        kk = (draws[0].mean(axis=0), draws[1].mean(axis=0))
-        (k1_int, _), (k2_int, _) = (uncertainty.interval(k, d) for k, d in zip((k1m, k2m), kk))
-        out["k1_interval"] = (k1_int[0] / scale, k1_int[1] / scale)
-        out["k2_interval"] = (k2_int[0] / scale, k2_int[1] / scale)
-        tensor = np.array([a.mean(), b.mean(), c.mean()])
-        d2 = classify.flatness_distance(tensor, np.stack([da.mean(0), db.mean(0), dc.mean(0)]))
-    plane = classify.is_plane(r_mean, d2)
-    if plane:
+    keys = "S_mean S_patch S_std C_mean radius S_interval radius_interval k1_interval k2_interval"
+    out = dict.fromkeys(keys.split())
+    out["votes"] = {}
+    tensor, cov, d2, iv = np.array([a.mean(), b.mean(), c.mean()]), None, None, None
+    if s2 is not None:
+        tensor, G = uncertainty.tensor_and_jacobian(channels, rows)
+        cov = uncertainty.tensor_cov(G, fit.cov_factor, s2)
+        d2 = classify.flatness_distance(tensor, cov)
+    m, h, lam = uncertainty.anisotropy(tensor, np.zeros((3, 3)) if cov is None else cov)
+    if cov is not None and intervals:
+        iv = uncertainty.intervals(tensor, cov, m, h, lam)
+        out["k1_interval"] = (iv["k1"][0] / scale, iv["k1"][1] / scale)
+        out["k2_interval"] = (iv["k2"][0] / scale, iv["k2"][1] / scale)
+    if classify.is_plane(r_mean, d2):
         out.update(shape="plane", confidence=classify.plane_confidence(r_mean, d2))
     else:
-        s = shape_index(k1, k2)
-        s_patch = float(shape_index(*eigen(a.mean(), b.mean(), c.mean())))
-        kmax = max(abs(k1m), abs(k2m))
+        s_patch = float(shape_index(m + h, m - h))
         s_sd = None
-        if draws is not None:
-            s_draws = shape_index(*eigen(da.mean(0), db.mean(0), dc.mean(0)))
-            out["S_interval"], s_sd = uncertainty.interval(s_patch, s_draws, -1.0, 1.0)
-            (lo, hi), _ = uncertainty.interval(kmax, np.maximum(np.abs(kk[0]), np.abs(kk[1])), 0.0)
-            out["radius_interval"] = (scale / hi, scale / lo if lo > 0 else None)
+        if iv is not None:
+            out["S_interval"] = iv["S"]
+            s_sd = (iv["S"][1] - iv["S"][0]) / (2.0 * np.sqrt(iv["crit"]))
+            lo, hi = iv["kmax"]
+            out["radius_interval"] = (
+                scale / hi if hi > 0 else None,
+                scale / lo if lo > 0 else None,
+            )
         p_flat = 0.0 if d2 is None else classify.plane_confidence(r_mean, d2)
         out["shape"], out["confidence"], out["votes"] = classify.vote(s_patch, s_sd, p_flat)
+        s = shape_index(k1, k2)
         pos = r > 0
         out.update(
             S_patch=s_patch,
             S_mean=float(s.mean()),
             S_std=float(s.std()),
             C_mean=float(curvedness_c(r[pos] / scale).mean()) if pos.any() else None,
-            radius=scale / kmax,
+            radius=scale / max(abs(k1m), abs(k2m)),
         )
-    kp1, kp2 = eigen(a.mean(), b.mean(), c.mean())
-    out["k_patch"] = (float(kp1) / scale, float(kp2) / scale)
+    out["k_patch"] = ((m + h) / scale, (m - h) / scale)
     eps_h, eps_k = _hk_eps(out["k1_interval"], out["k2_interval"], k1m / scale, k2m / scale)
     H, K = 0.5 * (k1 + k2) / scale, k1 * k2 / scale**2
     out.update(

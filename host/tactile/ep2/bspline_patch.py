@@ -110,7 +110,9 @@ class Domain:
 class SplineFit:
     """A fitted patch: coefficients, their covariance factor and the fit's residual scale.
 
-    ``cov_factor`` (p, r) satisfies Cov(coef) = cov_factor @ cov_factor.T.
+    ``cov_factor`` (p, r) satisfies Cov(coef) = cov_factor @ cov_factor.T for
+    unit-variance weighted rows; ``leverage`` is the diagonal of the hat matrix
+    per row (z rows, then slope-x, then slope-y; 0 for a dropped row).
     """
 
     degree: tuple
@@ -124,6 +126,7 @@ class SplineFit:
     rank: int
     cond: float
     residuals: tuple  # unweighted (z, slope-x, slope-y) residuals at the contacts
+    leverage: np.ndarray = None
 
     def rows(self, x, y, first=0):
         """Stacked design rows of (z, zx, zy, zxx, zxy, zyy)[first:] at patch-frame points."""
@@ -153,37 +156,66 @@ def design(x, y, domain, degree, tx, ty):
     return rowwise_kron(nx0, my0), rowwise_kron(nx1, my0), rowwise_kron(nx0, my1)
 
 
+def prepare(x, y, degree=(2, 2), segments=(1, 1)):
+    """Domain and unweighted design rows for ``fit(..., domain=, rows=)`` (reweighting)."""
+    degree = (int(degree[0]), int(degree[1]))
+    domain = Domain.around(x, y)
+    _check_spread(x, y, domain)
+    tx = knots(degree[0], segments[0])
+    ty = knots(degree[1], segments[1])
+    return domain, design(x, y, domain, degree, tx, ty)
+
+
 def fit(
-    x, y, z, sx, sy, w_pos, w_sx, w_sy, degree=(2, 2), segments=(1, 1), solver="svd", domain=None
+    x,
+    y,
+    z,
+    sx,
+    sy,
+    w_pos,
+    w_sx,
+    w_sy,
+    degree=(2, 2),
+    segments=(1, 1),
+    solver="svd",
+    domain=None,
+    rows=None,
 ):
     """Weighted least-squares patch (eq. 56) to positions z and slopes sx, sy.
 
     Weights multiply rows (1/sigma of each row's noise gives the
-    maximum-likelihood fit); a weight of 0 drops the row.
+    maximum-likelihood fit); a weight of 0 drops the row.  ``rows`` may pass
+    the unweighted ``design`` rows of an earlier fit to the same points
+    (reweighting passes), with that fit's ``domain``.
     """
     degree = (int(degree[0]), int(degree[1]))
     tx = knots(degree[0], segments[0])
     ty = knots(degree[1], segments[1])
     domain = Domain.around(x, y) if domain is None else domain
     _check_spread(x, y, domain)
-    a0, a1, a2 = design(x, y, domain, degree, tx, ty)
+    a0, a1, a2 = design(x, y, domain, degree, tx, ty) if rows is None else rows
     w = np.concatenate([np.broadcast_to(w, np.shape(x)) for w in (w_pos, w_sx, w_sy)])
     A = np.vstack([a0, a1, a2]) * w[:, None]
     rhs = np.concatenate([z, sx, sy]) * w
     keep = w > 0
     A, rhs = A[keep], rhs[keep]
-    coef, factor, rank, cond, resid = solve(A, rhs, solver)
+    coef, factor, rank, cond, resid, lev = solve(A, rhs, solver)
     if rank < A.shape[1]:
         raise DataError(_why_rank_deficient(x, y, degree, segments, A.shape[1], rank))
     dof = A.shape[0] - A.shape[1]
     res = (z - a0 @ coef, sx - a1 @ coef, sy - a2 @ coef)
-    return SplineFit(degree, tx, ty, domain, coef, factor, float(resid), dof, rank, cond, res)
+    leverage = np.zeros(w.size)
+    leverage[keep] = lev
+    return SplineFit(
+        degree, tx, ty, domain, coef, factor, float(resid), dof, rank, cond, res, leverage
+    )
 
 
 def solve(A, b, solver="svd"):
-    """Column-scaled least squares.  Returns coef, covariance factor, rank, cond, RSS.
+    """Column-scaled least squares.  Returns coef, covariance factor, rank, cond, RSS, leverage.
 
-    Cov(coef) = F F^T for unit-variance rows (``F = D^-1 V S^-1``).
+    Cov(coef) = F F^T for unit-variance rows (``F = D^-1 V S^-1``); leverage is
+    the hat-matrix diagonal (squared row norms of the orthonormal factor).
     """
     scale = np.sqrt(np.einsum("ij,ij->j", A, A))
     scale[scale == 0] = 1.0
@@ -193,10 +225,11 @@ def solve(A, b, solver="svd"):
         rank = int(np.sum(s > RCOND * s[0])) if s.size else 0
         cond = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
         if rank < As.shape[1]:
-            return None, None, rank, cond, np.inf
+            return None, None, rank, cond, np.inf, None
         y = (U.T @ b) / s
         coef_s = Vt.T @ y
         factor = Vt.T / s
+        lev = np.einsum("ij,ij->i", U, U)
     elif solver == "qr":
         from scipy.linalg import qr, solve_triangular
 
@@ -205,22 +238,25 @@ def solve(A, b, solver="svd"):
         rank = int(np.sum(d > RCOND * d.max())) if d.size else 0
         cond = float(d.max() / d.min()) if d.min() > 0 else np.inf
         if rank < As.shape[1]:
-            return None, None, rank, cond, np.inf
+            return None, None, rank, cond, np.inf, None
         coef_s = solve_triangular(R, Q.T @ b, check_finite=False)
         factor = solve_triangular(R, np.eye(R.shape[0]), check_finite=False)
+        lev = np.einsum("ij,ij->i", Q, Q)
     elif solver == "gelsy":
         from scipy.linalg import lstsq
 
         coef_s, _, rank, _ = lstsq(As, b, cond=RCOND, lapack_driver="gelsy", check_finite=False)
         if rank < As.shape[1]:
-            return None, None, rank, np.inf, np.inf
+            return None, None, rank, np.inf, np.inf, None
         R = np.linalg.qr(As, mode="r")
         factor = np.linalg.inv(R)
         cond = float(np.linalg.cond(R))
+        Af = As @ factor
+        lev = np.einsum("ij,ij->i", Af, Af)
     else:
         raise ValueError(f"unknown solver {solver!r} (svd, qr, gelsy)")
     r = b - As @ coef_s
-    return coef_s / scale, factor / scale[:, None], rank, cond, float(r @ r)
+    return coef_s / scale, factor / scale[:, None], rank, cond, float(r @ r), lev
 
 
 def _check_spread(x, y, domain):

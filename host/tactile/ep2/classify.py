@@ -5,13 +5,14 @@ Labels: plane, sphere, cylinder, saddle, concave_cylinder, concave_sphere
 
 - plane: the curvedness is below what the data resolve.  The grid-mean shape
   operator t = (a, b, c) (symmetric 2x2 entries, so no k1 >= k2 ordering bias)
-  is tested against zero: d^2 = t^T Cov(t)^-1 t with Cov(t) from the
-  coefficient draws; plane when d^2 < chi^2_3(99.9 %) = 16.27, or when R is
-  below ``R_TOL`` relative to the patch size (the thesis's R < 1e-6, §4.8.1).
+  is tested against zero: d^2 = t^T Cov(t)^-1 t with Cov(t) propagated from
+  the coefficient covariance (``uncertainty.tensor_cov``); plane when
+  d^2 < chi^2_3(99.9 %) = 16.27, or when R is below ``R_TOL`` relative to
+  the patch size (the thesis's R < 1e-6, §4.8.1).
   S and C are then null.  Confidence = the test's p-value P(chi^2_3 > d^2):
   1 for an exactly flat fit, 0.001 at the edge of resolution.
-- otherwise the grid-mean S, with the standard deviation sd(S) of its
-  coefficient draws, gives each S band a probability (normal approximation);
+- otherwise the patch S, with sd(S) = half the width of its 95 % interval
+  over its critical radius, gives each S band a probability (normal approximation);
   confidence = that band's probability x (1 - p_flat), p_flat the flatness
   test's p-value (so a barely resolved curvature cannot give a confident
   label); the label is the band if the confidence reaches ``MIN_VOTE``, else
@@ -31,10 +32,9 @@ MIN_VOTE = 0.95
 CHI2_3_999 = 16.26623619623813  # chi^2 with 3 dof, 99.9 % quantile
 
 
-def flatness_distance(tensor, draws):
-    """Mahalanobis d^2 of the mean shape-operator entries (3,) given draws (3, n)."""
-    cov = np.cov(draws)
-    diff = tensor
+def flatness_distance(tensor, cov):
+    """Mahalanobis d^2 of the mean shape-operator entries (3,) from 0, given Cov (3, 3)."""
+    diff = np.asarray(tensor, float)
     w, v = np.linalg.eigh(cov)
     keep = w > 1e-12 * max(w.max(), 1e-300)
     if not keep.any():
