@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 
+from tactile import replica
 from tactile.localize import (
     rim_contact,
     scara_contacts,
@@ -25,14 +26,7 @@ from tactile_sim.rig.schedule import probe_schedule
 from tactile_sim.rig.sensor import GATE_N, SIGMA_F, SIGMA_M
 
 LENGTHS = (FREDDY.L1, FREDDY.L2, FREDDY.L3, FREDDY.L4)
-THESIS = {  # tables 5-7: (S, sd S, R, sd R, radius cm) for tangent and position fits
-    "plane": {"tangent": (0.4703, 0.21204, 0.004114, 0.0006562, None),
-              "position": (0.3643, 0.24721, 0.003026, 0.0009828, None)},
-    "convex": {"tangent": (0.4980, 0.009639, 0.080290, 0.024210, 8.8078),
-               "position": (0.5014, 0.015773, 0.073446, 0.016892, 9.6304)},
-    "concave": {"tangent": (-0.4878, 0.036813, 0.057014, 0.02732, 12.4155),
-                "position": (-0.4483, 0.123840, 0.053336, 0.01799, 13.4831)},
-}  # fmt: skip
+THESIS = replica.THESIS  # tables 5-7, kept once in tactile.replica
 
 
 def _rms(x):
