@@ -27,6 +27,7 @@ from tactile.ep2 import (
     classify,
     discontinuity,
     jet_shrink,
+    model_bias,
     patch_frame,
     uncertainty,
 )
@@ -38,7 +39,7 @@ WEIGHTINGS = ("auto", "tangent", "position")
 THESIS_RATIO = 100.0  # favoured : other rows (§4.9)
 NOISE_FLOOR = 1e-9  # relative noise floor so exact data keep finite weights
 ALIGN_SKIP_DEG = 2.0  # no principal-frame refit when the first pass is this close to aligned
-VC_PASSES = 2  # noise re-estimations before the final auto-weighted fit (measured: 2 = 4)
+VC_PASSES = 1  # noise re-estimations before the final auto-weighted fit (measured: 1 = 2 = 3)
 
 
 @dataclass
@@ -169,12 +170,13 @@ def analyze_patch(
             "all contacts at one point: the patch needs contacts spread in two directions"
         )
     p = p / scale
-    gx, gy = _grid(p, grid)
+    grid_xy = _grid_lines(p, grid)
+    gx, gy = (g.ravel() for g in np.meshgrid(*grid_xy, indexing="ij"))
     opts = dict(degree=(kx, ky), segments=seg, solver=solver)
     sig = _noise(noise_pos, noise_normal, scale)
     stated = weighting == "auto" and any(v is not None for v in sig)
     fit, sig, design = _fit_weighted(p, sx, sy, weighting, sig, opts)
-    rows = fit.rows(gx, gy, first=1)
+    rows = fit.grid_rows(*grid_xy, first=1)
     aligned = False
     if align:
         angle = _principal_angle(fit, rows)
@@ -190,8 +192,9 @@ def analyze_patch(
     s2 = uncertainty.residual_scale(fit.chi2, fit.dof, stated)
     if (weighting == "auto" if shrink is None else shrink) and s2 is not None:
         fit, _, _ = jet_shrink.shrink(fit, p[:, 2], sx, sy, s2, design)
-    result = _analyse(fit, rows, scale, s2, intervals)
-    centre = fit.derivatives(np.array([gx.mean()]), np.array([gy.mean()]), first=1)
+    centre_xy = np.array([gx.mean(), gy.mean()])
+    result = _analyse(fit, rows, scale, s2, intervals, (p[:, :2], centre_xy))
+    centre = [v.mean() for v in _split(rows @ fit.coef, rows.shape[0] // 5)]
     result.update(
         n_points=len(pts),
         degree=kx,
@@ -202,7 +205,7 @@ def analyze_patch(
         fit=fit,
         frame=frame,
         scale=scale,
-        direction1=frame.to_world_dirs(principal(*centre)["dir1"][0]),
+        direction1=frame.to_world_dirs(principal(*centre)["dir1"]),
     )
     if maps:
         result["maps"] = _maps(fit, rows, gx, gy, scale, result)
@@ -221,11 +224,16 @@ def _validate(points, normals, weighting):
     return pts, patch_frame.unit_normals(nrm)
 
 
-def _grid(p, n):
-    """N x N grid over the contacts' bounding box (patch frame, §4.8.1)."""
+def _grid_lines(p, n):
+    """x and y lines of the N x N grid over the contacts' bounding box (patch frame, §4.8.1)."""
     xs = np.linspace(p[:, 0].min(), p[:, 0].max(), n)
     ys = np.linspace(p[:, 1].min(), p[:, 1].max(), n)
-    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    return xs, ys
+
+
+def _grid(p, n):
+    """The N x N grid points (x, y), x index slowest."""
+    gx, gy = np.meshgrid(*_grid_lines(p, n), indexing="ij")
     return gx.ravel(), gy.ravel()
 
 
@@ -304,11 +312,12 @@ def _principal_angle(fit, rows):
     return None if min(off, 90.0 - off) < ALIGN_SKIP_DEG else angle
 
 
-def _analyse(fit, rows, scale, s2, intervals=True):
+def _analyse(fit, rows, scale, s2, intervals=True, contacts=None):
     """Grid statistics, patch curvature, intervals and label (§4.8); lengths still / ``scale``.
 
     ``s2`` is the variance factor of the fit (None: no covariance, so no plane
     test, no debiasing and no intervals; the label then comes from S alone).
+    ``contacts`` = (xy, centre) adds the model-bias term (``model_bias``) to the intervals.
     """
     n = rows.shape[0] // 5
     channels = _split(rows @ fit.coef, n)
@@ -327,7 +336,10 @@ def _analyse(fit, rows, scale, s2, intervals=True):
         d2 = classify.flatness_distance(tensor, cov)
     m, h, lam = uncertainty.anisotropy(tensor, np.zeros((3, 3)) if cov is None else cov)
     if cov is not None and intervals:
-        iv = uncertainty.intervals(tensor, cov, m, h, lam)
+        bias = None
+        if contacts is not None and fit.data_map is not None:
+            bias = model_bias.bias(fit, *contacts, tensor, lambda c: _grid_tensor(rows, c))
+        iv = uncertainty.intervals(tensor, cov, m, h, lam, bias)
         out["k1_interval"] = (iv["k1"][0] / scale, iv["k1"][1] / scale)
         out["k2_interval"] = (iv["k2"][0] / scale, iv["k2"][1] / scale)
     if classify.is_plane(r_mean, d2):
@@ -368,6 +380,12 @@ def _analyse(fit, rows, scale, s2, intervals=True):
         hk_eps=(eps_k, eps_h),
     )
     return out
+
+
+def _grid_tensor(rows, coef):
+    """Grid-mean shape-operator entries (a, b, c) of a coefficient vector."""
+    a, b, c = shape_entries(*_split(rows @ coef, rows.shape[0] // 5))
+    return np.array([a.mean(), b.mean(), c.mean()])
 
 
 def _hk_eps(k1_int, k2_int, k1m, k2m):

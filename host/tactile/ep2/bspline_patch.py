@@ -112,7 +112,9 @@ class SplineFit:
 
     ``cov_factor`` (p, r) satisfies Cov(coef) = cov_factor @ cov_factor.T for
     unit-variance weighted rows; ``leverage`` is the diagonal of the hat matrix
-    per row (z rows, then slope-x, then slope-y; 0 for a dropped row).
+    per row (z rows, then slope-x, then slope-y; 0 for a dropped row), and
+    ``data_map`` the linear map from those data to ``coef`` (the fit of other
+    data at the same points and weights, e.g. for a model-bias estimate).
     """
 
     degree: tuple
@@ -127,6 +129,7 @@ class SplineFit:
     cond: float
     residuals: tuple  # unweighted (z, slope-x, slope-y) residuals at the contacts
     leverage: np.ndarray = None
+    data_map: np.ndarray = None  # (p, 3 n): coef = data_map @ [z, slope-x, slope-y]
 
     def rows(self, x, y, first=0):
         """Stacked design rows of (z, zx, zy, zxx, zxy, zyy)[first:] at patch-frame points."""
@@ -136,6 +139,22 @@ class SplineFit:
         by = [b / self.domain.hy**nu for nu, b in enumerate(bases(v, ky, self.ty, 2))]
         pairs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))[first:]
         return np.vstack([rowwise_kron(bx[i], by[j]) for i, j in pairs])
+
+    def grid_rows(self, xs, ys, first=0):
+        """``rows`` at the tensor grid xs x ys (x index slowest, as meshgrid 'ij' raveled).
+
+        Evaluates the basis on the len(xs) + len(ys) grid lines only.
+        """
+        u, v = self.domain.to_unit(xs, ys)
+        kx, ky = self.degree
+        bx = [b / self.domain.hx**nu for nu, b in enumerate(bases(u, kx, self.tx, 2))]
+        by = [b / self.domain.hy**nu for nu, b in enumerate(bases(v, ky, self.ty, 2))]
+        pairs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))[first:]
+        n = len(xs) * len(ys)
+        blocks = [
+            (bx[i][:, None, :, None] * by[j][None, :, None, :]).reshape(n, -1) for i, j in pairs
+        ]
+        return np.vstack(blocks)
 
     def derivatives(self, x, y, coef=None, first=0):
         """(z, zx, zy, zxx, zxy, zyy)[first:] at points; ``coef`` may be (p, n_draws)."""
@@ -206,8 +225,10 @@ def fit(
     res = (z - a0 @ coef, sx - a1 @ coef, sy - a2 @ coef)
     leverage = np.zeros(w.size)
     leverage[keep] = lev
+    data_map = np.zeros((coef.size, w.size))
+    data_map[:, keep] = ((factor @ factor.T) @ A.T) * w[keep]
     return SplineFit(
-        degree, tx, ty, domain, coef, factor, float(resid), dof, rank, cond, res, leverage
+        degree, tx, ty, domain, coef, factor, float(resid), dof, rank, cond, res, leverage, data_map
     )
 
 

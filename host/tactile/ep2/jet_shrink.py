@@ -74,9 +74,15 @@ def shrink(fit, z, sx, sy, s2, rows):
     w = max(0.0, 1.0 - q / d2)
     coef = c_jet + w * (fit.coef - c_jet)
     f_jet = Q @ (Vt.T / s)
+    # the same shrinkage as a linear map of the full coefficients: c = ((1 - w) P + w I) c_full
+    proj = f_jet @ (U.T @ R)
+    shrink_map = (1.0 - w) * proj + w * np.eye(p)
     factor = np.hstack([np.sqrt(1.0 - w * w) * f_jet, w * fit.cov_factor])
     a0, a1, a2 = rows
     res = (z - a0 @ coef, sx - a1 @ coef, sy - a2 @ coef)
     chi2 = fit.chi2 + (1.0 - w) ** 2 * delta
-    out = dataclasses.replace(fit, coef=coef, cov_factor=factor, chi2=chi2, residuals=res)
+    data_map = None if fit.data_map is None else shrink_map @ fit.data_map
+    out = dataclasses.replace(
+        fit, coef=coef, cov_factor=factor, chi2=chi2, residuals=res, data_map=data_map
+    )
     return out, w, d2

@@ -21,6 +21,8 @@ k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
   v = 0 and the coverage event is chi^2_2-distributed, so c rises to 5.99 there:
   c = crit(max(0, lambda - 2.448)), lambda the Mahalanobis length of v_hat and
   crit the 95 % quantile of (Rice(l) - l)^2 made non-increasing (``_CRIT``).
+  For k1, k2 the umbilic truth is a point (the cone's vertex), so their
+  radius^2 rises to chi^2_3 = 7.81 instead (``critical_value_k``).
 - **Model bias** (optional): ``bias`` is a vector added in quadrature to the
   ellipsoid along its own direction (see ``api``: the difference to a
   higher-degree refit, kept only where it is significant).
@@ -31,6 +33,7 @@ import numpy as np
 Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
 CHI2_2_95 = 5.991464547107979
+CHI2_3_95 = 7.814727903251178
 # 95 % quantile of (Rice(l) - l)^2 (unit sigma) for l = 0, 0.1, ..., 1.0, made
 # non-increasing; chi^2_1 beyond (tests recompute it with scipy.stats.rice).
 _CRIT = np.array([5.991, 5.541, 5.162, 4.847, 4.588, 4.375, 4.201, 4.059, 3.942, 3.845, CHI2_1_95])
@@ -85,6 +88,14 @@ def critical_value(lam):
     return float(np.interp(x, np.arange(_CRIT.size), _CRIT))
 
 
+def critical_value_k(lam):
+    """The same for k1, k2 and |k|max: at an umbilic the truth is the vertex of the cone
+    k = m -/+ h, a point of the 3-D tensor space, so the radius^2 rises to chi^2_3 = 7.81
+    (measured: chi^2_2 there covers the sphere's k2 only 86-91 %)."""
+    frac = (critical_value(lam) - CHI2_1_95) / (CHI2_2_95 - CHI2_1_95)
+    return CHI2_1_95 + frac * (CHI2_3_95 - CHI2_1_95)
+
+
 def _mahalanobis(v, cov):
     w, V = np.linalg.eigh(cov)
     tiny = 1e-12 * max(float(w.max()), 0.0) + 1e-300
@@ -136,25 +147,24 @@ def intervals(t, cov, m, h, lam, bias=None):
 
     ``lam`` is the anisotropy's Mahalanobis length (``anisotropy``); ``bias``
     (3,) or None a model-bias vector whose outer product is added to Cov.
+    S uses ``critical_value(lam)``; k1, k2 and kmax use ``critical_value_k(lam)``.
     """
     from tactile.ep2.shape_index import shape_index
 
     if bias is not None:
         cov = cov + np.outer(bias, bias)
-    crit = critical_value(lam)
-    pm, ph = ellipsoid_points(t, cov, crit)
+    crit_s = critical_value(lam)
+    crit_k = critical_value_k(lam)
+    pm, ph = ellipsoid_points(t, cov, crit_s)
+    S = shape_index(pm + ph, pm - ph)
+    pm, ph = ellipsoid_points(t, cov, crit_k)
     est = {"S": float(shape_index(m + h, m - h)), "k1": m + h, "k2": m - h, "kmax": abs(m) + h}
-    vals = {
-        "S": shape_index(pm + ph, pm - ph),
-        "k1": pm + ph,
-        "k2": pm - ph,
-        "kmax": np.abs(pm) + ph,
-    }
+    vals = {"S": S, "k1": pm + ph, "k2": pm - ph, "kmax": np.abs(pm) + ph}
     out = {}
     for key, v in vals.items():
         out[key] = (float(min(v.min(), est[key])), float(max(v.max(), est[key])))
     # the origin inside the ellipsoid: kmax can be 0 (a plane is compatible)
-    if _mahalanobis(t, cov) ** 2 <= crit:
+    if _mahalanobis(t, cov) ** 2 <= crit_k:
         out["kmax"] = (0.0, out["kmax"][1])
-    out["crit"] = crit
+    out["crit"] = crit_s
     return out
