@@ -72,8 +72,12 @@ def lsq_spline(points, normals, grid=8, degree=3):
     return curvatures(*d)
 
 
-def jet(points, normals, noise_pos=1.0, noise_normal=1.0, with_normals=True):
-    """(k1, k2) at the patch centre from a 2-jet (quadric) least-squares fit."""
+def jet(points, normals, noise_pos=1.0, noise_normal=1.0, with_normals=True, debias=False):
+    """(k1, k2) at the patch centre from a 2-jet (quadric) least-squares fit.
+
+    ``debias`` applies this package's anisotropy correction (``uncertainty.anisotropy``,
+    with the jet's own covariance) - an ablation showing what that step alone gives.
+    """
     p, sx, sy = _framed(points, normals)
     c = 0.5 * (p.min(axis=0) + p.max(axis=0))
     x, y, z = p[:, 0] - c[0], p[:, 1] - c[1], p[:, 2]
@@ -91,5 +95,15 @@ def jet(points, normals, noise_pos=1.0, noise_normal=1.0, with_normals=True):
     A = np.vstack(rows) * np.concatenate(w)[:, None]
     b = np.concatenate(rhs) * np.concatenate(w)
     coef = np.linalg.lstsq(A, b, rcond=None)[0]
+    if debias:
+        from tactile.ep2 import uncertainty
+
+        channels = [np.array([v]) for v in coef[1:6]]
+        t, G = uncertainty.tensor_and_jacobian(channels, np.eye(6)[1:6])
+        r = b - A @ coef
+        s2 = max(float(r @ r) / (A.shape[0] - 6), 1.0)  # the noise is stated
+        cov = uncertainty.tensor_cov(G, np.linalg.pinv(A), s2)
+        m, h, _ = uncertainty.anisotropy(t, cov)
+        return np.atleast_1d(m + h), np.atleast_1d(m - h)
     k1, k2 = curvatures(coef[1], coef[2], coef[3], coef[4], coef[5])
     return np.atleast_1d(k1), np.atleast_1d(k2)
