@@ -88,7 +88,7 @@ class PipeLink:
         if n == 0:
             return None
         buf[:n] = self.rx[:n]
-        del self.rx[:n]
+        self.rx = self.rx[n:]  # (MicroPython bytearrays have no slice deletion)
         return n
 
     def write(self, mv):

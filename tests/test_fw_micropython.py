@@ -1,0 +1,102 @@
+"""The firmware on a real MicroPython interpreter (the WebAssembly port, under node).
+
+The package comes from the npm registry on first use and is cached in
+``$XDG_CACHE_HOME/tactile`` (``~/.cache/tactile``).  Without node/npm or the
+registry the tests are skipped with the reason.
+"""
+
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from tactile import flashing
+
+MP_PACKAGE = "@micropython/micropython-webassembly-pyscript"
+MP_VERSION = "1.27.0"
+HERE = pathlib.Path(__file__).parent
+SIM = pathlib.Path(__file__).resolve().parents[1] / "sim" / "tactile_sim"
+
+
+@pytest.fixture(scope="module")
+def micropython_mjs():
+    node, npm = shutil.which("node"), shutil.which("npm")
+    if not node or not npm:
+        pytest.skip("node/npm not installed: MicroPython's WebAssembly port cannot run")
+    cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME", pathlib.Path.home() / ".cache"))
+    prefix = cache / "tactile" / f"micropython-wasm-{MP_VERSION}"
+    mjs = prefix / "node_modules" / MP_PACKAGE / "micropython.mjs"
+    if not mjs.exists():
+        prefix.mkdir(parents=True, exist_ok=True)
+        r = subprocess.run(
+            [
+                npm,
+                "install",
+                "--prefix",
+                str(prefix),
+                "--no-audit",
+                "--no-fund",
+                f"{MP_PACKAGE}@{MP_VERSION}",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        if r.returncode != 0 or not mjs.exists():
+            pytest.skip(f"npm could not install {MP_PACKAGE}: {r.stderr.strip()[-200:]}")
+    return mjs
+
+
+@pytest.fixture(scope="module")
+def stage(tmp_path_factory):
+    """The board's /lib (exactly what `tactile flash` copies) plus the simulated ADC and bus."""
+    root = tmp_path_factory.mktemp("board")
+    for src, dest in flashing.board_files():
+        target = root / dest.removeprefix("lib/")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(src, target)
+    (root / "tactile_sim").mkdir()
+    for name in ("__init__.py", "adc_model.py", "i2c_bus.py"):
+        shutil.copyfile(SIM / name, root / "tactile_sim" / name)
+    return root
+
+
+def run_micropython(mjs, stage, script):
+    r = subprocess.run(
+        ["node", str(HERE / "fw_mpy_run.mjs"), str(mjs), str(stage), str(script)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr
+    return r.stdout
+
+
+def test_scenario_output_is_byte_identical_on_micropython_and_cpython(micropython_mjs, stage):
+    script = HERE / "fw_mpy_scenario.py"
+    mp = run_micropython(micropython_mjs, stage, script)
+    cp = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, check=True
+    ).stdout
+    assert mp == cp
+    last = mp.splitlines()[-1].split()
+    assert last[:2] == ["samples", "70"] and last[3] == "3"  # streamed, faulted, recovered
+    assert len(mp.splitlines()) == 5 and all(len(line) > 40 for line in mp.splitlines()[:4])
+
+
+def test_heap_use_per_call_on_micropython(micropython_mjs, stage):
+    """gc.mem_alloc with the collector off: the driver allocates nothing per sample.
+
+    Floats are heap objects on this port (as on the rp2 port), so calibration and the
+    gate allocate; the figures are bounds against regressions, documented in firmware.md.
+    """
+    out = run_micropython(micropython_mjs, stage, HERE / "fw_mpy_alloc.py")
+    used = {k: int(v) for k, v in (line.split() for line in out.splitlines())}
+    assert used["read"] == 0
+    assert used["encode"] <= 32
+    assert used["gate"] <= 128
+    assert used["calibrate"] <= 1536
+    assert used["poll"] <= used["read"] + used["calibrate"] + used["gate"] + used["encode"] + 256
