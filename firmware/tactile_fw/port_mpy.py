@@ -39,10 +39,16 @@ class UsbLink:
         self._pout.register(sys.stdout, select.POLLOUT)
         self._one = bytearray(1)
 
+    @staticmethod
+    def _ready(poller):
+        for _ in poller.ipoll(0):  # ipoll: no list allocated per call
+            return True
+        return False
+
     def readinto(self, buf):
         n = 0
         one = self._one
-        while n < len(buf) and self._pin.poll(0):
+        while n < len(buf) and self._ready(self._pin):
             if not self._in.readinto(one):
                 break
             buf[n] = one[0]
@@ -50,7 +56,7 @@ class UsbLink:
         return n
 
     def write(self, mv):
-        if not self._pout.poll(0):
+        if not self._ready(self._pout):
             return None
         return self._out.write(mv)
 
