@@ -167,3 +167,12 @@ def test_bad_scenes_are_one_line_errors(tmp_path, text, expect):
 def test_emulate_cli_reports_bad_scene(tmp_path, cli):
     code, out, err = cli("emulate", tmp_path / "missing.toml")
     assert code == 2 and "missing.toml" in err and "Traceback" not in err
+
+
+def test_every_registered_motion_kind_has_its_module():
+    import importlib
+
+    from tactile_sim.emulator.scene import MOTIONS
+
+    for module in MOTIONS.values():
+        assert callable(importlib.import_module(module).build)

@@ -17,9 +17,7 @@ SCENE_DIR = pathlib.Path(__file__).resolve().parents[1] / "scenes"
 MOTIONS = {
     "press": "tactile_sim.emulator.motion_press",
     "rig": "tactile_sim.emulator.motion_rig",
-    "sweep": "tactile_sim.emulator.motion_sweep",
-    "roll": "tactile_sim.emulator.motion_roll",
-}
+}  # to come: "sweep" (EP2, several fingers) and "roll" (EP1 through the F/T path)
 
 BOARD_DEFAULTS = {
     "rate_hz": 1000,
