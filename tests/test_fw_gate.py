@@ -118,3 +118,17 @@ def test_board_emits_begin_in_end_with_contact_ids():
         assert f[2] % 100_000 in range(51_000, 53_001)
     for f in contacts:
         assert f[3][4] in (0, 1_500_000)
+
+
+@pytest.mark.parametrize("three_d", [False, True])
+def test_integer_bounds_agree_with_the_exact_magnitude(three_d):
+    """The fast integer path gives the same answer as the squared magnitude everywhere."""
+    rng = random.Random(3)
+    g = ContactGate(ENTER, EXIT, 1, three_d)
+    for _ in range(20_000):
+        f = [rng.choice((1, -1)) * rng.randint(0, 7_000) for _ in range(3)]
+        if rng.random() < 0.1:  # exact ties on the level
+            f = [ENTER, 0, 0] if rng.random() < 0.5 else [3_000, -4_000, 0]
+        m2 = f[0] ** 2 + f[1] ** 2 + (f[2] ** 2 if three_d else 0)
+        want = (m2 > ENTER**2) - (m2 < ENTER**2)
+        assert g._cmp(f[0], f[1], f[2], ENTER, float(ENTER) ** 2) == want, f

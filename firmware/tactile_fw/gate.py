@@ -5,8 +5,8 @@ plane with magnitude greater than 5 units" (§5.1).  A single threshold
 chatters when |F| hovers near it, so the gate has two levels: a contact
 begins after ``debounce`` consecutive samples with |F| > enter and ends after
 ``debounce`` consecutive samples with |F| < exit (exit <= enter).  |F| is
-taken in the x-y plane (thesis) or in 3-D (CFG_GATE_3D).  Squared magnitudes
-are compared, so no square root is taken per sample.
+taken in the x-y plane (thesis) or in 3-D (CFG_GATE_3D).  Integer bounds
+decide most samples; the rest compare squared magnitudes (no square root).
 """
 
 try:
@@ -33,6 +33,8 @@ class ContactGate:
     def configure(self, enter, exit_, debounce, three_d):
         if not 0 <= exit_ <= enter or debounce < 1:
             raise ValueError("gate: need 0 <= exit <= enter and debounce >= 1")
+        self.enter = enter
+        self.exit = exit_
         self.enter2 = float(enter) * float(enter)
         self.exit2 = float(exit_) * float(exit_)
         self.debounce = debounce
@@ -43,16 +45,38 @@ class ContactGate:
         self.in_contact = False
         self.count = 0
 
-    def update(self, fx, fy, fz):
-        """Feed one sample; return BEGIN, IN, END or NONE (out of contact)."""
+    def _cmp(self, fx, fy, fz, level, level2):
+        """+1, 0, -1 as |F| is above, at or below ``level``.
+
+        max|f_i| <= |F| <= sum|f_i| decides most samples in integers; only
+        samples inside that band take the float path (floats are heap objects
+        on MicroPython, small ints are not).
+        """
+        ax = fx if fx >= 0 else -fx
+        ay = fy if fy >= 0 else -fy
+        lo = ax if ax > ay else ay
+        hi = ax + ay
+        if self.three_d:
+            az = fz if fz >= 0 else -fz
+            if az > lo:
+                lo = az
+            hi += az
+        if lo > level:
+            return 1
+        if hi < level:
+            return -1
         x = float(fx)
         y = float(fy)
         m2 = x * x + y * y
         if self.three_d:
             z = float(fz)
             m2 += z * z
+        return 1 if m2 > level2 else (-1 if m2 < level2 else 0)
+
+    def update(self, fx, fy, fz):
+        """Feed one sample; return BEGIN, IN, END or NONE (out of contact)."""
         if not self.in_contact:
-            if m2 > self.enter2:
+            if self._cmp(fx, fy, fz, self.enter, self.enter2) > 0:
                 self.count += 1
                 if self.count >= self.debounce:
                     self.in_contact = True
@@ -62,7 +86,7 @@ class ContactGate:
             else:
                 self.count = 0
             return NONE
-        if m2 < self.exit2:
+        if self._cmp(fx, fy, fz, self.exit, self.exit2) < 0:
             self.count += 1
             if self.count >= self.debounce:
                 self.in_contact = False
