@@ -1,5 +1,7 @@
 """EP2 uncertainty, shrinkage and model bias: each step checked by an independent route."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -295,3 +297,23 @@ def test_shape_index_of_k_patch_is_s_patch():
     assert res.S_patch == pytest.approx(float(shape_index(*res.k_patch)), abs=1e-12)
     a, b, c = shape_entries(0.0, 0.0, -1.0, 0.0, 0.0)
     assert (a, b, c) == (1.0, 0.0, 0.0)  # convex toward +z is positive (sign convention)
+
+
+# ---- labels from asymmetric S intervals ---------------------------------------------------
+
+
+def test_split_normal_vote_respects_a_one_sided_interval():
+    from tactile.ep2 import classify
+
+    # symmetric: the split normal is the normal
+    for x in (-0.3, 0.1, 0.45, 0.9):
+        ref = 0.5 * math.erfc(-(x - 0.4) / (0.2 * math.sqrt(2)))
+        assert classify.split_normal_cdf(x, 0.4, 0.2, 0.2) == pytest.approx(ref)
+    assert classify.split_normal_cdf(10.0, 0.4, 0.1, 0.3) == pytest.approx(1.0)
+    # the case that gave a confident "sphere" for a barely curved cylinder (R 200, noise
+    # 0.02, seed 1182): debiased S = 1 with its 95 % interval (0.536, 1)
+    root = math.sqrt(uncertainty.CHI2_2_95)
+    label, conf, _ = classify.vote(1.0, ((1.0 - 0.536) / root, 0.0))
+    assert label == "uncertain" and conf < 0.9
+    d = sweep(make("cylinder", 200.0, 25.0), noise_pos=0.02, noise_normal=0.02, seed=1182)
+    assert analyze_patch(d["points"], d["normals"]).shape in ("cylinder", "plane", "uncertain")

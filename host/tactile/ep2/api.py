@@ -4,12 +4,15 @@
 frame the data (§5.1.2), fit a B-spline patch to positions and normal-derived
 slopes (§4.6), analyse S, R, C, k1, k2 on an N x N grid (§4.8.1) and label the
 shape (§4.8.2) - plus what the thesis leaves as future work: a refit in the
-principal frame (§4.10), noise-derived weights, coefficient-covariance
-intervals, and discontinuity checks (§6.2.5).
+principal frame (§4.10), noise-derived weights (per row type, estimated from
+the residuals unless stated), shrinkage of the tensor-product excess toward the
+2-jet (``jet_shrink``), propagated-covariance intervals with a model-bias term
+(``uncertainty``, ``model_bias``), and discontinuity checks (§6.2.5).
 
 Two shape indices are reported: ``S_mean``/``S_std``, the mean and spread of
 S over the grid (the thesis's statistic, §4.8.2), and ``S_patch``, S of the
-grid-mean shape operator (entries a, b, c averaged, then eigenvalues): the
+grid-mean shape operator (entries a, b, c averaged; the anisotropy
+debiased, ``uncertainty.anisotropy``; then eigenvalues ``k_patch``): the
 noise averages out before the non-linear S, so it is the more accurate
 estimate (bench/ep2_peers.py) and the one the label and ``S_interval`` use.
 
@@ -349,7 +352,8 @@ def _analyse(fit, rows, scale, s2, intervals=True, contacts=None):
         s_sd = None
         if iv is not None:
             out["S_interval"] = iv["S"]
-            s_sd = (iv["S"][1] - iv["S"][0]) / (2.0 * np.sqrt(iv["crit"]))
+            root = np.sqrt(iv["crit"])
+            s_sd = ((s_patch - iv["S"][0]) / root, (iv["S"][1] - s_patch) / root)
             lo, hi = iv["kmax"]
             out["radius_interval"] = (
                 scale / hi if hi > 0 else None,

@@ -157,7 +157,7 @@ class SplineFit:
         return np.vstack(blocks)
 
     def derivatives(self, x, y, coef=None, first=0):
-        """(z, zx, zy, zxx, zxy, zyy)[first:] at points; ``coef`` may be (p, n_draws)."""
+        """(z, zx, zy, zxx, zxy, zyy)[first:] at points; ``coef`` may be (p, m) for m surfaces."""
         c = self.coef if coef is None else coef
         n = np.size(x)
         out = self.rows(x, y, first) @ c

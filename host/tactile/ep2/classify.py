@@ -11,8 +11,9 @@ Labels: plane, sphere, cylinder, saddle, concave_cylinder, concave_sphere
   the patch size (the thesis's R < 1e-6, §4.8.1).
   S and C are then null.  Confidence = the test's p-value P(chi^2_3 > d^2):
   1 for an exactly flat fit, 0.001 at the edge of resolution.
-- otherwise the patch S, with sd(S) = half the width of its 95 % interval
-  over its critical radius, gives each S band a probability (normal approximation);
+- otherwise the patch S gives each S band a probability under a split normal
+  whose two sds are the distances from S to the ends of its 95 % interval over
+  the interval's critical radius (``vote``);
   confidence = that band's probability x (1 - p_flat), p_flat the flatness
   test's p-value (so a barely resolved curvature cannot give a confident
   label); the label is the band if the confidence reaches ``MIN_VOTE``, else
@@ -61,12 +62,32 @@ def plane_confidence(r_mean, d2):
     return float(math.erfc(math.sqrt(x / 2)) + math.sqrt(2 * x / math.pi) * math.exp(-x / 2))
 
 
-def vote(s_mean, s_sd, p_flat=0.0):
-    """Label and confidence from N(s_mean, s_sd) over the S bands and the flatness p-value."""
-    if not s_sd:
-        return S_NAMES[int(s_class(s_mean))], 1.0 - p_flat, {}
+def split_normal_cdf(x, mode, sd_lo, sd_hi):
+    """CDF of the split normal: half-normals of sd ``sd_lo`` below and ``sd_hi`` above the mode,
+    weighted so the density is continuous (a zero sd puts no mass on that side)."""
+    total = sd_lo + sd_hi
+    if x <= mode:
+        if sd_lo <= 0:
+            return 0.0
+        return (sd_lo / total) * math.erfc((mode - x) / (sd_lo * math.sqrt(2)))
+    if sd_hi <= 0:
+        return 1.0
+    return sd_lo / total + (sd_hi / total) * math.erf((x - mode) / (sd_hi * math.sqrt(2)))
+
+
+def vote(s_est, s_sd, p_flat=0.0):
+    """Label and confidence from the S distribution over the bands and the flatness p-value.
+
+    ``s_sd`` is a standard deviation or a (below, above) pair: the S interval is
+    asymmetric where S is bounded (a sphere's debiased S sits at 1 with the whole
+    interval below it), and a symmetric normal there would put almost all the
+    mass in the sphere band whatever the interval's width.
+    """
+    if not s_sd or not np.any(s_sd):
+        return S_NAMES[int(s_class(s_est))], 1.0 - p_flat, {}
+    lo, hi = (s_sd, s_sd) if np.isscalar(s_sd) else s_sd
     edges = [-np.inf, *S_EDGES.tolist(), np.inf]
-    cdf = [0.5 * math.erfc(-(e - s_mean) / (s_sd * math.sqrt(2))) for e in edges]
+    cdf = [split_normal_cdf(e, s_est, lo, hi) for e in edges]
     shares = np.diff(cdf) * (1.0 - p_flat)
     best = int(np.argmax(shares))
     votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}

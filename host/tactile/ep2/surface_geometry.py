@@ -67,7 +67,7 @@ def shape_operator(zx, zy, zxx, zxy, zyy):
 
 
 def curvatures(zx, zy, zxx, zxy, zyy):
-    """Only (k1, k2) - the fast path used on the grid and for coefficient draws."""
+    """Only (k1, k2) - the fast path used on the grid."""
     return eigen(*shape_entries(zx, zy, zxx, zxy, zyy))
 
 
