@@ -87,7 +87,7 @@ def stages():
     rows = [
         ("read: 6 x (DRDY + RDATA) through the driver", lambda: sensor.poll()),
         ("calibrate: 6x6 matrix, bias, round, clamp", lambda: cal.apply(sensor.counts, ft)),
-        ("gate: squared magnitude vs enter/exit, debounce", lambda: g.update(ft[0], ft[1], ft[2])),
+        ("gate: magnitude vs enter/exit, debounce", lambda: g.update(ft[0], ft[1], ft[2])),
         (
             "encode: SAMPLE frame (pack, CRC, COBS)",
             lambda: enc.encode(MSG_SAMPLE, 123456, vals, False),
