@@ -17,9 +17,10 @@ from tactile.ep2 import analyze_patch
 from tactile_sim.ep2 import make, sweep
 
 CASES = (
-    ("default (deg 2, auto, 64 draws)", {}),
+    ("default (deg 2, auto: noise estimated, shrinkage, intervals)", {}),
     ("noise stated", {"noise_pos": 0.01, "noise_normal": 0.01}),
     ("no intervals", {"intervals": False}),
+    ("no shrinkage", {"shrink": False}),
     ("deg 3 tangent (thesis)", {"degree": 3, "weighting": "tangent"}),
     ("deg 4 tangent", {"degree": 4, "weighting": "tangent"}),
     ("align refit (§4.10)", {"align": True}),

@@ -103,7 +103,7 @@ def _mahalanobis(v, cov):
     return float(np.sqrt(np.sum(proj * proj / np.maximum(w, tiny))))
 
 
-def _sphere_dirs(n=240):
+def _sphere_dirs(n=160):
     """n near-uniform unit vectors (Fibonacci lattice), (3, n)."""
     i = np.arange(n) + 0.5
     zc = 1.0 - 2.0 * i / n
@@ -115,16 +115,43 @@ def _sphere_dirs(n=240):
 _DIRS = _sphere_dirs()
 
 
-def ellipsoid_points(t, cov, crit):
-    """(m, h) at the boundary samples of the ellipsoid and where the umbilic axis
-    a = c, b = 0 crosses it (those points have h = 0)."""
+def ellipsoid_points(t, cov, crits):
+    """For each radius^2 in ``crits``: (m, h) at the boundary samples of the ellipsoid
+    and where the umbilic axis a = c, b = 0 crosses it (those points have h = 0)."""
     w, V = np.linalg.eigh(cov)
     w = np.maximum(w, 0.0)
-    pts = t[:, None] + np.sqrt(crit) * (V * np.sqrt(w)) @ _DIRS
-    m = 0.5 * (pts[0] + pts[2])
-    h = np.hypot(0.5 * (pts[0] - pts[2]), pts[1])
-    mu = _axis_crossing(t, w, V, crit)
-    return np.concatenate([m, mu]), np.concatenate([h, np.zeros(mu.size)])
+    unit = np.hstack([(V * np.sqrt(w)) @ _DIRS, _gradient_steps(t, cov)])
+    out = []
+    for crit in crits:
+        pts = t[:, None] + np.sqrt(crit) * unit
+        m = 0.5 * (pts[0] + pts[2])
+        h = np.hypot(0.5 * (pts[0] - pts[2]), pts[1])
+        mu = _axis_crossing(t, w, V, crit)
+        out.append((np.concatenate([m, mu]), np.concatenate([h, np.zeros(mu.size)])))
+    return out
+
+
+def _gradient_steps(t, cov):
+    """Unit-radius steps cov g / sqrt(g^T cov g) along the gradients g of m, h, k1, k2
+    and S at t (both signs): where a locally linear quantity has its extremes, so the
+    sampled range is never narrower than the delta-method interval."""
+    a, b, c = t
+    d = 0.5 * (a - c)
+    h = np.hypot(d, b)
+    gm = np.array([0.5, 0.0, 0.5])
+    grads = [gm]
+    if h > 0:
+        gh = np.array([0.5 * d / h, b / h, -0.5 * d / h])
+        m = 0.5 * (a + c)
+        gs = (h * gm - m * gh) / (m * m + h * h)
+        grads += [gh, gm + gh, gm - gh, gs]
+    steps = []
+    for g in grads:
+        cg = cov @ g
+        n = np.sqrt(max(float(g @ cg), 0.0))
+        if n > 0:
+            steps += [cg / n, -cg / n]
+    return np.array(steps).T if steps else np.zeros((3, 0))
 
 
 def _axis_crossing(t, w, V, crit):
@@ -155,9 +182,8 @@ def intervals(t, cov, m, h, lam, bias=None):
         cov = cov + np.outer(bias, bias)
     crit_s = critical_value(lam)
     crit_k = critical_value_k(lam)
-    pm, ph = ellipsoid_points(t, cov, crit_s)
-    S = shape_index(pm + ph, pm - ph)
-    pm, ph = ellipsoid_points(t, cov, crit_k)
+    (sm, sh), (pm, ph) = ellipsoid_points(t, cov, (crit_s, crit_k))
+    S = shape_index(sm + sh, sm - sh)
     est = {"S": float(shape_index(m + h, m - h)), "k1": m + h, "k2": m - h, "kmax": abs(m) + h}
     vals = {"S": S, "k1": pm + ph, "k2": pm - ph, "kmax": np.abs(pm) + ph}
     out = {}
