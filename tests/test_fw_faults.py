@@ -219,3 +219,25 @@ def test_run_loop_survives_exceptions_and_feeds_the_watchdog(mocker):
     with pytest.raises(KeyboardInterrupt):
         rig.board.run(feed=feed)
     assert boom.call_count == 10 and rig.board.last_error == 0xFF
+
+
+def test_host_reopening_gets_hello_first_and_exact_drop_counts():
+    """Frames queued for a host that went away are dropped and counted, not resent."""
+    rig = streaming_rig()
+    rig.link.paused = True  # the old host stopped reading
+    rig.run(300_000)
+    queued = rig.board.tx.used
+    assert queued > 3000  # the ring is full of frames for nobody
+    rig.link.paused = False
+    rig.link.host_open()
+    rig.board.poll()
+    frames = rig.frames()
+    assert name(frames[0]) == "HELLO"
+    rig.run(1_100_000)
+    rig.frames()
+    frames = rig.log
+    seqs = [f[1] for f in frames]
+    lost = sum(b - a - 1 for a, b in zip(seqs, seqs[1:]))
+    assert lost == rig.board.tx.dropped
+    st = [s for s in statuses(frames) if s["faults"] & FAULT_TX_DROPPED]
+    assert st and st[-1]["tx_dropped"] == rig.board.tx.dropped

@@ -64,6 +64,18 @@ class TxRing:
                 return
 
     def clear(self):
+        """Forget what is queued (a new host session); its frames count as dropped.
+
+        Each queued frame ends with its one 0x00 (COBS leaves no other), so the
+        zeros in the ring are the frames the host will never get, including one
+        it got only the start of.
+        """
+        buf = self.buf
+        size = self.size
+        t = self.tail
+        for k in range(self.used):
+            if buf[(t + k) % size] == 0:
+                self.dropped += 1
         self.head = self.tail = self.used = 0
 
 
