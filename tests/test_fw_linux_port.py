@@ -3,8 +3,8 @@
 import os
 import pty
 
-from tactile_fw import port_linux
 from tactile_fw.ads122c04 import ADS122C04
+from tactile_fw.host_only import port_linux
 from tactile_fw.link import TxRing
 
 

@@ -2,7 +2,8 @@
 
 The board holds ``/lib/tactile_fw``, ``/lib/tactile_protocol`` and a two-line
 ``/main.py`` that starts ``tactile_fw.port_mpy.main``.  Files that only run
-on a Linux controller (``port_linux.py``) stay behind.  With ``mpy=True``
+on a Linux controller (the ``tactile_fw.host_only`` subpackage) stay behind:
+only each package's top-level modules are copied.  With ``mpy=True``
 each module is precompiled by mpy-cross (its .mpy version must match the
 board's MicroPython).
 """
@@ -18,8 +19,6 @@ import tactile_fw
 import tactile_protocol
 from tactile.errors import BoardError, InputError, PortError
 
-HOST_ONLY = frozenset({"port_linux.py"})
-
 
 def main_py(n_sensors=1, wdt_ms=0):
     return (
@@ -33,9 +32,8 @@ def board_files():
     out = []
     for pkg in (tactile_fw, tactile_protocol):
         src_dir = pathlib.Path(list(pkg.__path__)[0])  # also for a namespace-mode install
-        for src in sorted(src_dir.glob("*.py")):
-            if src.name not in HOST_ONLY:
-                out.append((src, f"lib/{src_dir.name}/{src.name}"))
+        for src in sorted(src_dir.glob("*.py")):  # top level only: host_only/ stays behind
+            out.append((src, f"lib/{src_dir.name}/{src.name}"))
     return out
 
 
