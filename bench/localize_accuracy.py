@@ -37,6 +37,21 @@ def _f(v, digits=4):
     return f"{v:.{digits}f}" if np.isfinite(v) else "null"
 
 
+def _score(r, method):
+    """Localise a schedule's readings; (usable fraction, point errors m, normal errors deg)."""
+    c, _ = scara_contacts(
+        r["force"], r["moment"], r["q"], LENGTHS, GATE_N, method,
+        FREDDY.half_thickness, FREDDY.arc_limit,
+    )  # fmt: skip
+    ok = c.usable & r["recorded"]
+    used = ok.sum() / max(r["recorded"].sum(), 1)
+    return (
+        used,
+        np.linalg.norm(c.point - r["point"], axis=1)[ok],
+        _angle_deg(c.normal, r["normal"])[ok],
+    )
+
+
 def _angle_deg(a, b):
     return np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0)))
 
@@ -58,20 +73,10 @@ def wheel_noise_table(seeds):
                     sigma_f=factor * SIGMA_F,
                     sigma_m=factor * SIGMA_M,
                 )
-                c, _ = scara_contacts(
-                    r["force"],
-                    r["moment"],
-                    r["q"],
-                    LENGTHS,
-                    GATE_N,
-                    method,
-                    FREDDY.half_thickness,
-                    FREDDY.arc_limit,
-                )
-                ok = c.usable & r["recorded"]
-                used.append(ok.sum() / max(r["recorded"].sum(), 1))
-                pe.append(np.linalg.norm(c.point - r["point"], axis=1)[ok])
-                ne.append(_angle_deg(c.normal, r["normal"])[ok])
+                u, p_err, n_err = _score(r, method)
+                used.append(u)
+                pe.append(p_err)
+                ne.append(n_err)
             pe, ne = np.concatenate(pe), np.concatenate(ne)
             print(
                 f"| {factor:g} | {method} | {np.mean(used):.3f} | {1e3 * _rms(pe):.3f} | "
@@ -88,20 +93,10 @@ def wheel_friction_table(seeds):
             pe, ne, used = [], [], []
             for seed in range(seeds):
                 r = probe_schedule(ch5_object("convex"), seed=seed, mu=mu)
-                c, _ = scara_contacts(
-                    r["force"],
-                    r["moment"],
-                    r["q"],
-                    LENGTHS,
-                    GATE_N,
-                    method,
-                    FREDDY.half_thickness,
-                    FREDDY.arc_limit,
-                )
-                ok = c.usable & r["recorded"]
-                used.append(ok.sum() / max(r["recorded"].sum(), 1))
-                pe.append(np.linalg.norm(c.point - r["point"], axis=1)[ok])
-                ne.append(_angle_deg(c.normal, r["normal"])[ok])
+                u, p_err, n_err = _score(r, method)
+                used.append(u)
+                pe.append(p_err)
+                ne.append(n_err)
             pe, ne = np.concatenate(pe), np.concatenate(ne)
             print(
                 f"| {mu:g} | {method} | {np.mean(used):.3f} | {1e3 * _rms(pe):.3f} | "
