@@ -13,11 +13,12 @@ from tactile.errors import InputError
 
 SCENE_DIR = pathlib.Path(__file__).resolve().parents[1] / "scenes"
 
-# motion kind -> module exposing ``build(scene) -> Motion``
+# motion kind -> module exposing ``build(scene) -> Motion``: every ``motion_KIND.py`` here.
+# Only the module a scene names is imported (device.build_motion).
 MOTIONS = {
-    "press": "tactile_sim.emulator.motion_press",
-    "rig": "tactile_sim.emulator.motion_rig",
-}  # to come: "sweep" (EP2, several fingers) and "roll" (EP1 through the F/T path)
+    p.stem.removeprefix("motion_"): f"tactile_sim.emulator.{p.stem}"
+    for p in sorted(pathlib.Path(__file__).parent.glob("motion_*.py"))
+}
 
 BOARD_DEFAULTS = {
     "rate_hz": 1000,
