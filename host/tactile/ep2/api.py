@@ -107,6 +107,28 @@ class PatchResult:
         pts = np.column_stack([xy, self.surface(xy)])
         return self.frame.to_world(pts)
 
+    def control_net(self):
+        """Control points (nx, ny, 3) of the fitted patch, patch frame, input units (§4.6).
+
+        x and y are the Greville abscissae of the knot vectors, where the
+        B-spline's linear precision puts them, so the surface is
+        sum P_ij N_i(u) M_j(v) with these points (the meshes of figs. 40, 43, 47).
+        """
+        fit, d = self.fit, self.fit.domain
+        kx, ky = fit.degree
+        gu, gv = (
+            np.array([np.mean(t[i + 1 : i + k + 1]) for i in range(len(t) - k - 1)])
+            for t, k in ((fit.tx, kx), (fit.ty, ky))
+        )
+        cx, cy = np.meshgrid(d.x0 + d.hx * gu, d.y0 + d.hy * gv, indexing="ij")
+        cz = np.reshape(fit.coef, cx.shape)
+        return np.stack([cx, cy, cz], axis=-1) * self.scale
+
+    def domain_box(self):
+        """(x_min, x_max, y_min, y_max) of the fitted patch, patch frame, input units."""
+        d = self.fit.domain
+        return tuple(v * self.scale for v in (d.x0, d.x0 + d.hx, d.y0, d.y0 + d.hy))
+
 
 def analyze_patch(
     points,

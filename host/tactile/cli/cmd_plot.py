@@ -1,0 +1,146 @@
+"""``tactile plot CONTACTS.csv|DIR``: PNGs of the contacts, the fitted patch and the S/C maps."""
+
+WHAT = ("contacts", "patch", "maps")
+WEIGHTINGS = ("auto", "tangent", "position")
+
+
+def add_arguments(parser):
+    parser.add_argument(
+        "source", help="EP2 contacts CSV, or a 'tactile record -o DIR' directory (DIR/contacts.csv)"
+    )
+    parser.add_argument(
+        "-o", "--outdir", help="where the PNGs go (default: next to the CSV, or DIR)"
+    )
+    parser.add_argument(
+        "--degree",
+        "--order",
+        dest="degree",
+        type=int,
+        default=2,
+        choices=(2, 3, 4, 5),
+        help="polynomial degree per direction: 2 biquadratic (default), 3 bicubic, 4 biquartic",
+    )
+    parser.add_argument(
+        "--weighting", choices=WEIGHTINGS, default="auto", help="row weights (§4.9)"
+    )
+    parser.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
+    parser.add_argument(
+        "--what",
+        default=",".join(WHAT),
+        help=f"comma-separated figures to draw, of {','.join(WHAT)} (default all)",
+    )
+
+
+def run(args):
+    import pathlib
+
+    from tactile import plots
+    from tactile.ep2 import analyze_patch
+    from tactile.ep2.contacts_csv import read_contacts
+    from tactile.errors import DataError, InputError
+
+    what = [w.strip() for w in args.what.split(",") if w.strip()]
+    unknown = [w for w in what if w not in WHAT]
+    if unknown or not what:
+        raise InputError(
+            f"--what: unknown figure {unknown[0] if unknown else '(none)'!r}"
+            f" (choose from {','.join(WHAT)})"
+        )
+    if args.grid < 2:
+        raise InputError(f"--grid must be at least 2 (got {args.grid})")
+    csv_path, stem, default_out = _source(pathlib.Path(args.source))
+    outdir = pathlib.Path(args.outdir) if args.outdir else default_out
+    plots.require_matplotlib()  # the install hint before any work
+    groups = read_contacts(csv_path)
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"{outdir}: cannot create the output directory ({exc.strerror})") from None
+
+    labels = _labels(groups)
+    failed = []
+    for g, label in zip(groups, labels, strict=True):
+        prefix = stem if label is None else f"{stem}_{label}"
+        name = g.patch if g.patch is not None else "1"
+        out = {w: outdir / f"{prefix}_{w}.png" for w in what}
+        if "contacts" in out:
+            _draw(
+                plots.plot_contacts,
+                g.points,
+                g.normals,
+                out["contacts"],
+                finger=g.finger,
+                title=f"patch {name}: {len(g.points)} contacts and normals",
+            )
+        if "patch" not in out and "maps" not in out:
+            continue
+        try:
+            res = analyze_patch(
+                g.points,
+                g.normals,
+                degree=args.degree,
+                weighting=args.weighting,
+                grid=args.grid,
+                finger=g.finger,
+                lines=g.lines,
+                maps="maps" in out,
+            )
+        except DataError as exc:
+            failed.append((name, str(exc)))
+            continue
+        if "patch" in out:
+            _draw(plots.plot_patch, res, g.points, g.normals, out["patch"], finger=g.finger)
+        if "maps" in out:
+            _draw(plots.plot_maps, res, out["maps"], points=g.points)
+    if failed:
+        name, why = failed[0]
+        raise DataError(
+            f"{csv_path}: {len(failed)} of {len(groups)} patch(es) not fitted, so not drawn;"
+            f" first: patch {name}: {why}"
+        )
+    return 0
+
+
+def _draw(plot, *args, **kw):
+    """Call a ``tactile.plots`` function and print the path it wrote."""
+    from tactile.errors import InputError
+
+    try:
+        path = plot(*args, **kw)
+    except OSError as exc:
+        raise InputError(
+            f"{exc.filename or 'output'}: cannot write the PNG ({exc.strerror})"
+        ) from None
+    print(path, flush=True)
+
+
+def _source(path):
+    """(csv path, file-name stem, default output directory) for a CSV or a record directory."""
+    from tactile.errors import InputError
+
+    if path.is_dir():
+        csv_path = path / "contacts.csv"
+        if not csv_path.is_file():
+            raise InputError(
+                f"{path}: no contacts.csv in this directory (expected 'tactile record -o {path}')"
+            )
+        return csv_path, path.resolve().name or "contacts", path
+    if not path.exists():
+        raise InputError(f"{path}: no such file or directory")
+    return path, path.stem, path.parent
+
+
+def _labels(groups):
+    """File-name part per patch: None for a file without a patch column, else a safe unique name."""
+    import re
+
+    if len(groups) == 1 and groups[0].patch is None:
+        return [None]
+    out, seen = [], set()
+    for i, g in enumerate(groups, 1):
+        label = re.sub(r"[^A-Za-z0-9.-]+", "-", g.patch).strip(".-") or str(i)
+        if label in seen:
+            label = f"{label}-{i}"
+        seen.add(label)
+        out.append(label)
+    return out

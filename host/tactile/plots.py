@@ -1,0 +1,202 @@
+"""PNG figures of an EP2 patch: contacts and normals, the fitted patch with its control
+mesh (thesis figs. 39 ii, 40, 43, 47) and the S and C maps over the grid (fig. 50).
+
+Functions take arrays or a ``PatchResult`` (``tactile.ep2.analyze_patch``) and a path,
+write the PNG and return the path.  matplotlib (the ``plot`` extra) is imported only
+inside them, with the Agg backend; without it they raise ``PlotUnavailable``.
+"""
+
+import numpy as np
+
+from tactile.errors import InputError, TactileError
+
+__all__ = [
+    "PlotUnavailable",
+    "map_grids",
+    "plot_contacts",
+    "plot_maps",
+    "plot_patch",
+    "require_matplotlib",
+]
+
+INSTALL_HINT = "matplotlib is not installed; plotting needs: pip install 'tactile[plot]'"
+DPI = 100
+S_CMAP = "RdBu_r"  # diverging: convex (S > 0) red, saddle white, concave blue
+C_CMAP = "viridis"
+NORMAL_LENGTH = 0.15  # arrow length as a fraction of the contacts' largest extent
+SURFACE_SAMPLES = 25  # per direction, for drawing the fitted surface
+
+
+class PlotUnavailable(TactileError):
+    """matplotlib is missing."""
+
+
+def require_matplotlib():
+    """Return ``matplotlib.pyplot`` on the Agg backend, or raise ``PlotUnavailable``."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise PlotUnavailable(INSTALL_HINT) from None
+    return plt
+
+
+def _contacts(points, normals):
+    """Validated (n, 3) points and unit normals."""
+    pts = np.asarray(points, float)
+    nrm = np.asarray(normals, float)
+    if pts.ndim != 2 or pts.shape[1] != 3 or nrm.shape != pts.shape or not len(pts):
+        raise InputError(f"points and normals must both be (n, 3); got {pts.shape}, {nrm.shape}")
+    length = np.linalg.norm(nrm, axis=1, keepdims=True)
+    if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm)) and np.all(length > 0)):
+        raise InputError("points and normals must be finite, normals of non-zero length")
+    return pts, nrm / length
+
+
+def _span(points):
+    return float(max(np.ptp(points, axis=0).max(), 1e-12))
+
+
+def _equal_3d(ax, points, pad):
+    """Equal scale on x, y and z (so normals look normal), each range padded by ``pad``."""
+    lo = points.min(axis=0) - pad
+    hi = points.max(axis=0) + pad
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(hi - lo))
+    ax.locator_params(axis="z", nbins=4)
+
+
+def _contacts_3d(ax, points, normals, finger, length):
+    """Contacts as dots (one colour per finger) with their normals as arrows."""
+    groups = [(None, np.arange(len(points)))]
+    if finger is not None:
+        labels = [str(f) for f in finger]
+        groups = [
+            (f, np.array([i for i, g in enumerate(labels) if g == f]))
+            for f in dict.fromkeys(labels)
+        ]
+    for n, (label, rows) in enumerate(groups):
+        colour = f"C{n % 10}"
+        p, v = points[rows], normals[rows] * length
+        ax.scatter(*p.T, color=colour, s=10, depthshade=False, label=label and f"finger {label}")
+        ax.quiver(*p.T, *v.T, color=colour, linewidth=0.8, arrow_length_ratio=0.25)
+
+
+def _save(plt, fig, path):
+    fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=0.15)
+    plt.close(fig)
+    return path
+
+
+def plot_contacts(points, normals, path, finger=None, title=None):
+    """Contact points with their normals in the input frame (fig. 39 ii)."""
+    plt = require_matplotlib()
+    pts, nrm = _contacts(points, normals)
+    length = NORMAL_LENGTH * _span(pts)
+    fig = plt.figure(figsize=(5.5, 5.0))
+    ax = fig.add_subplot(projection="3d")
+    _contacts_3d(ax, pts, nrm, finger, length)
+    _equal_3d(ax, np.vstack([pts, pts + nrm * length]), 0.05 * _span(pts))
+    if finger is not None:
+        ax.legend(fontsize=7, loc="upper left")
+    ax.set(xlabel="x", ylabel="y", zlabel="z")
+    ax.set_title(title or f"{len(pts)} contacts and normals", fontsize=10)
+    return _save(plt, fig, path)
+
+
+def plot_patch(result, points, normals, path, finger=None, title=None):
+    """The fitted patch with its control mesh and the contacts (figs. 40, 43, 47).
+
+    Drawn in the patch frame (z = mean outward normal, §5.1.2), to equal scale
+    on all axes, as the thesis draws its fits in the fitting frame.
+    """
+    plt = require_matplotlib()
+    pts, nrm = _contacts(points, normals)
+    pts, nrm = result.frame.to_patch(pts), result.frame.to_patch_dirs(nrm)
+    net = result.control_net()
+    x0, x1, y0, y1 = result.domain_box()
+    gx, gy = np.meshgrid(
+        np.linspace(x0, x1, SURFACE_SAMPLES), np.linspace(y0, y1, SURFACE_SAMPLES), indexing="ij"
+    )
+    gz = result.surface(np.column_stack([gx.ravel(), gy.ravel()])).reshape(gx.shape)
+    length = NORMAL_LENGTH * _span(pts)
+
+    fig = plt.figure(figsize=(6.0, 5.2))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot_surface(gx, gy, gz, color="0.75", alpha=0.55, linewidth=0, shade=True)
+    ax.plot_wireframe(*np.moveaxis(net, -1, 0), color="k", linewidth=0.9, label="control mesh")
+    ax.scatter(*net.reshape(-1, 3).T, color="k", s=14, marker="s", depthshade=False)
+    _contacts_3d(ax, pts, nrm, finger, length)
+    surface = np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()])
+    every = np.vstack([pts, pts + nrm * length, net.reshape(-1, 3), surface])
+    _equal_3d(ax, every, 0.05 * _span(pts))
+    ax.set(xlabel="patch x", ylabel="patch y", zlabel="patch z")
+    ax.legend(fontsize=7, loc="upper left")
+    ax.set_title(title or _summary(result), fontsize=10)
+    return _save(plt, fig, path)
+
+
+def _summary(result):
+    """'degree 2x2 auto fit: cylinder (0.98), S 0.501, radius 6.98' for a title."""
+    kx, ky = result.fit.degree
+    text = f"degree {kx}x{ky} {result.weighting} fit: {result.shape} ({result.confidence:.2f})"
+    if result.S_patch is not None:
+        text += f", S {result.S_patch:.3f}"
+    if result.radius is not None:
+        text += f", radius {result.radius:.3g}"
+    return text
+
+
+def map_grids(result):
+    """The N x N grid maps of ``result`` (analysed with ``maps=True``) as (N, N) arrays.
+
+    Returns a dict with ``x``, ``y`` (patch frame, input units), ``S`` and ``C``
+    (None for a plane, whose S and C are not computed, §4.8.2), x index first.
+    """
+    maps = result.maps
+    if not maps:
+        raise ValueError("analyze_patch(..., maps=True) is needed for the S and C maps")
+    n = int(round(np.sqrt(maps["x"].size)))
+    out = {k: np.reshape(maps[k], (n, n)) for k in ("x", "y")}
+    for k in ("S", "C"):
+        out[k] = np.reshape(maps[k], (n, n)) if k in maps else None
+    return out
+
+
+def plot_maps(result, path, points=None, title=None):
+    """S (left, on [-1, 1], diverging colours) and C (right) over the analysis grid (fig. 50).
+
+    ``result`` needs ``maps=True``.  ``points`` (input frame), if given, are
+    drawn as dots at their patch-frame (x, y).  For a plane the panels say why
+    they are empty.
+    """
+    plt = require_matplotlib()
+    grids = map_grids(result)
+    x, y = grids["x"], grids["y"]
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.4), layout="constrained")
+    panels = (
+        ("S", "shape index S", dict(cmap=S_CMAP, vmin=-1.0, vmax=1.0)),
+        ("C", "curvedness C = (2/pi) ln R", dict(cmap=C_CMAP)),
+    )
+    xy = None if points is None else result.frame.to_patch(np.asarray(points, float))
+    for ax, (key, label, style) in zip(axes, panels, strict=True):
+        values = grids[key]
+        if values is None:
+            note = f"plane: {key} not computed\n(curvedness below what the data resolve)"
+            ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes)
+            hx, hy = (0.5 * np.ptp(v) / (v.shape[0] - 1) for v in (x, y))
+            ax.set(xlim=(x.min() - hx, x.max() + hx), ylim=(y.min() - hy, y.max() + hy))
+        else:
+            mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(values), shading="nearest", **style)
+            fig.colorbar(mesh, ax=ax, label=label)
+        if xy is not None:
+            ax.plot(xy[:, 0], xy[:, 1], "k.", ms=3)
+        ax.set_aspect("equal")
+        ax.set(xlabel="patch x", ylabel="patch y", title=label)
+    n = x.shape[0]
+    fig.suptitle(title or f"S and C on the {n}x{n} grid; {_summary(result)}", fontsize=10)
+    return _save(plt, fig, path)
