@@ -199,16 +199,17 @@ def test_control_net_matches_closed_form_bezier_of_a_paraboloid():
     np.testing.assert_allclose(net[..., 2], cx[:, None] + cy[None, :] - zc, atol=1e-9)
 
 
-def test_control_net_spans_the_fitted_surface_bicubic():
+@pytest.mark.parametrize(("degree", "segments", "shape"), [(3, 1, (4, 4)), (2, (1, 2), (3, 4))])
+def test_control_net_spans_the_fitted_surface(degree, segments, shape):
     """The net as a parametric B-spline (scipy design matrices) is the fitted surface."""
     pts, nrm = cylinder()
-    res = analyze_patch(pts, nrm, degree=3)
+    res = analyze_patch(pts, nrm, degree=degree, segments=segments)
     net = res.control_net()
-    assert net.shape == (4, 4, 3)
+    assert net.shape == (*shape, 3)
     fit = res.fit
     u = np.linspace(0.0, 1.0, 7)
-    bu = BSpline.design_matrix(u, np.array(fit.tx), 3).toarray()
-    bv = BSpline.design_matrix(u, np.array(fit.ty), 3).toarray()
+    bu = BSpline.design_matrix(u, np.array(fit.tx), degree).toarray()
+    bv = BSpline.design_matrix(u, np.array(fit.ty), degree).toarray()
     surf = np.einsum("ai,bj,ijc->abc", bu, bv, net)
     x0, x1, y0, y1 = res.domain_box()
     np.testing.assert_allclose(surf[..., 0], (x0 + (x1 - x0) * u)[:, None] + 0 * u, atol=1e-9)
