@@ -1,14 +1,10 @@
 """The chapter 5 experiment replicated (thesis §5.1-5.2, tables 5-7).
 
-Functional pieces the CLI chains: contact frames and the robot's pose log
-become world contacts (wheel probe, eqs. 60-62), the contacts become a
-patch analysis with tangent- and position-weighted biquadratic fits on an
-8x8 grid, and the results sit beside the thesis's tables.
+The recorded contact frames and the robot's pose log become world contacts in
+``tactile.derive`` (wheel probe, eqs. 60-62); here the contacts become a patch
+analysis with tangent- and position-weighted biquadratic fits on an 8x8 grid,
+and the thesis's tables 5-7 to print beside it.
 """
-
-import numpy as np
-
-from tactile_protocol import constants as C
 
 # Thesis tables 5-7: (S, sd S, R, sd R, radius cm) for the tangent and position fits.
 THESIS = {
@@ -22,57 +18,6 @@ THESIS = {
 TRUE_RADIUS_CM = {"plane": None, "convex": 6.6, "concave": 11.25}
 
 
-def contact_samples(messages, per_contact=2):
-    """The first ``per_contact`` CONTACT frames (BEGIN, then IN) of every contact.
-
-    Returns (timestamps_us, wrench (n, 6) in N and N*m, contact ids).
-    """
-    taken = {}
-    rows = []
-    for m in messages:
-        if m.type_name != "CONTACT" or m.phase == C.PHASE_END:
-            continue
-        if m.phase == C.PHASE_BEGIN:
-            taken[m.contact_id] = 0
-        k = taken.get(m.contact_id)
-        if k is None or k >= per_contact:
-            continue
-        taken[m.contact_id] = k + 1
-        rows.append((m.timestamp_us, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
-    a = np.array(rows, dtype=float).reshape(-1, 8)
-    return a[:, 0], a[:, 2:] * C.FORCE_LSB_N, a[:, 1].astype(int)
-
-
-def joints_at(times_us, poses):
-    """Joints (q1, q2, q3, z) and finger from the pose log rows covering each time.
-
-    Rows are (t_start_us, t_end_us, finger, q1, q2, q3, z); a time outside every
-    window gets NaN joints and finger -1, which the caller must drop.
-    """
-    poses = np.asarray(poses, dtype=float)
-    joints = np.full((len(times_us), 4), np.nan)
-    finger = np.full(len(times_us), -1)
-    for i, t in enumerate(times_us):
-        hit = np.nonzero((poses[:, 0] <= t) & (t <= poses[:, 1]))[0]
-        if len(hit):
-            joints[i] = poses[hit[0], 3:7]
-            finger[i] = int(poses[hit[0], 2])
-    return joints, finger
-
-
-def world_contacts(times_us, wrench, poses, lengths, threshold):
-    """World points (cm) and normals of the usable readings, with their finger."""
-    from tactile.localize import scara_contacts
-
-    joints, finger = joints_at(times_us, poses)
-    posed = finger >= 0
-    contact, _ = scara_contacts(
-        wrench[posed, :3], wrench[posed, 3:], joints[posed], lengths, threshold=threshold
-    )
-    ok = np.asarray(contact.usable)
-    return contact.point[ok] * 100.0, contact.normal[ok], finger[posed][ok]
-
-
 def analyse(points_cm, normals, finger):
     """Tangent- and position-weighted biquadratic fits on an 8x8 grid (§5.2)."""
     from tactile.ep2 import analyze_patch
@@ -83,3 +28,52 @@ def analyse(points_cm, normals, finger):
             points_cm, normals, degree=2, weighting=weighting, grid=8, finger=finger
         )
     return out
+
+
+def replicate(kind, outdir, port=None, scene_time_us=None, on_progress=None):
+    """Record the ch. 5 scene for ``kind`` over a serial port and derive its contacts.
+
+    ``port``: a device serving ``ch5_KIND`` (a pty from ``tactile emulate``) with
+    ``scene_time_us`` reading its simulated clock, or None for the in-process
+    ``sim://ch5_KIND``.  The robot's pose log is written from the scene; recording stops
+    when the motion is over.  Returns (meta, derive lines, analysis per weighting).
+    """
+    import pathlib
+
+    from tactile.derive import derive
+    from tactile.ep2.contacts_csv import read_contacts
+    from tactile.record_session import Session
+    from tactile.recording import remove_recording
+    from tactile.serial_port import open_port
+    from tactile_sim.emulator import load_scene
+    from tactile_sim.emulator.device import build_motion
+
+    outdir = pathlib.Path(outdir)
+    remove_recording(outdir)  # the replica's own scratch output: each run starts afresh
+    outdir.mkdir(parents=True, exist_ok=True)
+    motion = build_motion(load_scene(f"ch5_{kind}"))
+    pose_log = outdir / "poses.csv"
+    motion.write_pose_log(pose_log)
+    opened = []
+
+    def opener(name):
+        opened.append(open_port(name))
+        return opened[-1]
+
+    if scene_time_us is None:
+        scene_time_us = lambda: opened[-1].emulator.t_us  # noqa: E731  (sim://)
+
+    def scene_over(session):
+        return "scene end" if scene_time_us() >= motion.duration_s * 1e6 else None
+
+    session = Session(
+        port or f"sim://ch5_{kind}",
+        outdir,
+        opener=opener,
+        stop_when=scene_over,
+        on_progress=on_progress,
+    )
+    meta = session.run()
+    lines = derive(outdir, pose_log)
+    patch = read_contacts(outdir / "contacts.csv")[0]
+    return meta, lines, analyse(patch.points, patch.normals, patch.finger)

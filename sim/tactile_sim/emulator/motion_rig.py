@@ -8,7 +8,8 @@ robot's joint angles are not on the F/T wire: ``poses`` holds them per time
 window, as the robot controller would log them (``write_pose_log``).
 
 Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
-``samples``, ``mu`` (Coulomb friction), ``hold_s``, ``speed_mps``.
+``samples``, ``mu`` (Coulomb friction), ``hold_s``, ``speed_mps``, ``lead_in_s``
+(the robot rests this long before the first approach: time for the host's TARE).
 """
 
 import numpy as np
@@ -17,13 +18,16 @@ POSE_COLUMNS = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
 
 
 class RigMotion:
-    def __init__(self, schedule, line):
+    def __init__(self, schedule, line, lead_in_s=0.0, lengths=None):
         self.schedule = schedule
-        self.t = line["t"]
-        self.wrench = np.hstack([line["force"], line["moment"]])
-        self.onset = line["onset"]
-        self.release = line["release"]
-        self.touch = line["touch"]
+        self.lengths = lengths
+        rest = [0.0] if lead_in_s > 0 else []
+        self.t = np.concatenate([rest, line["t"] + lead_in_s])
+        wrench = np.hstack([line["force"], line["moment"]])
+        self.wrench = np.vstack([np.zeros((len(rest), 6)), wrench])
+        self.onset = line["onset"] + lead_in_s
+        self.release = line["release"] + lead_in_s
+        self.touch = np.concatenate([np.full(len(rest), -1), line["touch"]])
         self.duration_s = float(self.t[-1]) if len(self.t) else 0.0
 
     def wrench_at(self, t_s, sensor=0):
@@ -41,7 +45,11 @@ class RigMotion:
         return rows
 
     def write_pose_log(self, path):
+        """The robot controller's log: joints per touch, the rig's lengths (m) in a comment."""
         with open(path, "w") as fh:
+            if self.lengths is not None:
+                L = " ".join(f"L{i + 1}={v!r}" for i, v in enumerate(self.lengths))
+                fh.write(f"# rig: scara {L}\n")
             fh.write(",".join(POSE_COLUMNS) + "\n")
             for row in self.poses():
                 fh.write(",".join(repr(v) for v in row) + "\n")
@@ -75,4 +83,7 @@ def build(scene):
         hold=float(m.get("hold_s", 0.05)),
         speed=float(m.get("speed_mps", 0.01)),
     )
-    return RigMotion(schedule, line)
+    from tactile_sim.rig.geometry import FREDDY
+
+    lengths = (FREDDY.L1, FREDDY.L2, FREDDY.L3, FREDDY.L4)
+    return RigMotion(schedule, line, float(m.get("lead_in_s", 1.0)), lengths)

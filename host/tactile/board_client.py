@@ -1,0 +1,194 @@
+"""Talking to a board (or the emulator) over an open serial port: PROTOCOL.md §4.
+
+``BoardClient`` wraps any pyserial-like object (``read``, ``write``,
+``in_waiting``).  Every byte read goes first to the optional ``capture``
+callable (the recorder appends it to disk) and then to the decoder, so
+nothing received is lost whatever happens next.  Messages that arrive while
+a command waits for its ACK are kept in ``backlog`` and returned by the next
+``read``: commands never swallow the stream.
+
+``handshake`` waits for the HELLO a board sends when its port opens; a board
+without DTR (MicroPython's USB stdio on the Pico) may not notice the open, so
+after half the timeout the client asks with GET_INFO.
+"""
+
+import time
+
+from tactile.errors import BoardError, BoardTimeout, InputError, ProtocolVersionError
+from tactile.stream_decoder import StreamDecoder
+from tactile_protocol import constants as C
+from tactile_protocol.framing import FrameEncoder
+
+NAK_REASONS = {
+    C.NAK_UNKNOWN_COMMAND: "unknown command",
+    C.NAK_BAD_LENGTH: "bad length",
+    C.NAK_OUT_OF_RANGE: "out of range",
+    C.NAK_BAD_STATE: "bad state",
+    C.NAK_HARDWARE: "hardware fault",
+    C.NAK_BAD_VERSION: "bad version",
+    C.NAK_STORAGE: "storage error",
+}
+COMMAND_NAMES = {
+    C.CMD_PING: "PING",
+    C.CMD_GET_INFO: "GET_INFO",
+    C.CMD_CONFIG: "CONFIG",
+    C.CMD_TARE: "TARE",
+    C.CMD_START: "START",
+    C.CMD_STOP: "STOP",
+    C.CMD_SET_CAL: "SET_CAL",
+}
+# Payload field names per command, for naming the field a NAK's ``detail`` points at.
+COMMAND_FIELDS = {
+    C.CMD_CONFIG: ("rate_hz", "enter_threshold", "exit_threshold", "debounce", "flags"),
+    C.CMD_TARE: ("sensor", "n_samples"),
+    C.CMD_SET_CAL: ("sensor", "cal_id", "matrix"),
+}
+MAX_READ = 65536  # bytes per read call: bounded whatever the device claims to have
+
+
+class CommandRefused(BoardError):
+    """The board answered NAK; the message names the command, the reason and the field."""
+
+
+def nak_message(nak):
+    name = COMMAND_NAMES.get(nak.cmd_type, f"command 0x{nak.cmd_type:02x}")
+    reason = NAK_REASONS.get(nak.reason, f"reason {nak.reason}")
+    fields = COMMAND_FIELDS.get(nak.cmd_type, ())
+    if nak.detail != C.NAK_DETAIL_NONE:
+        field = fields[nak.detail] if nak.detail < len(fields) else f"field {nak.detail}"
+        return f"board refused {name}: {reason} ({field})"
+    return f"board refused {name}: {reason}"
+
+
+class BoardClient:
+    """See the module docstring.  ``name`` is used in messages (the port's path)."""
+
+    def __init__(self, port, name="board", capture=None, clock=time.monotonic):
+        self.port = port
+        self.name = name
+        self.capture = capture
+        self.clock = clock
+        self.decoder = StreamDecoder()
+        self.encoder = FrameEncoder()
+        self.backlog = []
+        self.info = None  # the latest HELLO or INFO
+
+    # -- the byte stream -------------------------------------------------------
+    def _pull(self):
+        """Read what the port has (waiting up to its timeout for the first byte)."""
+        waiting = self.port.in_waiting
+        data = self.port.read(min(max(waiting, 1), MAX_READ))
+        if data:
+            if self.capture is not None:
+                self.capture(data)
+            msgs = self.decoder.feed(data)
+            for m in msgs:
+                if m.type_code in (C.MSG_HELLO, C.MSG_INFO):
+                    self.info = m
+            return msgs
+        return []
+
+    def read(self):
+        """Messages received since the last call (the backlog first)."""
+        out, self.backlog = self.backlog, []
+        return out + self._pull()
+
+    def send(self, mtype, values=()):
+        """Send one command; return its sequence number."""
+        seq = self.encoder.seq
+        try:
+            frame = bytes(self.encoder.encode(mtype, 0, values))
+        except (ValueError, OverflowError, TypeError) as exc:
+            name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
+            raise InputError(f"{name}: a value does not fit the protocol: {exc}") from None
+        self.port.write(frame)
+        return seq
+
+    # -- request / reply --------------------------------------------------------
+    def command(self, mtype, values=(), timeout=1.0):
+        """Send a command and wait for its ACK; raise CommandRefused on NAK, BoardTimeout."""
+        seq = self.send(mtype, values)
+        deadline = self.clock() + timeout
+        while self.clock() < deadline:
+            for m in self._pull():
+                if m.type_code in (C.MSG_ACK, C.MSG_NAK) and m.cmd_seq == seq:
+                    if m.type_code == C.MSG_NAK:
+                        raise CommandRefused(f"{self.name}: {nak_message(m)}")
+                    return m
+                self.backlog.append(m)
+        name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
+        raise BoardTimeout(f"{self.name}: no answer to {name} within {timeout:g} s")
+
+    def handshake(self, timeout=2.0):
+        """Wait for HELLO (asking with GET_INFO halfway); return the HELLO/INFO message."""
+        start = self.clock()
+        asked = False
+        while self.clock() - start < timeout:
+            msgs = self._pull()
+            self.backlog += msgs
+            if self.info is not None:
+                return self.info
+            self._check_version()
+            if not asked and self.clock() - start >= timeout / 2:
+                self.send(C.CMD_GET_INFO)
+                asked = True
+        self._check_version()
+        raise BoardTimeout(
+            f"{self.name}: no HELLO within {timeout:g} s (is the tactile firmware running? "
+            "'tactile flash' installs it)"
+        )
+
+    def _check_version(self):
+        c = self.decoder.counters
+        if c.version_mismatch and c.frames == 0:
+            raise ProtocolVersionError(
+                f"{self.name}: the device speaks protocol version {c.last_version}, "
+                f"this host speaks version {C.PROTOCOL_VERSION} (update the "
+                f"{'firmware' if c.last_version < C.PROTOCOL_VERSION else 'host'})"
+            )
+
+    # -- the commands -------------------------------------------------------------
+    def get_info(self, timeout=1.0):
+        self.info = None
+        self.command(C.CMD_GET_INFO, timeout=timeout)
+        if self.info is None:
+            raise BoardTimeout(f"{self.name}: ACK to GET_INFO without INFO")
+        return self.info
+
+    def tare(self, sensor=C.SENSOR_ALL, n_samples=64, timeout=5.0):
+        """Bias the F/T sensor(s); the ACK comes once the bias is captured."""
+        return self.command(C.CMD_TARE, (sensor, n_samples), timeout=timeout)
+
+    def configure(self, rate_hz, enter, exit_, debounce, flags, timeout=1.0):
+        """CONFIG (thresholds in N); values are checked by the board (NAK names the field)."""
+        values = (
+            int(rate_hz),
+            round(enter / C.FORCE_LSB_N),
+            round(exit_ / C.FORCE_LSB_N),
+            int(debounce),
+            int(flags),
+        )
+        return self.command(C.CMD_CONFIG, values, timeout=timeout)
+
+    def start(self, timeout=1.0):
+        return self.command(C.CMD_START, timeout=timeout)
+
+    def stop(self, timeout=1.0):
+        return self.command(C.CMD_STOP, timeout=timeout)
+
+
+def info_dict(info):
+    """HELLO/INFO as plain JSON-ready values (thresholds in N, flags named)."""
+    d = info.to_dict()
+    d["enter_threshold_N"] = info.enter_threshold * C.FORCE_LSB_N
+    d["exit_threshold_N"] = info.exit_threshold * C.FORCE_LSB_N
+    d["streams"] = [
+        name
+        for name, bit in (("samples", C.CFG_STREAM_SAMPLES), ("contacts", C.CFG_STREAM_CONTACTS))
+        if info.flags & bit
+    ]
+    d["gate"] = "3d" if info.flags & C.CFG_GATE_3D else "xy"
+    d["autostart"] = bool(info.flags & C.CFG_AUTOSTART)
+    d["streaming"] = bool(info.flags & C.CFG_STREAMING)
+    d["cal_ids"] = [getattr(info, f"cal_id_{i}") for i in range(info.n_sensors)]
+    return d

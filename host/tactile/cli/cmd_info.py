@@ -1,0 +1,40 @@
+"""``tactile info --port P``: the board's INFO (firmware, protocol, sensors, configuration)."""
+
+from tactile.cli.board_args import add_port_argument, connect
+
+
+def add_arguments(parser):
+    add_port_argument(parser)
+    parser.add_argument("--json", action="store_true", help="one JSON object")
+
+
+def run(args):
+    from tactile.board_client import info_dict
+    from tactile.jsonout import dumps
+
+    client = connect(args)
+    try:
+        info = info_dict(client.get_info())
+    finally:
+        client.port.close()
+    if args.json:
+        print(dumps(info))
+    else:
+        print(format_info(info))
+    return 0
+
+
+def format_info(d):
+    return "\n".join(
+        [
+            f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"
+            f"  (protocol {d['protocol_version']})",
+            f"sensor        {d['sensor_model']} x {d['n_sensors']}, calibration ids {d['cal_ids']}",
+            f"rate          {d['rate_hz']} Hz (ceiling {d['max_rate_hz']} Hz)",
+            f"gate          {d['gate']}: enter {d['enter_threshold_N']:.4g} N, "
+            f"exit {d['exit_threshold_N']:.4g} N, debounce {d['debounce']}",
+            f"streams       {', '.join(d['streams']) or 'none'}"
+            f"{' (autostart)' if d['autostart'] else ''}; "
+            f"{'streaming' if d['streaming'] else 'stopped'}",
+        ]
+    )

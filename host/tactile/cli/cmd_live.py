@@ -1,0 +1,73 @@
+"""``tactile live --port P``: a terminal view of force/torque and contact state.
+
+By default the SAMPLE stream is switched on for the session (not persisted)
+and the board's configuration is restored on exit; ``--as-is`` leaves it.
+"""
+
+import sys
+import time
+
+from tactile.cli.board_args import add_port_argument, connect
+
+REFRESH_S = 0.1
+
+
+def add_arguments(parser):
+    add_port_argument(parser)
+    parser.add_argument("--duration", type=float, help="stop after S seconds (default: Ctrl-C)")
+    parser.add_argument("--as-is", action="store_true", help="do not switch on SAMPLE frames")
+
+
+def run(args):
+    from tactile.live_view import LiveState
+
+    client = connect(args)
+    restore = None if args.as_is else _samples_on(client)
+    state, tty = LiveState(), sys.stdout.isatty()
+    start = last = time.monotonic()
+    drawn = 0
+    try:
+        while args.duration is None or time.monotonic() - start < args.duration:
+            state.update(client.read())
+            now = time.monotonic()
+            if now - last >= (REFRESH_S if tty else 1.0):
+                last = now
+                drawn = _draw(state, client, now - start, tty, drawn)
+        _draw(state, client, time.monotonic() - start, tty, drawn)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if restore is not None:
+            client.configure(*restore)
+        client.port.close()
+    return 0
+
+
+def _samples_on(client):
+    """Turn the SAMPLE stream on; return the CONFIG values that restore the board."""
+    from tactile_protocol import constants as C
+
+    i = client.get_info()
+    values = (
+        i.rate_hz,
+        i.enter_threshold * C.FORCE_LSB_N,
+        i.exit_threshold * C.FORCE_LSB_N,
+        i.debounce,
+        i.flags & C.CFG_WRITABLE & ~C.CFG_PERSIST,
+    )
+    if not values[4] & C.CFG_STREAM_SAMPLES:
+        client.configure(*values[:4], values[4] | C.CFG_STREAM_SAMPLES)
+    if not i.flags & C.CFG_STREAMING:
+        client.start()
+    return values
+
+
+def _draw(state, client, elapsed, tty, drawn):
+    c = client.decoder.counters
+    lines = state.render()
+    lines.append(f"{elapsed:6.1f} s  frames {c.frames}  lost {c.lost_frames}  damaged {c.damaged}")
+    if tty and drawn:
+        sys.stdout.write(f"\x1b[{drawn}F")  # back to the first line drawn last time
+    sys.stdout.write("".join(f"{line}\x1b[K\n" if tty else f"{line}\n" for line in lines))
+    sys.stdout.flush()
+    return len(lines)

@@ -1,0 +1,34 @@
+"""``tactile tare --port P``: bias the F/T sensor(s); returns once the board has the bias."""
+
+from tactile.cli.board_args import add_port_argument, connect
+
+
+def add_arguments(parser):
+    add_port_argument(parser)
+    parser.add_argument("--sensor", default="all", help="sensor index or 'all' (default)")
+    parser.add_argument("--samples", type=int, default=64, help="readings averaged (default 64)")
+
+
+def run(args):
+    from tactile.errors import InputError
+    from tactile_protocol import constants as C
+
+    sensor = _sensor(args.sensor, InputError)
+    if not 0 < args.samples < 65536:
+        raise InputError(f"--samples: {args.samples} is not in 1..65535")
+    client = connect(args)
+    try:
+        client.tare(C.SENSOR_ALL if sensor is None else sensor, args.samples)
+    finally:
+        client.port.close()
+    which = "all sensors" if sensor is None else f"sensor {sensor}"
+    print(f"tared {which} ({args.samples} readings)")
+    return 0
+
+
+def _sensor(text, error):
+    if text == "all":
+        return None
+    if text.isdigit() and int(text) < 4:
+        return int(text)
+    raise error(f"--sensor: {text!r} is not 0..3 or 'all'")

@@ -1,0 +1,206 @@
+"""From a recording and the robot's pose log to the inputs of EP2 and EP1.
+
+The F/T wire carries no robot pose: the robot controller logs it.  The pose
+log's header says what it is:
+
+- ``t_start_us,t_end_us,finger,q1,q2,q3,z`` (+ ``# rig: scara L1=.. L2=.. L3=.. L4=..``):
+  the ch. 5 SCARA with its wheel probe (eqs. 60-62) -> ``contacts.csv`` (cm, as tables 5-7);
+- ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: a spherical fingertip's sensor pose
+  per window (``tactile.localize.pose_log``) -> ``contacts.csv`` (m);
+- ``probe,t_start_us,t_end_us,dtheta_x,dtheta_y``: EP1 rolling probes
+  (``tactile.ep1.from_ft``) -> ``probes.csv``.
+
+The CONTACT frames come from ``capture.bin`` (the recording's source of truth).
+"""
+
+import pathlib
+
+import numpy as np
+
+from tactile.errors import DataError, InputError, where
+from tactile_protocol import constants as C
+
+SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
+SCARA_PER_CONTACT = 2  # §5.1: two samples per probed point
+
+
+def contact_frames(messages, per_contact=None, above_N=None, gate="xy"):
+    """CONTACT readings (BEGIN and IN; END is already outside the gate).
+
+    ``per_contact``: keep only the first N readings of each contact (per sensor);
+    ``above_N``: only readings whose gated force (x-y or 3-D magnitude) exceeds it, as
+    §5.1 takes a sample "when the x-y force exceeds 5 units" (inside a contact, the
+    firmware's hysteresis lets the force dip to the exit threshold).
+    Returns (timestamps_us, sensor, wrench (n, 6) in N and N*m, contact ids).
+    """
+    taken, rows = {}, []
+    floor = None if above_N is None else above_N / C.FORCE_LSB_N
+    for m in messages:
+        if m.type_code != C.MSG_CONTACT or m.phase == C.PHASE_END:
+            continue
+        if floor is not None:
+            fz2 = m.fz * m.fz if gate == "3d" else 0
+            if m.fx * m.fx + m.fy * m.fy + fz2 <= floor * floor:
+                continue
+        key = (m.sensor, m.contact_id)
+        if m.phase == C.PHASE_BEGIN or (floor is not None and key not in taken):
+            taken[key] = 0
+        k = taken.get(key)
+        if k is None or (per_contact is not None and k >= per_contact):
+            continue
+        taken[key] = k + 1
+        rows.append((m.timestamp_us, m.sensor, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
+    a = np.array(rows, dtype=float).reshape(-1, 9)
+    wrench = a[:, 3:] * np.repeat([C.FORCE_LSB_N, C.TORQUE_LSB_NM], 3)
+    return a[:, 0], a[:, 1].astype(int), wrench, a[:, 2].astype(int)
+
+
+def header_of(path):
+    """(column names, {tag: {key: value}}) from a CSV's ``# tag: name k=v ..`` comments."""
+    tags = {}
+    try:
+        with open(path, encoding="utf-8") as fh:
+            for line in fh:
+                text = line.strip()
+                if text.startswith("#"):
+                    tag, _, rest = text[1:].partition(":")
+                    words = rest.split()
+                    if words:
+                        kv = dict(w.split("=", 1) for w in words[1:] if "=" in w)
+                        tags[tag.strip()] = {"name": words[0], **kv}
+                elif text:
+                    return [c.strip() for c in text.split(",")], tags
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read the pose log: {exc}") from None
+    raise InputError(f"{path}: empty pose log, expected a header row")
+
+
+def scara_lengths(path, tags):
+    rig = tags.get("rig", {})
+    try:
+        return tuple(float(rig[k]) for k in ("L1", "L2", "L3", "L4"))
+    except (KeyError, ValueError):
+        raise InputError(
+            f"{where(path, 1)}: a SCARA pose log needs '# rig: scara L1=.. L2=.. L3=.. L4=..' (m)"
+        ) from None
+
+
+def scara_windows(path):
+    from tactile.tabular import read_csv
+
+    table = read_csv(path, SCARA)
+    return table.array(*SCARA)
+
+
+def joints_at(times_us, poses):
+    """Joints (q1, q2, q3, z) and finger from the pose-log rows covering each time.
+
+    Rows are (t_start_us, t_end_us, finger, q1, q2, q3, z); a time outside every
+    window gets NaN joints and finger -1, which the caller drops.
+    """
+    poses = np.asarray(poses, dtype=float).reshape(-1, 7)
+    joints = np.full((len(times_us), 4), np.nan)
+    finger = np.full(len(times_us), -1)
+    for i, t in enumerate(times_us):
+        hit = np.nonzero((poses[:, 0] <= t) & (t <= poses[:, 1]))[0]
+        if len(hit):
+            joints[i] = poses[hit[0], 3:7]
+            finger[i] = int(poses[hit[0], 2])
+    return joints, finger
+
+
+def scara_world_contacts(times_us, wrench, poses, lengths, threshold):
+    """World points (m) and normals of the usable readings, their finger, and a report."""
+    from tactile.localize import scara_contacts
+
+    joints, finger = joints_at(times_us, poses)
+    posed = finger >= 0
+    contact, _ = scara_contacts(
+        wrench[posed, :3], wrench[posed, 3:], joints[posed], lengths, threshold=threshold
+    )
+    ok = np.asarray(contact.usable)
+    report = {"readings": len(times_us), "outside_pose_log": int((~posed).sum())}
+    report.update(contact.counts())
+    return contact.point[ok], contact.normal[ok], finger[posed][ok], report
+
+
+def _gate(meta):
+    """(enter threshold N, gate 'xy' or '3d') of the recorded board."""
+    dev = (meta or {}).get("device") or {}
+    return float(dev.get("enter_threshold_N", 0.0)), dev.get("gate", "xy")
+
+
+def derive(outdir, pose_log, per_contact=None):
+    """Write contacts.csv or probes.csv into ``outdir``; return lines to print."""
+    import json
+
+    from tactile.stream_decoder import decode_bytes
+
+    outdir = pathlib.Path(outdir)
+    columns, tags = header_of(pose_log)
+    try:
+        data = (outdir / "capture.bin").read_bytes()
+        meta = json.loads((outdir / "meta.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{outdir}: not a complete recording: {exc}") from None
+    messages, _ = decode_bytes(data)
+    threshold, gate = _gate(meta)
+    if "q1" in columns:
+        return _derive_scara(outdir, pose_log, tags, messages, threshold, gate, per_contact)
+    if "qw" in columns:
+        return _derive_posed(outdir, pose_log, messages, threshold, per_contact)
+    if "dtheta_x" in columns:
+        return _derive_probes(outdir, pose_log, messages, threshold)
+    raise InputError(
+        f"{where(pose_log, 1)}: not a pose log (need q1..z, px..qz or dtheta_x columns)"
+    )
+
+
+def _write(path, text):
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+
+
+def _derive_scara(outdir, pose_log, tags, messages, threshold, gate, per_contact):
+    from tactile.localize import format_contacts
+
+    lengths = scara_lengths(pose_log, tags)
+    n = SCARA_PER_CONTACT if per_contact is None else per_contact
+    t, sensor, wrench, _ = contact_frames(messages, n, above_N=threshold, gate=gate)
+    points, normals, finger, report = scara_world_contacts(
+        t, wrench, scara_windows(pose_log), lengths, threshold
+    )
+    if len(points) == 0:
+        raise DataError(f"{outdir}: no contact could be localised ({report})")
+    path = outdir / "contacts.csv"
+    _write(path, format_contacts(points, normals, finger=finger, scale=100.0))
+    return [f"{len(points)} of {len(t)} contact readings localised (cm) -> {path}; {report}"]
+
+
+def _derive_posed(outdir, pose_log, messages, threshold, per_contact):
+    from tactile.localize import format_contacts
+    from tactile.localize.pose_log import posed_world_contacts, read_pose_log
+
+    log = read_pose_log(pose_log)
+    t, sensor, wrench, _ = contact_frames(messages, per_contact)
+    points, normals, finger, report = posed_world_contacts(log, t, sensor, wrench, threshold)
+    if len(points) == 0:
+        raise DataError(f"{outdir}: no contact could be localised ({report})")
+    path = outdir / "contacts.csv"
+    _write(path, format_contacts(points, normals, finger=finger))
+    return [f"{len(points)} of {len(t)} contact readings localised (m) -> {path}; {report}"]
+
+
+def _derive_probes(outdir, pose_log, messages, threshold):
+    from tactile.ep1.from_ft import probes_from_frames, read_probe_log
+    from tactile.ep1.probes_csv import format_probes
+
+    log = read_probe_log(pose_log)
+    t, _, wrench, _ = contact_frames(messages)
+    rows, usable = probes_from_frames(log, t, wrench, threshold)
+    if not np.any(usable):
+        raise DataError(f"{outdir}: no probe had contact readings at both ends")
+    path = outdir / "probes.csv"
+    _write(path, format_probes(rows[usable]))
+    return [f"{int(np.sum(usable))} of {len(usable)} probes usable -> {path}"]

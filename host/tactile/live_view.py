@@ -1,0 +1,60 @@
+"""The state behind ``tactile live``: latest force/torque and contact state per sensor.
+
+``LiveState.update(messages)`` folds frames in; ``render()`` gives one text line
+per sensor.  Pure bookkeeping: the CLI reads the port and draws.
+"""
+
+import math
+
+from tactile_protocol import constants as C
+
+
+class SensorView:
+    __slots__ = ("wrench", "in_contact", "contacts", "saturated", "readings")
+
+    def __init__(self):
+        self.wrench = (0.0,) * 6
+        self.in_contact = False
+        self.contacts = 0
+        self.saturated = 0
+        self.readings = 0
+
+
+class LiveState:
+    def __init__(self):
+        self.sensors = {}
+        self.status = None
+
+    def update(self, messages):
+        for m in messages:
+            if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
+                v = self.sensors.setdefault(m.sensor, SensorView())
+                v.readings += 1
+                f, t = C.FORCE_LSB_N, C.TORQUE_LSB_NM
+                v.wrench = (m.fx * f, m.fy * f, m.fz * f, m.tx * t, m.ty * t, m.tz * t)
+                v.saturated = m.flags & C.FLAG_SAT_MASK
+                if m.type_code == C.MSG_SAMPLE:
+                    v.in_contact = bool(m.flags & C.FLAG_IN_CONTACT)
+                else:
+                    v.in_contact = m.phase != C.PHASE_END
+                    v.contacts += m.phase == C.PHASE_BEGIN
+            elif m.type_code == C.MSG_STATUS:
+                self.status = m
+
+    def render(self):
+        """One line per sensor: F (N), |F|, M (N*m), contact state, count, saturation."""
+        lines = []
+        for i in sorted(self.sensors):
+            v = self.sensors[i]
+            fx, fy, fz, tx, ty, tz = v.wrench
+            state = "CONTACT" if v.in_contact else "free   "
+            sat = f"  SATURATED 0x{v.saturated:02x}" if v.saturated else ""
+            lines.append(
+                f"sensor {i}  F [{fx:+8.3f} {fy:+8.3f} {fz:+8.3f}] N  "
+                f"|F| {math.sqrt(fx * fx + fy * fy + fz * fz):7.3f}  "
+                f"M [{tx:+7.4f} {ty:+7.4f} {tz:+7.4f}] N*m  {state} "
+                f"contacts {v.contacts}{sat}"
+            )
+        if not lines:
+            lines.append("waiting for SAMPLE or CONTACT frames...")
+        return lines

@@ -1,0 +1,236 @@
+"""``tactile record``'s loop: read a board into a ``Recording`` until a stop condition.
+
+Opens the port, waits for HELLO, TAREs when asked, starts streaming if the
+board is not already, then appends everything it reads.  When the port
+vanishes (cable pulled, board reset) it records a gap, waits for the port to
+come back (``reconnect_s``) and carries on with the same decoder, so frames
+lost in the gap are counted from the sequence numbers.  A board that
+rebooted (HELLO with seq 0) is TAREd again.  Ctrl-C ends the recording
+normally.  Port and clock are injectable for tests.
+"""
+
+import time
+
+from tactile import __version__
+from tactile.board_client import BoardClient, info_dict
+from tactile.errors import BoardError, PortError, TactileError
+from tactile.recording import Recording
+from tactile.serial_port import open_port
+from tactile_protocol import constants as C
+
+META_EVERY_S = 1.0
+
+
+def _span_s(first_us, last_us):
+    """Device time covered, across one wrap of the u32 microsecond timestamp."""
+    if first_us is None:
+        return 0.0
+    return ((last_us - first_us) % C.TIMESTAMP_MODULO) / 1e6
+
+
+class Stats:
+    """What the progress display shows; also the counters in meta.json."""
+
+    def __init__(self):
+        self.frames = 0
+        self.samples = 0  # SAMPLE and CONTACT frames (one per sensor reading sent)
+        self.contacts_begun = 0
+        self.contacts_ended = 0
+        self.first_ts = None
+        self.last_ts = None
+        self.reboots = 0
+        self.status = {}  # the latest STATUS per sensor (0xFF: the board)
+
+    def add(self, msgs):
+        for m in msgs:
+            self.frames += 1
+            if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
+                self.samples += 1
+                self.first_ts = m.timestamp_us if self.first_ts is None else self.first_ts
+                self.last_ts = m.timestamp_us
+            elif m.type_code == C.MSG_STATUS:
+                self.status[m.sensor] = m.to_dict()
+            if m.type_code == C.MSG_CONTACT:
+                self.contacts_begun += m.phase == C.PHASE_BEGIN
+                self.contacts_ended += m.phase == C.PHASE_END
+
+
+class Session:
+    """One recording run; ``run()`` returns the final meta dictionary."""
+
+    def __init__(
+        self,
+        port_name,
+        outdir,
+        duration_s=None,
+        contacts=None,
+        tare=True,
+        reconnect_s=30.0,
+        handshake_s=2.0,
+        opener=open_port,
+        clock=time.monotonic,
+        sleep=time.sleep,
+        on_progress=None,
+        stop_when=None,
+        append=False,
+        argv=None,
+    ):
+        self.port_name = port_name
+        self.duration_s = duration_s
+        self.contacts = contacts
+        self.want_tare = tare
+        self.reconnect_s = reconnect_s
+        self.handshake_s = handshake_s
+        self.opener = opener
+        self.clock = clock
+        self.sleep = sleep
+        self.on_progress = on_progress or (lambda session: None)
+        self.stop_when = stop_when or (lambda session: None)
+        self.rec = Recording(outdir, append)
+        self.stats = Stats()
+        self.gaps = []
+        self.ended = "running"
+        self.client = None
+        self.started = None
+        self.argv = argv
+        self._meta_at = 0.0
+
+    # -- connection ------------------------------------------------------------
+    def _connect(self):
+        port = self.opener(self.port_name)
+        if self.client is None:
+            self.client = BoardClient(port, self.port_name, capture=self.rec.raw, clock=self.clock)
+        else:
+            self.client.port = port
+            self.client.info = None
+        hello = self.client.handshake(self.handshake_s)
+        if self.client.info.protocol_version != C.PROTOCOL_VERSION:
+            raise BoardError(
+                f"{self.port_name}: HELLO says protocol version {hello.protocol_version}, "
+                f"this host speaks {C.PROTOCOL_VERSION}"
+            )
+        self._prepare()
+
+    def _prepare(self):
+        if self.want_tare:
+            self.client.tare()
+        if not self.client.info.flags & C.CFG_STREAMING:
+            self.client.start()
+
+    def _close_port(self):
+        try:
+            self.client.port.close()
+        except (OSError, TactileError):
+            pass
+
+    def _reconnect(self, why):
+        gap = {
+            "lost_at_s": round(self.clock() - self.started, 3),
+            "why": why,
+            "last_timestamp_us": self.stats.last_ts,
+            "lost_frames_before": self.client.decoder.counters.lost_frames,
+        }
+        self.gaps.append(gap)
+        self._close_port()
+        self._write_meta()
+        deadline = self.clock() + self.reconnect_s
+        while self.clock() < deadline:
+            self.sleep(0.2)
+            try:
+                self._connect()
+            except PortError:
+                continue
+            except (BoardError, OSError) as exc:
+                gap.setdefault("retries", []).append(str(exc))
+                self._close_port()
+                continue
+            gap["back_at_s"] = round(self.clock() - self.started, 3)
+            return True
+        gap["back_at_s"] = None
+        return False
+
+    # -- the loop ----------------------------------------------------------------
+    def _done(self):
+        if self.duration_s is not None and self.clock() - self.started >= self.duration_s:
+            return "duration"
+        if self.contacts is not None and self.stats.contacts_ended >= self.contacts:
+            return "contacts"
+        return self.stop_when(self)
+
+    def _handle(self, msgs):
+        self.rec.messages(msgs)
+        self.stats.add(msgs)
+        for m in msgs:
+            if m.type_code == C.MSG_HELLO and m.seq == 0 and self.stats.frames > len(msgs):
+                self.stats.reboots += 1
+                self._prepare()
+
+    def run(self):
+        self.started = self.clock()
+        try:
+            self._connect()
+            self._write_meta()
+            self._loop()
+        except KeyboardInterrupt:
+            self.ended = "interrupted"
+        finally:
+            if self.ended == "running":
+                self.ended = "error"
+            self._write_meta()
+            if self.client is not None:
+                self._close_port()
+            self.rec.close()
+        return self.meta()
+
+    def _loop(self):
+        while True:
+            try:
+                msgs = self.client.read()
+            except TactileError:
+                raise
+            except OSError as exc:  # pyserial's SerialException is an OSError
+                if not self._reconnect(str(exc) or type(exc).__name__):
+                    self.ended = "port lost"
+                    raise PortError(
+                        f"{self.port_name}: port lost and not back within {self.reconnect_s:g} s"
+                        f" (everything received is in {self.rec.dir})"
+                    ) from None
+                continue
+            self._handle(msgs)
+            self.on_progress(self)
+            if self.clock() - self._meta_at >= META_EVERY_S:
+                self._write_meta()
+            why = self._done()
+            if why:
+                self.ended = why
+                return
+
+    # -- metadata -------------------------------------------------------------------
+    def meta(self):
+        client = self.client
+        info = client.info if client is not None else None
+        s = self.stats
+        return {
+            "tactile_version": __version__,
+            "protocol_version": C.PROTOCOL_VERSION,
+            "port": self.port_name,
+            "command": self.argv,
+            "ended": self.ended,
+            "elapsed_s": round(self.clock() - self.started, 3) if self.started else 0.0,
+            "device": info_dict(info) if info is not None else None,
+            "tared": self.want_tare,
+            "frames": s.frames,
+            "samples": s.samples,
+            "contacts_begun": s.contacts_begun,
+            "contacts_ended": s.contacts_ended,
+            "device_time_s": _span_s(s.first_ts, s.last_ts),
+            "device_status": list(s.status.values()),
+            "reboots": s.reboots,
+            "gaps": self.gaps,
+            "bytes": self.rec.bytes,
+            "decoder": client.decoder.counters.as_dict() if client is not None else None,
+        }
+
+    def _write_meta(self):
+        self._meta_at = self.clock()
+        self.rec.write_meta(self.meta())
