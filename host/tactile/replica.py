@@ -6,6 +6,8 @@ analysis with tangent- and position-weighted biquadratic fits on an 8x8 grid,
 and the thesis's tables 5-7 to print beside it.
 """
 
+import contextlib
+
 # Thesis tables 5-7: (S, sd S, R, sd R, radius cm) for the tangent and position fits.
 THESIS = {
     "plane": {"tangent": (0.4703, 0.21204, 0.004114, 0.0006562, None),
@@ -30,13 +32,13 @@ def analyse(points_cm, normals, finger):
     return out
 
 
-def replicate(kind, outdir, port=None, scene_time_us=None, on_progress=None):
-    """Record the ch. 5 scene for ``kind`` over a serial port and derive its contacts.
+def replicate(kind, outdir, via="pty"):
+    """Record the ch. 5 scene for ``kind`` from the board emulator and analyse it.
 
-    ``port``: a device serving ``ch5_KIND`` (a pty from ``tactile emulate``) with
-    ``scene_time_us`` reading its simulated clock, or None for the in-process
-    ``sim://ch5_KIND``.  The robot's pose log is written from the scene; recording stops
-    when the motion is over.  Returns (meta, derive lines, analysis per weighting).
+    ``via="pty"``: the emulator serves a pseudo-terminal and the host records it exactly
+    as it records a board; ``"sim"``: the in-process ``sim://`` port.  The robot's pose
+    log is written from the scene, the contacts derived as ``tactile record --pose-log``
+    does.  Returns (meta, derive lines, analysis per weighting).
     """
     import pathlib
 
@@ -44,36 +46,64 @@ def replicate(kind, outdir, port=None, scene_time_us=None, on_progress=None):
     from tactile.ep2.contacts_csv import read_contacts
     from tactile.record_session import Session
     from tactile.recording import remove_recording
-    from tactile.serial_port import open_port
     from tactile_sim.emulator import load_scene
-    from tactile_sim.emulator.device import build_motion
 
     outdir = pathlib.Path(outdir)
     remove_recording(outdir)  # the replica's own scratch output: each run starts afresh
     outdir.mkdir(parents=True, exist_ok=True)
-    motion = build_motion(load_scene(f"ch5_{kind}"))
-    pose_log = outdir / "poses.csv"
-    motion.write_pose_log(pose_log)
-    opened = []
-
-    def opener(name):
-        opened.append(open_port(name))
-        return opened[-1]
-
-    if scene_time_us is None:
-        scene_time_us = lambda: opened[-1].emulator.t_us  # noqa: E731  (sim://)
-
-    def scene_over(session):
-        return "scene end" if scene_time_us() >= motion.duration_s * 1e6 else None
-
-    session = Session(
-        port or f"sim://ch5_{kind}",
-        outdir,
-        opener=opener,
-        stop_when=scene_over,
-        on_progress=on_progress,
-    )
-    meta = session.run()
+    scene = load_scene(f"ch5_{kind}")
+    serve = _on_pty if via == "pty" else _on_sim
+    with serve(scene) as (port, motion, stop_when, on_ready):
+        pose_log = outdir / "poses.csv"
+        motion.write_pose_log(pose_log)
+        session = Session(port, outdir, stop_when=stop_when, on_progress=on_ready)
+        meta = session.run()
     lines = derive(outdir, pose_log)
     patch = read_contacts(outdir / "contacts.csv")[0]
     return meta, lines, analyse(patch.points, patch.normals, patch.finger)
+
+
+@contextlib.contextmanager
+def _on_sim(scene):
+    """sim://: simulated time advances as the host reads; stop when the motion is over."""
+    from tactile_sim.emulator.device import build_motion
+
+    motion = build_motion(scene)
+    end_us = motion.duration_s * 1e6
+
+    def stop_when(session):
+        return "scene end" if session.client.port.emulator.t_us >= end_us else None
+
+    yield f"sim://{scene.path}", motion, stop_when, None
+
+
+@contextlib.contextmanager
+def _on_pty(scene):
+    """A PtyServer thread: real time until the host is ready (its TARE done, inside the
+    scene's lead-in), then as fast as possible; stop when served and drained."""
+    import threading
+
+    from tactile_sim.emulator.device import EmulatedBoard
+    from tactile_sim.emulator.pty_server import PtyServer
+
+    board = EmulatedBoard(scene)
+    server = PtyServer(board, realtime=True)
+    path = server.open()
+    thread = threading.Thread(
+        target=server.serve, args=(board.motion.duration_s + 0.2,), daemon=True
+    )
+    thread.start()
+
+    def on_ready(session):
+        server.realtime = False
+
+    def stop_when(session):
+        done = not thread.is_alive() and session.client.port.in_waiting == 0
+        return "scene end" if done else None
+
+    try:
+        yield path, board.motion, stop_when, on_ready
+    finally:
+        server.stop = True
+        thread.join(5)
+        server.close()

@@ -15,6 +15,12 @@ KINDS = ("plane", "convex", "concave")
 def add_arguments(parser):
     parser.add_argument("--object", choices=KINDS, action="append", help="default: all three")
     parser.add_argument("-o", "--out", default="demo-out", help="recordings go here (demo-out/)")
+    parser.add_argument(
+        "--via",
+        choices=("pty", "sim"),
+        default="pty",
+        help="serial path: a pseudo-terminal (default) or the in-process sim:// port",
+    )
 
 
 def run(args):
@@ -26,7 +32,7 @@ def run(args):
     print(f"{'surface':<9}{'fit':<10}{'':>7}{'S':>9}{'sd S':>10}{'R':>10}{'sd R':>10}{'radius':>9}")
     for kind in args.object or KINDS:
         outdir = pathlib.Path(args.out) / kind
-        meta, _, results = replica.replicate(kind, outdir)
+        meta, _, results = replica.replicate(kind, outdir, args.via)
         for weighting, res in results.items():
             _row(kind, weighting, "ours", _ours(res))
             _row("", "", "thesis", replica.THESIS[kind][weighting])
