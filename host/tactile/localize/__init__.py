@@ -15,6 +15,7 @@ from tactile.localize.kinematics import (
     to_world,
 )
 from tactile.localize.pipeline import posed_contacts, scara_contacts
+from tactile.localize.pose_log import posed_world_contacts, read_pose_log
 from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
 from tactile.localize.wheel import rim_contact, wheel_contact, wheel_theta
 
@@ -31,6 +32,8 @@ __all__ = [
     "sphere_contact_frictionless",
     "scara_contacts",
     "posed_contacts",
+    "read_pose_log",
+    "posed_world_contacts",
     "rim_contact",
     "wheel_contact",
     "wheel_theta",

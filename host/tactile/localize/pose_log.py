@@ -1,0 +1,339 @@
+"""A robot's pose log, and CONTACT frames placed in the world through it (§5.1.1, §5.1.2).
+
+The F/T wire carries no pose: the robot controller logs, per finger, time windows in which
+the pose of that finger's sensor is held.  Two formats (CSV, ``#`` comment lines allowed):
+
+- generic (any robot): ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: the sensor
+  frame's pose in the world during the window (position in metres, unit quaternion scalar
+  first); ``finger`` is the board's sensor index.  A comment line
+  ``# probe: sphere radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az]`` gives the spherical
+  fingertip in the sensor frame (centre, radius and, optionally, the pole of a hemisphere);
+- SCARA (the ch. 5 rig, ``motion_rig.write_pose_log``): ``t_start_us,t_end_us,finger,q1,q2,
+  q3,z``: joint angles (rad) and height (m) of eq. 62; one sensor (index 0) and ``finger``
+  is the pass.  Placing its frames needs the link lengths, from a comment line
+  ``# rig: scara L1=.. L2=.. L3=.. L4=..`` (m) or given to ``posed_world_contacts``.
+
+``posed_world_contacts`` takes the decoded CONTACT frames (time, sensor, wrench), finds the
+window of each frame's finger that covers it, localises the contact on the probe from force
+and moment (``sphere_contact``, valid with friction) and maps it to the world (``to_world``).
+A window's pose is taken as constant over the window: the log must say where the robot
+held still (``tactile_sim.emulator.motion_sweep`` holds it exactly).  Frames outside every
+window, below the gate, or that do not localise are dropped and counted.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tactile.errors import InputError, where
+
+__all__ = ["PoseLog", "PosedContacts", "read_pose_log", "posed_world_contacts"]
+
+GENERIC = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
+SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
+
+
+@dataclass
+class PoseLog:
+    """Windows (n,) with their finger and pose; ``kind`` "pose" (R, t set) or "scara"
+    (``joints`` (n, 4) set); ``probe`` = {"radius", "centre", "axis"} or None; ``lengths``
+    (L1, L2, L3, L4) of a SCARA log's ``# rig:`` line or None."""
+
+    path: str
+    kind: str
+    t_start: np.ndarray
+    t_end: np.ndarray
+    finger: np.ndarray
+    lines: list
+    R: np.ndarray | None = None
+    t: np.ndarray | None = None
+    joints: np.ndarray | None = None
+    probe: dict | None = None
+    lengths: tuple | None = None
+
+    def __len__(self):
+        return len(self.t_start)
+
+
+@dataclass
+class PoseReport:
+    """Where the frames went: ``frames`` in, ``outside`` (no window of their finger covers
+    them), ``no_contact`` (|F| at or below the threshold), ``unusable`` (the line of action
+    misses the probe or the point is off it), ``usable``; ``status`` counts by name for the
+    frames inside windows; ``kept`` the indices of the usable frames in the input."""
+
+    frames: int
+    outside: int
+    no_contact: int
+    unusable: int
+    usable: int
+    status: dict = field(default_factory=dict)
+    kept: np.ndarray = field(default_factory=lambda: np.zeros(0, int), repr=False)
+
+
+@dataclass
+class PosedContacts:
+    """World contact points and object normals (n, 3) of the usable frames, their finger
+    (n,), and the ``PoseReport``.  Unpacks as (points, normals, finger, report)."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    finger: np.ndarray
+    report: PoseReport
+
+    def __iter__(self):
+        return iter((self.points, self.normals, self.finger, self.report))
+
+
+# --- reading -------------------------------------------------------------------------------
+
+
+def read_pose_log(path):
+    """Read a pose log (generic or SCARA, see the module docstring) into a ``PoseLog``.
+
+    Every error is one ``InputError`` line naming file:line and the column.
+    """
+    from tactile.tabular import read_csv
+
+    tags, header_line, header = _scan(path)
+    names = {h.strip() for h in header}
+    if set(GENERIC) <= names:
+        kind, cols = "pose", GENERIC
+    elif set(SCARA) <= names:
+        kind, cols = "scara", SCARA
+    else:
+        raise InputError(
+            f"{where(path, header_line)}: expected columns {','.join(GENERIC)} (or the SCARA"
+            f" log's {','.join(SCARA)}); header has: {','.join(h.strip() for h in header)}"
+        )
+    table = read_csv(path, cols)
+    lines = list(table.lines)
+    a = table.array("t_start_us", "t_end_us", "finger")
+    for c, name in enumerate(("t_start_us", "t_end_us", "finger")):
+        bad = np.flatnonzero((a[:, c] != np.round(a[:, c])) | (a[:, c] < 0))
+        if bad.size:
+            raise InputError(
+                f"{where(path, lines[bad[0]], name)}: must be a whole number >= 0,"
+                f" got {a[bad[0], c]!r}"
+            )
+    bad = np.flatnonzero(a[:, 1] < a[:, 0])
+    if bad.size:
+        raise InputError(f"{where(path, lines[bad[0]], 't_end_us')}: ends before t_start_us")
+    log = PoseLog(str(path), kind, a[:, 0].astype(np.int64), a[:, 1].astype(np.int64),
+                  a[:, 2].astype(int), lines)  # fmt: skip
+    _check_overlap(log)
+    if kind == "pose":
+        from tactile.localize.kinematics import pose_from_quaternion
+
+        q = table.array("qw", "qx", "qy", "qz")
+        norm = np.linalg.norm(q, axis=1)
+        bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
+        if bad.size:
+            raise InputError(
+                f"{where(path, lines[bad[0]], 'qw')}: quaternion (qw,qx,qy,qz) is not unit"
+                f" length (|q| = {norm[bad[0]]:.6g})"
+            )
+        log.R, log.t = pose_from_quaternion(table.array("px", "py", "pz"), q, scalar_first=True)
+    else:
+        log.joints = table.array("q1", "q2", "q3", "z")
+        if "rig" in tags:
+            log.lengths = _parse_rig(path, *tags["rig"])
+    if "probe" in tags:
+        log.probe = _parse_probe(path, *tags["probe"])
+    return log
+
+
+def _scan(path):
+    """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig), the header's
+    line number and the header row."""
+    import csv
+
+    tags = {}
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            for no, text in enumerate(fh, start=1):
+                s = text.strip()
+                if not s:
+                    continue
+                if s.startswith("#"):
+                    tag, colon, body = s[1:].partition(":")
+                    if colon and tag.strip() in ("probe", "rig"):
+                        tags[tag.strip()] = (no, body.strip())
+                    continue
+                return tags, no, next(csv.reader([s]))
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not UTF-8 text: {exc.reason}") from None
+    raise InputError(f"{path}: empty file, expected a header row")
+
+
+def _parse_probe(path, line, text):
+    words = text.split()
+    if not words or words[0] != "sphere":
+        raise InputError(f"{where(path, line)}: probe: only 'sphere' is known, got {text!r}")
+    out = {"axis": None}
+    need = {"radius_m": 1, "centre_m": 3, "axis": 3}
+    for word in words[1:]:
+        key, eq, value = word.partition("=")
+        if key not in need or not eq:
+            raise InputError(
+                f"{where(path, line)}: probe: unknown field {word!r}"
+                " (radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az])"
+            )
+        try:
+            v = np.array([float(x) for x in value.split(",")])
+        except ValueError:
+            raise InputError(f"{where(path, line)}: probe: {key}: not numbers: {value!r}") from None
+        if v.size != need[key] or not np.all(np.isfinite(v)):
+            raise InputError(
+                f"{where(path, line)}: probe: {key}: need {need[key]} finite number(s), got"
+                f" {value!r}"
+            )
+        out[{"radius_m": "radius", "centre_m": "centre"}.get(key, key)] = (
+            float(v[0]) if key == "radius_m" else v
+        )
+    if "radius" not in out or "centre" not in out:
+        raise InputError(f"{where(path, line)}: probe: need radius_m=R and centre_m=cx,cy,cz")
+    if not out["radius"] > 0:
+        raise InputError(f"{where(path, line)}: probe: radius_m must be > 0")
+    if out["axis"] is not None and not np.linalg.norm(out["axis"]) > 0:
+        raise InputError(f"{where(path, line)}: probe: axis must not be zero")
+    return out
+
+
+def _parse_rig(path, line, text):
+    words = text.split()
+    if not words or words[0] != "scara":
+        raise InputError(f"{where(path, line)}: rig: only 'scara' is known, got {text!r}")
+    kv = dict(w.partition("=")[::2] for w in words[1:])
+    try:
+        lengths = tuple(float(kv[k]) for k in ("L1", "L2", "L3", "L4"))
+    except (KeyError, ValueError):
+        raise InputError(
+            f"{where(path, line)}: rig: need 'scara L1=.. L2=.. L3=.. L4=..' (m), got {text!r}"
+        ) from None
+    if not all(np.isfinite(v) and v > 0 for v in lengths):
+        raise InputError(f"{where(path, line)}: rig: lengths must be finite and > 0")
+    return lengths
+
+
+def _check_overlap(log):
+    """Two windows of one finger that overlap make a frame's pose ambiguous."""
+    for f in np.unique(log.finger):
+        rows = np.flatnonzero(log.finger == f)
+        rows = rows[np.argsort(log.t_start[rows], kind="stable")]
+        clash = np.flatnonzero(log.t_start[rows[1:]] <= log.t_end[rows[:-1]])
+        if clash.size:
+            i, j = rows[clash[0]], rows[clash[0] + 1]
+            raise InputError(
+                f"{where(log.path, log.lines[j], 't_start_us')}: window of finger {f} overlaps"
+                f" the one on line {log.lines[i]}"
+            )
+
+
+# --- placing frames ------------------------------------------------------------------------
+
+
+def window_index(log, t_us, sensor, latency_us=0):
+    """Index into ``log`` of the window covering each frame, -1 where none does.
+
+    A frame stamped t covers [t - latency_us, t] (the sample may predate its stamp by up to
+    the board's latency); the window must hold all of it.  Generic logs match ``finger`` to
+    the sensor index; a SCARA log has one sensor and matches by time only.
+    """
+    t = np.asarray(t_us, dtype=np.int64).ravel()
+    s = np.asarray(sensor, dtype=int).ravel()
+    out = np.full(t.shape, -1)
+    groups = [(None, np.arange(len(log)))] if log.kind == "scara" else None
+    if groups is None:
+        groups = [(f, np.flatnonzero(log.finger == f)) for f in np.unique(log.finger)]
+    for f, rows in groups:
+        rows = rows[np.argsort(log.t_start[rows], kind="stable")]
+        mine = np.arange(len(t)) if f is None else np.flatnonzero(s == f)
+        if not mine.size or not rows.size:
+            continue
+        early = t[mine] - int(latency_us)
+        k = np.searchsorted(log.t_start[rows], early, side="right") - 1
+        kk = np.clip(k, 0, None)
+        hit = (k >= 0) & (t[mine] <= log.t_end[rows[kk]])
+        out[mine[hit]] = rows[kk[hit]]
+    return out
+
+
+def posed_world_contacts(
+    log,
+    t_us,
+    sensor,
+    wrench,
+    threshold,
+    *,
+    latency_us=0,
+    centre=None,
+    radius=None,
+    axis=None,
+    lengths=None,
+    method="force",
+):
+    """World contacts from CONTACT frames through a pose log.
+
+    ``t_us`` (n,) frame times (the board's microsecond clock, as the log), ``sensor`` (n,)
+    board sensor index, ``wrench`` (n, 6) = (F, M) in N and N*m in that sensor's frame (the
+    load on the probe, moment about the sensor origin).  Frames with |F| <= ``threshold``
+    are not contacts.  Generic logs: the spherical fingertip of the log's ``# probe:`` line
+    (or ``centre``, ``radius``, ``axis`` given here, which win), localised by
+    ``sphere_contact`` (line of action of the force, exact with friction).  SCARA logs:
+    ``scara_contacts`` with ``lengths`` = (L1, L2, L3, L4) (default: the log's ``# rig:``
+    line) and ``method`` ("force": eqs. 60-61, the thesis's; "moment": with friction).
+
+    Returns ``PosedContacts(points, normals, finger, report)``, world frame, usable rows only,
+    in input order; never NaN.
+    """
+    t = np.asarray(t_us).ravel()
+    s = np.asarray(sensor).ravel()
+    W = np.asarray(wrench, dtype=float).reshape(-1, 6)
+    if not len(t) == len(s) == len(W):
+        raise ValueError(f"t_us ({len(t)}), sensor ({len(s)}) and wrench ({len(W)}) differ")
+    if not np.all(np.isfinite(W)):
+        raise ValueError("wrench holds a non-finite value")
+    idx = window_index(log, t, s, latency_us)
+    inside = np.flatnonzero(idx >= 0)
+    rows = idx[inside]
+    F, M = W[inside, :3], W[inside, 3:]
+    if log.kind == "scara":
+        from tactile.localize.pipeline import scara_contacts
+
+        lengths = log.lengths if lengths is None else lengths
+        if lengths is None:
+            raise InputError(
+                f"{log.path}: a SCARA pose log needs its link lengths:"
+                " '# rig: scara L1=.. L2=.. L3=.. L4=..' (m)"
+            )
+        contact, _ = scara_contacts(F, M, log.joints[rows], lengths, threshold, method)
+    else:
+        from tactile.localize.pipeline import posed_contacts
+
+        probe = log.probe or {}
+        c = probe.get("centre") if centre is None else centre
+        r = probe.get("radius") if radius is None else radius
+        ax = probe.get("axis") if axis is None else axis
+        if c is None or r is None:
+            raise InputError(
+                f"{log.path}: no '# probe: sphere radius_m=R centre_m=cx,cy,cz' line;"
+                " give the fingertip's centre and radius"
+            )
+        contact = posed_contacts(F, M, log.R[rows], log.t[rows], c, r, threshold, axis=ax)
+    usable = np.asarray(contact.usable)
+    counts = contact.counts() if len(inside) else {}
+    no_contact = counts.get("no_contact", 0)
+    report = PoseReport(
+        frames=len(t),
+        outside=len(t) - len(inside),
+        no_contact=no_contact,
+        unusable=len(inside) - no_contact - int(usable.sum()),
+        usable=int(usable.sum()),
+        status=counts,
+        kept=inside[usable],
+    )
+    finger = log.finger[rows[usable]]
+    return PosedContacts(contact.point[usable], contact.normal[usable], finger, report)

@@ -1,0 +1,258 @@
+"""``kind = "sweep"``: EP2, several spherical fingertips swept over an object (ch. 4, fig. 24).
+
+Each finger is a spherical fingertip of radius ``fingertip_radius_m`` on its own six-axis F/T
+sensor (board sensor index = finger).  The fingers sit ``spacing_m`` apart along x and sweep
+``length_m`` along y over a height-field object of ``tactile_sim.ep2.objects`` (its apex at
+the origin); the contact stations are those of ``tactile_sim.ep2.sweep.sweep`` (one finger
+track per finger, ``samples`` stations each), so the truth is the EP2 simulator's.
+
+The sweep is stop-and-go (the thesis's discrete sampling, §5.1, on a tracking path): at each
+station the fingertip rests on the surface with its centre at s + r n (rigid contact, force
+controlled), then moves to the next station in ``settle_s``.  The load on finger k (ATI's
+convention, sensor frame, moment about the sensor origin) is
+
+    F = f_n (n + mu tau),   M = (s - o) x F,
+
+with tau the unit tangent opposite the sweep direction (Coulomb friction of sliding along +y)
+and o the sensor origin, which sits ``sensor_offset_m`` behind the fingertip centre along the
+finger's pole; in the sensor frame the centre is (offset, 0, 0) and the pole +x, as in
+``tactile_sim.rig.fingertip``.  f_n ramps up over ``ramp_s`` at the first station and down at
+the last; between stations the load moves linearly from one station's to the next's; before
+and after the sweep the finger is off (zero load), so the firmware's gate emits one contact
+(BEGIN, IN..., END) per finger.  Noise belongs to the sensor model, so nothing here is random.
+
+The hand keeps its orientation: the fingers point down (-z of the object frame), finger k
+turned about its own pole by ``roll_deg[k]``; ``tilt_deg`` turns object and hand about the
+world x axis, so the world is not the patch frame.  ``poses()`` gives, per finger and
+station, the window in which the pose is held and the sensor's pose in the world: the pose
+is exactly constant within each window (the moves happen between windows, in ``settle_s``),
+so the pose log is exact, not an approximation.  Frames sampled during a move fall outside
+every window and the host drops them.
+
+Keys (SI units): ``object`` (``objects.KINDS``), ``radius_m``, ``rotation_deg``, ``tilt_deg``,
+``fingers``, ``spacing_m``, ``length_m``, ``samples``, ``speed_mps``, ``settle_s``,
+``fingertip_radius_m``, ``sensor_offset_m``, ``normal_force_N``, ``mu``, ``ramp_s``,
+``rest_s``, ``roll_deg``.
+"""
+
+import numpy as np
+
+POSE_COLUMNS = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
+
+DEFAULTS = {
+    "object": "sphere",
+    "radius_m": 0.05,
+    "rotation_deg": 0.0,
+    "tilt_deg": 0.0,
+    "fingers": 3,
+    "spacing_m": 0.02,
+    "length_m": 0.04,
+    "samples": 21,
+    "speed_mps": 0.05,
+    "settle_s": 0.002,
+    "fingertip_radius_m": 0.012,
+    "sensor_offset_m": 0.03,
+    "normal_force_N": 5.0,
+    "mu": 0.3,
+    "ramp_s": 0.02,
+    "rest_s": 0.03,
+    "roll_deg": [0.0, 30.0, -30.0],
+}
+
+# Sensor axes in the object frame for an untwisted finger: pole +x_S = -z, y_S = +y, z_S = +x.
+_R0 = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+
+
+def _rot_x(deg):
+    a = np.radians(deg)
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def station_wrench(point, normal, R, origin, normal_force, mu, sweep_dir=(0.0, 1.0, 0.0)):
+    """Load on the fingertip in its sensor frame for contacts (..., 3) (object frame).
+
+    F = f_n (n + mu tau) with tau opposite the sweep direction's tangential part, and
+    M = (s - o) x F about the sensor origin ``o``; both mapped by R^T (R: sensor -> object).
+    Returns (..., 6) = (F, M).
+    """
+    n = np.asarray(normal, float)
+    d = np.asarray(sweep_dir, float)
+    tan = d - np.einsum("...i,i->...", n, d)[..., None] * n
+    tau = -tan / np.linalg.norm(tan, axis=-1, keepdims=True)
+    F = normal_force * (n + mu * tau)
+    M = np.cross(np.asarray(point, float) - origin, F)
+    return np.concatenate([F @ R, M @ R], axis=-1)
+
+
+class SweepMotion:
+    """Loads per sensor as piecewise-linear keyframes; the truth and the pose log per station."""
+
+    def __init__(self, cfg, obj):
+        from tactile_sim.ep2.sweep import sweep
+
+        self.cfg = cfg
+        self.obj = obj
+        k, m = cfg["fingers"], cfg["samples"]
+        r, off = cfg["fingertip_radius_m"], cfg["sensor_offset_m"]
+        origin = (-0.5 * cfg["spacing_m"] * (k - 1), -0.5 * cfg["length_m"])
+        # Noiseless, untilted: the object frame's stations (rows finger-major, sweep order).
+        data = sweep(obj, k, cfg["spacing_m"], cfg["length_m"], m, 1, origin)
+        s = data["points"].reshape(k, m, 3)
+        n = data["normals"].reshape(k, m, 3)
+        self.R_obj = np.stack([_R0 @ _rot_x(a) for a in cfg["roll_deg"][:k]])  # sensor->object
+        pole = self.R_obj[:, :, 0]  # (k, 3): the pole axis in the object frame
+        centre = s + r * n
+        sensor_origin = centre - off * pole[:, None, :]
+        self.wrench_stations = np.stack(
+            [
+                station_wrench(s[i], n[i], self.R_obj[i], sensor_origin[i],
+                               cfg["normal_force_N"], cfg["mu"])
+                for i in range(k)
+            ]
+        )  # fmt: skip
+        # World = tilt about x of the object frame.
+        self.tilt = _rot_x(cfg["tilt_deg"])
+        self.points = s @ self.tilt.T  # true world contacts (k, m, 3)
+        self.normals = n @ self.tilt.T
+        self.sensor_R = self.tilt @ self.R_obj  # (k, 3, 3) sensor -> world
+        self.sensor_t = sensor_origin @ self.tilt.T  # (k, m, 3)
+        self._timeline(m)
+
+    def _timeline(self, m):
+        """Keyframes and pose windows on whole microseconds, so the log and the load agree."""
+        cfg = self.cfg
+        us = [round(cfg[k] * 1e6) for k in ("rest_s", "ramp_s", "settle_s")]
+        rest, ramp, settle = us
+        period = round(cfg["length_m"] / (m - 1) / cfg["speed_mps"] * 1e6)
+        dwell = period - settle
+        self.dwell_s = dwell * 1e-6
+        # windows: station j holds its pose from start[j] to end[j] (ramps included at the ends)
+        starts = rest + np.arange(m, dtype=np.int64) * period
+        ends = starts + ramp + dwell
+        starts[1:] += ramp
+        ends[-1] += ramp
+        self.windows_us = np.column_stack([starts, ends])
+        # keyframes: 0 before, ramp up, hold, move (settle), ..., ramp down, 0 after
+        t = [0, rest]
+        w = [0, 0]
+        for j in range(m):
+            t += [starts[j] + (ramp if j == 0 else 0), ends[j] - (ramp if j == m - 1 else 0)]
+            w += [j + 1, j + 1]
+        t += [ends[-1], ends[-1] + rest]
+        w += [0, 0]
+        self.t = np.array(t, dtype=float) * 1e-6
+        self.duration_s = float(self.t[-1])
+        zero = np.zeros((self.wrench_stations.shape[0], 1, 6))
+        table = np.concatenate([zero, self.wrench_stations], axis=1)  # index 0 = off
+        self.keys = table[:, w, :]  # (k, len(t), 6)
+
+    def wrench_at(self, t_s, sensor=0):
+        """Load on finger ``sensor`` at ``t_s`` (scalar -> (6,), array -> (6, n)); zero for
+        a sensor without a finger."""
+        if sensor >= self.keys.shape[0]:
+            return np.zeros((6,) + np.shape(t_s))
+        w = self.keys[sensor]
+        return np.array([np.interp(t_s, self.t, w[:, c]) for c in range(6)])
+
+    def true_contact(self, t_us, finger):
+        """(points, normals, station) in the world at board times ``t_us`` (n,) inside the
+        finger's windows; station -1 (and zero rows) outside them."""
+        t = np.atleast_1d(np.asarray(t_us, dtype=np.int64))
+        j = np.searchsorted(self.windows_us[:, 0], t, side="right") - 1
+        ok = (j >= 0) & (t <= self.windows_us[np.clip(j, 0, None), 1])
+        j = np.where(ok, j, -1)
+        p = np.where(ok[:, None], self.points[finger, np.clip(j, 0, None)], 0.0)
+        n = np.where(ok[:, None], self.normals[finger, np.clip(j, 0, None)], 0.0)
+        return p, n, j
+
+    def probe(self):
+        """The fingertip in its sensor frame: (centre (3,), radius, pole axis (3,))."""
+        return (self.cfg["sensor_offset_m"], 0.0, 0.0), self.cfg["fingertip_radius_m"], (1, 0, 0)
+
+    def poses(self):
+        """Rows (t_start_us, t_end_us, finger, px, py, pz, qw, qx, qy, qz) per finger and
+        station: the sensor frame's world pose, held exactly during the window."""
+        from scipy.spatial.transform import Rotation
+
+        rows = []
+        k, m = self.sensor_t.shape[:2]
+        for i in range(k):
+            qx, qy, qz, qw = map(float, Rotation.from_matrix(self.sensor_R[i]).as_quat())
+            for j in range(m):
+                t0, t1 = (int(v) for v in self.windows_us[j])
+                rows.append((t0, t1, i, *map(float, self.sensor_t[i, j]), qw, qx, qy, qz))
+        rows.sort(key=lambda r: (r[0], r[2]))
+        return rows
+
+    def write_pose_log(self, path):
+        """The robot's pose log (host/tactile/localize/pose_log.py reads it)."""
+        centre, radius, axis = self.probe()
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(
+                f"# probe: sphere radius_m={radius!r} centre_m={','.join(map(repr, centre))}"
+                f" axis={','.join(map(str, axis))}\n"
+            )
+            fh.write(",".join(POSE_COLUMNS) + "\n")
+            for row in self.poses():
+                fh.write(",".join(repr(v) for v in row) + "\n")
+
+
+def _config(scene):
+    m = scene.motion
+    unknown = sorted(set(m) - set(DEFAULTS) - {"kind"})
+    if unknown:
+        raise scene.error("[motion]", f"unknown key(s) for kind sweep: {', '.join(unknown)}")
+    cfg = dict(DEFAULTS)
+    for key, value in m.items():
+        if key == "kind":
+            continue
+        want = DEFAULTS[key]
+        if isinstance(want, list):
+            ok = isinstance(value, list) and all(isinstance(v, (int, float)) for v in value)
+        elif isinstance(want, float):
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        else:
+            ok = type(value) is type(want)
+        if not ok:
+            raise scene.error(f"[motion] {key}", f"expected {type(want).__name__}, got {value!r}")
+        cfg[key] = value
+    return cfg
+
+
+def _check(scene, cfg):
+    def positive(key):
+        if not cfg[key] > 0 or not np.isfinite(cfg[key]):
+            raise scene.error(f"[motion] {key}", f"must be > 0, got {cfg[key]!r}")
+
+    for key in ("radius_m", "spacing_m", "length_m", "speed_mps", "fingertip_radius_m"):
+        positive(key)
+    for key in ("sensor_offset_m", "normal_force_N", "mu", "ramp_s", "rest_s", "settle_s"):
+        if not cfg[key] >= 0 or not np.isfinite(cfg[key]):
+            raise scene.error(f"[motion] {key}", f"must be >= 0, got {cfg[key]!r}")
+    if cfg["samples"] < 2:
+        raise scene.error("[motion] samples", "need at least 2 stations per finger")
+    sensors = int(scene.board["sensors"])
+    if not 1 <= cfg["fingers"] <= sensors:
+        raise scene.error("[motion] fingers", f"need 1..{sensors} (one board sensor each)")
+    if len(cfg["roll_deg"]) < cfg["fingers"]:
+        raise scene.error("[motion] roll_deg", f"need one angle per finger ({cfg['fingers']})")
+    period = cfg["length_m"] / (cfg["samples"] - 1) / cfg["speed_mps"]
+    if not period > cfg["settle_s"]:
+        raise scene.error(
+            "[motion] settle_s", f"must be shorter than the time per station ({period:g} s)"
+        )
+
+
+def build(scene):
+    from tactile_sim.ep2.objects import make
+
+    cfg = _config(scene)
+    _check(scene, cfg)
+    try:
+        obj = make(cfg["object"], radius=cfg["radius_m"], rotation_deg=cfg["rotation_deg"],
+                   centre=(0.0, 0.0))  # fmt: skip
+        motion = SweepMotion(cfg, obj)
+    except ValueError as exc:
+        raise scene.error("[motion] object", str(exc)) from None
+    return motion
