@@ -1,0 +1,250 @@
+"""``kind = "roll"``: EP1 through a wrist F/T sensor, a spherical fingertip rolling on an object.
+
+The robot presses the fingertip of eq. 20 (radius R1, on a six-axis wrist sensor) onto the
+object, then performs the probes of §3.1-3.2: per direction, roll out by the commanded
+rotation dtheta, hold, roll back to the start, hold (the "+" pattern of fig. 12 by default:
+eight probes, each ending where the next starts).  Contact is kept throughout, so the
+firmware streams CONTACT IN frames from the press to the release; the host reads the wrench
+during the holds.  The path is Montana's rolling (``tactile_sim.ep1``: ``simulate_probes``
+for the probes, ``rolling.rhs`` with dense output for the path in between) and the wrench is
+``tactile_sim.rig.fingertip.fingertip_wrench`` (sensor frame, fingertip centre at
+(offset, 0, 0), pole along +x).  Rotation follows a (1 - cos)/2 profile, so the finger
+starts and stops smoothly; eqs. 24-28 are driftless, so the path depends only on the
+rotation done, not its timing.
+
+The robot's log (``probe_log``/``write_probe_log``): per probe, a time during the hold at its
+start and at its end, and the commanded rotation (eq. 29's signs, contact frame at the
+probe's start).  ``truth`` is K2~ at the start contact (``experiment.true_curvature``).
+
+Keys (SI): ``surface`` (a ``tactile_sim.ep1.surfaces.KINDS`` name) and ``surface_params``
+(its parameters, in m), ``object_uv``, ``finger_uv``, ``psi`` (start contact), ``finger_radius_m``,
+``sensor_offset_m``, ``normal_force_N``, ``mu`` (tangential load / normal load, a static
+friction load inside the cone) along ``friction_dir_deg`` in the fingertip's tangent basis,
+``dtheta_rad``, ``directions_deg``, and the timing ``rest_s``, ``press_s``, ``hold_s``,
+``roll_s``, ``release_s``.
+"""
+
+import math
+
+import numpy as np
+
+LOG_COLUMNS = ("probe", "t_start_us", "t_end_us", "dtheta_x", "dtheta_y")
+HOLD_FRACTION = 0.8  # the central part of each hold that the log offers for reading
+ROLL_KNOTS = 65  # path samples per roll (wrench linearly interpolated in between)
+
+DEFAULTS = {
+    "surface": "ellipsoid",
+    "surface_params": {"a": 0.02, "b": 0.03, "c": 0.02},
+    "object_uv": [0.0, 0.0],
+    "finger_uv": [0.0, 0.0],
+    "psi": 0.0,
+    "finger_radius_m": 0.01,
+    "sensor_offset_m": 0.05,
+    "normal_force_N": 5.0,
+    "mu": 0.0,
+    "friction_dir_deg": 0.0,
+    "dtheta_rad": 0.5,
+    "directions_deg": [0.0, 180.0, 90.0, 270.0],
+    "rest_s": 0.5,
+    "press_s": 0.2,
+    "hold_s": 0.2,
+    "roll_s": 0.3,
+    "release_s": 0.2,
+}
+
+
+class RollMotion:
+    """The load history of one EP1 run and the robot's log of it; see the module docstring."""
+
+    def __init__(self, t, wrench, holds, commanded, probes, truth, geometry):
+        self.t = t
+        self.wrench = wrench  # (k, 6)
+        self.holds = holds  # (m + 1, 2) start, end of each hold (s)
+        self.commanded = commanded  # (m, 2)
+        self.probes = probes  # tactile_sim.ep1.probes.Probes (the simulator's true probes)
+        self.truth = truth
+        self.geometry = geometry
+        self.duration_s = float(t[-1])
+
+    def wrench_at(self, t_s, sensor=0):
+        """Wrench (N, N*m) on the finger, sensor frame: (6,) for scalar t, (6, n) for arrays."""
+        t = np.asarray(t_s, float)
+        if sensor != 0:
+            return np.zeros((6,) + t.shape)
+        return np.array([np.interp(t, self.t, self.wrench[:, k]) for k in range(6)])
+
+    def true_curvature(self):
+        """K2~ at the start contact, in the finger's contact frame: dict kx, ky, K, k1, k2."""
+        return self.truth
+
+    def true_rows(self):
+        """The simulator's true probes as (dtheta_x, dtheta_y, du, dv) rows (m, 4): net rotation
+        from the normals (eqs. 34-35) and the exact change of the finger contact point."""
+        from tactile_sim.ep1.probes import measure
+
+        return measure(self.probes, self.geometry["radius_m"])
+
+    def probe_log(self):
+        """Rows (probe, t_start_us, t_end_us, dtheta_x, dtheta_y): hold midpoints and the
+        commanded rotation."""
+        mid = np.rint(1e6 * self.holds.mean(axis=1)).astype(int)
+        return [
+            (i, int(mid[i]), int(mid[i + 1]), float(d[0]), float(d[1]))
+            for i, d in enumerate(self.commanded)
+        ]
+
+    def half_width_us(self):
+        """Half the readable part of a hold, around the logged times (us)."""
+        return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
+
+    def write_probe_log(self, path):
+        g = self.geometry
+        cx, cy, cz = g["centre_m"]
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(f"# probe: sphere radius_m={g['radius_m']!r} centre_m={cx!r},{cy!r},{cz!r}\n")
+            fh.write(f"# hold: half_width_us={self.half_width_us()}\n")
+            fh.write(",".join(LOG_COLUMNS) + "\n")
+            for row in self.probe_log():
+                fh.write(",".join(repr(v) for v in row) + "\n")
+
+
+def _number(scene, key, value, positive=False, nonneg=False):
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise scene.error(f"[motion] {key}", f"expected a number, got {value!r}") from None
+    if not math.isfinite(x) or (positive and x <= 0.0) or (nonneg and x < 0.0):
+        need = "positive" if positive else "non-negative" if nonneg else "finite"
+        raise scene.error(f"[motion] {key}", f"must be {need}, got {value!r}")
+    return x
+
+
+def _numbers(scene, key, value, n=None):
+    if not isinstance(value, list) or (n is not None and len(value) != n) or not value:
+        size = f"{n} numbers" if n else "a list of numbers"
+        raise scene.error(f"[motion] {key}", f"expected {size}, got {value!r}")
+    return np.array([_number(scene, key, v) for v in value])
+
+
+def _options(scene):
+    m = dict(scene.motion)
+    m.pop("kind")
+    unknown = sorted(set(m) - set(DEFAULTS))
+    if unknown:
+        raise scene.error("[motion]", f"unknown key(s) for kind 'roll': {', '.join(unknown)}")
+    o = {**DEFAULTS, **m}
+    if not isinstance(o["surface_params"], dict):
+        raise scene.error("[motion] surface_params", "expected a table of surface parameters")
+    out = {
+        "surface": o["surface"],
+        "surface_params": {
+            k: _number(scene, f"surface_params.{k}", v) for k, v in o["surface_params"].items()
+        },
+        "object_uv": _numbers(scene, "object_uv", o["object_uv"], 2),
+        "finger_uv": _numbers(scene, "finger_uv", o["finger_uv"], 2),
+        "directions": np.radians(_numbers(scene, "directions_deg", o["directions_deg"])),
+        "psi": _number(scene, "psi", o["psi"]),
+        "friction_dir": math.radians(_number(scene, "friction_dir_deg", o["friction_dir_deg"])),
+        "mu": _number(scene, "mu", o["mu"], nonneg=True),
+        "sensor_offset_m": _number(scene, "sensor_offset_m", o["sensor_offset_m"], nonneg=True),
+    }
+    for key in (
+        "finger_radius_m",
+        "normal_force_N",
+        "dtheta_rad",
+        "press_s",
+        "hold_s",
+        "roll_s",
+        "release_s",
+    ):
+        out[key] = _number(scene, key, o[key], positive=True)
+    out["rest_s"] = _number(scene, "rest_s", o["rest_s"], nonneg=True)
+    return out
+
+
+def _paths(finger, obj, o):
+    """Finger contact (u1, v1) along each roll out, at ROLL_KNOTS times of the (1 - cos)/2
+    profile: arrays (directions, ROLL_KNOTS, 2)."""
+    from scipy.integrate import solve_ivp
+
+    from tactile_sim.ep1 import rolling
+
+    (u1, v1), (u2, v2) = o["finger_uv"], o["object_uv"]
+    y0 = np.array([u1, v1, u2, v2, o["psi"], 0.0])
+    progress = 0.5 * (1.0 - np.cos(np.pi * np.linspace(0.0, 1.0, ROLL_KNOTS)))
+    out = []
+    for phi in o["directions"]:
+        omega = o["dtheta_rad"] * np.array([np.cos(phi), np.sin(phi), 0.0])
+        sol = solve_ivp(
+            rolling.rhs,
+            (0.0, 1.0),
+            y0,
+            method=rolling.DEFAULT_METHOD,
+            rtol=rolling.DEFAULT_RTOL,
+            atol=rolling.DEFAULT_ATOL,
+            args=(finger, obj, omega),
+            dense_output=True,
+        )
+        out.append(sol.sol(progress)[:2].T)
+    return np.array(out)
+
+
+def build(scene):
+    from tactile_sim.ep1.experiment import true_curvature
+    from tactile_sim.ep1.probes import simulate_probes
+    from tactile_sim.ep1.surfaces import fingertip, make
+    from tactile_sim.rig.fingertip import fingertip_wrench
+
+    o = _options(scene)
+    try:
+        obj = make(o["surface"], **o["surface_params"])
+    except (TypeError, ValueError) as exc:
+        raise scene.error("[motion] surface", str(exc)) from None
+    R1 = o["finger_radius_m"]
+    finger = fingertip(R1)
+    probes = simulate_probes(
+        finger, obj, o["finger_uv"], o["object_uv"], o["dtheta_rad"], o["directions"], o["psi"]
+    )
+    bad = [s for s in probes.status if s != "done"]
+    if bad:
+        raise scene.error("[motion] dtheta_rad", f"a roll stops early ({bad[0]}): roll less")
+    paths = _paths(finger, obj, o)
+
+    def load(uv, force):
+        F, M = fingertip_wrench(
+            uv[..., 0], uv[..., 1], R1, force, o["sensor_offset_m"], o["mu"], o["friction_dir"]
+        )
+        return np.concatenate([F, M], axis=-1)
+
+    start = paths[0, 0]
+    knots_t, knots_w = [0.0, o["rest_s"]], [np.zeros(6), np.zeros(6)]
+    t = o["rest_s"] + o["press_s"]
+    knots_t.append(t)
+    knots_w.append(load(start, o["normal_force_N"]))
+    holds = []
+    tau = np.linspace(0.0, 1.0, ROLL_KNOTS)[1:]
+    for path in paths:
+        for leg in (path, path[::-1]):  # out, then back along the same path (eqs. 24-28)
+            holds.append((t, t + o["hold_s"]))
+            t += o["hold_s"]
+            knots_t.append(t)
+            knots_w.append(knots_w[-1])
+            knots_t.extend(t + o["roll_s"] * tau)
+            knots_w.extend(load(leg[1:], o["normal_force_N"]))
+            t += o["roll_s"]
+    holds.append((t, t + o["hold_s"]))
+    t += o["hold_s"]
+    knots_t += [t, t + o["release_s"], t + o["release_s"] + o["rest_s"]]
+    knots_w += [knots_w[-1], np.zeros(6), np.zeros(6)]
+    t_arr = np.array(knots_t)
+    keep = np.append(np.diff(t_arr) > 0.0, True)  # drop a zero-length rest
+    commanded = np.round(probes.axis, 15) * o["dtheta_rad"] + 0.0  # no -0.0 in the log
+    geometry = {
+        "radius_m": R1,
+        "centre_m": (o["sensor_offset_m"], 0.0, 0.0),
+        "normal_force_N": o["normal_force_N"],
+    }
+    truth = true_curvature(obj, o["object_uv"], o["psi"])
+    return RollMotion(
+        t_arr[keep], np.array(knots_w)[keep], np.array(holds), commanded, probes, truth, geometry
+    )
