@@ -1,0 +1,233 @@
+"""EP1 probes from a wrist F/T sensor and the robot's probe log (§3.2, §3.3.3).
+
+Intrinsic contact sensing (Tsujimura and Yabuta, §3.3.3): the contact on the hemispherical
+fingertip lies where the force's line of action meets it (``localize.sphere_contact``, valid
+with friction).  Per probe, the wrench is averaged over the CONTACT frames read while the
+robot holds still at the probe's start and at its end; the two contact points, mapped back
+to the fingertip parameters of eq. 20, give dp = (du, dv), and the robot's commanded rotation
+gives dtheta: the rows of the probes CSV (``probes_csv``), with eq. 29's signs.
+
+The probe log (written by the robot controller; ``tactile_sim``'s ``motion_roll`` writes one)::
+
+    # probe: sphere radius_m=0.01 centre_m=0.05,0,0
+    # hold: half_width_us=80000          (optional: readable time on each side of a logged time)
+    probe,t_start_us,t_end_us,dtheta_x,dtheta_y
+    0,800000,1300000,0.5,0.0
+
+Frames: the fingertip frame has the sensor's axes, its centre at ``centre_m`` in the sensor
+frame and its pole (u = v = 0 of eq. 20) along the sensor's +x.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from tactile.errors import InputError, where
+
+__all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
+
+LOG_COLUMNS = ("probe", "t_start_us", "t_end_us", "dtheta_x", "dtheta_y")
+PROBE_TAG = "# probe:"
+HOLD_TAG = "# hold:"
+
+
+class ProbeLog(NamedTuple):
+    """A robot's log of EP1 probes: arrays with one row per probe."""
+
+    path: str
+    probe: np.ndarray  # (m,) int
+    t_start_us: np.ndarray  # (m,) int64, a time in the hold at the probe's start
+    t_end_us: np.ndarray  # (m,) int64, a time in the hold at its end
+    dtheta: np.ndarray  # (m, 2) commanded rotation (x, y), contact frame at the start (eq. 29)
+    radius_m: float  # fingertip radius R1
+    centre_m: np.ndarray  # (3,) fingertip centre in the sensor frame
+    half_width_us: float | None  # readable time on each side of a logged time, if logged
+    lines: list  # source line of each row
+
+
+def _fields(path, line_no, tokens, tag):
+    out = {}
+    for token in tokens:
+        key, eq, value = token.partition("=")
+        if not eq or not value:
+            raise InputError(
+                f"{where(path, line_no)}: expected key=value in {tag!r}, got {token!r}"
+            )
+        out[key] = value
+    return out
+
+
+def _floats(path, line_no, key, text, n):
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != n or not all(np.isfinite(values)):
+        what = "a finite number" if n == 1 else f"{n} comma-separated finite numbers"
+        raise InputError(f"{where(path, line_no, key)}: expected {what}, got {text!r}")
+    return values
+
+
+def _header(path):
+    try:
+        with open(path, encoding="utf-8") as fh:
+            head = [
+                (i, line.strip()) for i, line in enumerate(fh, 1) if line.lstrip().startswith("#")
+            ]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    probe = next(((i, t) for i, t in head if t.startswith(PROBE_TAG)), None)
+    if probe is None:
+        raise InputError(
+            f"{where(path, 1)}: missing the '# probe: sphere radius_m=R centre_m=X,Y,Z' line"
+        )
+    line_no, text = probe
+    tokens = text[len(PROBE_TAG) :].split()
+    if tokens[:1] != ["sphere"]:
+        raise InputError(f"{where(path, line_no)}: the probe must be 'sphere', got {text!r}")
+    f = _fields(path, line_no, tokens[1:], PROBE_TAG)
+    for key in ("radius_m", "centre_m"):
+        if key not in f:
+            raise InputError(f"{where(path, line_no, key)}: missing in the '# probe:' line")
+    (radius,) = _floats(path, line_no, "radius_m", f["radius_m"], 1)
+    if radius <= 0.0:
+        raise InputError(f"{where(path, line_no, 'radius_m')}: must be positive, got {radius!r}")
+    centre = _floats(path, line_no, "centre_m", f["centre_m"], 3)
+    half = None
+    hold = next(((i, t) for i, t in head if t.startswith(HOLD_TAG)), None)
+    if hold is not None:
+        h = _fields(path, hold[0], hold[1][len(HOLD_TAG) :].split(), HOLD_TAG)
+        if "half_width_us" not in h:
+            raise InputError(f"{where(path, hold[0], 'half_width_us')}: missing in '# hold:'")
+        (half,) = _floats(path, hold[0], "half_width_us", h["half_width_us"], 1)
+        if half < 0.0:
+            raise InputError(f"{where(path, hold[0], 'half_width_us')}: must be >= 0")
+    return radius, np.array(centre), half
+
+
+def read_probe_log(path):
+    """Read a probe log (module docstring); errors are one-line InputErrors naming
+    file:line and column."""
+    from tactile.tabular import read_csv
+
+    radius, centre, half = _header(path)
+    table = read_csv(path, LOG_COLUMNS)
+    data = table.array(*LOG_COLUMNS)
+    for k, name in enumerate(LOG_COLUMNS[:3]):
+        bad = (data[:, k] != np.round(data[:, k])) | (data[:, k] < 0)
+        if bad.any():
+            line = table.lines[int(np.argmax(bad))]
+            text = float(data[int(np.argmax(bad)), k])
+            raise InputError(
+                f"{where(path, line, name)}: expected a whole number >= 0, got {text!r}"
+            )
+    late = data[:, 2] < data[:, 1]
+    if late.any():
+        line = table.lines[int(np.argmax(late))]
+        raise InputError(f"{where(path, line, 't_end_us')}: before t_start_us")
+    return ProbeLog(
+        str(path),
+        data[:, 0].astype(np.int64),
+        data[:, 1].astype(np.int64),
+        data[:, 2].astype(np.int64),
+        data[:, 3:5].copy(),
+        radius,
+        centre,
+        half,
+        list(table.lines),
+    )
+
+
+def fingertip_uv(point, radius):
+    """Inverse of eq. 20 for points (..., 3) in the fingertip frame (centre at the origin):
+    u = asin(z / R1) (clamped), v = atan2(-y, x)."""
+    p = np.asarray(point, float)
+    u = np.arcsin(np.clip(p[..., 2] / radius, -1.0, 1.0))
+    v = np.arctan2(-p[..., 1], p[..., 0])
+    return np.stack([u, v], axis=-1)
+
+
+def _windows(log, t_us, average, half_width_us):
+    """Per probe and end, the indices of the frames to average (list of (m, 2) index arrays)."""
+    t = np.asarray(t_us, np.int64)
+    half = log.half_width_us if half_width_us is None else float(half_width_us)
+    if half is None:
+        if average is None or len(t) < 2:
+            raise InputError(f"{log.path}: no '# hold: half_width_us=' line: give an average")
+        half = 0.5 * average * float(np.median(np.diff(np.sort(t))))
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    picks = []
+    for times in (log.t_start_us, log.t_end_us):
+        lo = np.searchsorted(ts, times - half, side="left")
+        hi = np.searchsorted(ts, times + half, side="right")
+        row = []
+        for a, b, tc in zip(lo, hi, times, strict=True):
+            idx = order[a:b]
+            if average is not None and len(idx) > average:
+                near = np.argsort(np.abs(ts[a:b] - tc), kind="stable")[:average]
+                idx = order[a:b][np.sort(near)]
+            row.append(idx)
+        picks.append(row)
+    return list(zip(*picks, strict=True)), half
+
+
+def _derive(log, t_us, wrench, threshold, average, half_width_us):
+    from tactile.localize.contact import STATUS
+    from tactile.localize.sphere import sphere_contact
+
+    if average is not None and (int(average) != average or average < 1):
+        raise InputError(f"average: expected a whole number >= 1, got {average!r}")
+    w = np.asarray(wrench, float).reshape(-1, 6)
+    if len(w) != len(np.ravel(t_us)):
+        raise InputError(f"frames: {len(np.ravel(t_us))} timestamps but {len(w)} wrenches")
+    picks, half = _windows(log, np.ravel(t_us), average, half_width_us)
+    m = len(log.probe)
+    mean = np.zeros((m, 2, 6))
+    count = np.zeros((m, 2), int)
+    for i, ends in enumerate(picks):
+        for e, idx in enumerate(ends):
+            count[i, e] = len(idx)
+            if len(idx):
+                mean[i, e] = w[idx].mean(axis=0)
+    c = sphere_contact(
+        mean[..., :3], mean[..., 3:], log.centre_m, log.radius_m, threshold, axis=(1.0, 0.0, 0.0)
+    )
+    uv = fingertip_uv(c.point - log.centre_m, log.radius_m)
+    usable = (count > 0).all(axis=1) & c.usable.all(axis=1)
+    rows = np.concatenate([log.dtheta, uv[:, 1] - uv[:, 0]], axis=1)
+    rows = np.where(usable[:, None], rows, 0.0)
+    status = []
+    for i in range(m):
+        why = "ok"
+        for e, name in enumerate(("t_start_us", "t_end_us")):
+            t = (log.t_start_us, log.t_end_us)[e][i]
+            if count[i, e] == 0:
+                why = f"no frames within {half:g} us of {name}={t}"
+            elif not c.usable[i, e]:
+                why = f"wrench at {name}={t} not localised ({STATUS[c.status[i, e]]})"
+            if why != "ok":
+                break
+        status.append(f"probe {int(log.probe[i])} (line {log.lines[i]}): {why}")
+    return rows, usable, status, count
+
+
+def probes_from_frames(log, t_us, wrench, threshold=0.0, average=None, half_width_us=None):
+    """Probes CSV rows from recorded CONTACT frames and a ``ProbeLog``.
+
+    ``t_us`` (n,) frame timestamps, ``wrench`` (n, 6) in N and N*m (sensor frame).  Per probe
+    end, the frames within the hold window (``half_width_us``, default the log's) around the
+    logged time are averaged (only the ``average`` nearest, if given), localised on the
+    fingertip (``sphere_contact``; |F| <= ``threshold`` is no contact) and mapped to (u, v) of
+    eq. 20.  Returns (rows (m, 4) of dtheta_x, dtheta_y, du, dv; usable (m,) bool).  A probe
+    without frames in a window, or whose wrench does not localise, is not usable and its row is
+    zeros (``probe_report`` says why).
+    """
+    rows, usable, _, _ = _derive(log, t_us, wrench, threshold, average, half_width_us)
+    return rows, usable
+
+
+def probe_report(log, t_us, wrench, threshold=0.0, average=None, half_width_us=None):
+    """One line per probe: 'probe N (line L): ok' or why it is not usable, and frames used."""
+    _, _, status, count = _derive(log, t_us, wrench, threshold, average, half_width_us)
+    return [f"{s}; frames {a}+{b}" for s, (a, b) in zip(status, count, strict=True)]
