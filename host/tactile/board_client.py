@@ -110,12 +110,16 @@ class BoardClient:
         seq = self.send(mtype, values)
         deadline = self.clock() + timeout
         while self.clock() < deadline:
-            for m in self._pull():
-                if m.type_code in (C.MSG_ACK, C.MSG_NAK) and m.cmd_seq == seq:
-                    if m.type_code == C.MSG_NAK:
-                        raise CommandRefused(f"{self.name}: {nak_message(m)}")
-                    return m
-                self.backlog.append(m)
+            reply = None
+            for m in self._pull():  # keep everything else, including what follows the reply
+                if reply is None and m.type_code in (C.MSG_ACK, C.MSG_NAK) and m.cmd_seq == seq:
+                    reply = m
+                else:
+                    self.backlog.append(m)
+            if reply is not None and reply.type_code == C.MSG_NAK:
+                raise CommandRefused(f"{self.name}: {nak_message(reply)}")
+            if reply is not None:
+                return reply
         name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
         raise BoardTimeout(f"{self.name}: no answer to {name} within {timeout:g} s")
 

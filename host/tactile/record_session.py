@@ -67,7 +67,7 @@ class Session:
         tare=True,
         reconnect_s=30.0,
         handshake_s=2.0,
-        opener=open_port,
+        opener=None,
         clock=time.monotonic,
         sleep=time.sleep,
         on_progress=None,
@@ -81,7 +81,7 @@ class Session:
         self.want_tare = tare
         self.reconnect_s = reconnect_s
         self.handshake_s = handshake_s
-        self.opener = opener
+        self.opener = opener or (lambda name: open_port(name))
         self.clock = clock
         self.sleep = sleep
         self.on_progress = on_progress or (lambda session: None)

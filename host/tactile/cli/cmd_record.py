@@ -90,24 +90,31 @@ class Progress:
         self.by_contacts = contacts is not None
         self.total = contacts if self.by_contacts else duration
         self.last = 0.0
+        self.bar = None
+        self.plain = False
+
+    def _open(self):
+        """The bar appears once the board answered (an error before it prints alone)."""
         try:
             from tqdm import tqdm
         except ImportError:
-            self.bar = None
-        else:
-            unit = "contact" if self.by_contacts else "s"
-            fmt = "{l_bar}{bar}| {n:.0f}/{total_fmt} {unit} [{elapsed}{postfix}]"
-            if self.total is None:
-                fmt = "{desc}: {n:.0f} {unit} [{elapsed}{postfix}]"
-            self.bar = tqdm(total=self.total, unit=unit, bar_format=fmt, desc="record")
+            self.plain = True
+            return
+        unit = "contact" if self.by_contacts else "s"
+        fmt = "{l_bar}{bar}| {n:.0f}/{total_fmt} {unit} [{elapsed}{postfix}]"
+        if self.total is None:
+            fmt = "{desc}: {n:.0f} {unit} [{elapsed}{postfix}]"
+        self.bar = tqdm(total=self.total, unit=unit, bar_format=fmt, desc="record")
 
     def update(self, session):
         import time
 
         now = time.monotonic()
-        if now - self.last < 0.1:
+        if now - self.last < (1.0 if self.plain else 0.1):
             return
         self.last = now
+        if self.bar is None and not self.plain:
+            self._open()
         s, c = session.stats, session.client.decoder.counters
         rate = s.samples / max(1e-9, now - session.started)
         info = {
@@ -117,7 +124,7 @@ class Progress:
             "bad": c.damaged,
             "gaps": len(session.gaps),
         }
-        if self.bar is None:
+        if self.plain:
             print(" ".join(f"{k}={v}" for k, v in info.items()), file=sys.stderr)
             return
         self.bar.n = s.contacts_ended if self.by_contacts else now - session.started

@@ -1,0 +1,173 @@
+"""The host's board client and port opening (issue 7): handshake, commands, clear errors."""
+
+import errno
+
+import pytest
+import serial
+
+from tactile.board_client import BoardClient, CommandRefused
+from tactile.errors import BoardTimeout, PortError, ProtocolVersionError
+from tactile.serial_port import open_port
+from tactile_protocol import constants as C
+from tactile_protocol.framing import FrameEncoder
+from tactile_protocol.messages import pack_into
+
+
+class FakePort:
+    """A port that replays ``chunks`` (one per read) and records what the host writes."""
+
+    def __init__(self, chunks=()):
+        self.chunks = list(chunks)
+        self.written = []
+        self.closed = False
+
+    @property
+    def in_waiting(self):
+        return len(self.chunks[0]) if self.chunks else 0
+
+    def read(self, size=1):
+        return self.chunks.pop(0) if self.chunks else b""
+
+    def write(self, data):
+        self.written.append(bytes(data))
+        return len(data)
+
+    def close(self):
+        self.closed = True
+
+
+class StepClock:
+    def __init__(self, step=0.01):
+        self.t, self.step = 0.0, step
+
+    def __call__(self):
+        self.t += self.step
+        return self.t
+
+
+def _frame_v(version, mtype, values, seq=0):
+    """A frame as a device speaking protocol ``version`` would send it (same layout)."""
+    from tactile_protocol.cobs_codec import encode
+    from tactile_protocol.crc16 import crc16
+
+    body = bytearray(C.MAX_BODY)
+    n = pack_into(body, mtype, seq, 0, values)
+    body[0] = version
+    crc = crc16(body, 0, n)
+    return encode(bytes(body[:n]) + bytes((crc & 0xFF, crc >> 8))) + b"\0"
+
+
+HELLO = (0, 1, 0, 1, b"SIM", 1, 1000, 1, 0, 0, 0, 1000, 1390000, 1112000, 3, 0x0B)
+
+
+def test_handshake_and_commands_against_the_emulator():
+    client = BoardClient(open_port("sim://press"), "sim://press")
+    hello = client.handshake(1.0)
+    assert hello.type_name == "HELLO" and hello.protocol_version == C.PROTOCOL_VERSION
+    info = client.get_info()
+    assert info.type_name == "INFO" and info.rate_hz == 1000
+    client.configure(500, 2.0, 1.0, 2, C.CFG_STREAM_SAMPLES)
+    assert client.get_info().rate_hz == 500
+    assert client.get_info().enter_threshold == 2_000_000
+    client.tare()
+
+
+def test_a_refused_config_names_the_field_and_changes_nothing():
+    client = BoardClient(open_port("sim://press"), "sim://press")
+    client.handshake(1.0)
+    with pytest.raises(CommandRefused, match=r"refused CONFIG: out of range \(exit_threshold\)"):
+        client.configure(1000, 1.0, 2.0, 3, C.CFG_STREAM_SAMPLES)  # exit above enter
+    assert client.get_info().enter_threshold == 1_390_000
+
+
+def test_frames_arriving_while_a_command_waits_are_kept_in_order():
+    client = BoardClient(open_port("sim://press"), "sim://press")
+    client.handshake(1.0)
+    client.read()
+    client.get_info()  # the board keeps streaming SAMPLE frames meanwhile
+    kept = client.read()
+    samples = [m for m in kept if m.type_name == "SAMPLE"]
+    assert samples, "samples streamed during the command were dropped"
+    seqs = [m.seq for m in kept]
+    assert seqs == sorted(seqs) and client.decoder.counters.lost_frames == 0
+
+
+def test_no_hello_then_get_info_is_sent_then_a_timeout_names_the_port():
+    port = FakePort()
+    client = BoardClient(port, "/dev/ttyACM9", clock=StepClock())
+    with pytest.raises(BoardTimeout, match=r"/dev/ttyACM9: no HELLO within 1 s"):
+        client.handshake(1.0)
+    from tactile.stream_decoder import StreamDecoder
+
+    sent = StreamDecoder()._decode(port.written[0][:-1])
+    assert len(port.written) == 1 and sent[1] == C.CMD_GET_INFO
+
+
+def test_a_board_answering_only_get_info_is_found():
+    info = bytes(FrameEncoder().encode(C.MSG_INFO, 0, HELLO))
+    port = FakePort([b""] * 60 + [info])
+    client = BoardClient(port, "pico", clock=StepClock())
+    assert client.handshake(1.0).type_name == "INFO"
+    assert port.written  # it asked
+
+
+def test_another_protocol_version_names_both_versions():
+    port = FakePort([_frame_v(2, C.MSG_HELLO, HELLO)])
+    client = BoardClient(port, "/dev/ttyACM0", clock=StepClock())
+    expect = "speaks protocol version 2, this host speaks version 1"
+    with pytest.raises(ProtocolVersionError, match=expect):
+        client.handshake(1.0)
+
+
+@pytest.mark.parametrize(
+    "code, text, expect",
+    [
+        (errno.ENOENT, "No such file or directory", "no such port"),
+        (errno.EACCES, "Permission denied", "permission denied; add yourself to the 'dialout'"),
+        (errno.EBUSY, "Device or resource busy", "port busy"),
+        (errno.EWOULDBLOCK, "Could not exclusively lock port", "port busy"),
+    ],
+)
+def test_open_errors_become_one_line_messages(mocker, code, text, expect):
+    mocker.patch.object(
+        serial, "Serial", side_effect=serial.SerialException(code, f"could not open port: {text}")
+    )
+    with pytest.raises(PortError) as info:
+        open_port("/dev/ttyACM0")
+    message = str(info.value)
+    assert message.startswith("/dev/ttyACM0: ") and expect in message and "\n" not in message
+
+
+def test_cli_shows_permission_denied_without_a_traceback(mocker, cli):
+    mocker.patch.object(
+        serial, "Serial", side_effect=serial.SerialException(errno.EACCES, "Permission denied")
+    )
+    code, out, err = cli("info", "--port", "/dev/ttyACM0")
+    assert code == 4 and out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err and "dialout" in err
+
+
+def test_info_and_config_commands(cli):
+    code, out, _ = cli("info", "--port", "sim://press", "--json")
+    assert code == 0 and '"rate_hz":1000' in out and '"streams":["samples","contacts"]' in out
+    code, out, _ = cli("config", "--port", "sim://press", "--rate", "250", "--gate", "3d")
+    assert code == 0 and "rate          250 Hz" in out and "gate          3d" in out
+    code, _, err = cli("config", "--port", "sim://press", "--rate", "0")
+    assert code == 4 and "out of range (rate_hz)" in err
+    code, _, err = cli("config", "--port", "sim://press", "--streams", "video")
+    assert code == 2 and "--streams: unknown stream 'video'" in err
+
+
+def test_tare_command_waits_for_the_bias(cli):
+    code, out, _ = cli("tare", "--port", "sim://ch5_plane", "--samples", "32")
+    assert code == 0 and out.strip() == "tared all sensors (32 readings)"
+    code, _, err = cli("tare", "--port", "sim://ch5_plane", "--sensor", "7")
+    assert code == 2 and "--sensor: '7'" in err
+
+
+def test_ports_lists_or_says_none(mocker, cli):
+    from serial.tools import list_ports
+
+    mocker.patch.object(list_ports, "comports", return_value=[])
+    code, out, err = cli("ports")
+    assert code == 1 and "no serial ports found" in err

@@ -1,0 +1,128 @@
+"""``tactile record`` (issue 7): files written as data arrive, serial faults lose nothing."""
+
+import errno
+import json
+
+import pytest
+import serial
+
+from tactile.errors import PortError
+from tactile.record_session import Session
+from tactile.serial_port import open_port
+from tactile.stream_decoder import decode_bytes
+
+
+def _files(out):
+    capture = (out / "capture.bin").read_bytes()
+    rows = (out / "frames.csv").read_text().splitlines()
+    meta = json.loads((out / "meta.json").read_text())
+    return capture, rows, meta
+
+
+def test_record_writes_capture_frames_and_meta_that_agree(cli, tmp_path):
+    out = tmp_path / "run"
+    code, stdout, err = cli("record", "--port", "sim://press", "--duration", "0.5", "-o", out,
+                            "--quiet")  # fmt: skip
+    assert code == 0 and "Traceback" not in err
+    capture, rows, meta = _files(out)
+    messages, counters = decode_bytes(capture)
+    data = [m for m in messages if m.type_name in ("SAMPLE", "CONTACT")]
+    assert len(rows) - 1 == len(data) == meta["samples"] > 100
+    first = data[0]
+    assert rows[1].split(",")[:3] == [str(first.seq), str(first.timestamp_us), first.type_name]
+    assert meta["ended"] == "duration" and meta["device"]["rate_hz"] == 1000
+    assert meta["decoder"]["lost_frames"] == counters.lost_frames == 0
+    assert meta["bytes"] == len(capture)
+    assert f"recorded {meta['samples']} readings" in stdout
+
+
+def test_record_stops_after_n_contacts_and_refuses_to_overwrite(cli, tmp_path):
+    out = tmp_path / "run"
+    code, _, _ = cli("record", "--port", "sim://press", "--contacts", "2", "-o", out, "--quiet")
+    assert code == 0
+    _, _, meta = _files(out)
+    assert meta["ended"] == "contacts" and meta["contacts_ended"] == 2
+    before = (out / "capture.bin").read_bytes()
+    code, _, err = cli("record", "--port", "sim://press", "--contacts", "1", "-o", out)
+    assert code == 2 and "already holds a recording" in err
+    assert (out / "capture.bin").read_bytes() == before  # nothing recorded is lost
+    code, _, _ = cli("record", "--port", "sim://press", "--contacts", "1", "-o", out, "--append",
+                     "--quiet")  # fmt: skip
+    assert code == 0 and (out / "capture.bin").read_bytes().startswith(before)
+
+
+class Delivered:
+    """Wrap sim:// ports: remember every byte handed to the host; fail the Nth read."""
+
+    def __init__(self, mocker, fail_at, exc, gone):
+        self.mocker, self.fail_at, self.exc = mocker, fail_at, exc
+        self.bytes = bytearray()
+        self.reads = 0
+        self.gone_after = gone  # opens refused (the device node vanished) after the failure
+        self.gone = 0
+
+    def open(self, name):
+        if self.gone > 0:
+            self.gone -= 1
+            raise PortError(f"{name}: no such port")
+        port = open_port("sim://press")
+        real_read = port.read
+
+        def read(size=1):
+            self.reads += 1
+            if self.reads == self.fail_at:
+                self.gone = self.gone_after
+                raise self.exc
+            data = real_read(size)
+            self.bytes += data
+            return data
+
+        self.mocker.patch.object(port, "read", side_effect=read)
+        return port
+
+
+@pytest.mark.parametrize(
+    "exc",
+    [
+        serial.SerialException(
+            "device reports readiness to read but returned no data "
+            "(device disconnected or multiple access on port?)"
+        ),
+        OSError(errno.EIO, "Input/output error"),
+    ],
+)
+def test_a_port_lost_mid_read_loses_nothing_and_the_gap_is_recorded(mocker, tmp_path, exc):
+    ports = Delivered(mocker, fail_at=300, exc=exc, gone=3)  # missing for 3 tries, then back
+    session = Session("/dev/ttyACM0", tmp_path, duration_s=0.6, opener=ports.open,
+                      sleep=lambda s: None)  # fmt: skip
+    meta = session.run()
+    capture, rows, meta_file = _files(tmp_path)
+    assert capture == bytes(ports.bytes)  # every byte received is on disk, in order
+    assert meta["ended"] == "duration" and meta_file["gaps"] == meta["gaps"]
+    (gap,) = meta["gaps"]
+    assert gap["back_at_s"] is not None and gap["back_at_s"] >= gap["lost_at_s"]
+    assert "disconnected" in gap["why"] or "Input/output" in gap["why"]
+    assert meta["reboots"] == 1  # the new port is a fresh board (HELLO seq 0): TAREd again
+    messages, _ = decode_bytes(capture)
+    assert len(rows) - 1 == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages)
+
+
+def test_a_port_that_never_comes_back_ends_with_one_line_and_keeps_the_data(mocker, cli, tmp_path):
+    ports = Delivered(mocker, 300, serial.SerialException("device disconnected"), gone=10**6)
+    mocker.patch("tactile.record_session.open_port", side_effect=ports.open)
+    code, _, err = cli("record", "--port", "/dev/ttyACM0", "--duration", "5", "-o", tmp_path,
+                       "--reconnect", "0.3", "--quiet")  # fmt: skip
+    assert code == 4 and err.count("\n") == 1 and "Traceback" not in err
+    assert "port lost and not back within 0.3 s" in err
+    capture, _, meta = _files(tmp_path)
+    assert capture == bytes(ports.bytes) and len(capture) > 0
+    assert meta["ended"] == "port lost" and meta["gaps"][0]["back_at_s"] is None
+
+
+def test_permission_denied_at_start_is_one_line(mocker, cli, tmp_path):
+    mocker.patch.object(
+        serial, "Serial", side_effect=serial.SerialException(errno.EACCES, "Permission denied")
+    )
+    code, out, err = cli("record", "--port", "/dev/ttyACM0", "--duration", "1", "-o", tmp_path)
+    assert code == 4 and "permission denied" in err and "dialout" in err
+    assert err.count("\n") == 1 and "Traceback" not in err
