@@ -302,3 +302,22 @@ def test_a_noiseless_roll_scene_draws_no_random_numbers(tmp_path):
     path = _variant(tmp_path, "q", noise_force_N=zero, noise_torque_Nm=zero)
     port = serial.serial_for_url(f"sim://{pathlib.Path(path)}", timeout=0.005)
     assert all(m.rng is None for m in port.emulator.models)
+
+
+def test_the_probes_csv_is_ready_for_tactile_ep1_estimate(quiet, tmp_path, cli):
+    import json
+
+    from tactile.ep1.probes_csv import format_probes
+
+    emu, _, t, w, _ = quiet
+    log = _log(emu, tmp_path)
+    rows, ok = probes_from_frames(log, t, w, threshold=1.0)
+    path = tmp_path / "probes.csv"
+    path.write_text(format_probes(rows[ok]))
+    code, out, err = cli("ep1", "estimate", path, "--finger-radius", log.radius_m, "--json")
+    assert code == 0, err
+    got = json.loads(out)
+    direct = estimate(rows[:, :2], rows[:, 2:], log.radius_m)
+    assert got["n_probes"] == 8 and got["status"] == "ok"
+    assert got["kx"] == pytest.approx(direct.kx) and got["ky"] == pytest.approx(direct.ky)
+    assert got["k1"] == pytest.approx(emu.motion.true_curvature()["k1"], rel=1e-3)
