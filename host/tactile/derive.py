@@ -193,14 +193,18 @@ def _derive_posed(outdir, pose_log, messages, threshold, per_contact):
 
 
 def _derive_probes(outdir, pose_log, messages, threshold):
-    from tactile.ep1.from_ft import probes_from_frames, read_probe_log
+    from tactile.ep1.from_ft import probe_report, probes_from_frames, read_probe_log
     from tactile.ep1.probes_csv import format_probes
 
     log = read_probe_log(pose_log)
     t, _, wrench, _ = contact_frames(messages)
     rows, usable = probes_from_frames(log, t, wrench, threshold)
     if not np.any(usable):
-        raise DataError(f"{outdir}: no probe had contact readings at both ends")
+        first = probe_report(log, t, wrench, threshold)[0]
+        raise DataError(f"{outdir}: no probe is usable ({first})")
     path = outdir / "probes.csv"
     _write(path, format_probes(rows[usable]))
-    return [f"{int(np.sum(usable))} of {len(usable)} probes usable -> {path}"]
+    out = [f"{int(np.sum(usable))} of {len(usable)} probes usable -> {path}"]
+    out += [ln for ln in probe_report(log, t, wrench, threshold) if ": ok" not in ln]
+    out.append(f"next: tactile ep1 estimate {path} --finger-radius {log.radius_m!r}")
+    return out
