@@ -13,6 +13,7 @@ import pytest
 from tactile import replica
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
+from tactile_sim.emulator.host_wait import serve_when_opened
 from tactile_sim.emulator.pty_server import PtyServer
 
 EXPECTED = {"plane": "plane", "convex": "cylinder", "concave": "concave_cylinder"}
@@ -44,14 +45,11 @@ class ServeWhenOpened:
     def __init__(self, scene):
         self.server = PtyServer(EmulatedBoard(scene), realtime=True)
         self.path = self.server.open()
-        self.thread = threading.Thread(target=self._run, daemon=True)
+        duration = self.server.board.motion.duration_s + 0.1
+        self.thread = threading.Thread(
+            target=serve_when_opened, args=(self.server, duration), daemon=True
+        )
         self.thread.start()
-
-    def _run(self):
-        endpoint = self.server.endpoint
-        while not self.server.stop and not endpoint.wait(0.01)[1]:
-            pass
-        self.server.serve(self.server.board.motion.duration_s + 0.1)
 
     def close(self):
         self.server.stop = True
@@ -104,3 +102,33 @@ def test_record_cli_over_a_pty_gives_ep1_probes_for_a_rolling_fingertip(cli, tmp
     # 25 %: the bench's p90 error at this noise is 16 % (kx) and 11 % (ky), README
     assert abs(got["kx"] - true["kx"]) / true["kx"] < 0.25
     assert abs(got["ky"] - true["ky"]) / true["ky"] < 0.25
+
+
+def test_emulate_and_record_as_two_processes(cli, tmp_path):
+    """The user's flow: 'tactile emulate' in one terminal, 'tactile record' in another."""
+    import subprocess
+    import sys
+
+    emulate = subprocess.Popen(
+        [sys.executable, "-m", "tactile.cli.main", "emulate", "press", "--duration", "30"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        path = emulate.stdout.readline().strip()
+        assert path.startswith("/dev/"), emulate.stderr.read()
+        code, stdout, err = cli("record", "--port", path, "--contacts", "1", "-o", tmp_path,
+                                "--quiet")  # fmt: skip
+    finally:
+        emulate.terminate()
+        emulate.wait(5)
+    assert code == 0, err
+    meta = json.loads((tmp_path / "meta.json").read_text())
+    assert meta["contacts_ended"] == 1 and meta["decoder"]["lost_frames"] == 0
+    assert meta["device"]["sensor_model"] == "FT6/ADS122C04x6"
+
+
+def test_emulate_pose_log_needs_a_scene_with_a_robot_log(cli, tmp_path):
+    code, _, err = cli("emulate", "press", "--pose-log", tmp_path / "p.csv")
+    assert code == 2 and "this scene's motion has no robot log" in err

@@ -16,11 +16,21 @@ def add_arguments(parser):
     )
     parser.add_argument("--duration", type=float, help="stop after this many simulated seconds")
     parser.add_argument("--no-faults", action="store_true", help="ignore the scene's [link] faults")
+    parser.add_argument(
+        "--pose-log",
+        help="write the robot's log for the scene here (for tactile record --pose-log)",
+    )
+    parser.add_argument(
+        "--now",
+        action="store_true",
+        help="start the scene at once (default: when a host first opens the port)",
+    )
 
 
 def run(args):
     from tactile_sim.emulator import load_scene
     from tactile_sim.emulator.device import EmulatedBoard
+    from tactile_sim.emulator.host_wait import serve_when_opened
     from tactile_sim.emulator.link_faults import LinkFaults
     from tactile_sim.emulator.pty_server import PtyServer
 
@@ -35,11 +45,31 @@ def run(args):
         faults=faults,
         disconnects=() if args.no_faults else link.get("disconnect", ()),
     )
+    if args.pose_log:
+        _write_log(board.motion, args.pose_log)
     path = server.open()
     print(path, flush=True)
-    print(f"emulating scene '{scene.name}' ({scene.path}); Ctrl-C to stop", file=sys.stderr)
+    when = "now" if args.now else "when a host opens the port"
+    print(f"emulating scene '{scene.name}' ({scene.path}), starting {when}; Ctrl-C to stop",
+          file=sys.stderr)  # fmt: skip
     try:
-        server.serve(args.duration)
+        if args.now:
+            server.serve(args.duration)
+        else:
+            serve_when_opened(server, args.duration)
     finally:
         server.close()
     return 0
+
+
+def _write_log(motion, path):
+    """The robot's log: joints or sensor poses (EP2, ch. 5) or the probe log (EP1 roll)."""
+    from tactile.errors import InputError
+
+    write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
+    if write is None:
+        raise InputError(f"--pose-log: this scene's motion has no robot log ({path})")
+    try:
+        write(path)
+    except OSError as exc:
+        raise InputError(f"--pose-log: cannot write {path}: {exc.strerror}") from None
