@@ -19,6 +19,15 @@ and moment (``sphere_contact``, valid with friction) and maps it to the world (`
 A window's pose is taken as constant over the window: the log must say where the robot
 held still (``tactile_sim.emulator.motion_sweep`` holds it exactly).  Frames outside every
 window, below the gate, or that do not localise are dropped and counted.
+
+The line of action is found from the moment (§5.1.1, with friction), so its error grows as
+1/|F|: with the thesis's sensor (0.20/0.40 ozf, §5.1.3) a fingertip normal is good to ~6 deg
+rms at 5 N but only to ~20 deg at 1.6 N, just above the 5 ozf gate, i.e. while the load
+ramps up or down.
+A generic log may say how noisy the F/T sensor is, ``# sensor: noise_force_N=sx,sy,sz
+noise_torque_Nm=sx,sy,sz`` (1 sigma per axis, sensor frame); then each frame's normal error
+is propagated to first order (``normal_sd``) and frames whose rms error exceeds
+``max_normal_sd_deg`` are dropped and counted as ``imprecise``.
 """
 
 from dataclasses import dataclass, field
@@ -26,18 +35,34 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.errors import InputError, where
+from tactile.localize.contact import NO_CONTACT
 
-__all__ = ["PoseLog", "PosedContacts", "read_pose_log", "posed_world_contacts"]
+__all__ = [
+    "PoseLog",
+    "PosedContacts",
+    "read_pose_log",
+    "posed_world_contacts",
+    "normal_sd",
+    "MAX_NORMAL_SD_DEG",
+]
 
 GENERIC = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
 SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
+
+# Largest rms error (deg) of a kept frame's normal when the log gives the sensor's noise.  At
+# the thesis's sensor noise a fingertip normal has ~6 deg at 5 N, so 10 deg keeps every frame
+# at the working force and drops those below ~3 N (load ramps).  A kept normal then stays
+# within 3.5 rms (35 deg; 1 frame in 2e5) of the truth, which with a sweep's own 34 deg of
+# normal spread stays inside EP2's 70 deg consistency limit (tactile.ep2.patch_frame).
+MAX_NORMAL_SD_DEG = 10.0
 
 
 @dataclass
 class PoseLog:
     """Windows (n,) with their finger and pose; ``kind`` "pose" (R, t set) or "scara"
     (``joints`` (n, 4) set); ``probe`` = {"radius", "centre", "axis"} or None; ``lengths``
-    (L1, L2, L3, L4) of a SCARA log's ``# rig:`` line or None."""
+    (L1, L2, L3, L4) of a SCARA log's ``# rig:`` line or None; ``noise`` (6,) the F/T
+    sensor's 1-sigma noise (N, N*m) of a ``# sensor:`` line or None."""
 
     path: str
     kind: str
@@ -50,6 +75,7 @@ class PoseLog:
     joints: np.ndarray | None = None
     probe: dict | None = None
     lengths: tuple | None = None
+    noise: np.ndarray | None = None
 
     def __len__(self):
         return len(self.t_start)
@@ -59,7 +85,8 @@ class PoseLog:
 class PoseReport:
     """Where the frames went: ``frames`` in, ``outside`` (no window of their finger covers
     them), ``no_contact`` (|F| at or below the threshold), ``unusable`` (the line of action
-    misses the probe or the point is off it), ``usable``; ``status`` counts by name for the
+    misses the probe or the point is off it), ``imprecise`` (localised, but the normal's
+    propagated rms error exceeds the limit), ``usable``; ``status`` counts by name for the
     frames inside windows; ``kept`` the indices of the usable frames in the input."""
 
     frames: int
@@ -67,6 +94,7 @@ class PoseReport:
     no_contact: int
     unusable: int
     usable: int
+    imprecise: int = 0
     status: dict = field(default_factory=dict)
     kept: np.ndarray = field(default_factory=lambda: np.zeros(0, int), repr=False)
 
@@ -74,12 +102,15 @@ class PoseReport:
 @dataclass
 class PosedContacts:
     """World contact points and object normals (n, 3) of the usable frames, their finger
-    (n,), and the ``PoseReport``.  Unpacks as (points, normals, finger, report)."""
+    (n,), and the ``PoseReport``; ``normal_sd`` (n,) the normals' propagated rms error (rad)
+    when the sensor noise is known, else None.  Unpacks as (points, normals, finger, report).
+    """
 
     points: np.ndarray
     normals: np.ndarray
     finger: np.ndarray
     report: PoseReport
+    normal_sd: np.ndarray | None = None
 
     def __iter__(self):
         return iter((self.points, self.normals, self.finger, self.report))
@@ -140,11 +171,13 @@ def read_pose_log(path):
             log.lengths = _parse_rig(path, *tags["rig"])
     if "probe" in tags:
         log.probe = _parse_probe(path, *tags["probe"])
+    if "sensor" in tags:
+        log.noise = _parse_sensor(path, *tags["sensor"])
     return log
 
 
 def _scan(path):
-    """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig), the header's
+    """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor), the header's
     line number and the header row."""
     import csv
 
@@ -157,7 +190,7 @@ def _scan(path):
                     continue
                 if s.startswith("#"):
                     tag, colon, body = s[1:].partition(":")
-                    if colon and tag.strip() in ("probe", "rig"):
+                    if colon and tag.strip() in ("probe", "rig", "sensor"):
                         tags[tag.strip()] = (no, body.strip())
                     continue
                 return tags, no, next(csv.reader([s]))
@@ -202,6 +235,34 @@ def _parse_probe(path, line, text):
     return out
 
 
+def _parse_sensor(path, line, text):
+    """``noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz`` -> (6,) sigmas, both required."""
+    out = {}
+    for word in text.split():
+        key, eq, value = word.partition("=")
+        if key not in ("noise_force_N", "noise_torque_Nm") or not eq:
+            raise InputError(
+                f"{where(path, line)}: sensor: unknown field {word!r}"
+                " (noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz)"
+            )
+        try:
+            v = np.array([float(x) for x in value.split(",")])
+        except ValueError:
+            raise InputError(
+                f"{where(path, line)}: sensor: {key}: not numbers: {value!r}"
+            ) from None
+        if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v < 0):
+            raise InputError(
+                f"{where(path, line)}: sensor: {key}: need 3 finite numbers >= 0, got {value!r}"
+            )
+        out[key] = v
+    if len(out) != 2:
+        raise InputError(
+            f"{where(path, line)}: sensor: need noise_force_N=sx,sy,sz and noise_torque_Nm=sx,sy,sz"
+        )
+    return np.concatenate([out["noise_force_N"], out["noise_torque_Nm"]])
+
+
 def _parse_rig(path, line, text):
     words = text.split()
     if not words or words[0] != "scara":
@@ -233,6 +294,34 @@ def _check_overlap(log):
 
 
 # --- placing frames ------------------------------------------------------------------------
+
+
+def normal_sd(force, moment, centre, radius, noise):
+    """RMS angle (rad) of the fingertip normal's error from sensor noise, to first order.
+
+    ``force``, ``moment`` (n, 3) as ``sphere_contact`` takes them (sensor frame, moment about
+    the sensor origin), ``noise`` (6,) independent 1-sigma errors of (F, M) (§5.1.3).  The
+    normal n(w) of the line of action's entry point (§5.1.1) is differentiated by central
+    differences, and sqrt(sum_j sigma_j^2 |dn/dw_j|^2) returned (n,).  At a press on the
+    pole with |F| = f this is sqrt(sM_y^2 + sM_z^2 + (c + r)^2 (sF_y^2 + sF_z^2)) / (f r).
+    """
+    from tactile.localize.sphere import sphere_contact
+
+    F = np.asarray(force, dtype=float).reshape(-1, 3)
+    M = np.asarray(moment, dtype=float).reshape(-1, 3)
+    sigma = np.asarray(noise, dtype=float).ravel()
+    W = np.concatenate([F, M], axis=1)
+    var = np.zeros(len(W))
+    for j in np.flatnonzero(sigma > 0):
+        h = 1e-3 * sigma[j]  # well inside the linear range of a 1-sigma error
+        up, down = W.copy(), W.copy()
+        up[:, j] += h
+        down[:, j] -= h
+        n_up = sphere_contact(up[:, :3], up[:, 3:], centre, radius).normal
+        n_down = sphere_contact(down[:, :3], down[:, 3:], centre, radius).normal
+        dn = (n_up - n_down) / (2.0 * h)
+        var += sigma[j] ** 2 * np.einsum("ij,ij->i", dn, dn)
+    return np.sqrt(var)
 
 
 def window_index(log, t_us, sensor, latency_us=0):
@@ -274,6 +363,8 @@ def posed_world_contacts(
     axis=None,
     lengths=None,
     method="force",
+    noise=None,
+    max_normal_sd_deg=MAX_NORMAL_SD_DEG,
 ):
     """World contacts from CONTACT frames through a pose log.
 
@@ -286,8 +377,13 @@ def posed_world_contacts(
     ``scara_contacts`` with ``lengths`` = (L1, L2, L3, L4) (default: the log's ``# rig:``
     line) and ``method`` ("force": eqs. 60-61, the thesis's; "moment": with friction).
 
-    Returns ``PosedContacts(points, normals, finger, report)``, world frame, usable rows only,
-    in input order; never NaN.
+    With the sensor's ``noise`` (6,) (default: the log's ``# sensor:`` line) a generic log's
+    frames whose normal has a propagated rms error (``normal_sd``) above ``max_normal_sd_deg``
+    are dropped as ``imprecise``: the low-force frames of a load ramp, whose normals are
+    otherwise noise (see the module docstring).  Without it every usable frame is kept.
+
+    Returns ``PosedContacts(points, normals, finger, report, normal_sd)``, world frame, usable
+    rows only, in input order; never NaN.
     """
     t = np.asarray(t_us).ravel()
     s = np.asarray(sensor).ravel()
@@ -324,16 +420,31 @@ def posed_world_contacts(
             )
         contact = posed_contacts(F, M, log.R[rows], log.t[rows], c, r, threshold, axis=ax)
     usable = np.asarray(contact.usable)
-    counts = contact.counts() if len(inside) else {}
-    no_contact = counts.get("no_contact", 0)
+    names = np.array(contact.status_names(), dtype=object)
+    unusable = int(np.sum(~usable & (contact.status != NO_CONTACT)))
+    sd = None
+    sigma = log.noise if noise is None else noise
+    if log.kind == "pose" and sigma is not None:
+        sigma = np.broadcast_to(np.asarray(sigma, dtype=float), (6,))
+        if not np.all(np.isfinite(sigma)) or np.any(sigma < 0):
+            raise ValueError(f"noise must be 6 finite sigmas >= 0, got {sigma!r}")
+        sd = np.zeros(len(inside))
+        sd[usable] = normal_sd(F[usable], M[usable], c, r, sigma)
+        vague = usable & ~(sd <= np.radians(max_normal_sd_deg))
+        names[vague] = "imprecise"
+        usable = usable & ~vague
+        sd = sd[usable]
+    values, n = np.unique(names.astype(str), return_counts=True)
+    counts = {str(v): int(k) for v, k in zip(values, n)}
     report = PoseReport(
         frames=len(t),
         outside=len(t) - len(inside),
-        no_contact=no_contact,
-        unusable=len(inside) - no_contact - int(usable.sum()),
+        no_contact=counts.get("no_contact", 0),
+        unusable=unusable,
         usable=int(usable.sum()),
+        imprecise=counts.get("imprecise", 0),
         status=counts,
         kept=inside[usable],
     )
     finger = log.finger[rows[usable]]
-    return PosedContacts(contact.point[usable], contact.normal[usable], finger, report)
+    return PosedContacts(contact.point[usable], contact.normal[usable], finger, report, sd)

@@ -27,7 +27,9 @@ world x axis, so the world is not the patch frame.  ``poses()`` gives, per finge
 station, the window in which the pose is held and the sensor's pose in the world: the pose
 is exactly constant within each window (the moves happen between windows, in ``settle_s``),
 so the pose log is exact, not an approximation.  Frames sampled during a move fall outside
-every window and the host drops them.
+every window and the host drops them.  The log also states the sensor's noise (``[sensor]``
+of the scene, as a datasheet would), by which the host drops the frames of the load ramps
+whose normals the noise swamps (``tactile.localize.pose_log.normal_sd``).
 
 Keys (SI units): ``object`` (``objects.KINDS``), ``radius_m``, ``rotation_deg``, ``tilt_deg``,
 ``fingers``, ``spacing_m``, ``length_m``, ``samples``, ``speed_mps``, ``settle_s``,
@@ -88,11 +90,12 @@ def station_wrench(point, normal, R, origin, normal_force, mu, sweep_dir=(0.0, 1
 class SweepMotion:
     """Loads per sensor as piecewise-linear keyframes; the truth and the pose log per station."""
 
-    def __init__(self, cfg, obj):
+    def __init__(self, cfg, obj, noise=(0.0,) * 6):
         from tactile_sim.ep2.sweep import sweep
 
         self.cfg = cfg
         self.obj = obj
+        self.noise = np.broadcast_to(np.asarray(noise, float), (6,)).copy()  # (F, M) sigmas
         k, m = cfg["fingers"], cfg["samples"]
         r, off = cfg["fingertip_radius_m"], cfg["sensor_offset_m"]
         origin = (-0.5 * cfg["spacing_m"] * (k - 1), -0.5 * cfg["length_m"])
@@ -186,13 +189,17 @@ class SweepMotion:
         return rows
 
     def write_pose_log(self, path):
-        """The robot's pose log (host/tactile/localize/pose_log.py reads it)."""
+        """The robot's pose log (host/tactile/localize/pose_log.py reads it), with the
+        fingertip (``# probe:``) and the F/T sensor's noise (``# sensor:``, its datasheet
+        accuracy, §5.1.3), by which the host drops frames whose normal is noise."""
         centre, radius, axis = self.probe()
+        force, torque = (",".join(repr(float(v)) for v in part) for part in np.split(self.noise, 2))
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(
                 f"# probe: sphere radius_m={radius!r} centre_m={','.join(map(repr, centre))}"
                 f" axis={','.join(map(str, axis))}\n"
             )
+            fh.write(f"# sensor: noise_force_N={force} noise_torque_Nm={torque}\n")
             fh.write(",".join(POSE_COLUMNS) + "\n")
             for row in self.poses():
                 fh.write(",".join(repr(v) for v in row) + "\n")
@@ -244,6 +251,17 @@ def _check(scene, cfg):
         )
 
 
+def _noise(scene):
+    """The sensor's (F, M) sigmas, which the pose log states for the host."""
+    out = []
+    for key in ("noise_force_N", "noise_torque_Nm"):
+        v = scene.sensor[key]
+        if len(v) != 3 or not all(isinstance(x, (int, float)) and x >= 0 for x in v):
+            raise scene.error(f"[sensor] {key}", f"need 3 numbers >= 0, got {v!r}")
+        out += [float(x) for x in v]
+    return out
+
+
 def build(scene):
     from tactile_sim.ep2.objects import make
 
@@ -252,7 +270,7 @@ def build(scene):
     try:
         obj = make(cfg["object"], radius=cfg["radius_m"], rotation_deg=cfg["rotation_deg"],
                    centre=(0.0, 0.0))  # fmt: skip
-        motion = SweepMotion(cfg, obj)
+        motion = SweepMotion(cfg, obj, _noise(scene))
     except ValueError as exc:
         raise scene.error("[motion] object", str(exc)) from None
     return motion
