@@ -97,3 +97,17 @@ def test_group_dispatch_skips_a_missing_module():
     add_group(parser, ("tactile.cli.no_such_module", "tactile.cli.sim_ep1"), "what")
     argv = ["ep1", "--object", "sphere", "--finger-radius", "1", "--dtheta", "0.1"]
     assert callable(parser.parse_args(argv)._run)
+
+
+ISSUE_7_COMMANDS = ("ports info config tare record live decode emulate flash ep1 ep2 study plot").split()
+
+
+@pytest.mark.parametrize("name", ISSUE_7_COMMANDS + ["demo", "sim"])
+def test_every_subcommand_exists_and_has_help(capsys, name):
+    from tactile.cli.main import COMMANDS, main
+
+    assert name in COMMANDS
+    with pytest.raises(SystemExit) as exc:
+        main([name, "--help"])
+    out = capsys.readouterr().out
+    assert exc.value.code == 0 and out.startswith(f"usage: tactile {name}")
