@@ -99,7 +99,9 @@ def test_group_dispatch_skips_a_missing_module():
     assert callable(parser.parse_args(argv)._run)
 
 
-ISSUE_7_COMMANDS = ("ports info config tare record live decode emulate flash ep1 ep2 study plot").split()
+ISSUE_7_COMMANDS = (
+    "ports info config tare record live decode emulate flash ep1 ep2 study plot".split()
+)
 
 
 @pytest.mark.parametrize("name", ISSUE_7_COMMANDS + ["demo", "sim"])
