@@ -19,7 +19,7 @@ from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
 from tactile_fw.timing import ManualClock
 from tactile_protocol import constants as C
-from tactile_sim.adc_model import ADS122C04Model
+from tactile_sim.adc_model import FULL_SCALE_CODES, ADS122C04Model
 from tactile_sim.emulator.ft_model import FTModel
 from tactile_sim.emulator.scene import MOTIONS
 from tactile_sim.emulator.sensor_faults import FaultSchedule
@@ -101,8 +101,11 @@ class EmulatedBoard:
 
     @staticmethod
     def _gauge_source(model, adc, j):
+        """Gauge j in volts at the converter's current reference and gain (its full scale)."""
+        values = model.gauge_values
+
         def volts(t_us):
-            return model.gauges(t_us)[j] * adc.vref() / adc.gain() / (1 << 23)
+            return values(t_us)[j] * adc.vref_v / adc.pga_gain / FULL_SCALE_CODES
 
         return volts
 
@@ -118,7 +121,7 @@ class EmulatedBoard:
         best = None
         for adc in self.adcs:
             if adc.running:
-                period = adc.period_us()
+                period = adc.period
                 k = math.floor((t - adc.t_start) / period) + 1
                 nxt = adc.t_start + k * period
                 best = nxt if best is None or nxt < best else best

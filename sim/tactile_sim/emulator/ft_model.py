@@ -47,16 +47,37 @@ class FTModel:
         self.saturation = None  # None, +1 or -1: force gauges to a rail (fault injection)
         self._t = None
         self._g = np.zeros(6)
+        self._values = [0.0] * 6
+
+    def _at(self, t_us):
+        w = np.asarray(self.wrench_at(t_us * 1e-6), float)
+        if self.rng is not None:
+            noise = self.rng.normal(0.0, 1.0, 6)
+            noise *= self.sigma
+            w = noise + w  # (IEEE addition commutes: the same sums as w + noise)
+        g = self.A.dot(w)  # A @ w, without the ufunc dispatch
+        g += self.bias
+        if self.drift:  # (adding 0.0 could only turn a -0.0 into 0.0: the same code)
+            g += self.drift * t_us * 1e-6
+        self._g = g
+        self._values = self._g.tolist()
+        self._t = t_us
 
     def gauges(self, t_us):
         """The six gauge counts (float) at simulated time ``t_us``; cached per instant."""
         if t_us != self._t:
-            w = np.asarray(self.wrench_at(t_us * 1e-6), float)
-            if self.rng is not None:
-                w = w + self.rng.normal(0.0, 1.0, 6) * self.sigma
-            self._g = self.A @ w + self.bias + self.drift * t_us * 1e-6
-            self._t = t_us
+            self._at(t_us)
         return self._g
+
+    def gauge_values(self, t_us):
+        """``gauges(t_us)`` as a list of Python floats: the same values, cheaper to index.
+
+        The six converters of a sensor read the same instant, so the wrench, the noise
+        draw and the mixing run once per conversion, not once per gauge.
+        """
+        if t_us != self._t:
+            self._at(t_us)
+        return self._values
 
     def calibration_coefficients(self):
         """C row-major, the 36 float32 coefficients the board stores (N per count)."""
