@@ -97,3 +97,74 @@ def test_disconnect_and_reconnect_resumes_and_counts_the_gap(tmp_path):
     # Every frame the board produced while unplugged is counted lost (~400 samples + contacts).
     gap = again[0].seq - max(m.seq for m in msgs if m.seq < again[0].seq)
     assert decoder.counters.lost_frames >= 380 and decoder.counters.lost_frames >= gap - 1
+
+
+def _drain(port, decoder, thread, slow_reads=0):
+    """Read until the server is done and the pty is empty; the first reads lag (a slow host)."""
+    msgs = []
+    while thread.is_alive() or port.in_waiting:
+        data = port.read(1)
+        if data:
+            msgs += decoder.feed(data + port.read(port.in_waiting))
+            if slow_reads > 0:
+                slow_reads -= 1
+                time.sleep(0.02)  # meanwhile the board fills the pty (about 20 kB)
+    return msgs
+
+
+def test_fast_mode_waits_for_the_host_and_loses_nothing():
+    board = EmulatedBoard(load_scene("press"))
+    server = PtyServer(board, realtime=False)
+    path = server.open()
+    thread = _serve(server, 2.0)
+    time.sleep(0.1)
+    assert board.t_us == 0  # nobody is reading: simulated time holds
+    port = serial.Serial(path, timeout=0.05)
+    decoder = StreamDecoder()
+    try:
+        msgs = _drain(port, decoder, thread, slow_reads=10)
+    finally:
+        port.close()
+        server.stop = True
+        thread.join(5)
+        server.close()
+    assert msgs[0].type_name == "HELLO" and msgs[0].timestamp_us == 0  # the scene from its start
+    seqs = [m.seq for m in msgs]
+    assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))
+    times = [m.timestamp_us for m in msgs if m.type_name == "SAMPLE"]
+    assert times == list(range(1000, 2_000_001, 1000))  # every sample, to the last one
+    assert decoder.counters.lost_frames == 0 and decoder.counters.damaged == 0
+
+
+def test_fast_mode_unplugs_on_time_and_resumes_where_it_was(tmp_path):
+    scene = load_scene(_scene_file(tmp_path, "[link]\ndisconnect = [[0.5, 0.7]]\n"))
+    link = str(tmp_path / "ttyTACTILE")
+    board = EmulatedBoard(scene)
+    server = PtyServer(board, link_path=link, realtime=False, disconnects=[[0.5, 0.7]])
+    server.open()
+    thread = _serve(server, 1.2)
+    decoder = StreamDecoder()
+    msgs = []
+    deadline = time.monotonic() + 10
+    port = serial.Serial(link, timeout=0.05)
+    while (thread.is_alive() or port.in_waiting) and time.monotonic() < deadline:
+        try:
+            data = port.read(1)
+            msgs += decoder.feed(data + port.read(port.in_waiting))
+        except (serial.SerialException, OSError):
+            port.close()
+            while not os.path.exists(link) and time.monotonic() < deadline:
+                time.sleep(0.01)
+            port = serial.Serial(link, timeout=0.05)
+    port.close()
+    thread.join(5)
+    server.close()
+    assert server.reconnects == 1
+    samples = [m.timestamp_us for m in msgs if m.type_name == "SAMPLE"]
+    before = [t for t in samples if t < 700_000]
+    after = [t for t in samples if t >= 700_000]
+    assert before == list(range(1000, 500_001, 1000))  # all up to the unplug, none after it
+    hello = [m for m in msgs if m.type_name == "HELLO" and m.timestamp_us >= 700_000]
+    assert len(hello) == 1 and hello[0].timestamp_us < 702_000  # held for the new host
+    assert after == list(range(701_000, 1_200_001, 1000))  # then nothing skipped
+    assert decoder.counters.lost_frames >= 199  # the board's frames while unplugged

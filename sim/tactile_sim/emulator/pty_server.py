@@ -9,15 +9,31 @@ no reader and the firmware drops and counts frames, as on USB; when a host
 opens the port the firmware is told (it answers with HELLO), after a short
 settle time: pyserial flushes the input buffer at the end of ``open()``, so a
 HELLO written the instant the port opens would be discarded.
+
+As fast as possible (``realtime=False``), simulated time runs in larger
+ticks and only while a host is there to read: it holds until a host is
+announced (so the host sees the scene from its start), while the pty is full,
+and before a scripted unplug and the end of the run until the host has read
+what is in flight (so a host that reads loses nothing the scene does not
+take away).  In real time the board runs regardless and a slow or absent host
+makes it drop frames, as a real board does.
 """
 
 import errno
+import fcntl
 import os
 import select
+import struct
+import termios
 import time
 import tty
 
 OPEN_SETTLE_S = 0.05  # wait this long after the host opens before announcing
+TICK_S = 0.002  # real time: simulated time per exchange with the host (bounds latency)
+FAST_TICK_S = 0.02  # as fast as possible: fewer, larger writes and polls
+FULL_WAIT_S = 0.0005  # as fast as possible, pty full: wait this long for the host to read
+HOST_WAIT_S = 0.005  # as fast as possible, no host yet: look again after this long
+DRAINED_S = 0.01  # ... the host has read all once the pty's input queue stays empty this long
 
 
 class PtyEndpoint:
@@ -59,6 +75,23 @@ class PtyEndpoint:
                 return 0
             raise
 
+    def unread(self):
+        """Bytes waiting in the slave's input queue (the part the kernel counts); 0 if unknown.
+
+        Opens the slave briefly: only while a host has it open, so presence is unchanged.
+        Up to ~16 kB more can wait in the pty's internal buffer until the host reads.
+        """
+        try:
+            fd = os.open(self.path, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
+        except OSError:
+            return 0
+        try:
+            return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
+        except OSError:
+            return 0
+        finally:
+            os.close(fd)
+
     def close(self):
         os.close(self.master)
 
@@ -96,31 +129,74 @@ class PtyServer:
                 return b
         return None
 
-    def serve(self, duration_s=None, tick_s=0.002, on_tick=None):
-        """Run until ``stop`` is set or ``duration_s`` of simulated time has passed."""
+    def _next_unplug(self, t_us):
+        for a, _ in self.disconnects:
+            if a > t_us:
+                return a
+        return None
+
+    def serve(self, duration_s=None, tick_s=None, on_tick=None):
+        """Run until ``stop`` is set or ``duration_s`` of simulated time has passed.
+
+        ``tick_s``: simulated time between exchanges with the host (default ``TICK_S``
+        in real time, ``FAST_TICK_S`` as fast as possible).
+        """
         if self.endpoint is None:
             self.open()
         board = self.board
+        tick_us = int((tick_s or (TICK_S if self.realtime else FAST_TICK_S)) * 1e6)
         start = time.monotonic()
         end_us = None if duration_s is None else int(duration_s * 1e6)
         while not self.stop and (end_us is None or board.t_us < end_us):
             replug = self._unplugged(board.t_us)
             if replug is not None:
+                if not self.realtime:
+                    self._let_host_read()
                 self._disconnect(replug)
                 continue
-            ahead = board.t_us / 1e6 - (time.monotonic() - start)
-            if self.realtime and ahead > 0:  # never run ahead of the wall clock
-                self._exchange(min(ahead, OPEN_SETTLE_S / 2))
+            if self.realtime:
+                ahead = board.t_us / 1e6 - (time.monotonic() - start)
+                if ahead > 0:  # never run ahead of the wall clock
+                    self._exchange(min(ahead, OPEN_SETTLE_S / 2))
+                    continue
+            elif not self.endpoint.host_present:  # nobody to stream to: time holds
+                self._pump()  # (what the board said before is discarded by _exchange)
+                time.sleep(HOST_WAIT_S)  # (poll() returns at once while nobody has it open)
+                self._exchange(0.0)
                 continue
-            target = board.t_us + int(tick_s * 1e6)
+            elif self._out:  # the host has not taken the last tick yet: time holds
+                self._exchange(FULL_WAIT_S)
+                self._pump()
+                continue
+            target = board.t_us + tick_us
             if end_us is not None:
                 target = min(target, end_us)
+            unplug = self._next_unplug(board.t_us)
+            if unplug is not None:
+                target = min(target, unplug)
             board.run_until(target)
             self._pump()
             if on_tick is not None:
                 on_tick(board)
             self._exchange(0.0)
         self._pump()
+        if not self.realtime:
+            self._let_host_read()  # the end of the run reaches the host too
+
+    def _let_host_read(self):
+        """As fast as possible: wait while the host (if any) reads what is queued or in flight."""
+        empty_since = None
+        while self.endpoint.host_present and not self.stop:
+            self._exchange(FULL_WAIT_S)
+            self._pump()
+            if self._out or self.endpoint.unread():
+                empty_since = None
+            elif empty_since is None:
+                empty_since = time.monotonic()
+            elif time.monotonic() - empty_since >= DRAINED_S:
+                # (the input queue can read empty while the pty's buffer still holds more,
+                # until the kernel moves it along: far less than DRAINED_S)
+                return
 
     def _pump(self):
         board, ep = self.board, self.endpoint
