@@ -29,8 +29,9 @@ def reference(model, seed, times):
 
 
 def test_gauges_are_computed_once_per_instant_with_the_seeded_noise():
+    # (more instants than one block of noise drawn ahead)
     model = FTModel(SENSOR, wrench, seed=42)
-    times = [0, 500.0, 1000.0, 1500.0, 2500.0, 2500.0, 4000.0]
+    times = [0, 500.0, 1000.0, 1500.0, 2500.0, 2500.0, 4000.0] + [500.0 * k for k in range(9, 700)]
     want = reference(model, 42, sorted(set(times)))
     got = {}
     for t in times:

@@ -12,6 +12,7 @@ through ``A``; a noiseless model draws no random numbers.
 import numpy as np
 
 FULL_SCALE_CODE = 0.6 * (1 << 23)
+NOISE_BLOCK = 256  # instants of noise drawn at once: the same stream as one draw per instant
 
 
 def sensitivity_matrix(force_range_n, torque_range_nm):
@@ -48,13 +49,17 @@ class FTModel:
         self._t = None
         self._g = np.zeros(6)
         self._values = [0.0] * 6
+        self._noise = np.zeros((0, 6))  # drawn ahead, already times sigma; row _k is next
+        self._k = 0
 
     def _at(self, t_us):
         w = np.asarray(self.wrench_at(t_us * 1e-6), float)
         if self.rng is not None:
-            noise = self.rng.normal(0.0, 1.0, 6)
-            noise *= self.sigma
-            w = noise + w  # (IEEE addition commutes: the same sums as w + noise)
+            if self._k == len(self._noise):
+                self._noise = self.rng.normal(0.0, 1.0, (NOISE_BLOCK, 6)) * self.sigma
+                self._k = 0
+            w = self._noise[self._k] + w  # (IEEE addition commutes: the same sums as w + noise)
+            self._k += 1
         g = self.A.dot(w)  # A @ w, without the ufunc dispatch
         g += self.bias
         if self.drift:  # (adding 0.0 could only turn a -0.0 into 0.0: the same code)
