@@ -139,12 +139,12 @@ class PtyServer:
         """Run until ``stop`` is set or ``duration_s`` of simulated time has passed.
 
         ``tick_s``: simulated time between exchanges with the host (default ``TICK_S``
-        in real time, ``FAST_TICK_S`` as fast as possible).
+        in real time, ``FAST_TICK_S`` as fast as possible; ``realtime`` may change while
+        serving).
         """
         if self.endpoint is None:
             self.open()
         board = self.board
-        tick_us = int((tick_s or (TICK_S if self.realtime else FAST_TICK_S)) * 1e6)
         start = time.monotonic()
         end_us = None if duration_s is None else int(duration_s * 1e6)
         while not self.stop and (end_us is None or board.t_us < end_us):
@@ -168,7 +168,7 @@ class PtyServer:
                 self._exchange(FULL_WAIT_S)
                 self._pump()
                 continue
-            target = board.t_us + tick_us
+            target = board.t_us + int((tick_s or (TICK_S if self.realtime else FAST_TICK_S)) * 1e6)
             if end_us is not None:
                 target = min(target, end_us)
             unplug = self._next_unplug(board.t_us)
