@@ -176,3 +176,16 @@ def test_every_registered_motion_kind_has_its_module():
 
     for module in MOTIONS.values():
         assert callable(importlib.import_module(module).build)
+
+
+def test_press_motion_scalar_path_equals_numpy_interp():
+    import numpy as np
+
+    from tactile_sim.emulator.device import build_motion
+
+    motion = build_motion(load_scene("press"))
+    times = np.random.default_rng(3).uniform(-1.0, 9.0, 2000).tolist() + [0.0, 0.5, 1.0, 2.0]
+    for t in times:
+        t_wrapped = motion.t[0] + (t - motion.t[0]) % motion.span
+        expect = [np.interp(t_wrapped, motion.t, motion.w[:, k]) for k in range(6)]
+        assert motion.wrench_at(t).tolist() == expect  # bit for bit
