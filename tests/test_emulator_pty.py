@@ -61,20 +61,12 @@ def _scene_file(tmp_path, extra):
     return path
 
 
-@pytest.mark.slow
-def test_disconnect_and_reconnect_resumes_and_counts_the_gap(tmp_path):
-    scene = load_scene(_scene_file(tmp_path, "[link]\ndisconnect = [[1.0, 1.4]]\n"))
-    link = str(tmp_path / "ttyTACTILE")
-    server = PtyServer(
-        EmulatedBoard(scene), link_path=link, realtime=True, disconnects=[[1.0, 1.4]]
-    )
-    server.open()
-    thread = _serve(server, 2.5)
-    decoder = StreamDecoder()
+def _read_through_unplugs(link, decoder, thread, seconds, drain):
+    """Read the symlinked port while the server runs, reopening it after each unplug."""
     msgs, reopened = [], 0
-    deadline = time.monotonic() + 6
+    deadline = time.monotonic() + seconds
     port = serial.Serial(link, timeout=0.05)
-    while thread.is_alive() and time.monotonic() < deadline:
+    while (thread.is_alive() or (drain and port.in_waiting)) and time.monotonic() < deadline:
         try:
             data = port.read(1)
             msgs += decoder.feed(data + port.read(port.in_waiting))
@@ -85,6 +77,20 @@ def test_disconnect_and_reconnect_resumes_and_counts_the_gap(tmp_path):
             port = serial.Serial(link, timeout=0.05)
             reopened += 1
     port.close()
+    return msgs, reopened
+
+
+@pytest.mark.slow
+def test_disconnect_and_reconnect_resumes_and_counts_the_gap(tmp_path):
+    scene = load_scene(_scene_file(tmp_path, "[link]\ndisconnect = [[1.0, 1.4]]\n"))
+    link = str(tmp_path / "ttyTACTILE")
+    server = PtyServer(
+        EmulatedBoard(scene), link_path=link, realtime=True, disconnects=[[1.0, 1.4]]
+    )
+    server.open()
+    thread = _serve(server, 2.5)
+    decoder = StreamDecoder()
+    msgs, reopened = _read_through_unplugs(link, decoder, thread, 6, drain=False)
     thread.join(5)
     server.close()
     assert reopened >= 1 and server.reconnects == 1
@@ -144,19 +150,7 @@ def test_fast_mode_unplugs_on_time_and_resumes_where_it_was(tmp_path):
     server.open()
     thread = _serve(server, 1.2)
     decoder = StreamDecoder()
-    msgs = []
-    deadline = time.monotonic() + 10
-    port = serial.Serial(link, timeout=0.05)
-    while (thread.is_alive() or port.in_waiting) and time.monotonic() < deadline:
-        try:
-            data = port.read(1)
-            msgs += decoder.feed(data + port.read(port.in_waiting))
-        except (serial.SerialException, OSError):
-            port.close()
-            while not os.path.exists(link) and time.monotonic() < deadline:
-                time.sleep(0.01)
-            port = serial.Serial(link, timeout=0.05)
-    port.close()
+    msgs, _ = _read_through_unplugs(link, decoder, thread, 10, drain=True)
     thread.join(5)
     server.close()
     assert server.reconnects == 1
