@@ -12,14 +12,6 @@ def _c(ts, phase, cid, fx=1_000_000, sensor=0):
     return Contact(0, ts, sensor, phase, cid, 0x40, fx, 0, 0, 0, 0, 0)
 
 
-def test_joints_come_from_the_pose_window_covering_each_sample():
-    poses = [(0, 100, 0, 0.1, 0.2, 0.3, 0.0), (200, 300, 2, 1.1, 1.2, 1.3, 0.05)]
-    joints, finger = derive.joints_at([50, 150, 250], poses)
-    assert finger.tolist() == [0, -1, 2]
-    np.testing.assert_allclose(joints[[0, 2]], [[0.1, 0.2, 0.3, 0.0], [1.1, 1.2, 1.3, 0.05]])
-    assert np.isnan(joints[1]).all()
-
-
 def test_the_first_readings_of_each_contact_are_taken_per_sensor():
     msgs = [_c(1, 0, 1), _c(2, 1, 1), _c(3, 1, 1), _c(4, 2, 1), _c(9, 0, 2), _c(10, 2, 2)]
     msgs += [_c(5, 0, 1, sensor=1), _c(6, 1, 1, sensor=1)]  # same id on another sensor
@@ -38,18 +30,22 @@ def test_readings_inside_the_hysteresis_are_skipped_when_a_floor_is_given():
     assert t.tolist() == [1, 3]
 
 
+def _recording(tmp_path):
+    (tmp_path / "capture.bin").write_bytes(b"")
+    (tmp_path / "meta.json").write_text("{}")
+
+
 def test_a_scara_log_without_its_rig_lengths_is_refused(tmp_path):
+    _recording(tmp_path)
     log = tmp_path / "poses.csv"
     log.write_text("t_start_us,t_end_us,finger,q1,q2,q3,z\n0,10,0,0,0,0,0\n")
-    columns, tags = derive.header_of(log)
-    with pytest.raises(InputError, match="poses.csv:1: a SCARA pose log needs '# rig"):
-        derive.scara_lengths(log, tags)
+    with pytest.raises(InputError, match="poses.csv: a SCARA pose log needs its link lengths"):
+        derive.derive(tmp_path, log)
 
 
 def test_an_unknown_pose_log_names_the_file(tmp_path):
-    (tmp_path / "capture.bin").write_bytes(b"")
-    (tmp_path / "meta.json").write_text("{}")
+    _recording(tmp_path)
     log = tmp_path / "log.csv"
     log.write_text("# a comment\na,b,c\n1,2,3\n")
-    with pytest.raises(InputError, match="log.csv:1: not a pose log"):
+    with pytest.raises(InputError, match="log.csv:2: expected columns"):
         derive.derive(tmp_path, log)

@@ -6,7 +6,7 @@ log's header says what it is:
 - ``t_start_us,t_end_us,finger,q1,q2,q3,z`` (+ ``# rig: scara L1=.. L2=.. L3=.. L4=..``):
   the ch. 5 SCARA with its wheel probe (eqs. 60-62) -> ``contacts.csv`` (cm, as tables 5-7);
 - ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: a spherical fingertip's sensor pose
-  per window (``tactile.localize.pose_log``) -> ``contacts.csv`` (m);
+  per window -> ``contacts.csv`` (m); both read by ``tactile.localize.pose_log``;
 - ``probe,t_start_us,t_end_us,dtheta_x,dtheta_y``: EP1 rolling probes
   (``tactile.ep1.from_ft``) -> ``probes.csv``.
 
@@ -17,10 +17,9 @@ import pathlib
 
 import numpy as np
 
-from tactile.errors import DataError, InputError, where
+from tactile.errors import DataError, InputError
 from tactile_protocol import constants as C
 
-SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
 SCARA_PER_CONTACT = 2  # §5.1: two samples per probed point
 
 
@@ -55,75 +54,6 @@ def contact_frames(messages, per_contact=None, above_N=None, gate="xy"):
     return a[:, 0], a[:, 1].astype(int), wrench, a[:, 2].astype(int)
 
 
-def header_of(path):
-    """(column names, {tag: {key: value}}) from a CSV's ``# tag: name k=v ..`` comments."""
-    tags = {}
-    try:
-        with open(path, encoding="utf-8") as fh:
-            for line in fh:
-                text = line.strip()
-                if text.startswith("#"):
-                    tag, _, rest = text[1:].partition(":")
-                    words = rest.split()
-                    if words:
-                        kv = dict(w.split("=", 1) for w in words[1:] if "=" in w)
-                        tags[tag.strip()] = {"name": words[0], **kv}
-                elif text:
-                    return [c.strip() for c in text.split(",")], tags
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read the pose log: {exc}") from None
-    raise InputError(f"{path}: empty pose log, expected a header row")
-
-
-def scara_lengths(path, tags):
-    rig = tags.get("rig", {})
-    try:
-        return tuple(float(rig[k]) for k in ("L1", "L2", "L3", "L4"))
-    except (KeyError, ValueError):
-        raise InputError(
-            f"{where(path, 1)}: a SCARA pose log needs '# rig: scara L1=.. L2=.. L3=.. L4=..' (m)"
-        ) from None
-
-
-def scara_windows(path):
-    from tactile.tabular import read_csv
-
-    table = read_csv(path, SCARA)
-    return table.array(*SCARA)
-
-
-def joints_at(times_us, poses):
-    """Joints (q1, q2, q3, z) and finger from the pose-log rows covering each time.
-
-    Rows are (t_start_us, t_end_us, finger, q1, q2, q3, z); a time outside every
-    window gets NaN joints and finger -1, which the caller drops.
-    """
-    poses = np.asarray(poses, dtype=float).reshape(-1, 7)
-    joints = np.full((len(times_us), 4), np.nan)
-    finger = np.full(len(times_us), -1)
-    for i, t in enumerate(times_us):
-        hit = np.nonzero((poses[:, 0] <= t) & (t <= poses[:, 1]))[0]
-        if len(hit):
-            joints[i] = poses[hit[0], 3:7]
-            finger[i] = int(poses[hit[0], 2])
-    return joints, finger
-
-
-def scara_world_contacts(times_us, wrench, poses, lengths, threshold):
-    """World points (m) and normals of the usable readings, their finger, and a report."""
-    from tactile.localize import scara_contacts
-
-    joints, finger = joints_at(times_us, poses)
-    posed = finger >= 0
-    contact, _ = scara_contacts(
-        wrench[posed, :3], wrench[posed, 3:], joints[posed], lengths, threshold=threshold
-    )
-    ok = np.asarray(contact.usable)
-    report = {"readings": len(times_us), "outside_pose_log": int((~posed).sum())}
-    report.update(contact.counts())
-    return contact.point[ok], contact.normal[ok], finger[posed][ok], report
-
-
 def _gate(meta):
     """(enter threshold N, gate 'xy' or '3d') of the recorded board."""
     dev = (meta or {}).get("device") or {}
@@ -134,10 +64,11 @@ def derive(outdir, pose_log, per_contact=None):
     """Write contacts.csv or probes.csv into ``outdir``; return lines to print."""
     import json
 
+    from tactile.localize.pose_log import log_columns
     from tactile.stream_decoder import decode_bytes
 
     outdir = pathlib.Path(outdir)
-    columns, tags = header_of(pose_log)
+    columns = log_columns(pose_log)
     try:
         data = (outdir / "capture.bin").read_bytes()
         meta = json.loads((outdir / "meta.json").read_text(encoding="utf-8"))
@@ -145,15 +76,9 @@ def derive(outdir, pose_log, per_contact=None):
         raise InputError(f"{outdir}: not a complete recording: {exc}") from None
     messages, _ = decode_bytes(data)
     threshold, gate = _gate(meta)
-    if "q1" in columns:
-        return _derive_scara(outdir, pose_log, tags, messages, threshold, gate, per_contact)
-    if "qw" in columns:
-        return _derive_posed(outdir, pose_log, messages, threshold, per_contact)
     if "dtheta_x" in columns:
         return _derive_probes(outdir, pose_log, messages, threshold)
-    raise InputError(
-        f"{where(pose_log, 1)}: not a pose log (need q1..z, px..qz or dtheta_x columns)"
-    )
+    return _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact)
 
 
 def _write(path, text):
@@ -162,34 +87,25 @@ def _write(path, text):
     tmp.replace(path)
 
 
-def _derive_scara(outdir, pose_log, tags, messages, threshold, gate, per_contact):
-    from tactile.localize import format_contacts
-
-    lengths = scara_lengths(pose_log, tags)
-    n = SCARA_PER_CONTACT if per_contact is None else per_contact
-    t, sensor, wrench, _ = contact_frames(messages, n, above_N=threshold, gate=gate)
-    points, normals, finger, report = scara_world_contacts(
-        t, wrench, scara_windows(pose_log), lengths, threshold
-    )
-    if len(points) == 0:
-        raise DataError(f"{outdir}: no contact could be localised ({report})")
-    path = outdir / "contacts.csv"
-    _write(path, format_contacts(points, normals, finger=finger, scale=100.0))
-    return [f"{len(points)} of {len(t)} contact readings localised (cm) -> {path}; {report}"]
-
-
-def _derive_posed(outdir, pose_log, messages, threshold, per_contact):
+def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact):
+    """SCARA joints (ch. 5, written in cm as tables 5-7) or sensor poses (m)."""
     from tactile.localize import format_contacts
     from tactile.localize.pose_log import posed_world_contacts, read_pose_log
 
     log = read_pose_log(pose_log)
-    t, sensor, wrench, _ = contact_frames(messages, per_contact)
+    scara = log.kind == "scara"
+    if scara:
+        n = SCARA_PER_CONTACT if per_contact is None else per_contact
+        t, sensor, wrench, _ = contact_frames(messages, n, above_N=threshold, gate=gate)
+    else:
+        t, sensor, wrench, _ = contact_frames(messages, per_contact)
     points, normals, finger, report = posed_world_contacts(log, t, sensor, wrench, threshold)
     if len(points) == 0:
         raise DataError(f"{outdir}: no contact could be localised ({report})")
     path = outdir / "contacts.csv"
-    _write(path, format_contacts(points, normals, finger=finger))
-    return [f"{len(points)} of {len(t)} contact readings localised (m) -> {path}; {report}"]
+    scale, unit = (100.0, "cm") if scara else (1.0, "m")
+    _write(path, format_contacts(points, normals, finger=finger, scale=scale))
+    return [f"{len(points)} of {len(t)} contact readings localised ({unit}) -> {path}; {report}"]
 
 
 def _derive_probes(outdir, pose_log, messages, threshold):

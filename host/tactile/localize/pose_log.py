@@ -176,6 +176,11 @@ def read_pose_log(path):
     return log
 
 
+def log_columns(path):
+    """The header row's column names of a robot log (after its ``#`` lines), stripped."""
+    return [h.strip() for h in _scan(path)[2]]
+
+
 def _scan(path):
     """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor), the header's
     line number and the header row."""
