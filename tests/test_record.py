@@ -126,3 +126,13 @@ def test_permission_denied_at_start_is_one_line(mocker, cli, tmp_path):
     code, out, err = cli("record", "--port", "/dev/ttyACM0", "--duration", "1", "-o", tmp_path)
     assert code == 4 and "permission denied" in err and "dialout" in err
     assert err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_a_bad_pose_log_is_refused_before_recording(cli, tmp_path):
+    log = tmp_path / "poses.csv"
+    log.write_text("t_start_us,t_end_us,finger,q1,q2,q3,z\n0,10,0,0,zero,0,0\n")
+    out = tmp_path / "run"
+    code, _, err = cli("record", "--port", "sim://press", "--duration", "5", "-o", out,
+                       "--pose-log", log)  # fmt: skip
+    assert code == 2 and err.count("\n") == 1 and "poses.csv:2" in err
+    assert not out.exists()  # nothing was recorded against a log that cannot be used

@@ -54,6 +54,17 @@ def contact_frames(messages, per_contact=None, above_N=None, gate="xy"):
     return a[:, 0], a[:, 1].astype(int), wrench, a[:, 2].astype(int)
 
 
+def check_log(pose_log):
+    """Read the robot log once, so a bad one is refused before anything is recorded."""
+    from tactile.localize.pose_log import log_columns, read_pose_log
+
+    if "dtheta_x" in log_columns(pose_log):
+        from tactile.ep1.from_ft import read_probe_log
+
+        return read_probe_log(pose_log)
+    return read_pose_log(pose_log)
+
+
 def _gate(meta):
     """(enter threshold N, gate 'xy' or '3d') of the recorded board."""
     dev = (meta or {}).get("device") or {}

@@ -45,6 +45,10 @@ def run(args):
         from tactile.cli.board_args import connect
 
         connect(args)  # raises the 'no port given' message
+    if args.pose_log:
+        from tactile.derive import check_log
+
+        check_log(args.pose_log)  # a bad log is refused before recording, not after
     session = Session(
         args.port,
         args.out,
