@@ -5,7 +5,14 @@ import math
 import numpy as np
 import pytest
 
-from tactile.ep2 import analyze_patch, api, bspline_patch, jet_shrink, model_bias, uncertainty
+from tactile.ep2 import (
+    analyze_patch,
+    bspline_patch,
+    jet_shrink,
+    model_bias,
+    spline_analysis,
+    uncertainty,
+)
 from tactile.ep2.shape_index import shape_index
 from tactile.ep2.surface_geometry import shape_entries
 from tactile_sim.ep2 import make, sweep
@@ -52,16 +59,18 @@ def test_tensor_jacobian_matches_finite_differences():
     x, y = _scatter(seed=1)
     z = -0.3 * x * x + 0.1 * x * y - 0.2 * y * y + 0.05 * x * x * y
     fit = bspline_patch.fit(x, y, z, -0.6 * x, -0.4 * y, 1.0, 1.0, 1.0)
-    rows = fit.rows(*api._grid(np.column_stack([x, y]), 6), first=1)
-    t, G = uncertainty.tensor_and_jacobian(api._split(rows @ fit.coef, 36), rows)
-    assert np.allclose(t, api._grid_tensor(rows, fit.coef))
+    xs, ys = spline_analysis._grid_lines(np.column_stack([x, y]), 6)
+    rows = fit.grid_rows(xs, ys, first=1)
+    t, G = uncertainty.tensor_and_jacobian(np.split(rows @ fit.coef, 5), rows)
+    assert np.allclose(t, spline_analysis._tensor(rows, fit.coef))
     h = 1e-6
     for j in range(fit.coef.size):
         dc = np.zeros(fit.coef.size)
         dc[j] = h
-        fd = (api._grid_tensor(rows, fit.coef + dc) - api._grid_tensor(rows, fit.coef - dc)) / (
-            2 * h
+        fd = spline_analysis._tensor(rows, fit.coef + dc) - spline_analysis._tensor(
+            rows, fit.coef - dc
         )
+        fd /= 2 * h
         assert np.allclose(G[:, j], fd, atol=1e-6)
 
 
@@ -194,7 +203,8 @@ def test_leverage_is_the_hat_diagonal_and_grid_rows_match_rows():
     assert np.allclose(f.grid_rows(xs, ys, first=1), f.rows(gx, gy, first=1))
 
 
-def test_noise_per_row_type_is_estimated():
+@pytest.mark.parametrize("method", ["jet", "spline"])
+def test_noise_per_row_type_is_estimated(method):
     """A quadric height field (no model misfit in the residuals), position noise 0.02 and
     normal noise 0.005: both sigmas recovered within 15 %.  (Position noise along the
     surface also moves where a slope is read, adding |k| sigma_pos = 0.002 to the slope
@@ -203,16 +213,9 @@ def test_noise_per_row_type_is_estimated():
     ratios = []
     for seed in range(12):
         d = sweep(obj, noise_pos=0.02, noise_normal=0.005, seed=seed)
-        res = analyze_patch(d["points"], d["normals"])
-        frame, scale = res.frame, res.scale
-        p = frame.to_patch(d["points"]) / scale
-        n = frame.to_patch_dirs(d["normals"] / np.linalg.norm(d["normals"], axis=1)[:, None])
-        sx, sy = -n[:, 0] / n[:, 2], -n[:, 1] / n[:, 2]
-        _, (sp, sn), _ = api._fit_weighted(
-            p, sx, sy, "auto", (None, None), dict(degree=(2, 2), segments=(1, 1), solver="svd")
-        )
+        res = analyze_patch(d["points"], d["normals"], method=method)
         # z noise of a 3-D position error is sigma (sqrt(1+g^2) is in the weights)
-        ratios.append((sp * scale / 0.02, sn / 0.005))
+        ratios.append((res.noise_pos / 0.02, res.noise_normal / 0.005))
     r = np.median(ratios, axis=0)
     assert r[0] == pytest.approx(1.0, abs=0.15)
     assert r[1] == pytest.approx(1.0, abs=0.15)
@@ -235,8 +238,9 @@ def test_constant_curvature_data_is_a_sphere_to_fourth_order():
 
 
 def test_model_bias_predicts_the_fit_bias_on_clean_circles(monkeypatch):
-    """Noise-free cylinder R 8 and sphere R 10: the refit bias of the mean curvature
-    matches the actual error of the grid-mean estimate within 25 %."""
+    """Noise-free cylinder R 8 and sphere R 10, the thesis's spline: the refit bias of the
+    mean curvature matches the actual error at the patch centre within 25 % (there the
+    biquadratic overestimates the curvature; over the whole grid it underestimates)."""
     orig = model_bias.bias
     seen = {}
 
@@ -248,11 +252,11 @@ def test_model_bias_predicts_the_fit_bias_on_clean_circles(monkeypatch):
     monkeypatch.setattr(model_bias, "bias", spy)
     for kind, radius in (("cylinder", 8.0), ("sphere", 10.0)):
         d = sweep(make(kind, radius, 25.0))
-        res = analyze_patch(d["points"], d["normals"])
+        res = analyze_patch(d["points"], d["normals"], method="spline")
         m_true = 0.5 * sum(make(kind, radius).true_k())
         m_err = 0.5 * (seen["t"][0] + seen["t"][2]) / res.scale - m_true
         m_bias = 0.5 * (seen["b"][0] + seen["b"][2]) / res.scale
-        assert m_err < 0 and m_bias == pytest.approx(m_err, rel=0.25)
+        assert abs(m_err) > 1e-4 and m_bias == pytest.approx(m_err, rel=0.25)
 
 
 # ---- end to end: calibration where the first pass failed --------------------------------
@@ -275,7 +279,7 @@ def test_sphere_s_interval_covers_one_and_s_is_debiased():
         res = analyze_patch(d["points"], d["normals"])
         lo, hi = res.S_interval
         hits += lo <= 1.0 <= hi
-        s.append(res.S_patch)
+        s.append(res.S)
         assert res.shape == "sphere"
     assert hits >= 26  # the first pass covered 76-80 %
     # plug-in S of a noisy sphere is always < 1; the debiased one reaches 1 in many trials
@@ -288,13 +292,14 @@ def test_partly_stated_noise_estimates_the_rest():
     assert res.shape == "sphere"
     assert res.S_interval[1] - res.S_interval[0] < 0.2
     full = analyze_patch(d["points"], d["normals"], noise_pos=0.01, noise_normal=0.01)
-    assert res.k_patch[0] == pytest.approx(full.k_patch[0], rel=0.02)
+    assert res.k1 == pytest.approx(full.k1, rel=0.02)
 
 
-def test_shape_index_of_k_patch_is_s_patch():
+@pytest.mark.parametrize("method", ["jet", "spline"])
+def test_shape_index_of_k1_k2_is_s(method):
     d = sweep(make("cylinder", 9.0, 40.0), noise_pos=0.01, noise_normal=0.01, seed=8)
-    res = analyze_patch(d["points"], d["normals"])
-    assert res.S_patch == pytest.approx(float(shape_index(*res.k_patch)), abs=1e-12)
+    res = analyze_patch(d["points"], d["normals"], method=method)
+    assert res.S == pytest.approx(float(shape_index(res.k1, res.k2)), abs=1e-12)
     a, b, c = shape_entries(0.0, 0.0, -1.0, 0.0, 0.0)
     assert (a, b, c) == (1.0, 0.0, 0.0)  # convex toward +z is positive (sign convention)
 

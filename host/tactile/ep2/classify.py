@@ -27,7 +27,7 @@ import numpy as np
 from tactile.ep2.shape_index import S_EDGES, S_NAMES, s_class
 
 R_TOL = 1e-6  # curvedness x patch size below which a patch is flat whatever the noise
-MIN_VOTE = 0.95
+MIN_VOTE = 0.999
 
 
 CHI2_3_999 = 16.26623619623813  # chi^2 with 3 dof, 99.9 % quantile

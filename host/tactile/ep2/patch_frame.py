@@ -12,7 +12,7 @@ import numpy as np
 
 from tactile.errors import DataError
 
-MAX_NORMAL_ANGLE_DEG = 70.0
+MAX_NORMAL_ANGLE_DEG = 80.0
 
 
 @dataclass(frozen=True)

@@ -143,10 +143,15 @@ def _gradient_steps(t, cov):
     if h > 0:
         gh = np.array([0.5 * d / h, b / h, -0.5 * d / h])
         m = 0.5 * (a + c)
-        gs = (h * gm - m * gh) / (m * m + h * h)
+        r = np.hypot(m, h)  # > 0; m^2 + h^2 itself underflows for curvatures near 1e-160
+        gs = ((h / r) * gm - (m / r) * gh) / r
         grads += [gh, gm + gh, gm - gh, gs]
     steps = []
     for g in grads:
+        big = np.max(np.abs(g))
+        if not 0 < big < np.inf:
+            continue
+        g = g / big  # the step is scale-free in g, and gs grows like 1/curvature
         cg = cov @ g
         n = np.sqrt(max(float(g @ cg), 0.0))
         if n > 0:

@@ -1,0 +1,269 @@
+"""From a centre-jet fit (``centre_jet``) to what a user is told: or why nothing is told.
+
+Per patch, in order:
+
+1. **Determined?**  The 95 % half-width of the curvature in the worst
+   direction (largest eigenvalue of Cov(t), model-choice bias included) must
+   stay below 1/L: wider, and the data cannot tell a plane from a radius
+   comparable to the patch, whatever the label.  A single line (in any
+   direction), two nearly coincident lines or a cluster that leaves one
+   direction unsampled fails here and is refused (``DataError``, exit 3)
+   naming that direction.  No geometric special case: the covariance carries it.
+2. **Consistent?**  The curvature from the positions alone and from the
+   normals alone (``centre_jet._split_fits``) must agree within their
+   covariances (test level 1e-5), unless their gap is below half the curvature (model
+   bias on noise-free data).  Otherwise refused: the normals contradict the
+   positions (sign, frame, localisation).
+3. **Intervals and label** (``uncertainty``, ``classify``): Cov is widened by
+   the F quantile for its estimated noise (Satterthwaite degrees of
+   freedom), the anisotropy is debiased where the curvature is resolved, and
+   the label comes from the band mass of S.  A plane (curvature not told from
+   0) has no S, C or radius.
+"""
+
+import math
+
+import numpy as np
+from scipy.special import fdtri
+
+from tactile.ep2 import classify, jet_basis, uncertainty
+from tactile.ep2.shape_index import curvedness_c, curvedness_r, hk_labels, s_region_map, shape_index
+from tactile.ep2.surface_geometry import eigen, principal, shape_entries
+
+MAX_HALF_WIDTH = 0.25  # x 1/L: the curvature's 95 % half-width beyond which it is not determined
+MIN_SPREAD = 5.0  # the contacts' spread in their thinnest direction, in position-noise sds
+AGREE = 0.99999  # positions vs normals: test level (false alarms 1e-5 per patch)
+AGREE_REL = 0.5  # ... and the curvature gap must exceed this share of the curvature
+AGREE_TILT = 0.05  # ... or the tilt gap this many rad (3 deg)
+
+
+def widen(nu, q=3, p=0.95):
+    """Factor on Cov for a noise estimated with ``nu`` degrees of freedom: q F(q, nu) / chi^2_q."""
+    if not np.isfinite(nu):
+        return 1.0
+    chi2 = {1: uncertainty.CHI2_1_95, 2: uncertainty.CHI2_2_95, 3: uncertainty.CHI2_3_95}[q]
+    return float(q * fdtri(q, max(nu, 1.0), p) / chi2)
+
+
+def determination(cov, axes, scale, spread, noise_pos):
+    """None, or why the curvature is not determined (worst direction in world coordinates).
+
+    Two limits: the contacts' spread across their thinnest direction in the mean-normal
+    frame (``spread`` = (xy / L, frame axes); under ``MIN_SPREAD`` position-noise sds the
+    positions themselves are noise there, and the jet's regressors with them), and the
+    curvature's 95 % half-width in its worst direction (``MAX_HALF_WIDTH`` / L).
+    """
+    w = np.linalg.eigvalsh(cov)  # noise only: the model-choice bias is bounded, not unknown
+    half = 1.96 * math.sqrt(max(float(w[-1]), 0.0))
+    xy, mean_axes = spread  # the contacts in the mean-normal frame: set by data, not a fit
+    spread_w, spread_v = np.linalg.eigh(np.cov(xy.T, bias=True))
+    thin = math.sqrt(max(float(spread_w[0]), 0.0))
+    sigma = max(noise_pos / scale, 1e-3)
+    if thin < MIN_SPREAD * sigma:
+        d = spread_v[0, 0] * mean_axes[0] + spread_v[1, 0] * mean_axes[1]
+        return (
+            f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
+            f" contacts lie near one line, spread only {thin * scale:.3g} across it, under"
+            f" {MIN_SPREAD:g} times their position noise ({sigma * scale:.3g}): sweep across it"
+        )
+    if half <= MAX_HALF_WIDTH:
+        return None
+    # curvature along u = (cos th, sin th): a cos^2 + 2 b cos sin + c sin^2; worst th
+    th = np.linspace(0.0, np.pi, 181)[:-1]
+    u = np.stack([np.cos(th) ** 2, 2 * np.cos(th) * np.sin(th), np.sin(th) ** 2])
+    worst = th[int(np.argmax(np.einsum("in,ij,jn->n", u, cov, u)))]
+    d = np.cos(worst) * axes[0] + np.sin(worst) * axes[1]
+    return (
+        f"curvature along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: its 95 %"
+        f" interval is +/- {half / scale:.3g} per unit length, over {MAX_HALF_WIDTH:g}/L"
+        f" (L = {scale:.4g}); the contacts do not span that direction well (near one line,"
+        " lines too close, or bunched): sweep across it"
+    )
+
+
+def consistency(split, dof, scale):
+    """(refusal or None, warning or None, curvature gap (3,)) for positions vs normals.
+
+    ``split`` = ((d, cov, blind) from the positions alone, ... from the normals alone),
+    d = (z_x, z_y, z_xx, z_xy, z_yy) at the centre; only the combinations both row types
+    determine are compared.  Beyond their noise
+    (test level 1 - ``AGREE``, 5 dof) they disagree; when the gap is also large
+    in itself (curvature gap over ``AGREE_REL`` of the curvature, or tilt gap over
+    ``AGREE_TILT`` rad: more than model bias on noise-free data reaches) the
+    patch is refused, otherwise it is a warning and the intervals are widened
+    by the gap (a real rig's normals carry friction and calibration errors).
+    """
+    (dp, cp, bp), (dn, cn, bn) = split
+    seen = _both_determine(_determined(*bp), _determined(*bn))  # (5, r)
+    gap = dp - dn
+    if seen.shape[1] == 0:
+        return None, None, np.zeros(3)
+    d2 = _mahalanobis2(seen.T @ gap, seen.T @ (cp + cn) @ seen)
+    crit = 5.0 * float(fdtri(5, max(dof, 1.0) if np.isfinite(dof) else 1e9, AGREE))
+    tp, tn = (np.array(shape_entries(*d)) for d in (dp, dn))
+    if d2 <= crit:
+        return None, None, np.zeros(3)
+    kp, kn = (np.array(eigen(*t)) / scale for t in (tp, tn))
+    tilt = math.degrees(math.atan(math.hypot(gap[0], gap[1])))
+    text = (
+        "positions and normals disagree: the positions give curvatures"
+        f" ({kp[0]:.3g}, {kp[1]:.3g}) per unit length, the normals ({kn[0]:.3g}, {kn[1]:.3g}),"
+        f" tilts {tilt:.1f} deg apart ({math.sqrt(d2):.1f} sd)"
+    )
+    big = _norm(tp - tn) > AGREE_REL * max(_norm(tp), _norm(tn))
+    if big or math.radians(tilt) > AGREE_TILT:
+        return text + "; check the normals' sign and frame or the contact localisation", None, gap
+    return None, text + "; intervals widened to hold both", tp - tn
+
+
+def _determined(blind, scale):
+    """Orthonormal basis (5, r) of the derivative combinations u one row type determines:
+    blind @ (u / scale) = 0 (``batch_lstsq.Solution``)."""
+    _, sv, vt = np.linalg.svd(blind)
+    rank = int(np.sum(sv > 1e-8))
+    v = vt[rank:].T  # in the scaled coordinates
+    if v.shape[1] == 0:
+        return v
+    q, _ = np.linalg.qr(v * scale[:, None])
+    return q
+
+
+def _both_determine(qa, qb):
+    """Orthonormal basis of the intersection of two subspaces given by orthonormal bases."""
+    if qa.shape[1] == 0 or qb.shape[1] == 0:
+        return np.zeros((qa.shape[0], 0))
+    eye = np.eye(qa.shape[0])
+    stacked = np.vstack([eye - qa @ qa.T, eye - qb @ qb.T])
+    _, sv, vt = np.linalg.svd(stacked)
+    rank = int(np.sum(sv > 1e-6))
+    return vt[rank:].T
+
+
+def _norm(t):
+    return math.sqrt(t[0] ** 2 + 2 * t[1] ** 2 + t[2] ** 2)
+
+
+def _mahalanobis2(v, cov):
+    w, V = np.linalg.eigh(cov)
+    keep = w > 1e-12 * max(float(w.max()), 1e-300)
+    proj = V[:, keep].T @ v
+    return float(np.sum(proj * proj / w[keep]))
+
+
+def summary(t, cov, bias, scale, intervals=True):
+    """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside)."""
+    d2 = classify.flatness_distance(t, cov)
+    k1, k2 = (float(v) for v in eigen(*t))
+    r = math.sqrt(0.5 * (k1 * k1 + k2 * k2))
+    plane = classify.is_plane(r, d2)
+    m, h, lam = uncertainty.anisotropy(t, cov)
+    if plane:  # no debiasing where the curvature itself is not resolved
+        h = math.hypot(0.5 * (t[0] - t[2]), t[1])
+    out = dict.fromkeys("S C radius S_interval radius_interval k1_interval k2_interval".split())
+    out.update(k1=(m + h) / scale, k2=(m - h) / scale, votes={})
+    iv = uncertainty.intervals(t, cov, m, h, lam, bias) if intervals else None
+    if iv is not None:
+        out["k1_interval"] = tuple(v / scale for v in iv["k1"])
+        out["k2_interval"] = tuple(v / scale for v in iv["k2"])
+    if plane:
+        out.update(shape="plane", confidence=classify.plane_confidence(r, d2))
+        return out
+    s = float(shape_index(m + h, m - h))
+    sd = None
+    if iv is not None:
+        root = math.sqrt(iv["crit"])
+        sd = ((s - iv["S"][0]) / root, (iv["S"][1] - s) / root)
+        out["S_interval"] = iv["S"]
+        lo, hi = iv["kmax"]
+        out["radius_interval"] = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
+    p_flat = classify.plane_confidence(r, d2)
+    out["shape"], out["confidence"], out["votes"] = classify.vote(s, sd, p_flat)
+    kmax = max(abs(m + h), abs(m - h))
+    out.update(S=s, radius=scale / kmax, C=float(curvedness_c(curvedness_r(k1, k2) / scale)))
+    return out
+
+
+def grid_channels(coef, model, xy, n):
+    """(zx, zy, zxx, zxy, zyy) of the fitted surface on the N x N grid over the contacts' box
+    (final frame, / L), and the grid's x, y."""
+    xs = np.linspace(xy[:, 0].min(), xy[:, 0].max(), n)
+    ys = np.linspace(xy[:, 1].min(), xy[:, 1].max(), n)
+    gx, gy = (g.ravel() for g in np.meshgrid(xs, ys, indexing="ij"))
+    derivs = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+    rows = jet_basis.design(gx, gy, centre_order(coef), derivs)
+    ch = list(np.split(rows @ coef, 5))
+    if model == 1:
+        H = jet_basis.hessian(coef)
+        _, ex, ey = jet_basis.round_excess(gx, gy, H)
+        exx, exy, eyy = jet_basis.round_second(gx, gy, H)
+        ch = [ch[0] + ex, ch[1] + ey, ch[2] + exx, ch[3] + exy, ch[4] + eyy]
+    return ch, gx, gy
+
+
+def centre_order(coef):
+    """Jet order from the number of coefficients."""
+    p, q = coef.shape[-1], 0
+    while jet_basis.n_coef(q) < p:
+        q += 1
+    return q
+
+
+def grid_statistics(channels, scale, plane):
+    """The thesis's grid statistics (§4.8.2): mean and sd of S, R, C, k1, k2 over the grid
+    points where the fitted surface is finite (a steep fit can overflow far from the centre)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        k1, k2 = eigen(*shape_entries(*channels))
+    ok = np.isfinite(k1) & np.isfinite(k2)
+    if not ok.any():
+        keys = ("R_mean", "R_std", "k1_mean", "k2_mean", "k1_std", "k2_std", "S_mean", "S_std")
+        return dict.fromkeys((*keys, "C_mean")), (k1, k2)
+    k1, k2 = k1[ok], k2[ok]
+    r = curvedness_r(k1, k2)
+    out = {
+        "R_mean": float(r.mean()) / scale,
+        "R_std": float(r.std()) / scale,
+        "k1_mean": float(k1.mean()) / scale,
+        "k2_mean": float(k2.mean()) / scale,
+        "k1_std": float(k1.std()) / scale,
+        "k2_std": float(k2.std()) / scale,
+        "S_mean": None,
+        "S_std": None,
+        "C_mean": None,
+    }
+    if not plane:
+        s = shape_index(k1, k2)
+        pos = r > 0
+        out.update(S_mean=float(s.mean()), S_std=float(s.std()))
+        if pos.any():
+            out["C_mean"] = float(curvedness_c(r[pos] / scale).mean())
+    return out, (k1, k2)
+
+
+def maps(channels, gx, gy, scale, plane, hk_eps):
+    """Grid maps in input units: k1, k2, H, K, HK labels; S, S regions, C unless a plane."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        k1, k2 = (v / scale for v in eigen(*shape_entries(*channels)))
+    H, K = 0.5 * (k1 + k2), k1 * k2
+    out = {"x": gx * scale, "y": gy * scale, "k1": k1, "k2": k2, "H": H, "K": K}
+    out["hk"] = hk_labels(K, H, hk_eps[0], hk_eps[1])
+    if not plane:
+        s = shape_index(k1, k2)
+        r = curvedness_r(k1, k2)
+        safe = np.where(r > 0, r, 1.0)
+        out.update(S=s, S_region=s_region_map(s), C=np.where(r > 0, curvedness_c(safe), np.nan))
+    return out
+
+
+def direction1(coef, axes):
+    """k1 direction at the centre, world frame."""
+    zx, zy, zxx, zxy, zyy = (coef[k] for k in jet_basis.CHANNELS)
+    d = principal(zx, zy, zxx, zxy, zyy)["dir1"]
+    return np.asarray(d, float) @ axes
+
+
+def hk_eps(k1_int, k2_int, k1, k2):
+    """Zero bands (K, H) for the HK labels from the curvature resolution (0 without intervals)."""
+    if k1_int is None:
+        return 0.0, 0.0
+    h = 0.5 * max(k1_int[1] - k1_int[0], k2_int[1] - k2_int[0])
+    return h * max(abs(k1), abs(k2)) + h * h, h

@@ -1,0 +1,120 @@
+"""Local jets about the patch centre, and the closed-form surface of constant curvature.
+
+A jet of order q is the Taylor polynomial z = sum c_ij x^i y^j / (i! j!) over
+i + j <= q, so its coefficients ARE the partial derivatives at the centre:
+c_10 = z_x, c_01 = z_y, c_20 = z_xx, c_11 = z_xy, c_02 = z_yy (``CHANNELS``,
+columns 1-5 for every order >= 2).  Rows come in the thesis's three kinds
+(§4.6): positions z, and the slopes dz/dx, dz/dy read off the normals (§4.5.1).
+
+``round_excess`` is what the constant-curvature surface adds to the quadric.
+In the frame whose z axis is the surface normal at the origin, a sphere or a
+cylinder of any axis (and radius 1/k) is exactly
+
+    z = Q1 / (1 + sqrt(1 - Q2)),   Q1 = d^T H d,  Q2 = d^T H^2 d,
+
+with H the Hessian at the origin (H = -k I for a sphere convex toward +z,
+-k e e^T for a cylinder across e).  Check: a sphere gives
+-k r^2 / (1 + sqrt(1 - k^2 r^2)) = -(1/k)(1 - sqrt(1 - k^2 r^2)).  Its Taylor
+series is Q1/2 + Q1 Q2/8 + Q1 Q2^2/16 + ..., which is the model-bias surface of
+the previous version (docs/ep2.md) carried to all orders.  Everything here
+broadcasts over leading (batch) axes.
+"""
+
+from math import factorial
+
+import numpy as np
+
+CHANNELS = (1, 2, 3, 4, 5)  # columns of z_x, z_y, z_xx, z_xy, z_yy in every jet of order >= 2
+HESSIAN = (3, 4, 5)  # columns of z_xx, z_xy, z_yy
+ROUND_MAX_Q2 = 0.999  # Q2 = |H d|^2 = sin^2 of the normal's turn; beyond this the closed form ends
+_STEP = 1e-20  # complex step
+
+
+def monomials(order):
+    """Exponents (i, j) by total degree, x first: (0,0), (1,0), (0,1), (2,0), (1,1), (0,2), ..."""
+    return [(i, d - i) for d in range(order + 1) for i in range(d, -1, -1)]
+
+
+def n_coef(order):
+    return (order + 1) * (order + 2) // 2
+
+
+def design(x, y, order, derivs=((0, 0), (1, 0), (0, 1))):
+    """Rows of the order-``order`` jet at (x, y) for each derivative in ``derivs``.
+
+    x, y: (..., n).  Returns (..., len(derivs) * n, p): the blocks stacked in
+    the order of ``derivs`` (default: positions, x-slopes, y-slopes).
+    """
+    blocks = []
+    for dx, dy in derivs:
+        cols = []
+        for i, j in monomials(order):
+            if i < dx or j < dy:
+                cols.append(np.zeros_like(x))
+                continue
+            scale = factorial(i - dx) * factorial(j - dy)
+            cols.append(x ** (i - dx) * y ** (j - dy) / scale)
+        blocks.append(np.stack(cols, axis=-1))
+    return np.concatenate(blocks, axis=-2)
+
+
+def hessian(coef):
+    """(..., 2, 2) Hessian at the centre from jet coefficients (..., p)."""
+    a, b, c = (coef[..., k] for k in HESSIAN)
+    return np.stack([np.stack([a, b], -1), np.stack([b, c], -1)], -2)
+
+
+def round_excess(x, y, H):
+    """(excess z, its x-slope, its y-slope) of the constant-curvature surface over the quadric.
+
+    x, y: (..., n); H: (..., 2, 2).  Q2 is clamped below ``ROUND_MAX_Q2``
+    (past the surface's rim; ``round_valid`` reports it).
+    """
+    h2 = H @ H
+    a, b, c = (H[..., 0, 0, None], H[..., 0, 1, None], H[..., 1, 1, None])
+    a2, b2, c2 = (h2[..., 0, 0, None], h2[..., 0, 1, None], h2[..., 1, 1, None])
+    q1 = a * x * x + 2 * b * x * y + c * y * y
+    q2 = a2 * x * x + 2 * b2 * x * y + c2 * y * y
+    root = np.sqrt(1.0 - np.minimum(q2, ROUND_MAX_Q2))
+    inv = 1.0 / (1.0 + root)
+    # d z = d Q1 / (1 + s) + Q1 d Q2 / (2 s (1 + s)^2), s = sqrt(1 - Q2)
+    k = q1 * inv * inv / (2.0 * root)
+    zx = 2 * (a * x + b * y) * inv + k * 2 * (a2 * x + b2 * y)
+    zy = 2 * (b * x + c * y) * inv + k * 2 * (b2 * x + c2 * y)
+    return q1 * inv - 0.5 * q1, zx - (a * x + b * y), zy - (b * x + c * y)
+
+
+def max_q2(x, y, H, mask):
+    """Largest Q2 = |H d|^2 over the used contacts: how close they come to the closed form's
+    rim (Q2 = 1, where the surface turns vertical)."""
+    h2 = H @ H
+    q2 = h2[..., 0, 0, None] * x * x + 2 * h2[..., 0, 1, None] * x * y + h2[..., 1, 1, None] * y * y
+    return np.max(np.where(mask, q2, 0.0), axis=-1)
+
+
+def round_valid(x, y, H, mask):
+    """True where every used contact lies inside the closed form's rim (Q2 < ROUND_MAX_Q2)."""
+    return max_q2(x, y, H, mask) < ROUND_MAX_Q2
+
+
+def round_rows(x, y, H):
+    """Stacked rows (positions, x-slopes, y-slopes) of ``round_excess``: (..., 3 n)."""
+    return np.concatenate(round_excess(x, y, H), axis=-1)
+
+
+def round_jacobian(x, y, H):
+    """d round_rows / d(H_xx, H_xy, H_yy): (..., 3 n, 3), by complex step (exact to round-off),
+    the three steps in one evaluation."""
+    steps = np.zeros((3, 2, 2), complex)
+    steps[0, 0, 0] = steps[1, 0, 1] = steps[1, 1, 0] = steps[2, 1, 1] = 1j * _STEP
+    Hc = H[..., None, :, :] + steps  # (..., 3, 2, 2)
+    xc, yc = (v[..., None, :].astype(complex) for v in (x, y))  # (..., 1, n)
+    rows = round_rows(xc, yc, Hc).imag / _STEP  # (..., 3, 3 n)
+    return np.swapaxes(rows, -1, -2)
+
+
+def round_second(x, y, H):
+    """(z_xx, z_xy, z_yy) of ``round_excess`` at (x, y): complex steps of its slopes."""
+    _, zx, _ = round_excess(x + 1j * _STEP, y.astype(complex), H.astype(complex))
+    _, zx_y, zy_y = round_excess(x.astype(complex), y + 1j * _STEP, H.astype(complex))
+    return zx.imag / _STEP, zx_y.imag / _STEP, zy_y.imag / _STEP
