@@ -1,8 +1,11 @@
-"""EP2 error against run time over order x grid x solver x weighting; picks the defaults.
+"""EP2 error against run time: the default jet, its parts, and the thesis's spline variants.
 
-Run: .venv/bin/python bench/ep2_tradeoff.py [--trials 60] [--png docs/ep2_tradeoff.png]
-Data: cylinders and spheres R 10 at random rotation, noise 0.01 (position, unit) and
-0.01 rad (normals), 36 contacts.  Error = RMS of S_patch - S_true.
+Run: .venv/bin/python bench/ep2_tradeoff.py [--trials 60] [--noise 0.01] [--png FILE]
+Data: tune-split cases of bench/ep2_trust.py (``tactile_sim.ep2.cases``): spheres r 4 and
+10, cylinders r 3 and 10 (rotations 0-90 deg), saddles and quadrics r 10, 27 and 36
+contacts, one noise level.  Error = RMS of S at the patch centre minus the truth there
+(S from k1, k2 when a plane label leaves S null).  The defaults (``centre_jet``) are the
+first row; every other row changes one thing.
 """
 
 import argparse
@@ -10,78 +13,84 @@ import time
 
 import numpy as np
 
-from tactile.ep2 import analyze_patch
-from tactile_sim.ep2 import make, sweep
+from tactile.ep2 import analyze_patch, centre_jet
+from tactile_sim.ep2 import cases
+
+FAMILIES = ("sphere r=4 ", "sphere r=10 ", "cylinder r=3 ", "cylinder r=10 ", "saddle r=10 ")
+VARIANTS = (
+    ("jet (default): round or quadric, chosen", {}, {}),
+    ("jet, quadric only (no round model)", {}, {"ROUND_MARGIN": np.inf}),
+    ("jet, round whenever it fits better", {}, {"ROUND_MARGIN": 0.0}),
+    ("jet, no intervals", {"intervals": False}, {}),
+    ("spline deg 2, auto (previous default)", {"method": "spline"}, {}),
+    ("spline deg 3, auto", {"method": "spline", "order": 3}, {}),
+    (
+        "spline deg 3, tangent (thesis §4.9)",
+        {"method": "spline", "order": 3, "weighting": "tangent"},
+        {},
+    ),
+    ("spline deg 2, position", {"method": "spline", "weighting": "position"}, {}),
+)
+
+
+def _cases(noise):
+    picked = [
+        c
+        for c in cases.tune_cases()
+        if c.noise == noise and any(c.id.startswith(f) for f in FAMILIES)
+    ]
+    return picked
+
+
+def _s(res):
+    k1, k2 = res.k1, res.k2
+    return float(2 / np.pi * np.arctan2(k1 + k2, k1 - k2))
 
 
 def run(trials, noise):
-    rng = np.random.default_rng(11)
-    data = []
-    for t in range(trials):
-        kind = ("cylinder", "sphere", "concave_cylinder")[t % 3]
-        obj = make(kind, 10.0, rng.uniform(0, 180))
-        data.append((obj.true_s(), sweep(obj, noise_pos=noise, noise_normal=noise, seed=t)))
+    data = [cases.draw(c, t) for c in _cases(noise) for t in range(trials)]
     rows = []
-    for degree in (2, 3, 4):
-        for grid in (4, 8, 16):
-            for solver in ("svd", "qr", "gelsy"):
-                for weighting in ("auto", "tangent", "position"):
-                    err, t_used = [], 0.0
-                    for s_true, d in data:
-                        t0 = time.perf_counter()
-                        r = analyze_patch(
-                            d["points"],
-                            d["normals"],
-                            degree=degree,
-                            grid=grid,
-                            solver=solver,
-                            weighting=weighting,
-                        )
-                        t_used += time.perf_counter() - t0
-                        s = r.S_patch if r.S_patch is not None else 0.0
-                        err.append(s - s_true)
-                    rows.append(
-                        (
-                            degree,
-                            grid,
-                            solver,
-                            weighting,
-                            float(np.sqrt(np.mean(np.square(err)))),
-                            1e3 * t_used / trials,
-                        )
-                    )
-    return rows
+    for name, kw, consts in VARIANTS:
+        saved = {k: getattr(centre_jet, k) for k in consts}
+        for k, v in consts.items():
+            setattr(centre_jet, k, v)
+        err, t_used = [], 0.0
+        for d in data:
+            t0 = time.perf_counter()
+            res = analyze_patch(d["points"], d["normals"], **kw)
+            t_used += time.perf_counter() - t0
+            err.append(_s(res) - d["truth"]["S"])
+        for k, v in saved.items():
+            setattr(centre_jet, k, v)
+        rows.append((name, float(np.sqrt(np.mean(np.square(err)))), 1e3 * t_used / len(data)))
+    return rows, len(data)
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--trials", type=int, default=60)
+    ap.add_argument("--trials", type=int, default=20, help="per case")
     ap.add_argument("--noise", type=float, default=0.01)
     ap.add_argument("--png")
     args = ap.parse_args()
-    rows = run(args.trials, args.noise)
-    print("| degree | grid | solver | weighting | RMS S error | ms/patch |")
-    print("|---|---|---|---|---|---|")
-    for r in sorted(rows, key=lambda r: r[4]):
-        print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.4f} | {r[5]:.3f} |")
+    rows, n = run(args.trials, args.noise)
+    print(f"{n} patches, noise {args.noise:g}\n")
+    print("| variant | RMS S error | ms / patch |")
+    print("|---|---|---|")
+    for name, e, ms in rows:
+        print(f"| {name} | {e:.5f} | {ms:.2f} |")
     if args.png:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(6, 4))
-        for w, m in (("auto", "o"), ("tangent", "s"), ("position", "^")):
-            for deg, col in ((2, "C0"), (3, "C1"), (4, "C2")):
-                pts = [(r[5], r[4]) for r in rows if r[3] == w and r[0] == deg]
-                ax.scatter(
-                    *zip(*pts, strict=True), marker=m, color=col, s=14, label=f"deg {deg}, {w}"
-                )
-        ax.set_xlabel("ms per patch")
-        ax.set_ylabel("RMS S error")
+        fig, ax = plt.subplots(figsize=(6.4, 4.2), layout="constrained")
+        for i, (name, e, ms) in enumerate(rows):
+            ax.scatter(ms, e, marker="os^v<>Dp"[i % 8], s=30, label=name)
+        ax.set(xlabel="run time per patch (ms)", ylabel="RMS S error (dimensionless)")
         ax.set_yscale("log")
-        ax.legend(fontsize=6, ncol=3)
-        fig.tight_layout()
+        ax.set_title(f"EP2 error against run time, noise {args.noise:g}", fontsize=10)
+        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
         fig.savefig(args.png, dpi=120)
 
 

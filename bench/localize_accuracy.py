@@ -228,7 +228,11 @@ def ch5_table(seeds):
                 )
                 ok = c.usable & r["recorded"]
                 res = analyze_patch(
-                    100 * c.point[ok], c.normal[ok], weighting=weighting, finger=r["finger"][ok]
+                    100 * c.point[ok],
+                    c.normal[ok],
+                    method="spline",
+                    weighting=weighting,
+                    finger=r["finger"][ok],
                 )
                 rows.append((res.S_mean, res.S_std, res.R_mean, res.radius))
                 labels[res.shape] = labels.get(res.shape, 0) + 1

@@ -44,18 +44,43 @@ def test_sim_then_analyze_json(cyl_csv, capsys):
         assert rec["shape"] == "cylinder"
         assert rec["radius"] == pytest.approx(6.6, rel=0.1)
         lo, hi = rec["S_interval"]
-        assert lo < rec["S_mean"] < hi
+        assert lo <= rec["S"] <= hi  # one definition: S and its interval are at the centre
+        assert rec["model"].startswith(("round", "quadric")) and ":" in rec["model"]
         assert "NaN" not in line and "Infinity" not in line
-    assert [json.loads(x)["patch"] for x in lines] == ["1", "2", "3"]
+    assert [json.loads(x)["patch"] for x in lines] == [1, 2, 3]  # numbers stay numbers
 
 
-def test_table_output_and_options(cyl_csv, capsys):
+def test_table_prints_centre_values_with_units_and_the_thesis_spline_on_request(cyl_csv, capsys):
     capsys.readouterr()
-    args = ["ep2", "analyze", str(cyl_csv), "--order", "3", "--weighting", "tangent", "--grid", "6"]
-    assert main(args) == 0
-    out = capsys.readouterr().out
-    assert out.splitlines()[0].split()[:3] == ["patch", "n", "shape"]
-    assert out.count("cylinder") == 3
+    assert main(["ep2", "analyze", str(cyl_csv)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:5] == ["patch", "n", "shape", "conf", "S"]
+    assert "radius (u)" in out[0] and "u = the CSV's length unit" in out[-1]
+    assert sum("cylinder" in line for line in out) == 3
+    args = ["ep2", "analyze", str(cyl_csv), "--method", "spline", "--order", "3"]
+    assert main([*args, "--weighting", "tangent", "--grid", "6"]) == 0
+    assert capsys.readouterr().out.count("B-spline degree 3x3") == 3
+
+
+def test_spline_options_without_the_spline_are_refused(cyl_csv, capsys):
+    assert main(["ep2", "analyze", str(cyl_csv), "--order", "3"]) == 2
+    assert "--method spline" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "ids,expected",
+    [(("3", "12"), [3, 12]), (("2.5", "a"), [2.5, "a"]), (("007", "1.50"), ["007", "1.50"])],
+)
+def test_patch_ids_keep_their_csv_form(tmp_path, capsys, ids, expected):
+    from tactile_sim.ep2 import make, sweep
+    from tactile_sim.ep2.sweep import write_rows
+
+    path = tmp_path / "ids.csv"
+    with open(path, "w") as fh:
+        for i, pid in enumerate(ids):
+            write_rows(fh, sweep(make("sphere", 8.0), seed=i), patch=pid, header=i == 0)
+    assert main(["ep2", "analyze", str(path), "--json"]) == 0
+    assert [json.loads(x)["patch"] for x in capsys.readouterr().out.splitlines()] == expected
 
 
 def _write(tmp_path, text):
@@ -83,7 +108,7 @@ def test_single_finger_exit_3(tmp_path, capsys):
     rows = "\n".join(f"0,{y},0,0,0,1" for y in range(6))
     assert main(["ep2", "analyze", _write(tmp_path, "x,y,z,nx,ny,nz\n" + rows + "\n")]) == 3
     err = capsys.readouterr().err.strip()
-    assert "one line" in err and len(err.splitlines()) == 1
+    assert "not determined" in err and "one line" in err and len(err.splitlines()) == 1
 
 
 def test_one_bad_patch_among_good_ones_exit_3_and_others_reported(cyl_csv, tmp_path, capsys):
@@ -95,6 +120,7 @@ def test_one_bad_patch_among_good_ones_exit_3_and_others_reported(cyl_csv, tmp_p
     cap = capsys.readouterr()
     recs = [json.loads(x) for x in cap.out.splitlines()]
     assert [r["shape"] for r in recs] == ["cylinder"] * 3 + [None]
+    assert recs[-1]["patch"] == "bad" and "not determined" in recs[-1]["error"]
     assert "patch bad" in cap.err
 
 

@@ -88,7 +88,9 @@ def test_record_directory_and_figure_subset(tmp_path, cli):
     (run / "contacts.csv").write_text(
         "x,y,z,nx,ny,nz\n" + "\n".join(",".join(map(str, (*p, *n))) for p, n in zip(pts, nrm))
     )
-    code, stdout, _ = cli("plot", run, "--what", "maps", "--degree", "3", "--grid", "5")
+    code, stdout, _ = cli(
+        "plot", run, "--what", "maps", "--method", "spline", "--order", "3", "--grid", "5"
+    )
     assert code == 0
     assert stdout.split() == [str(run / "run1_maps.png")]
     assert_real_png(run / "run1_maps.png")
@@ -186,7 +188,7 @@ def test_control_net_matches_closed_form_bezier_of_a_paraboloid():
     x, y = (v.ravel() for v in np.meshgrid(XS, YS - 2.0, indexing="ij"))
     pts = np.column_stack([x, y, A * x**2 + B * y**2])
     nrm = np.column_stack([-2 * A * x, -2 * B * y, np.ones_like(x)])
-    res = analyze_patch(pts, nrm, weighting="tangent")
+    res = analyze_patch(pts, nrm, method="spline", weighting="tangent")
     # symmetric sampling: the patch frame is the world frame shifted to the centroid
     np.testing.assert_allclose(res.frame.rot, np.eye(3), atol=1e-12)
     zc = pts[:, 2].mean()
@@ -203,7 +205,7 @@ def test_control_net_matches_closed_form_bezier_of_a_paraboloid():
 def test_control_net_spans_the_fitted_surface(degree, segments, shape):
     """The net as a parametric B-spline (scipy design matrices) is the fitted surface."""
     pts, nrm = cylinder()
-    res = analyze_patch(pts, nrm, degree=degree, segments=segments)
+    res = analyze_patch(pts, nrm, method="spline", order=degree, segments=segments)
     net = res.control_net()
     assert net.shape == (*shape, 3)
     fit = res.fit
@@ -318,9 +320,12 @@ def test_contacts_and_patch_draw_the_given_normals_and_the_net(tmp_path, mocker)
     length = plots.NORMAL_LENGTH * 4.0  # largest extent of the contacts (y: 0..4)
     np.testing.assert_allclose(arrows, nrm * length)  # unit normals, whatever the input length
 
-    res = analyze_patch(pts, nrm)
-    quiver.reset_mock()
+    jet = analyze_patch(pts, nrm)
     wire = mocker.spy(Axes3D, "plot_wireframe")
+    assert_real_png(plots.plot_patch(jet, pts, nrm, tmp_path / "j.png"))
+    assert jet.control_net() is None and wire.call_count == 0  # the jet has no control mesh
+    res = analyze_patch(pts, nrm, method="spline")
+    quiver.reset_mock()
     assert_real_png(plots.plot_patch(res, pts, nrm, tmp_path / "p.png"))
     net = res.control_net()
     np.testing.assert_allclose(np.stack(wire.call_args.args[1:4], axis=-1), net)

@@ -109,7 +109,7 @@ def plot_contacts(points, normals, path, finger=None, title=None):
 
 
 def plot_patch(result, points, normals, path, finger=None, title=None):
-    """The fitted patch with its control mesh and the contacts (figs. 40, 43, 47).
+    """The fitted patch (with its control mesh for the spline) and the contacts (figs. 40, 43, 47).
 
     Drawn in the patch frame (z = mean outward normal, §5.1.2), to equal scale
     on all axes, as the thesis draws its fits in the fitting frame.
@@ -117,7 +117,7 @@ def plot_patch(result, points, normals, path, finger=None, title=None):
     plt = require_matplotlib()
     pts, nrm = _contacts(points, normals)
     pts, nrm = result.frame.to_patch(pts), result.frame.to_patch_dirs(nrm)
-    net = result.control_net()
+    net = result.control_net()  # None for the jet: it has no control points
     x0, x1, y0, y1 = result.domain_box()
     gx, gy = np.meshgrid(
         np.linspace(x0, x1, SURFACE_SAMPLES), np.linspace(y0, y1, SURFACE_SAMPLES), indexing="ij"
@@ -128,24 +128,27 @@ def plot_patch(result, points, normals, path, finger=None, title=None):
     fig = plt.figure(figsize=(6.0, 5.2))
     ax = fig.add_subplot(projection="3d")
     ax.plot_surface(gx, gy, gz, color="0.75", alpha=0.55, linewidth=0, shade=True)
-    ax.plot_wireframe(*np.moveaxis(net, -1, 0), color="k", linewidth=0.9, label="control mesh")
-    ax.scatter(*net.reshape(-1, 3).T, color="k", s=14, marker="s", depthshade=False)
-    _contacts_3d(ax, pts, nrm, finger, length)
     surface = np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()])
-    every = np.vstack([pts, pts + nrm * length, net.reshape(-1, 3), surface])
+    every = [pts, pts + nrm * length, surface]
+    if net is not None:
+        ax.plot_wireframe(*np.moveaxis(net, -1, 0), color="k", linewidth=0.9, label="control mesh")
+        ax.scatter(*net.reshape(-1, 3).T, color="k", s=14, marker="s", depthshade=False)
+        every.append(net.reshape(-1, 3))
+    _contacts_3d(ax, pts, nrm, finger, length)
+    every = np.vstack(every)
     _equal_3d(ax, every, 0.05 * _span(pts))
     ax.set(xlabel="patch x", ylabel="patch y", zlabel="patch z")
-    ax.legend(fontsize=7, loc="upper left")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper left")
     ax.set_title(title or _summary(result), fontsize=10)
     return _save(plt, fig, path)
 
 
 def _summary(result):
-    """'degree 2x2 auto fit: cylinder (0.98), S 0.501, radius 6.98' for a title."""
-    kx, ky = result.fit.degree
-    text = f"degree {kx}x{ky} {result.weighting} fit: {result.shape} ({result.confidence:.2f})"
-    if result.S_patch is not None:
-        text += f", S {result.S_patch:.3f}"
+    """'round 3-jet: cylinder (1.00), S 0.501, radius 6.98': S and radius at the centre."""
+    text = f"{result.model.split(':')[0]}: {result.shape} ({result.confidence:.2f})"
+    if result.S is not None:
+        text += f", S {result.S:.3f}"
     if result.radius is not None:
         text += f", radius {result.radius:.3g}"
     return text

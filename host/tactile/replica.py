@@ -27,7 +27,13 @@ def analyse(points_cm, normals, finger):
     out = {}
     for weighting in ("tangent", "position"):
         out[weighting] = analyze_patch(
-            points_cm, normals, degree=2, weighting=weighting, grid=8, finger=finger
+            points_cm,
+            normals,
+            method="spline",
+            order=2,
+            weighting=weighting,
+            grid=8,
+            finger=finger,
         )
     return out
 

@@ -1,6 +1,7 @@
 """``tactile plot CONTACTS.csv|DIR``: PNGs of the contacts, the fitted patch and the S/C maps."""
 
 WHAT = ("contacts", "patch", "maps")
+METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")
 
 
@@ -12,16 +13,19 @@ def add_arguments(parser):
         "-o", "--outdir", help="where the PNGs go (default: next to the CSV, or DIR)"
     )
     parser.add_argument(
-        "--degree",
-        "--order",
-        dest="degree",
-        type=int,
-        default=2,
-        choices=(2, 3, 4, 5),
-        help="polynomial degree per direction: 2 biquadratic (default), 3 bicubic, 4 biquartic",
+        "--method",
+        choices=METHODS,
+        default="jet",
+        help="jet: the default fit (no control mesh); spline: the thesis's B-spline and its mesh",
     )
     parser.add_argument(
-        "--weighting", choices=WEIGHTINGS, default="auto", help="row weights (§4.9)"
+        "--order",
+        type=int,
+        choices=(2, 3, 4, 5),
+        help="spline degree per direction: 2 biquadratic (default), 3 bicubic, 4 biquartic",
+    )
+    parser.add_argument(
+        "--weighting", choices=WEIGHTINGS, default="auto", help="spline row weights (§4.9)"
     )
     parser.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
     parser.add_argument(
@@ -48,6 +52,8 @@ def run(args):
         )
     if args.grid < 2:
         raise InputError(f"--grid must be at least 2 (got {args.grid})")
+    if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
+        raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
     csv_path, stem, default_out = _source(pathlib.Path(args.source))
     outdir = pathlib.Path(args.outdir) if args.outdir else default_out
     plots.require_matplotlib()  # the install hint before any work
@@ -78,7 +84,8 @@ def run(args):
             res = analyze_patch(
                 g.points,
                 g.normals,
-                degree=args.degree,
+                method=args.method,
+                order=args.order,
                 weighting=args.weighting,
                 grid=args.grid,
                 finger=g.finger,

@@ -5,7 +5,7 @@ the corner (0, 0) (radius 5.7, the thesis's smallest, just clears the far
 corner at 4 sqrt 2 = 5.66); three fingers 2 apart, 6 stops x 2 readings.
 Each study returns rows (dicts) and writes CSV, plus a PNG unless ``png`` is
 False.  Columns hold the thesis's statistic (grid mean and std of S) and
-this implementation's ``S_patch`` and label.
+this implementation's ``S`` (at the patch centre) and label.
 """
 
 import csv
@@ -30,7 +30,8 @@ def _analyse(obj, degree, weighting, maps=False, **sweep_kw):
         return analyze_patch(
             d["points"],
             d["normals"],
-            degree=degree,
+            method="spline",
+            order=degree,
             weighting=weighting,
             max_normal_angle=89.0,
             maps=maps,
@@ -41,13 +42,13 @@ def _analyse(obj, degree, weighting, maps=False, **sweep_kw):
 
 def _row(res, **keys):
     if res is None:
-        return {**keys, "shape": "error", "S_mean": None, "S_std": None, "S_patch": None}
+        return {**keys, "shape": "error", "S_mean": None, "S_std": None, "S": None}
     return {
         **keys,
         "shape": res.shape,
         "S_mean": res.S_mean,
         "S_std": res.S_std,
-        "S_patch": res.S_patch,
+        "S": res.S,
         "R_mean": res.R_mean,
         "radius_est": res.radius,
     }
@@ -90,9 +91,7 @@ def rotation(out, png=True):
                         "weighting": w,
                         "degree": deg,
                         "rms_S_error": rms,
-                        "S_patch_error": None
-                        if res is None or res.S_patch is None
-                        else res.S_patch - 0.5,
+                        "S_error": None if res is None or res.S is None else res.S - 0.5,
                     }
                 )
     _write(out, "ep2_fig32_rotation", rows)
@@ -150,7 +149,9 @@ def tables(out, trials=50, noise_pos=0.05, noise_normal=0.03, spacing=2.5, lengt
                     noise_normal=noise_normal,
                     seed=t,
                 )
-                r = analyze_patch(d["points"], d["normals"], degree=2, weighting=w, maps=True)
+                r = analyze_patch(
+                    d["points"], d["normals"], method="spline", order=2, weighting=w, maps=True
+                )
                 k1, k2 = r.maps["k1"], r.maps["k2"]
                 s = 2 / np.pi * np.arctan2(k1 + k2, k1 - k2)  # computed even for planes
                 rr = np.hypot(k1, k2) / np.sqrt(2)
