@@ -264,6 +264,21 @@ def test_curved_positions_with_flat_or_mirrored_normals_are_refused(family, para
             analyze_patch(d["points"], d["normals"], finger=d["finger"])
 
 
+def test_a_mirrored_saddle_is_told_apart_by_direction():
+    """A saddle's flipped normals give the same principal curvatures as its positions, just
+    turned by 90 deg: the refusal names a direction where the two estimates differ and the
+    values there, of opposite sign."""
+    d = cases.draw(_case("saddle", "sweep", cases.THESIS36, 0.0, normals_from="flipped", **R10))
+    with pytest.raises(DataError) as err:
+        analyze_patch(d["points"], d["normals"])
+    m = re.search(r"along \(([-\d., ]+)\) (\S+) vs (\S+),", str(err.value))
+    assert m, err.value
+    direction = np.array([float(v) for v in m.group(1).split(",")])
+    kp, kn = float(m.group(2)), float(m.group(3))
+    assert kp * kn < 0 and min(abs(kp), abs(kn)) > 0.05, err.value
+    assert abs(np.linalg.norm(direction) - 1) < 0.02
+
+
 @pytest.mark.parametrize("normals_from", ["flat", "flipped"])
 @pytest.mark.parametrize("noise", [0.0, 0.01])
 def test_planes_are_never_mislabelled_whatever_their_normals(normals_from, noise):

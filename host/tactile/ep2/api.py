@@ -192,7 +192,7 @@ def _analyze_jet(pts, nrm, opts):
     t, bias, nu = fits.t[0], fits.bias[0], float(fits.dof[0])
     cov = fits.cov[0] * centre_result.widen(nu)
     split = tuple((d[0], c[0], (z[0][0], z[1][0])) for d, c, z in fits.split)
-    refusal, warning, gap = centre_result.consistency(split, nu, L)
+    refusal, warning, gap = centre_result.consistency(split, nu, L, axes)
     spread = fits.xy_mean[0], fits.mean_axes[0]
     refusal = refusal or centre_result.determination(cov, axes, L, spread, fits.noise[0, 0])
     if refusal is not None:

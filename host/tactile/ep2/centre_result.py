@@ -81,7 +81,7 @@ def determination(cov, axes, scale, spread, noise_pos):
     )
 
 
-def consistency(split, dof, scale):
+def consistency(split, dof, scale, axes):
     """(refusal or None, warning or None, curvature gap (3,)) for positions vs normals.
 
     ``split`` = ((d, cov, blind) from the positions alone, ... from the normals alone),
@@ -107,13 +107,24 @@ def consistency(split, dof, scale):
     tilt = math.degrees(math.atan(math.hypot(gap[0], gap[1])))
     text = (
         "positions and normals disagree: the positions give curvatures"
-        f" ({kp[0]:.3g}, {kp[1]:.3g}) per unit length, the normals ({kn[0]:.3g}, {kn[1]:.3g}),"
-        f" tilts {tilt:.1f} deg apart ({math.sqrt(d2):.1f} sd)"
+        f" ({kp[0]:.3g}, {kp[1]:.3g}) per unit length, the normals ({kn[0]:.3g}, {kn[1]:.3g})"
+        f"{_where_most(tp, tn, axes, scale)}, tilts {tilt:.1f} deg apart ({math.sqrt(d2):.1f} sd)"
     )
     big = _norm(tp - tn) > AGREE_REL * max(_norm(tp), _norm(tn))
     if big or math.radians(tilt) > AGREE_TILT:
         return text + "; check the normals' sign and frame or the contact localisation", None, gap
     return None, text + "; intervals widened to hold both", tp - tn
+
+
+def _where_most(tp, tn, axes, scale):
+    """Text: the normal curvatures of both estimates along the tangent direction where
+    they differ most (tells a mirrored saddle, whose principal curvatures agree, apart)."""
+    a, b, c = tp - tn
+    w, v = np.linalg.eigh(np.array([[a, b], [b, c]]))
+    u = v[:, int(np.argmax(np.abs(w)))]
+    kp, kn = (float(u @ np.array([[t[0], t[1]], [t[1], t[2]]]) @ u) / scale for t in (tp, tn))
+    d = u[0] * axes[0] + u[1] * axes[1]
+    return f", along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) {kp:.3g} vs {kn:.3g}"
 
 
 def _determined(blind, scale):
