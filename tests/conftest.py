@@ -1,9 +1,31 @@
 """Shared test fixtures: paths and a CLI runner that captures output and exit code."""
 
 import json
+import os
 import pathlib
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+# Fuzzing campaigns (issue 12): fixed seed and a bounded budget in CI; a long, randomised
+# run locally with TACTILE_FUZZ=long (tests read FUZZ_EXAMPLES for their own budget).
+settings.register_profile(
+    "ci",
+    derandomize=True,
+    database=None,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile(
+    "long",
+    derandomize=False,
+    deadline=None,
+    max_examples=20_000,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+FUZZ = os.environ.get("TACTILE_FUZZ", "ci")
+settings.load_profile("long" if FUZZ == "long" else "ci")
+FUZZ_SCALE = 50 if FUZZ == "long" else 1  # multiply a campaign's CI example count by this
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
