@@ -199,7 +199,9 @@ def _analyze_jet(pts, nrm, opts):
         raise DataError(refusal)
     # a mild disagreement: intervals about the joint estimate that reach both sides' (gap/2
     # as one more sd in its direction: with the 95 % radius, about the whole gap)
-    out = centre_result.summary(t, cov + np.outer(gap, gap) / 4, bias, L, opts["intervals"])
+    out = centre_result.summary(
+        t, cov + np.outer(gap, gap) / 4, bias, L, opts["intervals"], fits.cov_noise[0]
+    )
     out["warnings"] = [] if warning is None else [warning]
     coef, model, xy = fits.coef[0], int(fits.model[0]), fits.xy[0]
     channels, gx, gy = centre_result.grid_channels(coef, model, xy, opts["grid"])
@@ -208,7 +210,7 @@ def _analyze_jet(pts, nrm, opts):
     out.update(
         order=centre_jet.ORDER,
         weighting="auto" if not any(fits.stated) else "stated",
-        model=_model_text(fits.chi2[0], model),
+        model=_model_text(fits.score[0], model),
         noise_pos=float(fits.noise[0, 0]),
         noise_normal=float(fits.noise[0, 1]),
         frame=patch_frame.PatchFrame(fits.origin[0], axes),
@@ -224,24 +226,22 @@ def _analyze_jet(pts, nrm, opts):
 def _jet_height(coef, model, xy):
     from tactile.ep2 import jet_basis
 
-    z = jet_basis.design(xy[:, 0], xy[:, 1], centre_jet.ORDER, ((0, 0),)) @ coef
+    z = jet_basis.design(xy[:, 0], xy[:, 1], jet_basis.order_of(len(coef)), ((0, 0),)) @ coef
     if model == 1:
         z = z + jet_basis.round_excess(xy[:, 0], xy[:, 1], jet_basis.hessian(coef))[0]
     return z
 
 
-def _model_text(chi2, model):
-    """One line: which model and why (its chi^2 advantage, ``centre_jet.ROUND_MARGIN``)."""
-    q, r = (float(v) for v in chi2)
-    if not np.isfinite(r):
-        return "quadric 3-jet: the round closed form does not reach every contact"
-    gap = q - r
-    if model == 1:
-        return f"round 3-jet (sphere/cylinder closed form): chi2 {gap:.3g} below the quadric's"
-    return (
-        f"quadric 3-jet: the round closed form fits no better (chi2 gap {gap:.3g} <"
-        f" {centre_jet.ROUND_MARGIN:g})"
-    )
+def _model_text(score, model):
+    """One line: which model and why (its AIC lead over the runner-up, ``centre_jet``)."""
+    names = {0: "quadric 3-jet", 1: "round 3-jet (sphere/cylinder closed form)"}
+    score = np.asarray(score, float)
+    rest = [k for k in range(len(score)) if k != model and np.isfinite(score[k])]
+    if not rest:
+        return f"{names[model]}: the only model that fits"
+    runner = min(rest, key=lambda k: score[k])
+    lead = float(score[runner] - score[model])
+    return f"{names[model]}: chi2 + 2 dof {lead:.3g} below the {names[runner]}"
 
 
 def _result(out, n, method, maps, breaks, dropped):

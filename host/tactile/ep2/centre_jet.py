@@ -54,10 +54,12 @@ class JetFits:
 
     t: np.ndarray  # (B, 3) shape-operator entries at the centre
     cov: np.ndarray  # (B, 3, 3)
+    cov_noise: np.ndarray  # (B, 3, 3) the same without the floor: the estimate's own scatter
     bias: np.ndarray  # (B, 3) model-choice bias vector (0 when the choice is clear)
     dof: np.ndarray  # (B,) degrees of freedom of the noise estimate behind cov (inf: known)
     model: np.ndarray  # (B,) index into MODELS
-    chi2: np.ndarray  # (B, 2) weighted RSS of quadric and round (inf: round invalid)
+    chi2: np.ndarray  # (B, len(MODELS)) weighted RSS of each model (inf: round invalid)
+    score: np.ndarray  # (B, len(MODELS)) chi2 + 2 rank (+ ROUND_MARGIN for round): lowest wins
     coef: np.ndarray  # (B, p) chosen model's jet coefficients (round: excess added separately)
     scale: np.ndarray  # (B,) L
     origin: np.ndarray  # (B, 3) world coordinates of the final frame's origin
@@ -97,10 +99,12 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     quad, rnd = _both(_refit_rows(p, nrm, mask, sig), mask, rnd.sol.coef)
     better = np.where(rnd.ok & (rnd.sol.rss < quad.sol.rss), 1, 0)
     coef = np.where(better[:, None] == 1, rnd.sol.coef, quad.sol.coef)
-    rows = _rows(p, nrm, mask, sig, _geometry(_rows(p, nrm, mask, sig), coef, better))
+    geo = _geometry(_rows(p, nrm, mask, sig), coef, better)
+    rows = _rows(p, nrm, mask, sig, geo)
     quad, rnd = _both(rows, mask, rnd.sol.coef)
+    models = [quad, rnd]  # + quadric 2- and 4-jets by AIC: tried, see _finish
     frame = (L, O, M)
-    out = _finish(quad, rnd, rows, mask, sig, dof, frame, (noise_pos, noise_normal), reason)
+    out = _finish(models, rows, mask, sig, dof, frame, (noise_pos, noise_normal), reason)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xy_mean, out.mean_axes = xy_mean, mean_axes
     return out
@@ -207,7 +211,7 @@ def _whiten(v, T):
     return out.reshape(v.shape)
 
 
-def _rows(p, nrm, mask, sig, geo=None, order=ORDER, part="all"):
+def _rows(p, nrm, mask, sig, geo=None, order=None, part="all"):
     """Rows in the current frame, each contact's (z, z_x, z_y) whitened by its covariance.
 
     Slopes z_x = -nx/nz, z_y = -ny/nz (§4.5.1).  Errors to first order (errors in
@@ -233,7 +237,7 @@ def _rows(p, nrm, mask, sig, geo=None, order=ORDER, part="all"):
     b = np.concatenate([np.where(mask, p[..., 2], 0.0), sx, sy], axis=1)
     keep = {"all": (1, 1, 1), "pos": (1, 0, 0), "slopes": (0, 1, 1)}[part]
     w = np.concatenate([mask * k for k in keep], axis=1).astype(float)
-    A = jet_basis.design(x, y, order)
+    A = jet_basis.design(x, y, ORDER if order is None else order)
     return _Rows(x, y, _whiten(b, T), w, _whiten(A, T), T, P, N)
 
 
@@ -274,7 +278,8 @@ def _geometry(rows, coef, model=None):
     """(g (B, n, 2), h (B, n, 3)): slopes and second derivatives of a fit at the contacts;
     ``model`` (B,) 1 where ``coef`` is the round model (its closed-form part added)."""
     x, y = rows.x, rows.y
-    d = jet_basis.design(x, y, ORDER, ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
+    order = jet_basis.order_of(coef.shape[-1])
+    d = jet_basis.design(x, y, order, ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
     v = np.einsum("bmp,bp->bm", d, coef).reshape(len(coef), 5, -1)
     if model is not None and np.any(model == 1):
         H = jet_basis.hessian(coef)
@@ -447,13 +452,16 @@ def _cov(G, rows, rss, rank, sig, dof):
     n = m3 // 3
     Gc = G.reshape(B, q, 3, n)
     lifted = np.maximum(sig, FLOOR)
-    parts = []
-    for k, M in enumerate((rows.P, rows.N)):
+    unit = []  # each row type's part for a unit sigma
+    for M in (rows.P, rows.N):
         K = rows.T @ M @ np.swapaxes(rows.T, -1, -2)  # (B, n, 3, 3)
-        parts.append(lifted[:, k, None, None] ** 2 * np.einsum("zian,znac,zjcn->zij", Gc, K, Gc))
+        unit.append(np.einsum("zian,znac,zjcn->zij", Gc, K, Gc))
+    parts = [lifted[:, k, None, None] ** 2 * unit[k] for k in range(2)]
     used = rows.w.sum(axis=1)
     s2 = np.maximum(rss / np.maximum(used - rank, 1), 1.0)
     cov = s2[:, None, None] * (parts[0] + parts[1])
+    # the noise as estimated, no floor: what the estimate's own scatter is (debiasing)
+    raw = s2[:, None, None] * sum(sig[:, k, None, None] ** 2 * unit[k] for k in range(2))
     share = np.stack([np.trace(q_, axis1=1, axis2=2) for q_ in parts], axis=1)
     with np.errstate(invalid="ignore"):  # inf / inf on a failed round fit, which is not used
         share = share / np.maximum(share.sum(axis=1, keepdims=True), 1e-300)
@@ -461,43 +469,54 @@ def _cov(G, rows, rss, rank, sig, dof):
     known = np.where(lifted > sig, np.inf, dof)  # at the floor, the noise is taken as known
     denom = np.sum(share**2 / known, axis=1)
     nu = np.where(denom > 0, 1.0 / np.where(denom > 0, denom, 1.0), np.inf)
-    return cov, nu
+    return cov, nu, raw
 
 
-def _finish(quad, rnd, rows, mask, sig, dof, frame, stated, reason):
+def _finish(models, rows, mask, sig, dof, frame, stated, reason):
+    """Choose between ``models`` (``MODELS``) by chi^2 + 2 x rank (round must beat the
+    quadric by ``ROUND_MARGIN`` more); the runner-up's estimate, weighted by its relative
+    likelihood (1 within ``AMBIGUOUS``), is the bias vector for the intervals.
+
+    Tried on the first holdout and declined: adding quadric 2- and 4-jets to the choice
+    (by AIC: better on tilted quadric height fields, whose 3-jet keeps a truncation bias,
+    but a 4-jet runner-up's noisy estimate widened small patches into refusals), and a
+    focused criterion (the tensor's MSE estimated against the 4-jet: its bias estimate is
+    too noisy; worse on cylinders)."""
     L, O, M = frame
-    chi2 = np.stack([quad.sol.rss, np.where(rnd.ok, rnd.sol.rss, np.inf)], axis=1)
-    model = np.where(chi2[:, 1] < chi2[:, 0] - ROUND_MARGIN, 1, 0)
+    chi2 = np.stack([np.where(m.ok, m.sol.rss, np.inf) for m in models], axis=1)
+    rank = np.stack([m.sol.rank for m in models], axis=1).astype(float)
+    score = chi2 + 2.0 * rank
+    score[:, 1] += ROUND_MARGIN
+    score = np.nan_to_num(score, nan=np.inf)
+    order = np.argsort(score, axis=1, kind="stable")
+    model, runner = order[:, 0], order[:, 1]
     out = []
-    for m in (quad, rnd):
+    for m in models:
         t, G = _tensor(m.sol.coef, m.sol.pinv)
-        cov, nu = _cov(G, rows, m.sol.rss, m.sol.rank, sig, dof)
-        out.append((t, cov, nu))
-    pick = model[:, None]
-    t = np.where(pick == 1, out[1][0], out[0][0])
-    cov = np.where(pick[..., None] == 1, out[1][1], out[0][1])
-    nu = np.where(model == 1, out[1][2], out[0][2])
-    other = np.where(pick == 1, out[0][0], out[1][0])
-    # likelihood weight of the model NOT chosen (the margin can choose against the likelihood)
-    gap = np.where(rnd.ok, chi2[:, 1] - chi2[:, 0], np.inf)  # round minus quadric
-    p_round = 1.0 / (1.0 + np.exp(np.clip(0.5 * gap, -700.0, 700.0)))
-    p_other = np.where(model == 1, 1.0 - p_round, p_round)
-    p_other = np.where(np.abs(gap) <= AMBIGUOUS, 1.0, p_other)
-    if AVERAGE:
-        w = 1.0 / (1.0 + np.exp(np.clip(0.5 * (gap + ROUND_MARGIN), -700.0, 700.0)))
-        w = np.where(rnd.ok, w, 0.0)[:, None]
-        t = (1 - w) * out[0][0] + w * np.where(np.isfinite(out[1][0]), out[1][0], 0.0)
-        other = np.where(pick == 1, out[0][0], out[1][0])
-        p_other = np.where(np.abs(gap) <= AMBIGUOUS, 1.0, p_other)
+        out.append((t, *_cov(G, rows, m.sol.rss, m.sol.rank, sig, dof)))
+    t_all, cov_all, nu_all, raw_all = (np.stack([o[k] for o in out], axis=1) for k in range(4))
+
+    def take(a, idx):
+        return a[np.arange(len(idx)), idx]
+
+    t, cov, nu, cov_noise = (take(a, model) for a in (t_all, cov_all, nu_all, raw_all))
+    other = take(t_all, runner)
+    gap = take(score, runner) - take(score, model)  # >= 0
+    p_other = np.exp(-0.5 * np.minimum(np.nan_to_num(gap, nan=np.inf), 1400.0))
+    p_other = np.where(gap <= AMBIGUOUS, 1.0, p_other)
     bias = np.sqrt(p_other)[:, None] * np.where(np.isfinite(other), other - t, 0.0)
-    coef = np.where(pick == 1, rnd.sol.coef, quad.sol.coef)
+    width = max(m.sol.coef.shape[1] for m in models)
+    padded = np.stack([_pad(m.sol.coef, width) for m in models], axis=1)
+    coef = take(padded, model)
     return JetFits(
         t=t,
         cov=cov,
+        cov_noise=cov_noise,
         bias=bias,
         dof=nu,
         model=model,
         chi2=chi2,
+        score=score,
         coef=coef,
         scale=L,
         origin=O,
@@ -509,6 +528,11 @@ def _finish(quad, rnd, rows, mask, sig, dof, frame, stated, reason):
         reason=reason,
         split=(),
     )
+
+
+def _pad(coef, width):
+    """Jet coefficients padded with zeros to ``width`` (graded order: the same polynomial)."""
+    return np.pad(coef, ((0, 0), (0, width - coef.shape[1])))
 
 
 def _split_fits(p, nrm, mask, sig, dof, fits):
@@ -527,16 +551,22 @@ def _split_fits(p, nrm, mask, sig, dof, fits):
         own = _geometry(first, _quadric(first).sol.coef)  # the joint fit may be nonsense
         rows = _rows(p, nrm, mask, sig, own, ORDER, part)
         model = _quadric(rows)
-        rnd = _round(rows, mask, np.where((fits.model == 1)[:, None], fits.coef, model.sol.coef))
+        start = fits.coef[:, : model.sol.coef.shape[1]]
+        rnd = _round(rows, mask, np.where((fits.model == 1)[:, None], start, model.sol.coef))
         pick = ((fits.model == 1) & rnd.ok)[:, None]  # the joint fit's model, refitted
+        # misfit of this row type under its own better family: model error, not disagreement
+        best = np.minimum(model.sol.rss, np.where(rnd.ok, rnd.sol.rss, np.inf))
+        own_s2 = np.maximum(best / np.maximum(rows.w.sum(axis=1) - model.sol.rank, 1), 1.0)
         for key in ("coef", "pinv", "rss", "blind", "scale", "rank"):
             a, b = getattr(rnd.sol, key), getattr(model.sol, key)
             shape = pick.reshape(pick.shape[:1] + (1,) * (np.ndim(a) - 1))
             setattr(model.sol, key, np.where(shape, a, b))
         sol = model.sol
         ch = list(jet_basis.CHANNELS)
-        # the noise alone (no chi^2 factor): a family that misfits one row type (mirrored
-        # normals, say) must not widen its way out of the comparison
-        cov, _ = _cov(sol.pinv[:, ch, :], rows, np.zeros_like(sol.rss), sol.rank, sig, dof)
+        # the noise, times the misfit of the row type's own better family only: a joint
+        # family that misfits one row type (mirrored normals, say) must not widen its way
+        # out of the comparison, but a surface no 3-jet follows is not a disagreement
+        cov, _, _ = _cov(sol.pinv[:, ch, :], rows, np.zeros_like(sol.rss), sol.rank, sig, dof)
+        cov = cov * own_s2[:, None, None]
         out.append((sol.coef[:, ch], cov, (sol.blind[:, :, ch], sol.scale[:, ch])))
     return tuple(out)

@@ -94,7 +94,7 @@ def consistency(split, dof, scale, axes):
     by the gap (a real rig's normals carry friction and calibration errors).
     """
     (dp, cp, bp), (dn, cn, bn) = split
-    seen = _both_determine(_determined(*bp), _determined(*bn))  # (5, r)
+    seen = _both_determine(_determined(*bp, cp), _determined(*bn, cn))  # (5, r)
     gap = dp - dn
     if seen.shape[1] == 0:
         return None, None, np.zeros(3)
@@ -127,16 +127,21 @@ def _where_most(tp, tn, axes, scale):
     return f", along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) {kp:.3g} vs {kn:.3g}"
 
 
-def _determined(blind, scale):
+def _determined(blind, scale, cov):
     """Orthonormal basis (5, r) of the derivative combinations u one row type determines:
-    blind @ (u / scale) = 0 (``batch_lstsq.Solution``)."""
+    in its span (blind @ (u / scale) = 0, ``batch_lstsq.Solution``) and to the standard a
+    curvature must meet (95 % half-width <= ``MAX_HALF_WIDTH``).  A formally full but
+    ill-conditioned fit (two fingers whose lines are nearly, not exactly, straight in the
+    patch frame) amplifies model bias far beyond its noise: it is not compared."""
     _, sv, vt = np.linalg.svd(blind)
     rank = int(np.sum(sv > 1e-8))
     v = vt[rank:].T  # in the scaled coordinates
     if v.shape[1] == 0:
         return v
     q, _ = np.linalg.qr(v * scale[:, None])
-    return q
+    w, V = np.linalg.eigh(q.T @ cov @ q)
+    keep = 1.96 * np.sqrt(np.maximum(w, 0.0)) <= MAX_HALF_WIDTH
+    return q @ V[:, keep]
 
 
 def _both_determine(qa, qb):
@@ -161,13 +166,18 @@ def _mahalanobis2(v, cov):
     return float(np.sum(proj * proj / w[keep]))
 
 
-def summary(t, cov, bias, scale, intervals=True):
-    """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside)."""
+def summary(t, cov, bias, scale, intervals=True, cov_noise=None):
+    """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside).
+
+    ``cov`` (floored, widened) sets the intervals and the tests; the anisotropy is debiased
+    with ``cov_noise``, the estimate's own scatter (default ``cov``): a floor meant to keep
+    intervals honest must not pull a low-noise estimate's k1 and k2 together."""
     d2 = classify.flatness_distance(t, cov)
     k1, k2 = (float(v) for v in eigen(*t))
     r = math.sqrt(0.5 * (k1 * k1 + k2 * k2))
     plane = classify.is_plane(r, d2)
-    m, h, lam = uncertainty.anisotropy(t, cov)
+    m, _, lam = uncertainty.anisotropy(t, cov)
+    _, h, _ = uncertainty.anisotropy(t, cov if cov_noise is None else cov_noise)
     if plane:  # no debiasing where the curvature itself is not resolved
         h = math.hypot(0.5 * (t[0] - t[2]), t[1])
     out = dict.fromkeys("S C radius S_interval radius_interval k1_interval k2_interval".split())

@@ -39,6 +39,14 @@ def n_coef(order):
     return (order + 1) * (order + 2) // 2
 
 
+def order_of(p):
+    """Jet order with ``p`` coefficients."""
+    q = 0
+    while n_coef(q) < p:
+        q += 1
+    return q
+
+
 def design(x, y, order, derivs=((0, 0), (1, 0), (0, 1))):
     """Rows of the order-``order`` jet at (x, y) for each derivative in ``derivs``.
 

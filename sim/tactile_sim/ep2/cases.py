@@ -43,6 +43,7 @@ MAX_ANGLE_DEG = 85.0  # noise-free normals beyond this from their mean: not gene
 THESIS27 = (("length", 4.0), ("stops", 9), ("xs", (0.0, 2.0, 4.0)))  # §4.1: 9 stops x 3
 THESIS36 = (("length", 4.0), ("repeats", 2), ("stops", 6), ("xs", (0.0, 2.0, 4.0)))  # §5.1
 HOLDOUT_SEED = 20240611
+HOLDOUT2_SEED = 20261123  # the second, final held-out draw (``split``)
 
 
 @dataclass(frozen=True)
@@ -378,8 +379,18 @@ def degenerate_cases():
 
 
 def split(name):
-    """Cases of a split by name: tune, holdout, degenerate or all."""
-    table = {"tune": tune_cases, "holdout": holdout_cases, "degenerate": degenerate_cases}
+    """Cases of a split by name: tune, holdout, holdout2, degenerate or all.
+
+    ``holdout2`` is a second draw of the same recipe: the first holdout, once run, exposed
+    two defects (a noise floor that biased low-noise k1, k2 together; model misfit read as
+    positions/normals disagreement); after their fixes the method was judged on holdout2,
+    which nothing had seen (docs/ep2.md)."""
+    table = {
+        "tune": tune_cases,
+        "holdout": holdout_cases,
+        "holdout2": lambda: holdout_cases(seed=HOLDOUT2_SEED),
+        "degenerate": degenerate_cases,
+    }
     if name == "all":
         return [c for f in table.values() for c in f()]
     if name not in table:
