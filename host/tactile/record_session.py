@@ -13,7 +13,7 @@ import time
 
 from tactile import __version__
 from tactile.board_client import BoardClient, info_dict
-from tactile.errors import BoardError, PortError, TactileError
+from tactile.errors import BoardError, PortError, PortLost
 from tactile.recording import Recording
 from tactile.serial_port import open_port
 from tactile_protocol import constants as C
@@ -118,10 +118,7 @@ class Session:
             self.client.start()
 
     def _close_port(self):
-        try:
-            self.client.port.close()
-        except (OSError, TactileError):
-            pass
+        self.client.close()
 
     def _reconnect(self, why):
         gap = {
@@ -138,9 +135,13 @@ class Session:
             self.sleep(0.2)
             try:
                 self._connect()
-            except PortError:
+            except PortLost as exc:  # opened, then gone again (a board still booting)
+                gap.setdefault("retries", []).append(str(exc))
+                self._close_port()
                 continue
-            except (BoardError, OSError) as exc:
+            except PortError:  # not there yet
+                continue
+            except BoardError as exc:  # there, but not answering (yet)
                 gap.setdefault("retries", []).append(str(exc))
                 self._close_port()
                 continue
@@ -185,18 +186,15 @@ class Session:
     def _loop(self):
         while True:
             try:
-                msgs = self.client.read()
-            except TactileError:
-                raise
-            except OSError as exc:  # pyserial's SerialException is an OSError
-                if not self._reconnect(str(exc) or type(exc).__name__):
+                self._handle(self.client.read())  # a reboot's TARE writes: it can fail too
+            except PortLost as exc:
+                if not self._reconnect(str(exc)):
                     self.ended = "port lost"
                     raise PortError(
                         f"{self.port_name}: port lost and not back within {self.reconnect_s:g} s"
                         f" (everything received is in {self.rec.dir})"
                     ) from None
                 continue
-            self._handle(msgs)
             self.on_progress(self)
             if self.clock() - self._meta_at >= META_EVERY_S:
                 self._write_meta()
