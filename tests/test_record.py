@@ -102,7 +102,7 @@ def test_a_port_lost_mid_read_loses_nothing_and_the_gap_is_recorded(mocker, tmp_
     (gap,) = meta["gaps"]
     assert gap["back_at_s"] is not None and gap["back_at_s"] >= gap["lost_at_s"]
     assert "disconnected" in gap["why"] or "Input/output" in gap["why"]
-    assert meta["reboots"] == 1  # the new port is a fresh board (HELLO seq 0): TAREd again
+    assert meta["reboots"] == 1  # the new port is a fresh board (a new boot id): TAREd again
     messages, _ = decode_bytes(capture)
     assert len(rows) - 1 == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages)
 

@@ -5,7 +5,8 @@ board is not already, then appends everything it reads.  When the port
 vanishes (cable pulled, board reset) it records a gap, waits for the port to
 come back (``reconnect_s``) and carries on with the same decoder, so frames
 lost in the gap are counted from the sequence numbers.  A board that
-rebooted (HELLO with seq 0) is TAREd again.  Ctrl-C ends the recording
+rebooted (the decoder sees a new boot id) is counted in ``reboots``, not as
+lost frames, and TAREd again.  Ctrl-C ends the recording
 normally.  Port and clock are injectable for tests.
 """
 
@@ -38,7 +39,6 @@ class Stats:
         self.contacts_ended = 0
         self.first_ts = None
         self.last_ts = None
-        self.reboots = 0
         self.status = {}  # the latest STATUS per sensor (0xFF: the board)
 
     def add(self, msgs):
@@ -94,6 +94,7 @@ class Session:
         self.started = None
         self.argv = argv
         self._meta_at = 0.0
+        self._reboots_prepared = 0  # the decoder's reboot count when last TAREd
 
     # -- connection ------------------------------------------------------------
     def _connect(self):
@@ -104,6 +105,7 @@ class Session:
             self.client.port = port
             self.client.info = None
         hello = self.client.handshake(self.handshake_s)
+        self._reboots_prepared = self.client.decoder.counters.reboots
         if self.client.info.protocol_version != C.PROTOCOL_VERSION:
             raise BoardError(
                 f"{self.port_name}: HELLO says protocol version {hello.protocol_version}, "
@@ -161,10 +163,10 @@ class Session:
     def _handle(self, msgs):
         self.rec.messages(msgs)
         self.stats.add(msgs)
-        for m in msgs:
-            if m.type_code == C.MSG_HELLO and m.seq == 0 and self.stats.frames > len(msgs):
-                self.stats.reboots += 1
-                self._prepare()
+        reboots = self.client.decoder.counters.reboots
+        if reboots > self._reboots_prepared:  # rebooted behind an open port: TARE again
+            self._reboots_prepared = reboots
+            self._prepare()
 
     def run(self):
         self.started = self.clock()
@@ -223,7 +225,7 @@ class Session:
             "contacts_ended": s.contacts_ended,
             "device_time_s": _span_s(s.first_ts, s.last_ts),
             "device_status": list(s.status.values()),
-            "reboots": s.reboots,
+            "reboots": client.decoder.counters.reboots if client is not None else 0,
             "gaps": self.gaps,
             "bytes": self.rec.bytes,
             "decoder": client.decoder.counters.as_dict() if client is not None else None,
