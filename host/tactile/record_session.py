@@ -11,6 +11,7 @@ normally.  Port and clock are injectable for tests.
 """
 
 import time
+from datetime import UTC, datetime
 
 from tactile import __version__
 from tactile.board_client import BoardClient, info_dict
@@ -93,6 +94,7 @@ class Session:
         self.client = None
         self.started = None
         self.argv = argv
+        self.started_at = None
         self._meta_at = 0.0
         self._reboots_prepared = 0  # the decoder's reboot count when last TAREd
 
@@ -170,6 +172,7 @@ class Session:
 
     def run(self):
         self.started = self.clock()
+        self.started_at = datetime.now(UTC).isoformat(timespec="seconds")
         try:
             self._connect()
             self._write_meta()
@@ -207,6 +210,7 @@ class Session:
 
     # -- metadata -------------------------------------------------------------------
     def meta(self):
+        """This session's entry in meta.json (``tactile.recording_meta`` adds the totals)."""
         client = self.client
         info = client.info if client is not None else None
         s = self.stats
@@ -215,6 +219,7 @@ class Session:
             "protocol_version": C.PROTOCOL_VERSION,
             "port": self.port_name,
             "command": self.argv,
+            "started_at": self.started_at,
             "ended": self.ended,
             "elapsed_s": round(self.clock() - self.started, 3) if self.started else 0.0,
             "device": info_dict(info) if info is not None else None,
@@ -228,6 +233,8 @@ class Session:
             "reboots": client.decoder.counters.reboots if client is not None else 0,
             "gaps": self.gaps,
             "bytes": self.rec.bytes,
+            "capture_offset": self.rec.capture_offset,
+            "rows_offset": self.rec.rows_offset,
             "decoder": client.decoder.counters.as_dict() if client is not None else None,
         }
 
