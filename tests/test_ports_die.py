@@ -7,52 +7,17 @@ pyserial failures injected with pytest-mock under every board command.
 
 import errno
 import json
-import threading
 
 import pytest
 import serial
 
 from tactile.stream_decoder import decode_bytes
-from tactile_sim.emulator import load_scene
-from tactile_sim.emulator.device import EmulatedBoard
-from tactile_sim.emulator.pty_server import PtyServer
+from tactile_sim.emulator.dying import DyingBoard
 
 NO_DATA = (
     "device reports readiness to read but returned no data "
     "(device disconnected or multiple access on port?)"
 )
-
-
-class DyingEmulator:
-    """A scene on a real pty whose board dies (the pty closes) ``after_s`` after the host's
-    ``at_command``-th command frame reaches it."""
-
-    def __init__(self, scene="press", at_command=1, after_s=0.0):
-        self.server = PtyServer(EmulatedBoard(load_scene(scene)), realtime=True)
-        self.path = self.server.open()
-        self.commands, self.at_command, self.after_s = 0, at_command, after_s
-        board = self.server.board
-        deliver = board.write_host
-
-        def write_host(data):
-            deliver(data)
-            self.commands += data.count(0)  # one delimiter per frame
-            if self.commands >= self.at_command and not self.server.stop:
-                threading.Timer(self.after_s, setattr, (self.server, "stop", True)).start()
-
-        board.write_host = write_host
-        self.thread = threading.Thread(target=self._serve, daemon=True)
-        self.thread.start()
-
-    def _serve(self):
-        try:
-            self.server.serve(30)
-        finally:
-            self.server.close()  # the master closes: the host's port is dead
-
-    def join(self):
-        self.server.stop = True
-        self.thread.join(5)
 
 
 def _one_line_exit_4(code, err, doing="reading"):
@@ -71,7 +36,7 @@ PTY_COMMANDS = {
 
 @pytest.mark.parametrize("command", list(PTY_COMMANDS))
 def test_a_board_gone_while_a_command_waits_is_one_line(cli, command):
-    board = DyingEmulator()
+    board = DyingBoard()
     try:
         code, _, err = cli(*PTY_COMMANDS[command], "--port", board.path)
     finally:
@@ -81,7 +46,7 @@ def test_a_board_gone_while_a_command_waits_is_one_line(cli, command):
 
 def test_live_with_the_emulator_gone_mid_stream_restores_nothing_and_says_it_once(cli):
     """ch5_plane streams contacts only, so live switched SAMPLE on and owes a restore."""
-    board = DyingEmulator("ch5_plane", at_command=2, after_s=1.2)  # GET_INFO, CONFIG
+    board = DyingBoard("ch5_plane", at_command=2, after_s=1.2)  # GET_INFO, CONFIG
     try:
         code, out, err = cli("live", "--port", board.path, "--duration", "5")
     finally:
@@ -91,7 +56,7 @@ def test_live_with_the_emulator_gone_mid_stream_restores_nothing_and_says_it_onc
 
 
 def test_record_whose_board_dies_at_its_tare_is_one_line_and_keeps_the_bytes(cli, tmp_path):
-    board = DyingEmulator()
+    board = DyingBoard()
     try:
         code, _, err = cli("record", "--port", board.path, "--duration", "5", "-o", tmp_path,
                            "--quiet")  # fmt: skip
@@ -100,11 +65,16 @@ def test_record_whose_board_dies_at_its_tare_is_one_line_and_keeps_the_bytes(cli
     _one_line_exit_4(code, err)
     meta = json.loads((tmp_path / "meta.json").read_text())
     assert meta["ended"] == "error" and meta["device"]["sensor_model"] == "FT6/ADS122C04x6"
-    assert meta["bytes"] == (tmp_path / "capture.bin").stat().st_size > 0
+    capture = (tmp_path / "capture.bin").read_bytes()
+    assert meta["bytes"] == len(capture) > 0
+    # the readings that came while the TARE waited are in frames.csv too, not only the capture
+    readings = sum(m.type_name in ("SAMPLE", "CONTACT") for m in decode_bytes(capture)[0])
+    rows = (tmp_path / "frames.csv").read_text().splitlines()[1:]
+    assert len(rows) == meta["samples"] == readings > 0
 
 
 def test_record_whose_board_dies_mid_stream_waits_then_keeps_everything(cli, tmp_path):
-    board = DyingEmulator(after_s=0.5)  # the TARE is answered; half a second of stream
+    board = DyingBoard(after_s=0.5)  # the TARE is answered; half a second of stream
     try:
         code, _, err = cli("record", "--port", board.path, "--duration", "10", "-o", tmp_path,
                            "--reconnect", "0.5", "--quiet")  # fmt: skip

@@ -182,11 +182,20 @@ class Session:
         finally:
             if self.ended == "running":
                 self.ended = "error"
+            self._keep_backlog()
             self._write_meta()
             if self.client is not None:
                 self._close_port()
             self.rec.close()
         return self.meta()
+
+    def _keep_backlog(self):
+        """Frames decoded while a command waited (a TARE the port died during) into the files:
+        they are in capture.bin already, and frames.csv must hold them too."""
+        if self.client is not None and self.client.backlog:
+            msgs, self.client.backlog = self.client.backlog, []
+            self.rec.messages(msgs)
+            self.stats.add(msgs)
 
     def _loop(self):
         while True:
