@@ -1,10 +1,11 @@
-"""Generate vectors.json, the golden bytes of protocol version 1 (PROTOCOL.md §6).
+"""Generate vectors.json, the golden bytes of the protocol version in force (PROTOCOL.md §6).
 
 Run once per protocol version: ``python protocol/make_vectors.py``.  The
 file is then frozen; tests compare every implementation with it.  Frame
 bytes come from ``tactile_protocol``; stream counters come from the host
-decoder acting as the oracle, after the delivered frames are checked
-against the expectation written next to each case.
+decoder acting as the oracle, after the delivered frames (and, where a case
+states them, the counters the spec fixes) are checked against the
+expectation written next to each case.
 """
 
 import json
@@ -64,8 +65,44 @@ def _extreme(code, high):
 
 
 TYPICAL = {
-    "HELLO": (1, 0, 0, 1, b"SIM-ADS1219x6", 1, 1000, 17, 0, 0, 0, 1000, 5000000, 4000000, 3, 0x0A),
-    "INFO": (1, 0, 0, 1, b"SIM-ADS1219x6", 3, 1000, 1, 2, 3, 0, 500, 5000000, 4000000, 2, 0x23),
+    "HELLO": (
+        1,
+        0,
+        0,
+        2,
+        b"SIM-ADS1219x6",
+        1,
+        1000,
+        17,
+        0,
+        0,
+        0,
+        1000,
+        5000000,
+        4000000,
+        3,
+        0x0A,
+        0x5EED1D01,
+    ),
+    "INFO": (
+        1,
+        0,
+        0,
+        2,
+        b"SIM-ADS1219x6",
+        3,
+        1000,
+        1,
+        2,
+        3,
+        0,
+        500,
+        5000000,
+        4000000,
+        2,
+        0x23,
+        0x5EED1D01,
+    ),
     "SAMPLE": (0, 0x40, 1234567, -2345678, 45, -1000, 2000, 0),
     "CONTACT": (2, C.PHASE_BEGIN, 7, 0x40, 5100000, 0, -12, 1, 2, 3),
     "STATUS": (C.FAULT_I2C | C.FAULT_RECOVERED, 0xFF, 5, 3, 0, 1, 2, 4, 100000),
@@ -122,19 +159,25 @@ def _sample(seq):
 
 def _flipped(seq):
     """SAMPLE ``seq`` with one payload bit flipped after its CRC was computed."""
-    body = bytearray(struct.pack("<BBHI", 1, C.MSG_SAMPLE, seq, 1000 * seq))
+    body = bytearray(struct.pack("<BBHI", C.PROTOCOL_VERSION, C.MSG_SAMPLE, seq, 1000 * seq))
     body += struct.pack("<BB6i", 0, 0, seq, -seq, 3, 4, 5, 6)
     crc = crc16(body)
     body[12] ^= 0x04
     return encode(bytes(body) + bytes((crc & 0xFF, crc >> 8))) + b"\x00"
 
 
+def _hello(seq, ts, boot_id):
+    values = TYPICAL["HELLO"][:-1] + (boot_id,)
+    return encode_frame(C.MSG_HELLO, seq, ts, values)
+
+
 def stream_cases():
-    """(group, name, bytes, seqs that must be delivered)."""
-    f = [_sample(i) for i in range(6)]
+    """(group, name, bytes, seqs that must be delivered, counters the spec fixes)."""
+    f = [_sample(i) for i in range(8)]
     flip = _flipped(1)
     garbage = bytes([0x13, 0x37, 0xAA])
-    body = bytearray(struct.pack("<BBHI", 2, C.MSG_SAMPLE, 9, 0) + bytes(26))
+    old = C.PROTOCOL_VERSION - 1  # a device speaking the previous version
+    body = bytearray(struct.pack("<BBHI", old, C.MSG_SAMPLE, 9, 0) + bytes(26))
     c = crc16(body)
     body += bytes((c & 0xFF, c >> 8))
     other_version = encode(body) + b"\x00"
@@ -150,9 +193,21 @@ def stream_cases():
         ("dropped byte", "byte lost mid-frame", f[0][:9] + f[0][10:] + f[1], [1]),
         ("oversize", "300 bytes without delimiter", b"\x01" * 300 + b"\x00" + f[3], [3]),
         ("oversize", "long garbage glued to a frame", b"\x05" * 400 + f[4] + f[5], [4, 5]),
-        ("version", "frame of protocol version 2", other_version + f[0], [0]),
+        ("version", f"frame of protocol version {old}", other_version + f[0], [0]),
         ("sequence", "gap of two frames", f[0] + f[3] + f[4], [0, 3, 4]),
-    ]
+        # §3: serial links do not reorder; a swap counts as two lost and one out of order
+        ("sequence", "adjacent frames swapped", f[0] + f[2] + f[1] + f[3], [0, 2, 1, 3],
+         {"lost_frames": 2, "seq_gaps": 2, "out_of_order": 1}),
+        ("reboot", "HELLO with a new boot id restarts the count",
+         _hello(0, 0, 0xB0071D01) + f[1] + f[2] + _hello(1, 50_000, 0xB0071D02) + f[2],
+         [0, 1, 2, 1, 2], {"lost_frames": 0, "out_of_order": 0, "reboots": 1}),
+        ("reboot", "HELLO of the same boot after a gap: the gap is loss",
+         _hello(0, 0, 0xB0071D01) + f[1] + f[2] + _hello(5, 5000, 0xB0071D01) + f[6],
+         [0, 1, 2, 5, 6], {"lost_frames": 2, "reboots": 0}),
+        ("reboot", "HELLO whose timestamp went back (no boot id seen before)",
+         f[3] + f[4] + _hello(1, 500, 0xB0071D01) + f[2], [3, 4, 1, 2],
+         {"lost_frames": 0, "out_of_order": 0, "reboots": 1}),
+    ]  # fmt: skip
 
 
 def decode_case(data):
@@ -165,10 +220,13 @@ def decode_case(data):
 
 def main():
     streams = []
-    for group, name, data, expect in stream_cases():
+    for group, name, data, expect, *fixed in stream_cases():
         seqs, counters = decode_case(data)
         if seqs != expect:
             raise SystemExit(f"stream case {name!r}: oracle delivered {seqs}, spec says {expect}")
+        wrong = {k: counters[k] for k, v in (fixed or [{}])[0].items() if counters[k] != v}
+        if wrong:
+            raise SystemExit(f"stream case {name!r}: oracle counted {wrong}, spec says {fixed}")
         streams.append(
             {
                 "group": group,

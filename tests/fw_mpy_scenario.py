@@ -5,7 +5,7 @@ under both interpreters and compares.  Imports only what MicroPython has.
 """
 
 from tactile_fw import frontend
-from tactile_fw.board import Board
+from tactile_fw.board import Board, boot_id_from
 from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
 from tactile_fw.timing import ManualClock
@@ -29,7 +29,8 @@ def src(j):
 for j, a in enumerate(frontend.ADDRESS_PLAN[0]):
     bus.attach(a, ADS122C04Model(lambda: clock.t_us, source=src(j)))
 link = PipeLink()
-board = Board([frontend.make_sensor(bus, 0)], link, clock, MemoryStorage())
+boot_id = boot_id_from(b"\x01\x02\x03\x04\xfd\xfe\xff\x00")  # 32-bit arithmetic on the board
+board = Board([frontend.make_sensor(bus, 0)], link, clock, MemoryStorage(), boot_id=boot_id)
 board.boot()
 seq = 0
 

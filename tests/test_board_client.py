@@ -57,7 +57,8 @@ def _frame_v(version, mtype, values, seq=0):
     return encode(bytes(body[:n]) + bytes((crc & 0xFF, crc >> 8))) + b"\0"
 
 
-HELLO = (0, 1, 0, 1, b"SIM", 1, 1000, 1, 0, 0, 0, 1000, 1390000, 1112000, 3, 0x0B)
+HELLO = (0, 1, 0, C.PROTOCOL_VERSION, b"SIM", 1, 1000, 1, 0, 0, 0, 1000, 1390000, 1112000, 3, 0x0B,
+         0xB0071D)  # fmt: skip
 
 
 def test_handshake_and_commands_against_the_emulator():
@@ -112,9 +113,10 @@ def test_a_board_answering_only_get_info_is_found():
 
 
 def test_another_protocol_version_names_both_versions():
-    port = FakePort([_frame_v(2, C.MSG_HELLO, HELLO)])
+    newer = C.PROTOCOL_VERSION + 1
+    port = FakePort([_frame_v(newer, C.MSG_HELLO, HELLO)])
     client = BoardClient(port, "/dev/ttyACM0", clock=StepClock())
-    expect = "speaks protocol version 2, this host speaks version 1"
+    expect = f"speaks protocol version {newer}, this host speaks version {C.PROTOCOL_VERSION}"
     with pytest.raises(ProtocolVersionError, match=expect):
         client.handshake(1.0)
 

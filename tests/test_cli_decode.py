@@ -4,14 +4,18 @@ import json
 
 import pytest
 
-from tactile_protocol.constants import MSG_HELLO, MSG_SAMPLE
+from tactile_protocol.constants import MSG_HELLO, MSG_SAMPLE, PROTOCOL_VERSION
 from tactile_protocol.framing import FrameEncoder
 
 
 def _capture(tmp_path, junk=b""):
     enc = FrameEncoder()
     data = bytes(
-        enc.encode(MSG_HELLO, 0, (1, 2, 3, 1, b"SIM", 1, 1000, 5, 0, 0, 0, 500, 5, 4, 2, 3))
+        enc.encode(
+            MSG_HELLO,
+            0,
+            (1, 2, 3, PROTOCOL_VERSION, b"SIM", 1, 1000, 5, 0, 0, 0, 500, 5, 4, 2, 3, 9),
+        )
     )
     for i in range(5):
         data += bytes(enc.encode(MSG_SAMPLE, 1000 * i, (0, 0x40, i, -i, 0, 0, 0, 7)))

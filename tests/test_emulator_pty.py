@@ -97,6 +97,7 @@ def test_disconnect_and_reconnect_resumes_and_counts_the_gap(tmp_path):
     hellos = [m for m in msgs if m.type_name == "HELLO"]
     again = [m for m in hellos if m.timestamp_us >= 1_400_000]
     assert len(again) == 1 and again[0].seq > 0  # announced on reconnect; the board kept counting
+    assert again[0].boot_id == hellos[0].boot_id and decoder.counters.reboots == 0  # unplugged
     after = [m for m in msgs if m.timestamp_us > 1_450_000 and m.type_name == "SAMPLE"]
     assert len(after) > 500  # the stream resumed
     assert decoder.counters.seq_gaps >= 1
@@ -162,3 +163,4 @@ def test_fast_mode_unplugs_on_time_and_resumes_where_it_was(tmp_path):
     assert len(hello) == 1 and hello[0].timestamp_us < 702_000  # held for the new host
     assert after == list(range(701_000, 1_200_001, 1000))  # then nothing skipped
     assert decoder.counters.lost_frames >= 199  # the board's frames while unplugged
+    assert decoder.counters.reboots == 0  # the same board, replugged: not a reboot

@@ -28,6 +28,7 @@ from tactile_protocol.constants import (
     NAK_OUT_OF_RANGE,
     NAK_STORAGE,
     NAK_UNKNOWN_COMMAND,
+    PROTOCOL_VERSION,
 )
 from tactile_protocol.crc16 import crc16
 
@@ -69,6 +70,7 @@ def info(rig):
                 "exit",
                 "debounce",
                 "flags",
+                "boot_id",
             ),
             inf[3],
             strict=True,
@@ -260,15 +262,15 @@ def raw_frame(body):
 
 def test_malformed_commands_get_reasons(rig):
     # a PING with a payload byte: bad length
-    rig.link.put(raw_frame(struct.pack("<BBHI", 1, CMD_PING, 77, 0) + b"\x01"))
+    rig.link.put(raw_frame(struct.pack("<BBHI", PROTOCOL_VERSION, CMD_PING, 77, 0) + b"\x01"))
     # an unknown command type
-    rig.link.put(raw_frame(struct.pack("<BBHI", 1, 0x7E, 78, 0)))
+    rig.link.put(raw_frame(struct.pack("<BBHI", PROTOCOL_VERSION, 0x7E, 78, 0)))
     # another protocol version
     rig.link.put(raw_frame(struct.pack("<BBHI", 9, CMD_PING, 79, 0)))
     # a device-to-host type sent to the device
-    rig.link.put(raw_frame(struct.pack("<BBHBH", 1, 0x06, 80, 0, 0x40) + b"\0\0\0"))
+    rig.link.put(raw_frame(struct.pack("<BBHBH", PROTOCOL_VERSION, 0x06, 80, 0, 0x40) + b"\0\0\0"))
     # a frame with a bad CRC: dropped, counted, not answered
-    bad = bytearray(raw_frame(struct.pack("<BBHI", 1, CMD_PING, 81, 0)))
+    bad = bytearray(raw_frame(struct.pack("<BBHI", PROTOCOL_VERSION, CMD_PING, 81, 0)))
     bad[3] ^= 0x10
     rig.link.put(bytes(bad))
     rig.run(2000)

@@ -82,7 +82,12 @@ def test_vectors_by_independent_route(vectors):
     for case in vectors["frames"]:
         fmt = "<BBHI" + vectors["layouts"][case["type"]]["format"]
         body = struct.pack(
-            fmt, 1, case["type_code"], case["seq"], case["timestamp_us"], *_values(case)
+            fmt,
+            PROTOCOL_VERSION,
+            case["type_code"],
+            case["seq"],
+            case["timestamp_us"],
+            *_values(case),
         )
         body += struct.pack("<H", binascii.crc_hqx(body, 0xFFFF))
         assert (cobs.encode(body) + b"\x00").hex() == case["frame_hex"]

@@ -102,7 +102,7 @@ def test_a_port_lost_mid_read_loses_nothing_and_the_gap_is_recorded(mocker, tmp_
     (gap,) = meta["gaps"]
     assert gap["back_at_s"] is not None and gap["back_at_s"] >= gap["lost_at_s"]
     assert "disconnected" in gap["why"] or "Input/output" in gap["why"]
-    assert meta["reboots"] == 1  # the new port is a fresh board (HELLO seq 0): TAREd again
+    assert meta["reboots"] == 1  # the new port is a fresh board (a new boot id): TAREd again
     messages, _ = decode_bytes(capture)
     assert len(rows) - 1 == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages)
 
@@ -136,3 +136,68 @@ def test_a_bad_pose_log_is_refused_before_recording(cli, tmp_path):
                        "--pose-log", log)  # fmt: skip
     assert code == 2 and err.count("\n") == 1 and "poses.csv:2" in err
     assert not out.exists()  # nothing was recorded against a log that cannot be used
+
+
+def _rows(out):
+    return len((out / "frames.csv").read_text().splitlines()) - 1
+
+
+def test_two_appended_sessions_keep_one_entry_each_and_totals_that_match_the_files(cli, tmp_path):
+    out = tmp_path / "run"
+    for extra in ([], ["--append"]):
+        code, _, err = cli("record", "--port", "sim://press", "--duration", "0.4", "-o", out,
+                           "--quiet", *extra)  # fmt: skip
+        assert code == 0, err
+    capture, rows, meta = _files(out)
+    first, second = meta["sessions"]
+    assert meta["bytes"] == len(capture) == first["bytes"] + second["bytes"]
+    assert meta["samples"] == _rows(out) == first["samples"] + second["samples"]
+    assert second["capture_offset"] == first["bytes"] and second["rows_offset"] == first["samples"]
+    assert first["capture_offset"] == first["rows_offset"] == 0
+    assert meta["reboots"] == 0 and meta["decoder"]["frames"] == first["decoder"]["frames"] + \
+        second["decoder"]["frames"]  # fmt: skip
+    assert first["started_at"] <= second["started_at"]  # ISO 8601, UTC
+    # each session's bytes are its own: decoding its span gives its own rows
+    messages, _ = decode_bytes(capture[second["capture_offset"] :])
+    assert sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages) == second["samples"]
+    assert rows[second["rows_offset"] + 1].split(",")[0] == str(
+        next(m.seq for m in messages if m.type_name in ("SAMPLE", "CONTACT"))
+    )
+
+
+@pytest.mark.parametrize("damage", ["an older --append", "a crash before the last rewrite"])
+def test_appending_to_a_meta_that_misses_data_accounts_for_it(cli, tmp_path, damage):
+    out = tmp_path / "run"
+    code, _, _ = cli("record", "--port", "sim://press", "--duration", "0.4", "-o", out, "--quiet")
+    assert code == 0
+    single = json.loads((out / "meta.json").read_text())["sessions"][0]
+    if damage == "an older --append":  # one session's meta, files of two (the case)
+        with open(out / "capture.bin", "ab") as fh:
+            fh.write((out / "capture.bin").read_bytes())
+        extra = (out / "frames.csv").read_text().splitlines(keepends=True)[1:]
+        with open(out / "frames.csv", "a") as fh:
+            fh.writelines(extra)
+    else:  # meta.json is up to a second behind the files
+        single["bytes"] -= 1000
+        single["samples"] -= 20
+    (out / "meta.json").write_text(json.dumps(single))  # the single-session layout
+    code, _, err = cli("record", "--port", "sim://press", "--duration", "0.4", "-o", out,
+                       "--quiet", "--append")  # fmt: skip
+    assert code == 0, err
+    capture, _, meta = _files(out)
+    old, unrecorded, new = meta["sessions"]
+    assert old["bytes"] == single["bytes"] and unrecorded["unrecorded"] is True
+    assert meta["bytes"] == len(capture) and meta["samples"] == _rows(out)
+    assert new["capture_offset"] == len(capture) - new["bytes"]
+
+
+def test_appending_refuses_an_unreadable_meta_rather_than_overwrite_it(cli, tmp_path):
+    out = tmp_path / "run"
+    cli("record", "--port", "sim://press", "--duration", "0.2", "-o", out, "--quiet")
+    (out / "meta.json").write_text("{not json")
+    before = (out / "capture.bin").read_bytes()
+    code, _, err = cli("record", "--port", "sim://press", "--duration", "0.2", "-o", out,
+                       "--quiet", "--append")  # fmt: skip
+    assert code == 2 and err.count("\n") == 1 and "meta.json: cannot append" in err
+    assert (out / "capture.bin").read_bytes() == before
+    assert (out / "meta.json").read_text() == "{not json"

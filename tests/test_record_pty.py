@@ -134,3 +134,60 @@ def test_emulate_and_record_as_two_processes(cli, tmp_path):
 def test_emulate_pose_log_needs_a_scene_with_a_robot_log(cli, tmp_path):
     code, _, err = cli("emulate", "press", "--pose-log", tmp_path / "p.csv")
     assert code == 2 and "this scene's motion has no robot log" in err
+
+
+def _emulate(*args):
+    """``tactile emulate ARGS`` as its own process, once it has printed its pty."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "tactile.cli.main", "emulate", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    if not proc.stdout.readline().strip():  # the path (or the --link), once serving
+        pytest.fail(proc.stderr.read())  # (it exited: the read cannot block)
+    return proc
+
+
+@pytest.mark.slow
+def test_a_board_killed_and_restarted_behind_link_is_one_reboot_and_nothing_lost(tmp_path):
+    """The new board's seq-0 HELLO goes to nobody: the host first sees HELLO seq 1 of a
+    new boot id, which is a reboot, not a gap of lost (or out-of-order) frames."""
+    import subprocess
+    import sys
+    import time
+
+    from tactile.stream_decoder import decode_bytes
+
+    link, out = tmp_path / "ttyTACTILE", tmp_path / "run"
+    first = _emulate("press", "--link", link, "--duration", "30")
+    record = subprocess.Popen(
+        [sys.executable, "-m", "tactile.cli.main", "record", "--port", str(link),
+         "--duration", "3", "-o", str(out), "--quiet", "--reconnect", "10"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    second = None
+    try:
+        deadline = time.monotonic() + 10
+        while not (out / "meta.json").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.5)  # half a second of stream from the first board
+        first.kill()  # the board dies: no goodbye, the pty just goes
+        first.wait(5)
+        second = _emulate("press", "--link", link, "--duration", "30")
+        stdout, err = record.communicate(timeout=30)
+    finally:
+        for proc in (first, record, second):
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+                proc.wait(5)
+    assert record.returncode == 0 and "Traceback" not in err, err
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["reboots"] == 1 and len(meta["gaps"]) == 1
+    d = meta["decoder"]
+    assert (d["reboots"], d["lost_frames"], d["out_of_order"]) == (1, 0, 0)
+    _, replayed = decode_bytes((out / "capture.bin").read_bytes())
+    assert (replayed.reboots, replayed.lost_frames) == (1, 0)  # the capture says the same

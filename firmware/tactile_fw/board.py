@@ -1,10 +1,13 @@
 """The board: one non-blocking ``poll()`` that samples, gates, streams and obeys.
 
 Everything is injected: the sensors (``frontend.Sensor``, each on its bus),
-the byte link (``link``), the clock (``timing``), and the storage for
-settings and calibration.  ``poll()`` does one bounded step and returns; a
-real board calls it forever (``run``), the emulator calls it on simulated
-time.  Per-sample work reuses preallocated lists and the encoder's buffers.
+the byte link (``link``), the clock (``timing``), the storage for settings
+and calibration, and ``boot_id``, a 32-bit number that differs from one
+power-up to the next (the entry point draws it: ``boot_id_from(os.urandom(8))``),
+which HELLO and INFO carry so the host can tell a reboot from lost frames.
+``poll()`` does one bounded step and returns; a real board calls it forever
+(``run``), the emulator calls it on simulated time.  Per-sample work reuses
+preallocated lists and the encoder's buffers.
 
 Faults (PROTOCOL STATUS): an I2C error or a converter whose DRDY does not
 come within ``drdy_timeout_us`` puts that sensor in a fault state; a STATUS
@@ -83,6 +86,7 @@ class Board:
         drdy_timeout_us=None,
         status_period_us=STATUS_PERIOD_US,
         tx_size=4096,
+        boot_id=0,
     ):
         if not 1 <= len(sensors) <= MAX_SENSORS:
             raise ValueError("a board reads 1..%d sensors" % MAX_SENSORS)
@@ -96,6 +100,7 @@ class Board:
         slowest = min(s.rate_sps() for s in sensors)
         self.drdy_timeout_us = drdy_timeout_us or 4 * (1000000 // slowest)
         self.status_period_us = status_period_us
+        self.boot_id = boot_id & 0xFFFFFFFF
         self.enc = FrameEncoder()
         self.asm = FrameAssembler()
         self.tx = TxRing(link, tx_size)
@@ -398,6 +403,7 @@ class Board:
             s.exit,
             s.debounce,
             flags,
+            self.boot_id,
         )
 
     def send_info(self, mtype=MSG_INFO):
@@ -470,6 +476,14 @@ class Board:
         if self.tare_seq >= 0:
             self.nak(CMD_TARE, self.tare_seq, NAK_HARDWARE, NAK_DETAIL_NONE)
         self.tare_seq = -1
+
+
+def boot_id_from(entropy):
+    """Fold bytes that differ per power-up into a 32-bit boot id (FNV-1a)."""
+    h = 0x811C9DC5
+    for b in entropy:
+        h = ((h ^ b) * 0x01000193) & 0xFFFFFFFF
+    return h
 
 
 def _errno(exc):

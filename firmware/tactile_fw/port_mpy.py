@@ -9,6 +9,7 @@ Sensor 0 on I2C0 at 0x40-0x45, sensor 1 on I2C1 at 0x40-0x45, sensors 2 and
 3 at 0x46-0x4B on I2C0 and I2C1.
 """
 
+import os
 import select
 import sys
 import time
@@ -16,7 +17,7 @@ import time
 import machine
 import micropython
 
-from tactile_fw.board import Board
+from tactile_fw.board import Board, boot_id_from
 from tactile_fw.frontend import make_sensor
 from tactile_fw.storage import DirStorage
 
@@ -76,8 +77,19 @@ def make_sensors(n_sensors, freq):
     return [make_sensor(buses[i % 2], i // 2, bus_key=i % 2, bus_hz=freq) for i in range(n_sensors)]
 
 
+def boot_entropy():
+    """Bytes that differ per power-up: the RP2040's ring-oscillator RNG behind os.urandom,
+    or on a port without it the chip's id and the free-running CPU tick counter."""
+    try:
+        return os.urandom(8)
+    except AttributeError:
+        t = time.ticks_cpu()
+        return machine.unique_id() + bytes((t & 0xFF, (t >> 8) & 0xFF, (t >> 16) & 0xFF))
+
+
 def main(n_sensors=1, freq=1000000, wdt_ms=0):
-    board = Board(make_sensors(n_sensors, freq), UsbLink(), time, DirStorage(""))
+    sensors = make_sensors(n_sensors, freq)
+    board = Board(sensors, UsbLink(), time, DirStorage(""), boot_id=boot_id_from(boot_entropy()))
     wdt = machine.WDT(timeout=wdt_ms) if wdt_ms else None
     board.boot()
     try:

@@ -10,11 +10,23 @@ a command waits for its ACK are kept in ``backlog`` and returned by the next
 ``handshake`` waits for the HELLO a board sends when its port opens; a board
 without DTR (MicroPython's USB stdio on the Pico) may not notice the open, so
 after half the timeout the client asks with GET_INFO.
+
+The client is the one place the host does I/O on an open port, so it is
+where a port that dies (pyserial's ``SerialException``, an ``OSError`` such
+as EIO from ``in_waiting``) becomes ``PortLost``: one line, exit 4.
 """
 
 import time
 
-from tactile.errors import BoardError, BoardTimeout, InputError, ProtocolVersionError
+from tactile.errors import (
+    BoardError,
+    BoardTimeout,
+    InputError,
+    PortLost,
+    ProtocolVersionError,
+    TactileError,
+)
+from tactile.serial_port import describe_lost
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
@@ -76,8 +88,13 @@ class BoardClient:
     # -- the byte stream -------------------------------------------------------
     def _pull(self):
         """Read what the port has (waiting up to its timeout for the first byte)."""
-        waiting = self.port.in_waiting
-        data = self.port.read(min(max(waiting, 1), MAX_READ))
+        try:
+            waiting = self.port.in_waiting
+            data = self.port.read(min(max(waiting, 1), MAX_READ))
+        except TactileError:
+            raise
+        except OSError as exc:  # pyserial's SerialException is an OSError
+            raise PortLost(describe_lost(self.name, exc, "reading")) from None
         if data:
             if self.capture is not None:
                 self.capture(data)
@@ -101,8 +118,20 @@ class BoardClient:
         except (ValueError, OverflowError, TypeError) as exc:
             name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
             raise InputError(f"{name}: a value does not fit the protocol: {exc}") from None
-        self.port.write(frame)
+        try:
+            self.port.write(frame)
+        except TactileError:
+            raise
+        except OSError as exc:
+            raise PortLost(describe_lost(self.name, exc, "writing")) from None
         return seq
+
+    def close(self):
+        """Close the port; a port that already died closes without complaint."""
+        try:
+            self.port.close()
+        except OSError:  # nothing is lost: everything read went to the capture first
+            pass
 
     # -- request / reply --------------------------------------------------------
     def command(self, mtype, values=(), timeout=1.0):

@@ -4,7 +4,8 @@
 - ``InputError`` (2): bad user input; the message names file, line, column/field.
 - ``DataError`` (3): the data are well formed but do not determine a result.
 - ``BoardError`` (IOError, 4): talking to a board or emulator failed;
-  ``BoardTimeout``, ``ProtocolVersionError`` and ``PortError`` refine it.
+  ``BoardTimeout``, ``ProtocolVersionError`` and ``PortError`` refine it;
+  ``PortLost`` (a ``PortError``) is a port that stopped working once open.
 """
 
 
@@ -34,6 +35,10 @@ class ProtocolVersionError(BoardError):
 
 class PortError(BoardError):
     """The serial port is missing, busy or not permitted."""
+
+
+class PortLost(PortError):
+    """An open port stopped working: the board was unplugged or reset, the emulator died."""
 
 
 def where(path, line=None, column=None):

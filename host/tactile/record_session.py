@@ -5,15 +5,17 @@ board is not already, then appends everything it reads.  When the port
 vanishes (cable pulled, board reset) it records a gap, waits for the port to
 come back (``reconnect_s``) and carries on with the same decoder, so frames
 lost in the gap are counted from the sequence numbers.  A board that
-rebooted (HELLO with seq 0) is TAREd again.  Ctrl-C ends the recording
+rebooted (the decoder sees a new boot id) is counted in ``reboots``, not as
+lost frames, and TAREd again.  Ctrl-C ends the recording
 normally.  Port and clock are injectable for tests.
 """
 
 import time
+from datetime import UTC, datetime
 
 from tactile import __version__
 from tactile.board_client import BoardClient, info_dict
-from tactile.errors import BoardError, PortError, TactileError
+from tactile.errors import BoardError, PortError, PortLost
 from tactile.recording import Recording
 from tactile.serial_port import open_port
 from tactile_protocol import constants as C
@@ -38,7 +40,6 @@ class Stats:
         self.contacts_ended = 0
         self.first_ts = None
         self.last_ts = None
-        self.reboots = 0
         self.status = {}  # the latest STATUS per sensor (0xFF: the board)
 
     def add(self, msgs):
@@ -93,7 +94,9 @@ class Session:
         self.client = None
         self.started = None
         self.argv = argv
+        self.started_at = None
         self._meta_at = 0.0
+        self._reboots_prepared = 0  # the decoder's reboot count when last TAREd
 
     # -- connection ------------------------------------------------------------
     def _connect(self):
@@ -104,6 +107,7 @@ class Session:
             self.client.port = port
             self.client.info = None
         hello = self.client.handshake(self.handshake_s)
+        self._reboots_prepared = self.client.decoder.counters.reboots
         if self.client.info.protocol_version != C.PROTOCOL_VERSION:
             raise BoardError(
                 f"{self.port_name}: HELLO says protocol version {hello.protocol_version}, "
@@ -118,10 +122,7 @@ class Session:
             self.client.start()
 
     def _close_port(self):
-        try:
-            self.client.port.close()
-        except (OSError, TactileError):
-            pass
+        self.client.close()
 
     def _reconnect(self, why):
         gap = {
@@ -138,9 +139,13 @@ class Session:
             self.sleep(0.2)
             try:
                 self._connect()
-            except PortError:
+            except PortLost as exc:  # opened, then gone again (a board still booting)
+                gap.setdefault("retries", []).append(str(exc))
+                self._close_port()
                 continue
-            except (BoardError, OSError) as exc:
+            except PortError:  # not there yet
+                continue
+            except BoardError as exc:  # there, but not answering (yet)
                 gap.setdefault("retries", []).append(str(exc))
                 self._close_port()
                 continue
@@ -160,13 +165,14 @@ class Session:
     def _handle(self, msgs):
         self.rec.messages(msgs)
         self.stats.add(msgs)
-        for m in msgs:
-            if m.type_code == C.MSG_HELLO and m.seq == 0 and self.stats.frames > len(msgs):
-                self.stats.reboots += 1
-                self._prepare()
+        reboots = self.client.decoder.counters.reboots
+        if reboots > self._reboots_prepared:  # rebooted behind an open port: TARE again
+            self._reboots_prepared = reboots
+            self._prepare()
 
     def run(self):
         self.started = self.clock()
+        self.started_at = datetime.now(UTC).isoformat(timespec="seconds")
         try:
             self._connect()
             self._write_meta()
@@ -176,27 +182,33 @@ class Session:
         finally:
             if self.ended == "running":
                 self.ended = "error"
+            self._keep_backlog()
             self._write_meta()
             if self.client is not None:
                 self._close_port()
             self.rec.close()
         return self.meta()
 
+    def _keep_backlog(self):
+        """Frames decoded while a command waited (a TARE the port died during) into the files:
+        they are in capture.bin already, and frames.csv must hold them too."""
+        if self.client is not None and self.client.backlog:
+            msgs, self.client.backlog = self.client.backlog, []
+            self.rec.messages(msgs)
+            self.stats.add(msgs)
+
     def _loop(self):
         while True:
             try:
-                msgs = self.client.read()
-            except TactileError:
-                raise
-            except OSError as exc:  # pyserial's SerialException is an OSError
-                if not self._reconnect(str(exc) or type(exc).__name__):
+                self._handle(self.client.read())  # a reboot's TARE writes: it can fail too
+            except PortLost as exc:
+                if not self._reconnect(str(exc)):
                     self.ended = "port lost"
                     raise PortError(
                         f"{self.port_name}: port lost and not back within {self.reconnect_s:g} s"
                         f" (everything received is in {self.rec.dir})"
                     ) from None
                 continue
-            self._handle(msgs)
             self.on_progress(self)
             if self.clock() - self._meta_at >= META_EVERY_S:
                 self._write_meta()
@@ -207,6 +219,7 @@ class Session:
 
     # -- metadata -------------------------------------------------------------------
     def meta(self):
+        """This session's entry in meta.json (``tactile.recording_meta`` adds the totals)."""
         client = self.client
         info = client.info if client is not None else None
         s = self.stats
@@ -215,6 +228,7 @@ class Session:
             "protocol_version": C.PROTOCOL_VERSION,
             "port": self.port_name,
             "command": self.argv,
+            "started_at": self.started_at,
             "ended": self.ended,
             "elapsed_s": round(self.clock() - self.started, 3) if self.started else 0.0,
             "device": info_dict(info) if info is not None else None,
@@ -225,9 +239,11 @@ class Session:
             "contacts_ended": s.contacts_ended,
             "device_time_s": _span_s(s.first_ts, s.last_ts),
             "device_status": list(s.status.values()),
-            "reboots": s.reboots,
+            "reboots": client.decoder.counters.reboots if client is not None else 0,
             "gaps": self.gaps,
             "bytes": self.rec.bytes,
+            "capture_offset": self.rec.capture_offset,
+            "rows_offset": self.rec.rows_offset,
             "decoder": client.decoder.counters.as_dict() if client is not None else None,
         }
 

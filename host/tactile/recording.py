@@ -10,7 +10,9 @@ Files (``tactile record -o DIR``):
   replaced atomically (write, fsync, rename) every second and at the end.
 
 A directory that already holds a capture is refused unless ``append`` is set;
-then the new bytes follow the old ones and nothing is ever truncated.
+then the new bytes follow the old ones and nothing is ever truncated, and
+meta.json keeps one entry per session with totals over them
+(``tactile.recording_meta``).
 """
 
 import json
@@ -19,6 +21,7 @@ import pathlib
 
 from tactile.errors import InputError
 from tactile.jsonout import clean, dumps
+from tactile.recording_meta import count_rows, document, previous_sessions
 from tactile_protocol import constants as C
 
 FRAME_COLUMNS = (
@@ -43,6 +46,13 @@ class Recording:
         if not append and capture.exists() and capture.stat().st_size > 0:
             raise InputError(
                 f"{outdir}: already holds a recording (choose another -o, or --append to add to it)"
+            )
+        self.capture_offset = capture.stat().st_size if capture.exists() else 0
+        self.rows_offset = count_rows(self.dir / FRAMES)
+        self.previous = []  # the sessions already in the directory (--append)
+        if self.capture_offset or self.rows_offset:
+            self.previous = previous_sessions(
+                self.dir / META, self.capture_offset, self.rows_offset
             )
         try:
             self.dir.mkdir(parents=True, exist_ok=True)
@@ -77,12 +87,14 @@ class Recording:
             self._device.write("".join(other))
             self._device.flush()
 
-    def write_meta(self, meta):
-        """Replace meta.json atomically: a reader never sees half a file."""
+    def write_meta(self, session):
+        """Replace meta.json (the sessions before this one, then ``session``) atomically:
+        a reader never sees half a file."""
         path = self.dir / META
         tmp = path.with_suffix(".json.tmp")
+        doc = document(self.previous + [session])
         with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(json.dumps(clean(meta), indent=2, allow_nan=False) + "\n")
+            fh.write(json.dumps(clean(doc), indent=2, allow_nan=False) + "\n")
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)

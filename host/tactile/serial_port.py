@@ -5,9 +5,17 @@ pty) or a pyserial URL; ``sim://SCENE`` reaches the in-process emulator (its
 handler is registered only when such a URL is used).  pyserial raises
 ``SerialException`` with the OS errno; each common one becomes a
 ``PortError`` with a one-line message and, where there is one, the fix.
+
+A port that dies once open (the board unplugged or reset, the emulator
+killed) fails in three ways: ``read`` raises ``SerialException`` ("device
+reports readiness to read but returned no data"), ``in_waiting`` raises
+``OSError(EIO)``, ``write`` raises ``SerialException("write failed: [Errno
+5] ...")``.  ``describe_lost`` puts any of them in one line; the board client
+raises it as ``PortLost``.
 """
 
 import errno
+import re
 import sys
 
 BAUDRATE = 115200  # USB CDC ignores it; a UART bridge needs it
@@ -38,6 +46,22 @@ def describe_open_error(port, exc):
     if code in _BUSY or "exclusively lock" in text or "busy" in text:
         return f"{port}: port busy (another program has it open: close it and retry)"
     return f"{port}: cannot open: {exc}"
+
+
+def _lost_reason(exc):
+    text = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+    if "returned no data" in text:  # pyserial's words for a vanished device
+        return "the device disconnected"
+    text = re.sub(r"^(read|write) failed: ", "", text)
+    return re.sub(r"^\[Errno \d+\] ", "", text)
+
+
+def describe_lost(port, exc, doing):
+    """One line naming ``port``, what was being done (``reading``) and why it failed."""
+    return (
+        f"{port}: port lost while {doing}: {_lost_reason(exc)} "
+        "(board unplugged or reset? 'tactile ports' lists the ports)"
+    )
 
 
 def open_port(port, timeout=READ_TIMEOUT_S):

@@ -2,7 +2,10 @@
 
 ``StreamDecoder.feed(data)`` returns the valid messages completed by
 ``data`` and updates ``counters``.  Memory stays bounded: at most
-``MAX_ENCODED`` bytes of an unfinished frame are kept.  COBS decoding uses
+``MAX_ENCODED`` bytes of an unfinished frame are kept.  Sequence gaps count
+as lost frames, except across a reboot (PROTOCOL.md §3: a HELLO or INFO with a
+new ``boot_id``, or a HELLO whose timestamp went backwards), which restarts
+the count and is counted in ``reboots``.  COBS decoding uses
 the C ``cobs`` package when installed and the protocol's pure-Python codec
 otherwise; the CRC uses ``binascii.crc_hqx`` (CRC-16/CCITT-FALSE with
 init 0xFFFF), both tested against the protocol implementation.
@@ -12,7 +15,14 @@ import struct
 from binascii import crc_hqx
 
 from tactile.messages import CLASSES
-from tactile_protocol.constants import CRC_SIZE, HEADER_SIZE, MAX_ENCODED, MSG_HELLO
+from tactile_protocol.constants import (
+    CRC_SIZE,
+    HEADER_SIZE,
+    MAX_ENCODED,
+    MSG_HELLO,
+    MSG_INFO,
+    TIMESTAMP_MODULO,
+)
 from tactile_protocol.constants import PROTOCOL_VERSION as VERSION
 from tactile_protocol.messages import BY_TYPE
 
@@ -37,6 +47,7 @@ COUNTER_NAMES = (
     "lost_frames",
     "out_of_order",
     "salvaged",
+    "reboots",
 )
 
 
@@ -82,6 +93,8 @@ class StreamDecoder:
         self._pending = b""
         self._truncated = False  # the pending span lost its head (too long)
         self._expected_seq = None
+        self._boot_id = None  # of the latest HELLO/INFO
+        self._last_ts = None  # of the latest frame delivered
         self._decode = cobs_decode or _cobs_decode
 
     @property
@@ -169,18 +182,31 @@ class StreamDecoder:
         c.frames += 1
         seq = msg.seq
         expected = self._expected_seq
+        if self._rebooted(msg):
+            c.reboots += 1
+            expected = None  # a new boot's sequence: what it sent before is not loss
         if expected is not None and seq != expected:
-            if msg.type_code == MSG_HELLO and seq == 0:
-                pass  # the device rebooted: its sequence restarts
+            gap = (seq - expected) & 0xFFFF
+            if gap < 0x8000:
+                c.seq_gaps += 1
+                c.lost_frames += gap
             else:
-                gap = (seq - expected) & 0xFFFF
-                if gap < 0x8000:
-                    c.seq_gaps += 1
-                    c.lost_frames += gap
-                else:
-                    c.out_of_order += 1
+                c.out_of_order += 1
         self._expected_seq = (seq + 1) & 0xFFFF
+        self._last_ts = msg.timestamp_us
         out.append(msg)
+
+    def _rebooted(self, msg):
+        """A HELLO/INFO with another boot id, or a HELLO from a clock that went back."""
+        if msg.type_code != MSG_HELLO and msg.type_code != MSG_INFO:
+            return False
+        known, self._boot_id = self._boot_id, msg.boot_id
+        if known is not None and known != msg.boot_id:
+            return True
+        if msg.type_code != MSG_HELLO or self._last_ts is None:
+            return False
+        back = (self._last_ts - msg.timestamp_us) % TIMESTAMP_MODULO
+        return 0 < back < TIMESTAMP_MODULO // 2
 
 
 def decode_bytes(data, chunk=65536):

@@ -12,7 +12,7 @@ except ImportError:  # CPython
         return x
 
 
-PROTOCOL_VERSION = const(1)
+PROTOCOL_VERSION = const(2)  # 2: HELLO/INFO carry boot_id
 
 # --- sizes (bytes) -----------------------------------------------------------
 HEADER_SIZE = const(8)  # version u8, type u8, seq u16, timestamp_us u32

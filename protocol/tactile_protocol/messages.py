@@ -33,24 +33,28 @@ HEADER_FMT = "<BBHI"
 _FT = ("fx", "fy", "fz", "tx", "ty", "tz")
 _CONFIG = ("rate_hz", "enter_threshold", "exit_threshold", "debounce", "flags")
 _INFO = (
-    "fw_major",
-    "fw_minor",
-    "fw_patch",
-    "protocol_version",
-    "sensor_model",
-    "n_sensors",
-    "max_rate_hz",
-    "cal_id_0",
-    "cal_id_1",
-    "cal_id_2",
-    "cal_id_3",
-) + _CONFIG
+    (
+        "fw_major",
+        "fw_minor",
+        "fw_patch",
+        "protocol_version",
+        "sensor_model",
+        "n_sensors",
+        "max_rate_hz",
+        "cal_id_0",
+        "cal_id_1",
+        "cal_id_2",
+        "cal_id_3",
+    )
+    + _CONFIG
+    + ("boot_id",)
+)
 _CAL = ("sensor", "cal_id") + tuple("c%d%d" % (r, c) for r in range(6) for c in range(6))
 
 # (type, name, payload format without byte-order prefix, field names)
 SPECS = (
-    (MSG_HELLO, "HELLO", "BBBB16sBH4IHiiBB", _INFO),
-    (MSG_INFO, "INFO", "BBBB16sBH4IHiiBB", _INFO),
+    (MSG_HELLO, "HELLO", "BBBB16sBH4IHiiBBI", _INFO),
+    (MSG_INFO, "INFO", "BBBB16sBH4IHiiBBI", _INFO),
     (MSG_SAMPLE, "SAMPLE", "BB6i", ("sensor", "flags") + _FT),
     (MSG_CONTACT, "CONTACT", "BBHB6i", ("sensor", "phase", "contact_id", "flags") + _FT),
     (

@@ -15,7 +15,7 @@ import termios
 import time
 import tty
 
-from tactile_fw.board import Board
+from tactile_fw.board import Board, boot_id_from
 from tactile_fw.frontend import make_sensor
 from tactile_fw.storage import DirStorage
 from tactile_fw.timing import TICKS_HALF, TICKS_MAX
@@ -109,7 +109,8 @@ def main(argv=None):
         for i in range(a.sensors)
     ]
     clock = MonotonicClock()
-    board = Board(sensors, TtyLink(a.tty), clock, DirStorage(a.storage))
+    boot_id = boot_id_from(os.urandom(8))
+    board = Board(sensors, TtyLink(a.tty), clock, DirStorage(a.storage), boot_id=boot_id)
     board.boot()
     board.run(sleep_us=clock.sleep_us)
 

@@ -18,7 +18,7 @@ def add_port_argument(parser):
 
 
 def connect(args):
-    """Open ``args.port`` and wait for HELLO; returns a BoardClient (caller closes its port)."""
+    """Open ``args.port`` and wait for HELLO; returns a BoardClient (the caller closes it)."""
     from tactile.board_client import BoardClient
     from tactile.errors import InputError
     from tactile.serial_port import open_port
@@ -32,6 +32,6 @@ def connect(args):
     try:
         client.handshake(args.wait)
     except BaseException:
-        port.close()
+        client.close()
         raise
     return client

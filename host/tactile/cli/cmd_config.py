@@ -33,7 +33,7 @@ def run(args):
         client.configure(*_values(args, cur, flags_from))
         info = info_dict(client.get_info())
     finally:
-        client.port.close()
+        client.close()
     print(format_info(info))
     return 0
 

@@ -16,7 +16,7 @@ def run(args):
     try:
         info = info_dict(client.get_info())
     finally:
-        client.port.close()
+        client.close()
     if args.json:
         print(dumps(info))
     else:

@@ -19,15 +19,34 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.live_view import LiveState
+    from tactile.errors import PortLost
 
     client = connect(args)
-    restore = None if args.as_is else _samples_on(client)
+    restore = None
+    try:
+        restore = None if args.as_is else _samples_on(client)
+        _view(client, args.duration)
+    except PortLost:
+        restore = None  # a dead port cannot be told anything: the error alone, once
+        raise
+    finally:
+        try:
+            if restore is not None:
+                client.configure(*restore)
+        finally:
+            client.close()
+    return 0
+
+
+def _view(client, duration):
+    """Draw the board's state until ``duration`` s have passed (or Ctrl-C)."""
+    from tactile.live_view import LiveState
+
     state, tty = LiveState(), sys.stdout.isatty()
     start = last = time.monotonic()
     drawn = 0
     try:
-        while args.duration is None or time.monotonic() - start < args.duration:
+        while duration is None or time.monotonic() - start < duration:
             state.update(client.read())
             now = time.monotonic()
             if now - last >= (REFRESH_S if tty else 1.0):
@@ -36,11 +55,6 @@ def run(args):
         _draw(state, client, time.monotonic() - start, tty, drawn)
     except KeyboardInterrupt:
         pass
-    finally:
-        if restore is not None:
-            client.configure(*restore)
-        client.port.close()
-    return 0
 
 
 def _samples_on(client):

@@ -20,7 +20,7 @@ def run(args):
     try:
         client.tare(C.SENSOR_ALL if sensor is None else sensor, args.samples)
     finally:
-        client.port.close()
+        client.close()
     which = "all sensors" if sensor is None else f"sensor {sensor}"
     print(f"tared {which} ({args.samples} readings)")
     return 0

@@ -11,9 +11,10 @@ with ``put``.  Nothing here frames, checksums or encodes: the firmware does.
 
 import importlib
 import math
+import os
 
 from tactile_fw import calibration, settings
-from tactile_fw.board import Board
+from tactile_fw.board import Board, boot_id_from
 from tactile_fw.frontend import ADDRESS_PLAN, make_sensor
 from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
@@ -60,7 +61,7 @@ def board_settings(scene, max_rate_hz):
 class EmulatedBoard:
     """Firmware + simulated sensors on simulated time; see the module docstring."""
 
-    def __init__(self, scene, motion=None):
+    def __init__(self, scene, motion=None, boot_id=None):
         self.scene = scene
         self.motion = motion if motion is not None else build_motion(scene)
         self.clock = ManualClock(0)
@@ -73,7 +74,11 @@ class EmulatedBoard:
             for adc in self.adcs:
                 adc.conv_period_override = period
         storage = MemoryStorage()
-        self.board = Board(sensors, self.link, self.clock, storage, max_rate_hz=override)
+        if boot_id is None:  # a new one per power-up, as a real board draws it
+            boot_id = boot_id_from(os.urandom(8))
+        self.board = Board(
+            sensors, self.link, self.clock, storage, max_rate_hz=override, boot_id=boot_id
+        )
         board_settings(scene, self.board.max_rate_hz).save(storage)
         for i, model in enumerate(self.models):
             cal = calibration.Calibration(model.calibration_coefficients(), scene.sensor["cal_id"])

@@ -1,0 +1,97 @@
+"""``meta.json`` across ``tactile record --append`` runs: one entry per session, totals that
+match the files.
+
+The document keeps the keys one session always had, so a reader needs no second path:
+
+- counts (``frames``, ``samples``, ``contacts_*``, ``bytes``, ``reboots``, ``elapsed_s``,
+  ``device_time_s``, every ``decoder`` counter) are totals over the sessions, and ``gaps``
+  lists every session's gaps in order: ``bytes`` is the size of ``capture.bin`` and
+  ``samples`` the number of rows in ``frames.csv``;
+- the rest (``command``, ``port``, ``device``, ``ended``, ...) is the latest session's;
+- ``sessions`` holds each run's own entry, with ``capture_offset`` and ``rows_offset``:
+  where its bytes in ``capture.bin`` and its rows in ``frames.csv`` begin.
+
+A meta.json without ``sessions`` (one run, before this layout) reads as one session.  When
+the sessions do not account for everything already in the files (a crash less than a
+second after the last rewrite, or an older ``--append`` that overwrote the first run's
+entry), an entry ``{"unrecorded": true, ...}`` holds the difference, so the totals still
+match the files.
+"""
+
+import json
+
+from tactile.errors import InputError
+
+SUMMED = (
+    "frames",
+    "samples",
+    "contacts_begun",
+    "contacts_ended",
+    "bytes",
+    "reboots",
+    "elapsed_s",
+    "device_time_s",
+)
+LATEST = ("tactile_version", "protocol_version", "port", "command", "ended", "tared")
+
+
+def count_rows(path, header=True):
+    """Lines in ``path`` (less its header), read in bounded chunks; 0 if it does not exist."""
+    try:
+        with open(path, "rb") as fh:
+            lines = sum(chunk.count(b"\n") for chunk in iter(lambda: fh.read(1 << 20), b""))
+    except FileNotFoundError:
+        return 0
+    return max(0, lines - 1) if header else lines
+
+
+def previous_sessions(path, capture_bytes, rows):
+    """The session entries of the meta.json at ``path`` for a recording being appended to,
+    plus an ``unrecorded`` entry for bytes and rows of the files that they miss."""
+    try:
+        old = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        old = {"sessions": []}
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: cannot append: unreadable ({exc}); move it away") from None
+    if not isinstance(old, dict):
+        raise InputError(f"{path}: cannot append: not a recording's meta.json; move it away")
+    sessions = list(old.get("sessions", [old]))
+    missing_bytes = capture_bytes - sum(s.get("bytes") or 0 for s in sessions)
+    missing_rows = rows - sum(s.get("samples") or 0 for s in sessions)
+    if missing_bytes or missing_rows:
+        sessions.append(
+            {
+                "unrecorded": True,
+                "why": "in the files but not in meta.json (a crash, or an older --append)",
+                "bytes": missing_bytes,
+                "samples": missing_rows,
+            }
+        )
+    return sessions
+
+
+def _decoder_totals(sessions):
+    counters = [s["decoder"] for s in sessions if s.get("decoder")]
+    if not counters:
+        return None
+    out = {k: sum(c.get(k) or 0 for c in counters) for k in counters[-1] if k != "last_version"}
+    versions = [c.get("last_version") for c in counters if c.get("last_version") is not None]
+    out["last_version"] = versions[-1] if versions else None
+    return out
+
+
+def document(sessions):
+    """The meta.json document for ``sessions`` (oldest first, the running one last)."""
+    latest = sessions[-1]
+    doc = {k: latest.get(k) for k in LATEST}
+    devices = [s["device"] for s in sessions if s.get("device")]
+    doc["device"] = devices[-1] if devices else None
+    doc["device_status"] = latest.get("device_status", [])
+    for k in SUMMED:
+        total = sum(s.get(k) or 0 for s in sessions)
+        doc[k] = round(total, 3) if isinstance(total, float) else total
+    doc["gaps"] = [g for s in sessions for g in s.get("gaps", [])]
+    doc["decoder"] = _decoder_totals(sessions)
+    doc["sessions"] = sessions
+    return doc
