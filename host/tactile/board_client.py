@@ -10,11 +10,18 @@ a command waits for its ACK are kept in ``backlog`` and returned by the next
 ``handshake`` waits for the HELLO a board sends when its port opens; a board
 without DTR (MicroPython's USB stdio on the Pico) may not notice the open, so
 after half the timeout the client asks with GET_INFO.
+
+A device that lies (a frame outside the protocol's field limits, which the
+decoder delivers as ``Invalid``) is refused where its answer was awaited: an
+invalid HELLO or INFO ends ``handshake``/``get_info`` and an invalid ACK or NAK
+ends ``command``, each with one line naming the field (``DeviceLied``, exit 4).
+Invalid frames in a stream are passed on, counted, never acted on.
 """
 
 import time
 
 from tactile.errors import BoardError, BoardTimeout, InputError, ProtocolVersionError
+from tactile.messages import INVALID
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
@@ -50,6 +57,10 @@ class CommandRefused(BoardError):
     """The board answered NAK; the message names the command, the reason and the field."""
 
 
+class DeviceLied(BoardError):
+    """The device sent a frame outside the protocol's field limits where an answer was due."""
+
+
 def nak_message(nak):
     name = COMMAND_NAMES.get(nak.cmd_type, f"command 0x{nak.cmd_type:02x}")
     reason = NAK_REASONS.get(nak.reason, f"reason {nak.reason}")
@@ -72,6 +83,7 @@ class BoardClient:
         self.encoder = FrameEncoder()
         self.backlog = []
         self.info = None  # the latest HELLO or INFO
+        self.lie = None  # the latest invalid HELLO or INFO
 
     # -- the byte stream -------------------------------------------------------
     def _pull(self):
@@ -85,6 +97,8 @@ class BoardClient:
             for m in msgs:
                 if m.type_code in (C.MSG_HELLO, C.MSG_INFO):
                     self.info = m
+                elif m.type_code == INVALID and m.message in ("HELLO", "INFO"):
+                    self.lie = m
             return msgs
         return []
 
@@ -116,6 +130,10 @@ class BoardClient:
                     reply = m
                 else:
                     self.backlog.append(m)
+                if reply is None and m.type_code == INVALID and m.message in ("ACK", "NAK"):
+                    reply = m  # the answer, but a lie: which command it answers is unknown
+            if reply is not None and reply.type_code == INVALID:
+                raise self._lied(reply)
             if reply is not None and reply.type_code == C.MSG_NAK:
                 raise CommandRefused(f"{self.name}: {nak_message(reply)}")
             if reply is not None:
@@ -127,11 +145,14 @@ class BoardClient:
         """Wait for HELLO (asking with GET_INFO halfway); return the HELLO/INFO message."""
         start = self.clock()
         asked = False
+        self.lie = None
         while self.clock() - start < timeout:
             msgs = self._pull()
             self.backlog += msgs
             if self.info is not None:
                 return self.info
+            if self.lie is not None:
+                raise self._lied(self.lie)
             self._check_version()
             if not asked and self.clock() - start >= timeout / 2:
                 self.send(C.CMD_GET_INFO)
@@ -141,6 +162,9 @@ class BoardClient:
             f"{self.name}: no HELLO within {timeout:g} s (is the tactile firmware running? "
             "'tactile flash' installs it)"
         )
+
+    def _lied(self, invalid):
+        return DeviceLied(f"{self.name}: device sent an invalid {invalid.message}: {invalid.error}")
 
     def _check_version(self):
         c = self.decoder.counters
@@ -153,8 +177,10 @@ class BoardClient:
 
     # -- the commands -------------------------------------------------------------
     def get_info(self, timeout=1.0):
-        self.info = None
+        self.info = self.lie = None
         self.command(C.CMD_GET_INFO, timeout=timeout)
+        if self.info is None and self.lie is not None:
+            raise self._lied(self.lie)
         if self.info is None:
             raise BoardTimeout(f"{self.name}: ACK to GET_INFO without INFO")
         return self.info
