@@ -177,6 +177,7 @@ def test_record_keeps_recording_through_lying_frames_and_counts_them(tmp_path):
                              "--quiet")  # fmt: skip
     assert code == 0 and err == "", err
     assert_terminal_safe(out)
+    assert ", 3 invalid frames refused -> " in out
     rows = (out_dir / "frames.csv").read_text().splitlines()[1:]
     assert [r.split(",")[7] for r in rows] == ["0.000001", "0.000003", "0.000004"]
     device = [json.loads(line) for line in (out_dir / "device.jsonl").read_text().splitlines()]
