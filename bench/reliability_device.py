@@ -24,21 +24,25 @@ from tactile.cli.main import main
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
+from tactile_protocol.messages import BY_NAME
 
 AREA = "A device that lies"
 
-FIELDS = ("fw_major fw_minor fw_patch protocol_version sensor_model n_sensors max_rate_hz "
-          "cal_id_0 cal_id_1 cal_id_2 cal_id_3 rate_hz enter_threshold exit_threshold debounce "
-          "flags").split()  # fmt: skip
-GOOD = (1, 2, 3, C.PROTOCOL_VERSION, b"FT6", 1, 1730, 7, 0, 0, 0, 1000, 1390000, 1112000, 3,
-        C.CFG_STREAM_CONTACTS)  # fmt: skip
+VALID = dict(fw_major=1, fw_minor=2, fw_patch=3, protocol_version=C.PROTOCOL_VERSION,
+             sensor_model=b"FT6", n_sensors=1, max_rate_hz=1730, cal_id_0=7, rate_hz=1000,
+             enter_threshold=1390000, exit_threshold=1112000, debounce=3,
+             flags=C.CFG_STREAM_CONTACTS)  # fmt: skip
 ESC_MODEL = b"\x1b[31m\x1b[2J\nOK"
 
 
 def info(**changes):
-    values = dict(zip(FIELDS, GOOD))
-    values.update(changes)
-    return tuple(values[f] for f in FIELDS)
+    """A valid HELLO/INFO payload with ``changes`` (fields not named in VALID: 0)."""
+    values = {**VALID, **changes}
+    _, _, _, _, fields, codes = BY_NAME["HELLO"]
+    return tuple(values.get(f, b"" if c.endswith("s") else 0) for f, c in zip(fields, codes))
+
+
+GOOD = info()
 
 
 def frame(mtype, values, seq=0):

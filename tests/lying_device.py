@@ -11,12 +11,26 @@ import contextlib
 import time
 from unittest import mock
 
+import tactile.record_session  # noqa: F401 - imported before patching (see lying_ports)
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
+from tactile_protocol.messages import BY_NAME
 
-GOOD_INFO = (1, 2, 3, C.PROTOCOL_VERSION, b"FT6", 1, 1730, 7, 0, 0, 0, 1000, 1390000, 1112000, 3,
-             C.CFG_STREAM_CONTACTS)  # fmt: skip
+FIELDS, CODES = BY_NAME["HELLO"][4], BY_NAME["HELLO"][5]  # HELLO and INFO share the layout
+GOOD = dict(fw_major=1, fw_minor=2, fw_patch=3, protocol_version=C.PROTOCOL_VERSION,
+            sensor_model=b"FT6", n_sensors=1, max_rate_hz=1730, cal_id_0=7, rate_hz=1000,
+            enter_threshold=1390000, exit_threshold=1112000, debounce=3,
+            flags=C.CFG_STREAM_CONTACTS)  # fmt: skip
+
+
+def info_values(**changes):
+    """A valid HELLO/INFO payload with ``changes``; a field not named above is 0."""
+    values = {**GOOD, **changes}
+    return tuple(values.get(f, b"" if c.endswith("s") else 0) for f, c in zip(FIELDS, CODES))
+
+
+GOOD_INFO = info_values()
 
 
 def frame(mtype, values, seq=0, ts=0):
@@ -71,7 +85,10 @@ class LyingPort:
 
 @contextlib.contextmanager
 def lying_ports(make_port):
-    """While active, opening any port gives ``make_port()`` (a fresh LyingPort each time)."""
+    """While active, opening any port gives ``make_port()`` (a fresh LyingPort each time).
+
+    ``tactile.record_session`` binds ``open_port`` at import: imported first (above), so
+    it does not bind the patched opener for good."""
     opener = lambda name, *a, **k: make_port()  # noqa: E731
     with (
         mock.patch("tactile.serial_port.open_port", opener),

@@ -17,7 +17,7 @@ import pytest
 from conftest import FUZZ_SCALE
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
-from lying_device import GOOD_INFO, LyingPort, frame, lying_ports
+from lying_device import CODES, FIELDS, GOOD_INFO, LyingPort, frame, info_values, lying_ports
 
 from tactile.cli.main import main
 from tactile.stream_decoder import StreamDecoder
@@ -26,15 +26,7 @@ from tactile_protocol import constants as C
 from tactile_protocol.limits import violation
 
 ESC_MODEL = b"\x1b[31mRED\x1b[0m\nX"
-FIELDS = ("fw_major fw_minor fw_patch protocol_version sensor_model n_sensors max_rate_hz "
-          "cal_id_0 cal_id_1 cal_id_2 cal_id_3 rate_hz enter_threshold exit_threshold debounce "
-          "flags").split()  # fmt: skip
-
-
-def info_with(**changes):
-    values = dict(zip(FIELDS, GOOD_INFO))
-    values.update(changes)
-    return tuple(values[f] for f in FIELDS)
+info_with = info_values
 
 
 def run(*args):
@@ -210,10 +202,14 @@ def test_decode_counts_and_reports_a_lying_hello(tmp_path):
 
 # -- property-based: any HELLO/INFO content, valid framing -------------------------------------
 
-_U8, _U16, _U32 = st.integers(0, 0xFF), st.integers(0, 0xFFFF), st.integers(0, 0xFFFFFFFF)
-_I32 = st.integers(-(2**31), 2**31 - 1)
-_TYPES = dict(zip(FIELDS, [_U8] * 4 + [st.binary(max_size=16)] + [_U8, _U16] + [_U32] * 4
-                  + [_U16, _I32, _I32, _U8, _U8]))  # fmt: skip
+_BY_CODE = {
+    "B": st.integers(0, 0xFF),
+    "H": st.integers(0, 0xFFFF),
+    "I": st.integers(0, 0xFFFFFFFF),
+    "i": st.integers(-(2**31), 2**31 - 1),
+    "16s": st.binary(max_size=16),
+}
+_TYPES = {f: _BY_CODE[c] for f, c in zip(FIELDS, CODES)}  # any value the field's type holds
 
 
 @st.composite
@@ -289,7 +285,7 @@ def test_any_hello_through_record_keeps_everything(hello):
     assert_terminal_safe(out, err)
     assert meta["bytes"] == len(capture) > 0
     if _bad(hello) is None:
-        assert code == 0 and meta["device"]["n_sensors"] == hello[5]
+        assert code == 0 and meta["device"]["n_sensors"] == hello[FIELDS.index("n_sensors")]
     else:
         assert_one_line_error(code, out, err)
         assert meta["ended"] == "error" and meta["decoder"]["invalid"] >= 1

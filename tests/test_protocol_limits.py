@@ -93,9 +93,9 @@ LIES = [
 
 
 def _values(name, changes):
-    fields = BY_NAME[name][4]
+    fields, codes = BY_NAME[name][4], BY_NAME[name][5]
     base = {**BASE[name], **changes}
-    return tuple(base[f] for f in fields)
+    return tuple(base.get(f, b"" if c.endswith("s") else 0) for f, c in zip(fields, codes))
 
 
 def _frame(name, changes, seq=0):

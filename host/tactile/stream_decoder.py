@@ -1,15 +1,17 @@
 """Streaming frame decoder: bytes in, messages out, never raises (PROTOCOL.md §5).
 
 ``StreamDecoder.feed(data)`` returns the valid messages completed by
-``data`` and updates ``counters``.  A frame whose content breaks the
-protocol's field limits (``tactile_protocol.limits``: a HELLO claiming 5
-sensors, a SAMPLE from a sensor the device never announced) comes out as an
-``Invalid`` message naming the field, counted in ``invalid``; its sequence
-number still counts, so refusing it is not mistaken for loss.  Memory stays bounded: at most
+``data`` and updates ``counters``.  Memory stays bounded: at most
 ``MAX_ENCODED`` bytes of an unfinished frame are kept.  COBS decoding uses
 the C ``cobs`` package when installed and the protocol's pure-Python codec
 otherwise; the CRC uses ``binascii.crc_hqx`` (CRC-16/CCITT-FALSE with
 init 0xFFFF), both tested against the protocol implementation.
+
+A frame whose content breaks the protocol's field limits
+(``tactile_protocol.limits``: a HELLO claiming 5 sensors, a SAMPLE from a
+sensor the device never announced) comes out as an ``Invalid`` message naming
+the field, counted in ``invalid``; its sequence number still counts, so
+refusing it is not mistaken for loss.
 """
 
 import struct
