@@ -8,6 +8,7 @@ from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import cobs_codec
 from tactile_protocol.constants import MSG_SAMPLE
 from tactile_protocol.framing import FrameEncoder, encode_frame
+from tactile_protocol.limits import violation
 from tactile_protocol.messages import BY_NAME, BY_TYPE, SPECS, check_fields
 
 _INT = {"B": (0, 0xFF), "H": (0, 0xFFFF), "I": (0, 0xFFFFFFFF), "i": (-(2**31), 2**31 - 1)}
@@ -37,13 +38,17 @@ def test_encode_decode_identity(message):
     mtype, seq, ts, values = message
     frame = encode_frame(mtype, seq, ts, values)
     assert len(frame) <= 252 and frame.index(0) == len(frame) - 1
-    (msg,) = StreamDecoder().feed(frame)
+    (msg,) = StreamDecoder(check_limits=False).feed(frame)
     codes = BY_TYPE[mtype][5]
     expect = tuple(
         v.ljust(int(c[:-1]), b"\0") if c.endswith("s") else v for v, c in zip(values, codes)
     )
     assert msg.type_code == mtype and (msg.seq, msg.timestamp_us) == (seq, ts)
     assert tuple(msg)[2:] == expect
+    # With the field limits: the same message, or INVALID naming what the limits name.
+    (checked,) = StreamDecoder().feed(frame)
+    why = violation(BY_TYPE[mtype][1], expect)
+    assert checked == (msg if why is None else (seq, ts, BY_TYPE[mtype][1], why))
 
 
 def _out_of_range_cases():

@@ -94,9 +94,10 @@ def test_vectors_by_independent_route(vectors):
 
 
 def test_host_decoder_and_board_assembler_read_vectors(vectors):
+    """The layout: every vector decodes (the extremes break field limits, checked below)."""
     for case in vectors["frames"]:
         frame = bytes.fromhex(case["frame_hex"])
-        (msg,) = StreamDecoder().feed(frame)
+        (msg,) = StreamDecoder(check_limits=False).feed(frame)
         assert msg.type_name == case["type"]
         assert (msg.seq, msg.timestamp_us) == (case["seq"], case["timestamp_us"])
         assert tuple(msg)[2:] == _values(case, padded=True)
@@ -105,6 +106,18 @@ def test_host_decoder_and_board_assembler_read_vectors(vectors):
         assert results[-1] == FRAME_OK
         header = (case["type_code"], case["seq"], case["timestamp_us"])
         assert assembler.message() == (*header, _values(case, padded=True))
+
+
+def test_typical_vectors_keep_the_field_limits_and_extremes_name_a_field(vectors):
+    """With limits: typical frames come out unchanged; an extreme one either keeps the limits
+    or comes out INVALID naming one of its own fields (PROTOCOL.md §4, "Field limits")."""
+    for case in vectors["frames"]:
+        (msg,) = StreamDecoder().feed(bytes.fromhex(case["frame_hex"]))
+        if case["group"] == "typical":
+            assert msg.type_name == case["type"], msg
+        elif msg.type_name == "INVALID":
+            assert msg.message == case["type"] and msg.seq == case["seq"]
+            assert msg.error.split(" ")[0] in BY_NAME[case["type"]][4], msg.error
 
 
 def _chunks(data, how, rng):
@@ -128,7 +141,9 @@ def test_stream_vectors(vectors, how, codec):
         for chunk in _chunks(bytes.fromhex(case["input_hex"]), how, rng):
             got += decoder.feed(chunk)
         assert [m.seq for m in got] == case["delivered_seqs"], case["name"]
-        assert decoder.counters.as_dict() == case["counters"], case["name"]
+        counters = decoder.counters.as_dict()
+        assert {k: counters[k] for k in case["counters"]} == case["counters"], case["name"]
+        assert counters["invalid"] == 0 and counters["last_invalid"] is None  # not in v1's file
 
 
 def test_memory_stays_bounded_without_delimiters():

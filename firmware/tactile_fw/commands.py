@@ -18,6 +18,7 @@ from tactile_protocol.constants import (
     CMD_STOP,
     CMD_TARE,
     HEADER_SIZE,
+    MAX_TARE_SAMPLES,
     MSG_INFO,
     NAK_BAD_LENGTH,
     NAK_BAD_STATE,
@@ -30,7 +31,6 @@ from tactile_protocol.constants import (
     SENSOR_ALL,
 )
 
-MAX_TARE_SAMPLES = 10000
 DEFAULT_TARE_SAMPLES = 100  # TARE n_samples = 0 asks for this
 _TARE_SENSOR = 0
 _TARE_N = 1

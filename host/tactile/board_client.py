@@ -14,6 +14,12 @@ after half the timeout the client asks with GET_INFO.
 The client is the one place the host does I/O on an open port, so it is
 where a port that dies (pyserial's ``SerialException``, an ``OSError`` such
 as EIO from ``in_waiting``) becomes ``PortLost``: one line, exit 4.
+
+A device that lies (a frame outside the protocol's field limits, which the
+decoder delivers as ``Invalid``) is refused where its answer was awaited: an
+invalid HELLO or INFO ends ``handshake``/``get_info`` and an invalid ACK or NAK
+ends ``command``, each with one line naming the field (``DeviceLied``, exit 4).
+Invalid frames in a stream are passed on, counted, never acted on.
 """
 
 import time
@@ -26,6 +32,7 @@ from tactile.errors import (
     ProtocolVersionError,
     TactileError,
 )
+from tactile.messages import INVALID
 from tactile.serial_port import describe_lost
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
@@ -62,6 +69,10 @@ class CommandRefused(BoardError):
     """The board answered NAK; the message names the command, the reason and the field."""
 
 
+class DeviceLied(BoardError):
+    """The device sent a frame outside the protocol's field limits where an answer was due."""
+
+
 def nak_message(nak):
     name = COMMAND_NAMES.get(nak.cmd_type, f"command 0x{nak.cmd_type:02x}")
     reason = NAK_REASONS.get(nak.reason, f"reason {nak.reason}")
@@ -84,6 +95,7 @@ class BoardClient:
         self.encoder = FrameEncoder()
         self.backlog = []
         self.info = None  # the latest HELLO or INFO
+        self.lie = None  # the latest invalid HELLO or INFO
 
     # -- the byte stream -------------------------------------------------------
     def _pull(self):
@@ -102,6 +114,8 @@ class BoardClient:
             for m in msgs:
                 if m.type_code in (C.MSG_HELLO, C.MSG_INFO):
                     self.info = m
+                elif m.type_code == INVALID and m.message in ("HELLO", "INFO"):
+                    self.lie = m
             return msgs
         return []
 
@@ -145,6 +159,10 @@ class BoardClient:
                     reply = m
                 else:
                     self.backlog.append(m)
+                if reply is None and m.type_code == INVALID and m.message in ("ACK", "NAK"):
+                    reply = m  # the answer, but a lie: which command it answers is unknown
+            if reply is not None and reply.type_code == INVALID:
+                raise self._lied(reply)
             if reply is not None and reply.type_code == C.MSG_NAK:
                 raise CommandRefused(f"{self.name}: {nak_message(reply)}")
             if reply is not None:
@@ -156,11 +174,14 @@ class BoardClient:
         """Wait for HELLO (asking with GET_INFO halfway); return the HELLO/INFO message."""
         start = self.clock()
         asked = False
+        self.lie = None
         while self.clock() - start < timeout:
             msgs = self._pull()
             self.backlog += msgs
             if self.info is not None:
                 return self.info
+            if self.lie is not None:
+                raise self._lied(self.lie)
             self._check_version()
             if not asked and self.clock() - start >= timeout / 2:
                 self.send(C.CMD_GET_INFO)
@@ -170,6 +191,9 @@ class BoardClient:
             f"{self.name}: no HELLO within {timeout:g} s (is the tactile firmware running? "
             "'tactile flash' installs it)"
         )
+
+    def _lied(self, invalid):
+        return DeviceLied(f"{self.name}: device sent an invalid {invalid.message}: {invalid.error}")
 
     def _check_version(self):
         c = self.decoder.counters
@@ -182,8 +206,10 @@ class BoardClient:
 
     # -- the commands -------------------------------------------------------------
     def get_info(self, timeout=1.0):
-        self.info = None
+        self.info = self.lie = None
         self.command(C.CMD_GET_INFO, timeout=timeout)
+        if self.info is None and self.lie is not None:
+            raise self._lied(self.lie)
         if self.info is None:
             raise BoardTimeout(f"{self.name}: ACK to GET_INFO without INFO")
         return self.info

@@ -3,6 +3,11 @@
 Each message type is a named tuple ``(seq, timestamp_us, *fields)`` with
 class attributes ``type_code`` and ``type_name``.  ``to_dict`` gives the
 JSON form used by ``tactile decode``.  Units: PROTOCOL.md §4.
+
+``Invalid`` stands in for a frame whose framing and layout are good but whose
+content breaks the protocol's limits (``tactile_protocol.limits``): it names the
+message type it claimed to be and the field that is wrong, and carries none of
+the values, so nothing downstream can act on a lie.
 """
 
 from collections import namedtuple
@@ -37,3 +42,6 @@ Contact = BY_NAME["CONTACT"]
 Status = BY_NAME["STATUS"]
 Ack = BY_NAME["ACK"]
 Nak = BY_NAME["NAK"]
+
+INVALID = 0  # not a wire type: the type code of ``Invalid``
+Invalid = _make(INVALID, "INVALID", ("message", "error"))

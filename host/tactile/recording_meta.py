@@ -75,9 +75,14 @@ def _decoder_totals(sessions):
     counters = [s["decoder"] for s in sessions if s.get("decoder")]
     if not counters:
         return None
-    out = {k: sum(c.get(k) or 0 for c in counters) for k in counters[-1] if k != "last_version"}
-    versions = [c.get("last_version") for c in counters if c.get("last_version") is not None]
-    out["last_version"] = versions[-1] if versions else None
+    out = {}
+    for k in counters[-1]:
+        values = [c.get(k) for c in counters]
+        if not k.startswith("last_") and all(isinstance(v, int | float | None) for v in values):
+            out[k] = sum(v or 0 for v in values)  # a count: the total over the sessions
+        else:  # a description (last_version, last_invalid): the latest one given
+            given = [v for v in values if v is not None]
+            out[k] = given[-1] if given else None
     return out
 
 

@@ -9,21 +9,29 @@ the count and is counted in ``reboots``.  COBS decoding uses
 the C ``cobs`` package when installed and the protocol's pure-Python codec
 otherwise; the CRC uses ``binascii.crc_hqx`` (CRC-16/CCITT-FALSE with
 init 0xFFFF), both tested against the protocol implementation.
+
+A frame whose content breaks the protocol's field limits
+(``tactile_protocol.limits``: a HELLO claiming 5 sensors, a SAMPLE from a
+sensor the device never announced) comes out as an ``Invalid`` message naming
+the field, counted in ``invalid``; its sequence number still counts, so
+refusing it is not mistaken for loss.
 """
 
 import struct
 from binascii import crc_hqx
 
-from tactile.messages import CLASSES
+from tactile.messages import CLASSES, INVALID, Invalid
 from tactile_protocol.constants import (
     CRC_SIZE,
     HEADER_SIZE,
     MAX_ENCODED,
+    MAX_SENSORS,
     MSG_HELLO,
     MSG_INFO,
     TIMESTAMP_MODULO,
 )
 from tactile_protocol.constants import PROTOCOL_VERSION as VERSION
+from tactile_protocol.limits import RULES, SENSOR, violation
 from tactile_protocol.messages import BY_TYPE
 
 try:  # the C extension of the ``cobs`` package
@@ -48,22 +56,25 @@ COUNTER_NAMES = (
     "out_of_order",
     "salvaged",
     "reboots",
+    "invalid",
 )
 
 
 class Counters:
     """What the decoder saw.  ``lost_frames`` sums the sequence gaps."""
 
-    __slots__ = COUNTER_NAMES + ("last_version",)
+    __slots__ = COUNTER_NAMES + ("last_version", "last_invalid")
 
     def __init__(self):
         for name in COUNTER_NAMES:
             setattr(self, name, 0)
         self.last_version = None
+        self.last_invalid = None  # "HELLO: n_sensors = 5 (protocol allows 1..4)"
 
     def as_dict(self):
         out = {name: getattr(self, name) for name in COUNTER_NAMES}
         out["last_version"] = self.last_version
+        out["last_invalid"] = self.last_invalid
         return out
 
     @property
@@ -71,24 +82,35 @@ class Counters:
         return self.crc_errors + self.oversize + self.undecodable
 
 
+def _limited(name):
+    """None: no field limits; i >= 0: the one limit is a sensor index at message[i] (the
+    bulk of a stream, SAMPLE, checked inline); -1: ask ``violation``."""
+    rules = RULES.get(name)
+    if rules is None:
+        return None
+    if len(rules) == 1 and rules[0][2] == SENSOR and not rules[0][3]:
+        return rules[0][0] + 2  # + seq and timestamp_us
+    return -1
+
+
 def _layouts():
-    """type -> (Struct skipping version and type, message class, body length)."""
+    """type -> (Struct skipping version and type, message class, body length, limited)."""
     out = {}
-    for mtype, (_, _, full, size, _, _) in BY_TYPE.items():
+    for mtype, (_, name, full, size, _, _) in BY_TYPE.items():
         fmt = "<xx" + full[3:]  # skip version and type: unpack gives seq, ts, fields
-        out[mtype] = (struct.Struct(fmt), CLASSES[mtype], size)
+        out[mtype] = (struct.Struct(fmt), CLASSES[mtype], size, _limited(name))
     return out
 
 
 _LAYOUTS = _layouts()
 # Encoded length of each type's frame (body + CRC < 254 bytes: COBS adds one byte).
-_ENCODED_LENGTHS = sorted({size + CRC_SIZE + 1 for _, _, size in _LAYOUTS.values()}, reverse=True)
+_ENCODED_LENGTHS = sorted({lay[2] + CRC_SIZE + 1 for lay in _LAYOUTS.values()}, reverse=True)
 
 
 class StreamDecoder:
     """Decode a device's byte stream; see the module docstring."""
 
-    def __init__(self, cobs_decode=None):
+    def __init__(self, cobs_decode=None, check_limits=True):
         self.counters = Counters()
         self._pending = b""
         self._truncated = False  # the pending span lost its head (too long)
@@ -96,6 +118,9 @@ class StreamDecoder:
         self._boot_id = None  # of the latest HELLO/INFO
         self._last_ts = None  # of the latest frame delivered
         self._decode = cobs_decode or _cobs_decode
+        self._check_limits = check_limits  # False: layout only (the golden vectors' extremes)
+        self.n_sensors = None  # as the last valid HELLO/INFO announced
+        self._sensors = MAX_SENSORS  # sensor indices below this are valid
 
     @property
     def pending_bytes(self):
@@ -165,7 +190,18 @@ class StreamDecoder:
             if count:
                 c.undecodable += 1
             return None
-        return layout[1]._make(layout[0].unpack_from(body))
+        msg = layout[1]._make(layout[0].unpack_from(body))
+        limited = layout[3]
+        if limited is None or not self._check_limits:
+            return msg
+        if limited >= 0 and 0 <= msg[limited] < self._sensors:
+            return msg
+        why = violation(msg.type_name, msg, self.n_sensors, offset=2)
+        if why is not None:
+            return Invalid(msg.seq, msg.timestamp_us, msg.type_name, why)
+        if msg.type_code == MSG_HELLO or msg.type_code == MSG_INFO:
+            self.n_sensors = self._sensors = msg.n_sensors
+        return msg
 
     def _salvage(self, span, out):
         """Deliver a valid frame at the end of a damaged span (PROTOCOL.md §5)."""
@@ -179,7 +215,11 @@ class StreamDecoder:
 
     def _deliver(self, msg, out):
         c = self.counters
-        c.frames += 1
+        if msg.type_code == INVALID:
+            c.invalid += 1
+            c.last_invalid = f"{msg.message}: {msg.error}"
+        else:
+            c.frames += 1
         seq = msg.seq
         expected = self._expected_seq
         if self._rebooted(msg):

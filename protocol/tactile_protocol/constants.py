@@ -77,6 +77,7 @@ FAULT_RECOVERED = const(0x80)  # the fault above has cleared
 
 SENSOR_ALL = const(0xFF)
 MAX_SENSORS = const(4)
+MAX_TARE_SAMPLES = const(10000)  # TARE n_samples above this is refused (NAK 3)
 
 # --- NAK reasons ------------------------------------------------------------------
 NAK_UNKNOWN_COMMAND = const(1)

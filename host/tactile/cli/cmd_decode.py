@@ -1,7 +1,11 @@
 """``tactile decode CAPTURE.bin [--json]``: raw byte capture -> one message per line.
 
 Damaged input is not an error: it is skipped, counted, and the counters
-close the output (exit 0).  Only an unreadable file is an error (exit 2).
+close the output (exit 0).  A frame whose content breaks the protocol's
+limits prints as INVALID, naming the message and the field, and is counted
+(``invalid``).  Only an unreadable file is an error (exit 2).  Text and JSON
+follow one rule (``tactile.textout``): device strings are escaped and a
+non-finite number is ``null`` in both.
 """
 
 import sys
@@ -38,9 +42,15 @@ def run(args):
 
 
 def _text(d):
-    fields = " ".join(f"{k}={v}" for k, v in d.items() if k != "type")
-    return f"{d['type']:<8} {fields}"
+    from tactile.textout import fields, printable
+
+    if d["type"] == "INVALID":
+        head = f"{d['message']} seq={d['seq']} timestamp_us={d['timestamp_us']}"
+        return f"INVALID  {head}: {printable(d['error'])}"
+    return f"{d['type']:<8} {fields(d)}"
 
 
 def _text_summary(s):
-    return "summary  " + " ".join(f"{k}={v}" for k, v in s.items())
+    from tactile.textout import fields
+
+    return "summary  " + fields(s, skip=("last_invalid",))  # INVALID lines name each one

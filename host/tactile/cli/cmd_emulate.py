@@ -2,7 +2,9 @@
 
 Prints the device path; open it with any serial program (``tactile record
 --port PATH``).  ``--link PATH`` keeps a stable symlink to the current
-pty, which survives the scene's simulated disconnects.
+pty, which survives the scene's simulated disconnects.  It replaces only an
+emulator's own link (a symlink to a pty): a file, a directory or another
+symlink at PATH is refused with one line (exit 2) and left as it was.
 """
 
 import sys
@@ -10,7 +12,9 @@ import sys
 
 def add_arguments(parser):
     parser.add_argument("scene", help="scene file or shipped scene name (e.g. press, ch5_convex)")
-    parser.add_argument("--link", help="also make this symlink point at the device")
+    parser.add_argument(
+        "--link", help="also make this symlink point at the device (never over a file)"
+    )
     parser.add_argument(
         "--fast", action="store_true", help="as fast as possible (default: real time)"
     )
@@ -34,6 +38,10 @@ def run(args):
     from tactile_sim.emulator.link_faults import LinkFaults
     from tactile_sim.emulator.pty_server import PtyServer
 
+    if args.link:
+        from tactile_sim.emulator import pty_link
+
+        pty_link.check(args.link)  # before the scene is built: refuse a file at once
     scene = load_scene(args.scene)
     board = EmulatedBoard(scene)
     link = scene.link or {}

@@ -25,11 +25,15 @@ def run(args):
 
 
 def format_info(d):
+    """The INFO as text; the device's own string is escaped (``tactile.textout``)."""
+    from tactile.textout import printable
+
     return "\n".join(
         [
             f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"
             f"  (protocol {d['protocol_version']})",
-            f"sensor        {d['sensor_model']} x {d['n_sensors']}, calibration ids {d['cal_ids']}",
+            f"sensor        {printable(d['sensor_model'])} x {d['n_sensors']}, "
+            f"calibration ids {d['cal_ids']}",
             f"rate          {d['rate_hz']} Hz (ceiling {d['max_rate_hz']} Hz)",
             f"gate          {d['gate']}: enter {d['enter_threshold_N']:.4g} N, "
             f"exit {d['exit_threshold_N']:.4g} N, debounce {d['debounce']}",

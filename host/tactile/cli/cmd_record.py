@@ -80,10 +80,12 @@ def run(args):
 def summary(meta, out):
     d = meta["decoder"] or {}
     gaps = len(meta["gaps"])
+    invalid = d.get("invalid", 0)  # frames outside the protocol's limits (device.jsonl names them)
     return (
         f"recorded {meta['samples']} readings, {meta['contacts_ended']} contacts in "
         f"{meta['elapsed_s']:.1f} s ({meta['ended']}); lost {d.get('lost_frames', 0)} frames, "
-        f"{d.get('crc_errors', 0)} CRC errors, {gaps} gap{'s' * (gaps != 1)} -> {out}"
+        f"{d.get('crc_errors', 0)} CRC errors, {gaps} gap{'s' * (gaps != 1)}"
+        f"{f', {invalid} invalid frames refused' if invalid else ''} -> {out}"
     )
 
 

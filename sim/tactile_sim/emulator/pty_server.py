@@ -1,9 +1,10 @@
 """Serve an emulated board on a pseudo-terminal, paced in real time or as fast as possible.
 
 The slave side is a real tty: the host opens its path with pyserial exactly
-as it opens ``/dev/ttyACM0``.  A stable symlink (``--link``) points at the
-current slave, so a simulated disconnect (the pty vanishes) and reconnect
-(a new pty) look like a cable pulled and plugged back.  The master sees
+as it opens ``/dev/ttyACM0``.  A stable symlink (``--link``; ``pty_link`` makes it
+only over an emulator's own link) points at the current slave, so a simulated
+disconnect (the pty vanishes) and reconnect (a new pty) look like a cable pulled
+and plugged back.  The master sees
 ``POLLHUP`` while no host has the slave open: the board's writes then find
 no reader and the firmware drops and counts frames, as on USB; when a host
 opens the port the firmware is told (it answers with HELLO), after a short
@@ -27,6 +28,9 @@ import struct
 import termios
 import time
 import tty
+
+from tactile.errors import InputError
+from tactile_sim.emulator import pty_link
 
 OPEN_SETTLE_S = 0.05  # wait this long after the host opens before announcing
 TICK_S = 0.002  # real time: simulated time per exchange with the host (bounds latency)
@@ -116,11 +120,14 @@ class PtyServer:
         return self.link_path or self.endpoint.path
 
     def open(self):
-        self.endpoint = PtyEndpoint()
+        endpoint = PtyEndpoint()
         if self.link_path:
-            tmp = f"{self.link_path}.tmp{os.getpid()}"
-            os.symlink(self.endpoint.path, tmp)
-            os.replace(tmp, self.link_path)
+            try:
+                pty_link.point(self.link_path, endpoint.path)  # only over an emulator's link
+            except InputError:
+                endpoint.close()
+                raise
+        self.endpoint = endpoint
         return self.path
 
     def _unplugged(self, t_us):
@@ -233,8 +240,8 @@ class PtyServer:
     def _disconnect(self, until_us):
         """The cable is out until ``until_us``: the pty goes away, then a new one appears."""
         self.endpoint.close()
-        if self.link_path and os.path.islink(self.link_path):
-            os.unlink(self.link_path)
+        if self.link_path:
+            pty_link.remove(self.link_path)
         self.board.set_host_reading(False)
         start = time.monotonic()
         t0 = self.board.t_us
@@ -253,5 +260,5 @@ class PtyServer:
     def close(self):
         if self.endpoint is not None:
             self.endpoint.close()
-        if self.link_path and os.path.islink(self.link_path):
-            os.unlink(self.link_path)
+        if self.link_path:
+            pty_link.remove(self.link_path)
