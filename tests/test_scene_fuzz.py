@@ -1,0 +1,99 @@
+"""Fuzzing the scene loader (issue 12): a shipped scene with random values, types, keys and
+sections either loads, builds and runs, or is refused in one line naming the file and the
+key; never another exception, never a hang.
+
+CI runs a fixed-seed budget (the ``ci`` profile of conftest); ``TACTILE_FUZZ=long`` runs
+``FUZZ_SCALE`` times as many examples, randomised.
+"""
+
+import datetime
+import re
+import signal
+import sys
+
+from conftest import FUZZ_SCALE, ROOT
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tactile_sim.emulator import SceneError, load_scene, scene_schema
+from tactile_sim.emulator.device import EmulatedBoard
+
+sys.path.insert(0, str(ROOT / "bench"))
+import scene_variants  # noqa: E402
+
+EXAMPLES = 150
+BUDGET_S = 20  # one example: load, build and 50 ms of board time; far above what it takes
+BASES = ("press", "ch5_plane", "ep2_sweep_sphere", "ep1_roll")
+
+_SCALARS = st.one_of(
+    st.integers(-(2**70), 2**70),
+    st.integers(-3, 70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(-10.0, 10.0),
+    st.sampled_from([0, -1, 1, 0.0, -0.0, 1e-320, 1e300, -4.0, 1e6, 2**32]),
+    st.booleans(),
+    st.text(st.characters(blacklist_categories=("Cs",)), max_size=12),
+    st.sampled_from(["xy", "3d", "contacts", "samples", "plane", "sphere", "saddle", "ellipsoid"]),
+    st.dates(min_value=datetime.date(1, 1, 1)),
+)
+_NAMES = st.from_regex(r"[a-z_]{1,12}", fullmatch=True)
+VALUES = st.recursive(
+    _SCALARS,
+    lambda inner: st.lists(inner, max_size=8) | st.dictionaries(_NAMES, inner, max_size=4),
+    max_leaves=20,
+)
+SECTIONS = list(scene_schema.SECTIONS) + ["sensor_fault", "extra"]
+KEYS = sorted(
+    {k for keys in scene_schema.SECTIONS.values() if keys is not scene_schema.MOTION for k in keys}
+    | {k for keys in scene_schema.MOTION.values() for k in keys}
+    | set(scene_schema.SENSOR_FAULT)
+    | {"kind"}
+)
+
+
+@st.composite
+def mutated_scenes(draw):
+    """(base, data): a shipped scene with one to three keys or sections replaced or dropped."""
+    base = draw(st.sampled_from(BASES))
+    data = scene_variants.base_data(base)
+    for _ in range(draw(st.integers(1, 3))):
+        section = draw(st.sampled_from(SECTIONS))
+        what = draw(st.sampled_from(["key", "key", "key", "drop", "section"]))
+        if what == "section":
+            data[section] = draw(VALUES | st.lists(st.dictionaries(_NAMES, _SCALARS), max_size=3))
+            continue
+        table = data.setdefault(section, {})
+        if not isinstance(table, dict):
+            continue
+        if what == "drop" and table:
+            del table[draw(st.sampled_from(sorted(table)))]
+        else:
+            table[draw(st.sampled_from(KEYS) | _NAMES)] = draw(VALUES)
+    return base, data
+
+
+def _timeout(signum, frame):
+    raise TimeoutError(f"a scene took over {BUDGET_S} s to load and build")
+
+
+@settings(max_examples=EXAMPLES * FUZZ_SCALE)
+@given(mutated_scenes())
+def test_a_mutated_scene_loads_or_is_one_line_naming_file_and_key(tmp_path_factory, case):
+    _, data = case
+    path = tmp_path_factory.mktemp("fuzz") / "scene.toml"
+    path.write_text(scene_variants.to_toml(data), encoding="utf-8")
+    old = signal.signal(signal.SIGALRM, _timeout)
+    signal.setitimer(signal.ITIMER_REAL, BUDGET_S)
+    try:
+        scene = load_scene(path)
+        board = EmulatedBoard(scene)
+        board.host_opened()
+        board.run_until(50_000)  # HELLO and the first samples: values reach the firmware
+    except SceneError as exc:
+        msg = str(exc)
+        assert "\n" not in msg and "\r" not in msg, msg
+        where = r"(\[\[sensor_fault\]\]( #\d+)?|\[[^\]]+\])( \S+)?|[^\s:]+"
+        assert re.match(re.escape(str(path)) + rf": ({where}): \S", msg), msg
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
