@@ -32,8 +32,8 @@ def _cpu_s(pid):
 def test_an_idle_emulator_sleeps_and_still_answers_a_host(options):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))  # this checkout's sources
     cmd = [sys.executable, "-m", "tactile.cli.main", "emulate", "press", *options]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env,
-                            text=True)  # fmt: skip
+    quiet = {"stderr": subprocess.DEVNULL, "text": True, "env": env}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, **quiet)
     try:
         path = proc.stdout.readline().strip()
         assert path.startswith("/dev/"), path
