@@ -85,7 +85,8 @@ VARIANTS = (
     _v("sensors = a table", P, {"board.sensors": {"n": 2}}, "[board] sensors", "got a table"),
     _v("max_rate_hz = -5", P, {"board.max_rate_hz": -5}, "[board] max_rate_hz", "from 0"),
     _v("max_rate_hz = 70000", P, {"board.max_rate_hz": 70000}, "[board] max_rate_hz", "65535"),
-    _v("max_rate_hz below rate_hz", P, {"board.max_rate_hz": 10}, "[board] rate_hz", "<= 10"),
+    _v("max_rate_hz below rate_hz", P, {"board.max_rate_hz": 10}, "[board] rate_hz",
+       "must be <= [board] max_rate_hz (10)"),
     _v("unknown key in [board]", P, {"board.rate": 500}, "[board] rate",
        "unknown key (did you mean rate_hz?)"),
     # [sensor]
@@ -157,6 +158,11 @@ VARIANTS = (
        "must be a table"),
     _v("roll surface_params nan", ROLL, {"motion.surface_params": {"a": NAN, "b": 1, "c": 1}},
        "[motion] surface_params.a", "got nan"),
+    _v("roll on a 1e-247 m ellipsoid", ROLL,
+       {"motion.surface_params": {"a": 0.02, "b": 0.03, "c": 1e-247}}, "[motion]",
+       "the rolling simulation breaks down (divide by zero"),
+    _v("roll surface_params d = 1", ROLL, {"motion.surface_params": {"a": 1, "d": 1}},
+       "[motion] surface_params", "ellipsoid: ellipsoid() got an unexpected keyword"),
     _v("roll no directions", ROLL, {"motion.directions_deg": []}, "[motion] directions_deg",
        "must be a list of 1 to 16"),
     # unknown sections; tables and arrays in the wrong place

@@ -11,11 +11,12 @@ import re
 import signal
 import sys
 
+import pytest
 from conftest import FUZZ_SCALE, ROOT
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tactile_sim.emulator import SceneError, load_scene, scene_schema
+from tactile_sim.emulator import SceneError, load_scene, scene_schema, toml_keys
 from tactile_sim.emulator.device import EmulatedBoard
 
 sys.path.insert(0, str(ROOT / "bench"))
@@ -43,30 +44,74 @@ VALUES = st.recursive(
     max_leaves=20,
 )
 SECTIONS = list(scene_schema.SECTIONS) + ["sensor_fault", "extra"]
-KEYS = sorted(
-    {k for keys in scene_schema.SECTIONS.values() if keys is not scene_schema.MOTION for k in keys}
+KEYS = sorted(  # every key the schema knows, in any section
+    {k for name, keys in scene_schema.SECTIONS.items() if name != "motion" for k in keys}
     | {k for keys in scene_schema.MOTION.values() for k in keys}
     | set(scene_schema.SENSOR_FAULT)
     | {"kind"}
 )
 
 
+def in_range(key):
+    """Values the schema accepts for ``key`` (its extremes included): valid, but odd,
+    combinations are where building and running can still go wrong."""
+    if isinstance(key, toml_keys.Int):
+        return st.integers(key.lo, key.hi) | st.sampled_from([key.lo, key.hi])
+    if isinstance(key, toml_keys.Float):
+        return st.floats(key.lo, key.hi, exclude_min=key.lo_open)
+    if isinstance(key, toml_keys.Bool):
+        return st.booleans()
+    if isinstance(key, toml_keys.Text):
+        return st.text(st.characters(min_codepoint=32, max_codepoint=126), min_size=1,
+                       max_size=key.max_len)  # fmt: skip
+    if isinstance(key, toml_keys.Choice):
+        return st.sampled_from(key.choices)
+    if isinstance(key, toml_keys.List):
+        size = {"min_size": key.min_len, "max_size": min(key.max_len, key.min_len + 6)}
+        return st.lists(in_range(key.item), **size)
+    if isinstance(key, toml_keys.Row):
+        return st.tuples(*map(in_range, key.items)).map(list)
+    if isinstance(key, toml_keys.Map):
+        return st.dictionaries(st.sampled_from("abcrRCd"), in_range(key.value), max_size=4)
+    return st.one_of(*map(in_range, key.options))  # Either
+
+
+def _keys(data, section):
+    if section == "motion":
+        kind = data.get("motion", {}).get("kind") if isinstance(data.get("motion"), dict) else None
+        return scene_schema.MOTION.get(kind, {})
+    return {**scene_schema.SECTIONS, **scene_schema.ARRAYS}.get(section, {})
+
+
 @st.composite
 def mutated_scenes(draw):
-    """(base, data): a shipped scene with one to three keys or sections replaced or dropped."""
+    """(base, data): a shipped scene with one to four keys or sections changed or dropped:
+    mostly to values the schema accepts, else to anything TOML can hold."""
     base = draw(st.sampled_from(BASES))
     data = scene_variants.base_data(base)
-    for _ in range(draw(st.integers(1, 3))):
+    for _ in range(draw(st.integers(1, 4))):
         section = draw(st.sampled_from(SECTIONS))
-        what = draw(st.sampled_from(["key", "key", "key", "drop", "section"]))
+        what = draw(st.sampled_from(["valid"] * 6 + ["any", "any", "drop", "section"]))
         if what == "section":
             data[section] = draw(VALUES | st.lists(st.dictionaries(_NAMES, _SCALARS), max_size=3))
             continue
+        if section == "sensor_fault":
+            faults = data.setdefault("sensor_fault", [])
+            if isinstance(faults, list) and what == "valid":
+                keys = scene_schema.SENSOR_FAULT
+                faults.append({k: draw(in_range(v)) for k, v in keys.items()
+                               if k == "kind" or draw(st.booleans())})  # fmt: skip
+                continue
+            section = "extra"
         table = data.setdefault(section, {})
         if not isinstance(table, dict):
             continue
+        keys = _keys(data, section)
         if what == "drop" and table:
             del table[draw(st.sampled_from(sorted(table)))]
+        elif what == "valid" and keys:
+            key = draw(st.sampled_from(sorted(keys)))
+            table[key] = draw(in_range(keys[key]))
         else:
             table[draw(st.sampled_from(KEYS) | _NAMES)] = draw(VALUES)
     return base, data
@@ -76,6 +121,7 @@ def _timeout(signum, frame):
     raise TimeoutError(f"a scene took over {BUDGET_S} s to load and build")
 
 
+@pytest.mark.filterwarnings("error")  # a numpy warning on the terminal counts as a failure
 @settings(max_examples=EXAMPLES * FUZZ_SCALE)
 @given(mutated_scenes())
 def test_a_mutated_scene_loads_or_is_one_line_naming_file_and_key(tmp_path_factory, case):

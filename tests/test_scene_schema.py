@@ -20,6 +20,7 @@ import scene_variants  # noqa: E402
 SHIPPED = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
 
 
+@pytest.mark.filterwarnings("error")  # a warning would be a second line on the terminal
 @pytest.mark.parametrize("route", sorted(scene_variants.ROUTES))
 @pytest.mark.parametrize("variant", scene_variants.VARIANTS, ids=lambda v: v.name)
 def test_a_malformed_scene_is_one_line_and_exit_2(tmp_path, variant, route):

@@ -55,10 +55,12 @@ def board_settings(scene, max_rate_hz):
     bad = settings.check(*s.fields(), max_rate_hz)
     if bad == settings.F_RATE:
         n = b["sensors"]
-        raise scene.error(
-            "[board] rate_hz",
-            f"must be <= {max_rate_hz}, the ceiling of {n} sensor{'s' * (n > 1)} on this board",
+        why = (
+            f"[board] max_rate_hz ({max_rate_hz})"
+            if b["max_rate_hz"]
+            else f"{max_rate_hz}, the ceiling of {n} sensor{'s' * (n > 1)} on this board"
         )
+        raise scene.error("[board] rate_hz", f"must be <= {why}")
     if bad >= 0:
         field = ("rate_hz", "enter_threshold_N", "exit_threshold_N", "debounce", "streams")[bad]
         raise scene.error(f"[board] {field}", "refused by the firmware's settings check")

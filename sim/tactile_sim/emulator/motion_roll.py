@@ -127,16 +127,35 @@ def _paths(finger, obj, o):
 
 
 def build(scene):
+    """The roll motion of ``scene`` (keys checked by ``scene_schema``).
+
+    Geometry the schema cannot judge (a surface of 1e-247 m, a fingertip it cannot roll
+    on) makes the rolling equations divide by zero or overflow: that is caught where it
+    first happens, so it is one line naming the keys, neither a screen of numpy warnings
+    nor seconds of integrating NaNs.
+    """
+    o = _options(scene)
+    try:
+        with np.errstate(divide="raise", over="raise", invalid="raise"):
+            return _build(scene, o)
+    except FloatingPointError as exc:
+        raise scene.error(
+            "[motion]",
+            f"the rolling simulation breaks down ({exc}): check surface_params, "
+            "finger_radius_m and the start contact",
+        ) from None
+
+
+def _build(scene, o):
     from tactile_sim.ep1.experiment import true_curvature
     from tactile_sim.ep1.probes import simulate_probes
     from tactile_sim.ep1.surfaces import fingertip, make
     from tactile_sim.rig.fingertip import fingertip_wrench
 
-    o = _options(scene)
     try:
         obj = make(o["surface"], **o["surface_params"])
-    except (TypeError, ValueError) as exc:
-        raise scene.error("[motion] surface", str(exc)) from None
+    except TypeError as exc:  # a parameter the surface does not take
+        raise scene.error("[motion] surface_params", f"{o['surface']}: {exc}") from None
     R1 = o["finger_radius_m"]
     finger = fingertip(R1)
     probes = simulate_probes(
