@@ -108,3 +108,15 @@ def test_defaults_are_filled_and_not_shared(tmp_path):
     a.board["streams"].append("samples")
     assert b.board["streams"] == ["contacts"]
     assert scene_schema.BOARD["streams"].default == ["contacts"]
+
+
+@pytest.mark.parametrize("where", ["dir", "/dev/zero", "fifo"])
+def test_a_scene_that_is_no_file_is_refused_before_reading(cli, tmp_path, where):
+    path = {"dir": tmp_path, "fifo": tmp_path / "fifo"}.get(where, where)
+    if where == "fifo":
+        os.mkfifo(path)  # reading it would block for ever
+    code, _, err = cli("emulate", path)
+    assert (
+        code == 2
+        and err == f"tactile emulate: error: {path}: not a scene file (a directory or a device)\n"
+    )

@@ -75,6 +75,8 @@ def resolve(name):
 def load_scene(name):
     """The scene ``name`` (a path or a shipped name), read and validated; or a SceneError."""
     path = resolve(name)
+    if not path.is_file():  # a directory, /dev/zero, a FIFO that would block the read
+        raise SceneError(f"{path}: not a scene file (a directory or a device)")
     try:
         with open(path, "rb") as fh:
             raw = fh.read(MAX_SCENE_BYTES + 1)
