@@ -115,7 +115,7 @@ def _idle():
         cpu0, t0 = _cpu_s(proc.pid), time.monotonic()
         time.sleep(IDLE_S)
         fraction = (_cpu_s(proc.pid) - cpu0) / (time.monotonic() - t0)
-        decoder, hello, end = StreamDecoder(), False, time.monotonic() + 3.0
+        decoder, hello, end = StreamDecoder(), False, time.monotonic() + 10.0
         with serial.Serial(path, timeout=0.1) as port:
             while not hello and time.monotonic() < end:
                 hello = any(m.type_name == "HELLO" for m in decoder.feed(port.read(256)))

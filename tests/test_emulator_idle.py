@@ -45,7 +45,7 @@ def test_an_idle_emulator_sleeps_and_still_answers_a_host(options):
         assert fraction < MAX_FRACTION, f"idle emulator used {fraction:.0%} of a core"
         port = serial.Serial(path, timeout=0.1)
         decoder = StreamDecoder()
-        msgs, end = [], time.monotonic() + 3.0
+        msgs, end = [], time.monotonic() + 10.0  # (a shared machine can be slow)
         try:
             while time.monotonic() < end and not any(m.type_name == "HELLO" for m in msgs):
                 msgs += decoder.feed(port.read(256))
