@@ -141,10 +141,10 @@ def test_a_press_scene_loads_no_rolling_or_fitting_code():
 @pytest.mark.parametrize(
     "text, expect",
     [
-        ('[motion]\nkind = "teleport"\n', "kind must be one of"),
+        ('[motion]\nkind = "teleport"\n', "kind: must be one of"),
         (
             '[board]\nrate_hz = "fast"\n[motion]\nkind = "press"\nkeyframes = [[0,0,0,0,0,0,0]]\n',
-            "rate_hz: expected int",
+            "rate_hz: must be an integer",
         ),
         (
             '[board]\nspeed = 1\n[motion]\nkind = "press"\nkeyframes = [[0,0,0,0,0,0,0]]\n',

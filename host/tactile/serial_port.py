@@ -68,7 +68,7 @@ def open_port(port, timeout=READ_TIMEOUT_S):
     """An open pyserial port for ``port`` (path or URL); raises PortError with the reason."""
     import serial
 
-    from tactile.errors import PortError
+    from tactile.errors import InputError, PortError
 
     if port.startswith("sim://"):
         from tactile_sim.urlhandler import register
@@ -78,6 +78,8 @@ def open_port(port, timeout=READ_TIMEOUT_S):
         if "://" in port:
             return serial.serial_for_url(port, baudrate=BAUDRATE, timeout=timeout)
         return serial.Serial(port, baudrate=BAUDRATE, timeout=timeout, exclusive=True)
+    except InputError:
+        raise  # sim://SCENE: the scene's own one-line error (exit 2), not a port problem
     except (serial.SerialException, OSError, ValueError) as exc:
         raise PortError(describe_open_error(port, exc)) from None
 

@@ -23,10 +23,10 @@ from tactile_protocol import constants as C
 from tactile_sim.adc_model import FULL_SCALE_CODES, ADS122C04Model
 from tactile_sim.emulator.ft_model import FTModel
 from tactile_sim.emulator.scene import MOTIONS
+from tactile_sim.emulator.scene_schema import GATES, STREAMS
 from tactile_sim.emulator.sensor_faults import FaultSchedule
 from tactile_sim.i2c_bus import SimI2C
 
-STREAM_FLAGS = {"samples": C.CFG_STREAM_SAMPLES, "contacts": C.CFG_STREAM_CONTACTS}
 LINK_CAPACITY = 1 << 16  # bytes the host side may leave unread (a USB/pty buffer)
 
 
@@ -35,26 +35,36 @@ def build_motion(scene):
 
 
 def board_settings(scene, max_rate_hz):
-    """The settings a shipped scene stores on the board (streaming from boot)."""
+    """The settings a shipped scene stores on the board (streaming from boot).
+
+    The schema has checked each key; the firmware's own check remains the authority on
+    what only the built board knows, the rate ceiling of its sensors on their buses.
+    """
     b = scene.board
-    flags = C.CFG_GATE_3D if b["gate"] == "3d" else 0
+    flags = GATES[b["gate"]]
     for name in b["streams"]:
-        if name not in STREAM_FLAGS:
-            raise scene.error("[board] streams", f"unknown stream {name!r} (samples, contacts)")
-        flags |= STREAM_FLAGS[name]
+        flags |= STREAMS[name]
     if b["autostart"]:
         flags |= C.CFG_AUTOSTART
     s = settings.Settings(
-        int(b["rate_hz"]),
+        b["rate_hz"],
         round(b["enter_threshold_N"] / C.FORCE_LSB_N),
         round(b["exit_threshold_N"] / C.FORCE_LSB_N),
-        int(b["debounce"]),
+        b["debounce"],
         flags,
     )
     bad = settings.check(*s.fields(), max_rate_hz)
+    if bad == settings.F_RATE:
+        n = b["sensors"]
+        why = (
+            f"[board] max_rate_hz ({max_rate_hz})"
+            if b["max_rate_hz"]
+            else f"{max_rate_hz}, the ceiling of {n} sensor{'s' * (n > 1)} on this board"
+        )
+        raise scene.error("[board] rate_hz", f"must be <= {why}")
     if bad >= 0:
         field = ("rate_hz", "enter_threshold_N", "exit_threshold_N", "debounce", "streams")[bad]
-        raise scene.error(f"[board] {field}", f"out of range (rate ceiling {max_rate_hz} Hz)")
+        raise scene.error(f"[board] {field}", "refused by the firmware's settings check")
     return s
 
 
@@ -67,8 +77,8 @@ class EmulatedBoard:
         self.clock = ManualClock(0)
         self.link = PipeLink(LINK_CAPACITY)
         self.buses, self.adcs, self.models = [], [], []
-        sensors = [self._sensor(i) for i in range(int(scene.board["sensors"]))]
-        override = int(scene.board["max_rate_hz"]) or None
+        sensors = [self._sensor(i) for i in range(scene.board["sensors"])]
+        override = scene.board["max_rate_hz"] or None
         if override:
             period = 1e6 / override
             for adc in self.adcs:

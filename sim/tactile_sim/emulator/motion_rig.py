@@ -14,6 +14,7 @@ Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
 
 import numpy as np
 
+MAX_TIMELINE = 1_000_000  # load rows (one per board sample): ~17 min of probing at 1 kHz
 POSE_COLUMNS = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
 
 
@@ -56,34 +57,35 @@ class RigMotion:
 
 
 def build(scene):
+    """The rig motion of ``scene`` (keys checked by ``scene_schema``).
+
+    The load is sampled at the board's rate, so the schedule's length in samples is
+    checked before it is built: a refusal rather than minutes of work and gigabytes.
+    """
+    from tactile_sim.rig.geometry import FREDDY
     from tactile_sim.rig.objects import ch5_object
     from tactile_sim.rig.schedule import probe_schedule
-    from tactile_sim.rig.timeline import timeline
+    from tactile_sim.rig.timeline import timeline, timeline_length
 
     m = scene.motion
-    kind = m.get("object", "plane")
-    try:
-        obj = ch5_object(kind)
-    except ValueError as exc:
-        raise scene.error("[motion] object", str(exc)) from None
     schedule = probe_schedule(
-        obj,
-        passes=int(m.get("passes", 3)),
-        points=int(m.get("points", 6)),
-        samples=int(m.get("samples", 2)),
-        mu=float(m.get("mu", 0.0)),
+        ch5_object(m["object"]),
+        passes=m["passes"],
+        points=m["points"],
+        samples=m["samples"],
+        mu=m["mu"],
         sigma_f=0.0,
         sigma_m=0.0,
         seed=None,
     )
     rate = float(scene.board["rate_hz"])
-    line = timeline(
-        schedule,
-        rate=rate,
-        hold=float(m.get("hold_s", 0.05)),
-        speed=float(m.get("speed_mps", 0.01)),
-    )
-    from tactile_sim.rig.geometry import FREDDY
-
+    pace = {"rate": rate, "hold": m["hold_s"], "speed": m["speed_mps"]}
+    rows = timeline_length(schedule, **pace)
+    if rows > MAX_TIMELINE:
+        raise scene.error(
+            "[motion]",
+            f"the probing would take {rows} samples at {rate:g} Hz (at most {MAX_TIMELINE}):"
+            " fewer passes, points or samples, a shorter hold_s or a faster speed_mps",
+        )
     lengths = (FREDDY.L1, FREDDY.L2, FREDDY.L3, FREDDY.L4)
-    return RigMotion(schedule, line, float(m.get("lead_in_s", 1.0)), lengths)
+    return RigMotion(schedule, timeline(schedule, **pace), m["lead_in_s"], lengths)

@@ -16,8 +16,9 @@ The robot's log (``probe_log``/``write_probe_log``): per probe, a time during th
 start and at its end, and the commanded rotation (eq. 29's signs, contact frame at the
 probe's start).  ``truth`` is K2~ at the start contact (``experiment.true_curvature``).
 
-Keys (SI): ``surface`` (a ``tactile_sim.ep1.surfaces.KINDS`` name) and ``surface_params``
-(its parameters, in m), ``object_uv``, ``finger_uv``, ``psi`` (start contact), ``finger_radius_m``,
+Keys (SI; types, ranges and defaults in ``scene_schema.MOTION["roll"]``): ``surface`` (a
+``tactile_sim.ep1.surfaces.KINDS`` name) and ``surface_params`` (its parameters, in m),
+``object_uv``, ``finger_uv``, ``psi`` (start contact), ``finger_radius_m``,
 ``sensor_offset_m``, ``normal_force_N``, ``mu`` (tangential load / normal load, a static
 friction load inside the cone) along ``friction_dir_deg`` in the fingertip's tangent basis,
 ``dtheta_rad``, ``directions_deg``, and the timing ``rest_s``, ``press_s``, ``hold_s``,
@@ -31,26 +32,6 @@ import numpy as np
 LOG_COLUMNS = ("probe", "t_start_us", "t_end_us", "dtheta_x", "dtheta_y")
 HOLD_FRACTION = 0.8  # the central part of each hold that the log offers for reading
 ROLL_KNOTS = 65  # path samples per roll (wrench linearly interpolated in between)
-
-DEFAULTS = {
-    "surface": "ellipsoid",
-    "surface_params": {"a": 0.02, "b": 0.03, "c": 0.02},
-    "object_uv": [0.0, 0.0],
-    "finger_uv": [0.0, 0.0],
-    "psi": 0.0,
-    "finger_radius_m": 0.01,
-    "sensor_offset_m": 0.05,
-    "normal_force_N": 5.0,
-    "mu": 0.0,
-    "friction_dir_deg": 0.0,
-    "dtheta_rad": 0.5,
-    "directions_deg": [0.0, 180.0, 90.0, 270.0],
-    "rest_s": 0.5,
-    "press_s": 0.2,
-    "hold_s": 0.2,
-    "roll_s": 0.3,
-    "release_s": 0.2,
-}
 
 
 class RollMotion:
@@ -108,58 +89,14 @@ class RollMotion:
                 fh.write(",".join(repr(v) for v in row) + "\n")
 
 
-def _number(scene, key, value, positive=False, nonneg=False):
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise scene.error(f"[motion] {key}", f"expected a number, got {value!r}") from None
-    if not math.isfinite(x) or (positive and x <= 0.0) or (nonneg and x < 0.0):
-        need = "positive" if positive else "non-negative" if nonneg else "finite"
-        raise scene.error(f"[motion] {key}", f"must be {need}, got {value!r}")
-    return x
-
-
-def _numbers(scene, key, value, n=None):
-    if not isinstance(value, list) or (n is not None and len(value) != n) or not value:
-        size = f"{n} numbers" if n else "a list of numbers"
-        raise scene.error(f"[motion] {key}", f"expected {size}, got {value!r}")
-    return np.array([_number(scene, key, v) for v in value])
-
-
 def _options(scene):
-    m = dict(scene.motion)
-    m.pop("kind")
-    unknown = sorted(set(m) - set(DEFAULTS))
-    if unknown:
-        raise scene.error("[motion]", f"unknown key(s) for kind 'roll': {', '.join(unknown)}")
-    o = {**DEFAULTS, **m}
-    if not isinstance(o["surface_params"], dict):
-        raise scene.error("[motion] surface_params", "expected a table of surface parameters")
-    out = {
-        "surface": o["surface"],
-        "surface_params": {
-            k: _number(scene, f"surface_params.{k}", v) for k, v in o["surface_params"].items()
-        },
-        "object_uv": _numbers(scene, "object_uv", o["object_uv"], 2),
-        "finger_uv": _numbers(scene, "finger_uv", o["finger_uv"], 2),
-        "directions": np.radians(_numbers(scene, "directions_deg", o["directions_deg"])),
-        "psi": _number(scene, "psi", o["psi"]),
-        "friction_dir": math.radians(_number(scene, "friction_dir_deg", o["friction_dir_deg"])),
-        "mu": _number(scene, "mu", o["mu"], nonneg=True),
-        "sensor_offset_m": _number(scene, "sensor_offset_m", o["sensor_offset_m"], nonneg=True),
-    }
-    for key in (
-        "finger_radius_m",
-        "normal_force_N",
-        "dtheta_rad",
-        "press_s",
-        "hold_s",
-        "roll_s",
-        "release_s",
-    ):
-        out[key] = _number(scene, key, o[key], positive=True)
-    out["rest_s"] = _number(scene, "rest_s", o["rest_s"], nonneg=True)
-    return out
+    """The scene's roll keys (checked by ``scene_schema``) as the build uses them."""
+    o = dict(scene.motion)
+    o["object_uv"] = np.array(o["object_uv"])
+    o["finger_uv"] = np.array(o["finger_uv"])
+    o["directions"] = np.radians(o.pop("directions_deg"))
+    o["friction_dir"] = math.radians(o.pop("friction_dir_deg"))
+    return o
 
 
 def _paths(finger, obj, o):
@@ -190,16 +127,35 @@ def _paths(finger, obj, o):
 
 
 def build(scene):
+    """The roll motion of ``scene`` (keys checked by ``scene_schema``).
+
+    Geometry the schema cannot judge (a surface of 1e-247 m, a fingertip it cannot roll
+    on) makes the rolling equations divide by zero or overflow: that is caught where it
+    first happens, so it is one line naming the keys, neither a screen of numpy warnings
+    nor seconds of integrating NaNs.
+    """
+    o = _options(scene)
+    try:
+        with np.errstate(divide="raise", over="raise", invalid="raise"):
+            return _build(scene, o)
+    except FloatingPointError as exc:
+        raise scene.error(
+            "[motion]",
+            f"the rolling simulation breaks down ({exc}): check surface_params, "
+            "finger_radius_m and the start contact",
+        ) from None
+
+
+def _build(scene, o):
     from tactile_sim.ep1.experiment import true_curvature
     from tactile_sim.ep1.probes import simulate_probes
     from tactile_sim.ep1.surfaces import fingertip, make
     from tactile_sim.rig.fingertip import fingertip_wrench
 
-    o = _options(scene)
     try:
         obj = make(o["surface"], **o["surface_params"])
-    except (TypeError, ValueError) as exc:
-        raise scene.error("[motion] surface", str(exc)) from None
+    except TypeError as exc:  # a parameter the surface does not take
+        raise scene.error("[motion] surface_params", f"{o['surface']}: {exc}") from None
     R1 = o["finger_radius_m"]
     finger = fingertip(R1)
     probes = simulate_probes(

@@ -31,35 +31,15 @@ every window and the host drops them.  The log also states the sensor's noise (`
 of the scene, as a datasheet would), by which the host drops the frames of the load ramps
 whose normals the noise swamps (``tactile.localize.pose_log.normal_sd``).
 
-Keys (SI units): ``object`` (``objects.KINDS``), ``radius_m``, ``rotation_deg``, ``tilt_deg``,
-``fingers``, ``spacing_m``, ``length_m``, ``samples``, ``speed_mps``, ``settle_s``,
-``fingertip_radius_m``, ``sensor_offset_m``, ``normal_force_N``, ``mu``, ``ramp_s``,
-``rest_s``, ``roll_deg``.
+Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``): ``object``
+(``objects.KINDS``), ``radius_m``, ``rotation_deg``, ``tilt_deg``, ``fingers``, ``spacing_m``,
+``length_m``, ``samples``, ``speed_mps``, ``settle_s``, ``fingertip_radius_m``,
+``sensor_offset_m``, ``normal_force_N``, ``mu``, ``ramp_s``, ``rest_s``, ``roll_deg``.
 """
 
 import numpy as np
 
 POSE_COLUMNS = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
-
-DEFAULTS = {
-    "object": "sphere",
-    "radius_m": 0.05,
-    "rotation_deg": 0.0,
-    "tilt_deg": 0.0,
-    "fingers": 3,
-    "spacing_m": 0.02,
-    "length_m": 0.04,
-    "samples": 21,
-    "speed_mps": 0.05,
-    "settle_s": 0.002,
-    "fingertip_radius_m": 0.012,
-    "sensor_offset_m": 0.03,
-    "normal_force_N": 5.0,
-    "mu": 0.3,
-    "ramp_s": 0.02,
-    "rest_s": 0.03,
-    "roll_deg": [0.0, 30.0, -30.0],
-}
 
 # Sensor axes in the object frame for an untwisted finger: pole +x_S = -z, y_S = +y, z_S = +x.
 _R0 = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
@@ -205,72 +185,16 @@ class SweepMotion:
                 fh.write(",".join(repr(v) for v in row) + "\n")
 
 
-def _config(scene):
-    m = scene.motion
-    unknown = sorted(set(m) - set(DEFAULTS) - {"kind"})
-    if unknown:
-        raise scene.error("[motion]", f"unknown key(s) for kind sweep: {', '.join(unknown)}")
-    cfg = dict(DEFAULTS)
-    for key, value in m.items():
-        if key == "kind":
-            continue
-        want = DEFAULTS[key]
-        if isinstance(want, list):
-            ok = isinstance(value, list) and all(isinstance(v, (int, float)) for v in value)
-        elif isinstance(want, float):
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        else:
-            ok = type(value) is type(want)
-        if not ok:
-            raise scene.error(f"[motion] {key}", f"expected {type(want).__name__}, got {value!r}")
-        cfg[key] = value
-    return cfg
-
-
-def _check(scene, cfg):
-    def positive(key):
-        if not cfg[key] > 0 or not np.isfinite(cfg[key]):
-            raise scene.error(f"[motion] {key}", f"must be > 0, got {cfg[key]!r}")
-
-    for key in ("radius_m", "spacing_m", "length_m", "speed_mps", "fingertip_radius_m"):
-        positive(key)
-    for key in ("sensor_offset_m", "normal_force_N", "mu", "ramp_s", "rest_s", "settle_s"):
-        if not cfg[key] >= 0 or not np.isfinite(cfg[key]):
-            raise scene.error(f"[motion] {key}", f"must be >= 0, got {cfg[key]!r}")
-    if cfg["samples"] < 2:
-        raise scene.error("[motion] samples", "need at least 2 stations per finger")
-    sensors = int(scene.board["sensors"])
-    if not 1 <= cfg["fingers"] <= sensors:
-        raise scene.error("[motion] fingers", f"need 1..{sensors} (one board sensor each)")
-    if len(cfg["roll_deg"]) < cfg["fingers"]:
-        raise scene.error("[motion] roll_deg", f"need one angle per finger ({cfg['fingers']})")
-    period = cfg["length_m"] / (cfg["samples"] - 1) / cfg["speed_mps"]
-    if not period > cfg["settle_s"]:
-        raise scene.error(
-            "[motion] settle_s", f"must be shorter than the time per station ({period:g} s)"
-        )
-
-
-def _noise(scene):
-    """The sensor's (F, M) sigmas, which the pose log states for the host."""
-    out = []
-    for key in ("noise_force_N", "noise_torque_Nm"):
-        v = scene.sensor[key]
-        if len(v) != 3 or not all(isinstance(x, (int, float)) and x >= 0 for x in v):
-            raise scene.error(f"[sensor] {key}", f"need 3 numbers >= 0, got {v!r}")
-        out += [float(x) for x in v]
-    return out
-
-
 def build(scene):
+    """The sweep of ``scene`` (keys and their relations checked by ``scene_schema``)."""
     from tactile_sim.ep2.objects import make
 
-    cfg = _config(scene)
-    _check(scene, cfg)
+    cfg = {k: v for k, v in scene.motion.items() if k != "kind"}
+    noise = list(scene.sensor["noise_force_N"]) + list(scene.sensor["noise_torque_Nm"])
     try:
         obj = make(cfg["object"], radius=cfg["radius_m"], rotation_deg=cfg["rotation_deg"],
                    centre=(0.0, 0.0))  # fmt: skip
-        motion = SweepMotion(cfg, obj, _noise(scene))
+        motion = SweepMotion(cfg, obj, noise)
     except ValueError as exc:
         raise scene.error("[motion] object", str(exc)) from None
     return motion

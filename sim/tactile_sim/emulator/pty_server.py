@@ -54,7 +54,21 @@ class PtyEndpoint:
         self.host_present = False
 
     def wait(self, timeout_s):
-        """Wait for host input or a change of host presence; return (readable, present)."""
+        """Wait up to ``timeout_s`` for host input; return (readable, present).
+
+        While no host has the slave open the master reports POLLHUP, at once and for as long
+        as nobody opens it, so poll() cannot block then: the rest of the timeout is slept
+        instead and presence looked at again, never spun on (an idle emulator waiting for a
+        host took most of a core).  A host that opens the port is seen within ``timeout_s``.
+        """
+        deadline = time.monotonic() + max(0.0, timeout_s)
+        readable, present = self._look(timeout_s)
+        if not present and (left := deadline - time.monotonic()) > 0:
+            time.sleep(left)
+            readable, present = self._look(0.0)
+        return readable, present
+
+    def _look(self, timeout_s):
         events = self._poll.poll(max(0.0, timeout_s) * 1000)
         flags = 0
         for _, ev in events:

@@ -1,15 +1,19 @@
 """Scenes: TOML files naming the board, the sensor, the motion and the link faults.
 
-Only the sections a scene names are built: the motion's module is imported
-by kind (``MOTIONS``), a noiseless sensor gets no random generator, a scene
-without ``[link]`` faults gets no fault injector.  Every error is a
-``SceneError`` naming the file and the key.
+``load_scene`` reads a file (bounded), parses it and validates the whole of it against
+``scene_schema`` before anything is built.  Only the sections a scene names are built:
+the motion's module is imported by kind (``MOTIONS``), a noiseless sensor gets no random
+generator, a scene without ``[link]`` faults gets no fault injector.  Every error is a
+one-line ``SceneError`` (exit 2) naming the file, section and key:
+``scene.toml: [sensor] noise_force_N[2]: must be finite and >= 0, got nan``.
 """
 
 import pathlib
 import tomllib
 
 from tactile.errors import InputError
+from tactile_sim.emulator import scene_schema
+from tactile_sim.emulator.toml_keys import Bad
 
 SCENE_DIR = pathlib.Path(__file__).resolve().parents[1] / "scenes"
 
@@ -20,32 +24,7 @@ MOTIONS = {
     for p in sorted(pathlib.Path(__file__).parent.glob("motion_*.py"))
 }
 
-BOARD_DEFAULTS = {
-    "rate_hz": 1000,
-    "autostart": True,
-    "streams": ["contacts"],
-    "gate": "xy",
-    "enter_threshold_N": 1.39,
-    "exit_threshold_N": 1.112,
-    "debounce": 3,
-    "sensors": 1,
-    "max_rate_hz": 0,
-}
-SENSOR_DEFAULTS = {
-    "model": "SIM-FT6",
-    "force_range_N": 50.0,
-    "torque_range_Nm": 2.0,
-    "noise_force_N": [0.0, 0.0, 0.0],
-    "noise_torque_Nm": [0.0, 0.0, 0.0],
-    "bias_counts": 20000.0,
-    "drift_counts_per_s": 0.0,
-    "cal_id": 1,
-}
-LINK_DEFAULTS = {
-    "corrupt_frames": [],
-    "drop_byte_frames": [],
-    "disconnect": [],
-}
+MAX_SCENE_BYTES = 1 << 20  # a scene is a page of TOML; /dev/zero is not one
 
 
 class SceneError(InputError):
@@ -53,40 +32,32 @@ class SceneError(InputError):
 
 
 class Scene:
-    """A validated scene: plain dictionaries per section plus its path and seed."""
+    """A validated scene: each section's values (defaults filled), its path, name and seed.
+
+    ``board``, ``sensor``, ``motion`` (with ``kind``) and ``link`` (None without ``[link]``)
+    are dictionaries, ``sensor_faults`` a list of them: ``scene_schema`` has checked every
+    key, so the modules that build the emulator read them as they are.
+    """
 
     def __init__(self, path, data):
         self.path = pathlib.Path(path)
-        self.name = data.get("scene", {}).get("name", self.path.stem)
-        self.seed = int(data.get("scene", {}).get("seed", 0))
-        self.duration_s = float(data.get("scene", {}).get("duration_s", 10.0))
-        self.board = _section(path, data, "board", BOARD_DEFAULTS)
-        self.sensor = _section(path, data, "sensor", SENSOR_DEFAULTS)
-        self.link = _section(path, data, "link", LINK_DEFAULTS) if "link" in data else None
-        self.motion = data.get("motion")
+        try:
+            values = scene_schema.validate(data)
+        except Bad as bad:
+            raise SceneError(f"{path}: {bad.where}: {bad.why}") from None
+        self.name = values["scene"]["name"] or self.path.stem
+        self.seed = values["scene"]["seed"]
+        self.duration_s = values["scene"]["duration_s"]
+        self.board = values["board"]
+        self.sensor = values["sensor"]
+        self.motion = values["motion"]
+        self.link = values["link"]
+        self.sensor_faults = values["sensor_fault"]
         self.raw = data
-        if not isinstance(self.motion, dict) or self.motion.get("kind") not in MOTIONS:
-            kinds = ", ".join(MOTIONS)
-            raise SceneError(f"{path}: [motion] kind must be one of {kinds}")
 
     def error(self, key, why):
+        """A SceneError for what only building can find (``key``: ``[motion] surface``)."""
         return SceneError(f"{self.path}: {key}: {why}")
-
-
-def _section(path, data, name, defaults):
-    given = data.get(name, {})
-    unknown = sorted(set(given) - set(defaults))
-    if unknown:
-        raise SceneError(f"{path}: [{name}] unknown key(s): {', '.join(unknown)}")
-    out = dict(defaults)
-    for key, value in given.items():
-        if type(value) is not type(defaults[key]) and not (
-            isinstance(defaults[key], float) and isinstance(value, int)
-        ):
-            expect = type(defaults[key]).__name__
-            raise SceneError(f"{path}: [{name}] {key}: expected {expect}, got {value!r}")
-        out[key] = value
-    return out
 
 
 def resolve(name):
@@ -102,11 +73,22 @@ def resolve(name):
 
 
 def load_scene(name):
+    """The scene ``name`` (a path or a shipped name), read and validated; or a SceneError."""
     path = resolve(name)
+    if not path.is_file():  # a directory, /dev/zero, a FIFO that would block the read
+        raise SceneError(f"{path}: not a scene file (a directory or a device)")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_SCENE_BYTES + 1)
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_SCENE_BYTES:
+        raise SceneError(f"{path}: not a scene: over {MAX_SCENE_BYTES >> 20} MB")
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise SceneError(f"{path}:{line}: not UTF-8 text ({exc.reason})") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{path}: cannot read: {exc}") from None
     return Scene(path, data)

@@ -19,21 +19,17 @@ class FaultSchedule:
 
     @classmethod
     def from_scene(cls, scene, emulator):
-        raw = scene.raw.get("sensor_fault", [])
-        events = []
-        for k, e in enumerate(raw):
-            kind = e.get("kind")
-            if kind not in KINDS:
-                raise scene.error(f"[[sensor_fault]] #{k + 1} kind", f"one of {', '.join(KINDS)}")
-            events.append(
-                {
-                    "at_us": int(float(e.get("at_s", 0)) * 1e6),
-                    "kind": kind,
-                    "sensor": int(e.get("sensor", 0)),
-                    "count": int(e.get("count", 3)),
-                    "for_us": int(float(e.get("for_s", 0.05)) * 1e6),
-                }
-            )
+        """The scene's ``[[sensor_fault]]`` tables (checked by ``scene_schema``), or None."""
+        events = [
+            {
+                "at_us": int(e["at_s"] * 1e6),
+                "kind": e["kind"],
+                "sensor": e["sensor"],
+                "count": e["count"],
+                "for_us": int(e["for_s"] * 1e6),
+            }
+            for e in scene.sensor_faults
+        ]
         return cls(events, emulator) if events else None
 
     def update(self, t_us):

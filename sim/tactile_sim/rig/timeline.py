@@ -10,7 +10,19 @@ tests).  Noise is left to the sensor model downstream.
 
 import numpy as np
 
-__all__ = ["timeline"]
+__all__ = ["timeline", "timeline_length"]
+
+
+def _spans(depth, gap, speed, hold, rest):
+    """Each touch's duration (s): in, hold, out at ``speed``, then rest."""
+    travel = gap + np.maximum(np.asarray(depth, float), 0.0)
+    return 2 * travel / speed + hold + rest
+
+
+def timeline_length(schedule, rate=1000.0, gap=0.002, speed=0.01, hold=0.05, rest=0.02):
+    """Rows ``timeline`` would return for these arguments, without building them."""
+    spans = _spans(schedule["depth"], gap, speed, hold, rest)
+    return int(np.sum(np.ceil(spans * rate)))
 
 
 def timeline(schedule, rate=1000.0, gap=0.002, speed=0.01, hold=0.05, rest=0.02):
@@ -23,10 +35,10 @@ def timeline(schedule, rate=1000.0, gap=0.002, speed=0.01, hold=0.05, rest=0.02)
     dt = 1.0 / rate
     t_all, F_all, M_all, idx_all, onset, release = [], [], [], [], [], []
     t0 = 0.0
+    spans = _spans(schedule["depth"], gap, speed, hold, rest)
     for i, depth in enumerate(schedule["depth"]):
         travel = gap + max(depth, 0.0)
-        t_move = travel / speed
-        span = 2 * t_move + hold + rest
+        span = spans[i]
         t = np.arange(int(np.ceil(span * rate))) * dt
         d = np.minimum(t, np.maximum(span - rest - t, 0.0))  # time spent moving in
         d = np.minimum(d * speed, travel) - gap  # depth profile

@@ -14,8 +14,6 @@ import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
-from tactile.errors import TactileError
-
 STEP_US = 2000
 
 
@@ -30,11 +28,10 @@ class Serial(SerialBase):
         from tactile_sim.emulator.device import EmulatedBoard
         from tactile_sim.emulator.link_faults import LinkFaults
 
-        try:
-            scene = load_scene(scene_name)
-            self.emulator = EmulatedBoard(scene)
-        except TactileError as exc:
-            raise SerialException(str(exc)) from None
+        # A bad scene raises its SceneError (a ValueError, as pyserial's bad settings do):
+        # the CLI reports it as bad input (exit 2), naming file, section and key.
+        scene = load_scene(scene_name)
+        self.emulator = EmulatedBoard(scene)
         self.faults = LinkFaults.from_scene(scene.link) if options["faults"] else None
         self.realtime = options["realtime"]
         self._buffer = bytearray()
