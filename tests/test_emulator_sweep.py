@@ -428,6 +428,13 @@ GOOD = "t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz\n"
         (GOOD + "0,10,0,0,0,0,1,0,0,0\n0,10,0,0,0,x,1,0,0,0\n", 3, "'pz': not a number"),
         (GOOD + "10,5,0,0,0,0,1,0,0,0\n", 2, "ends before"),
         (GOOD + "0,10,0.5,0,0,0,1,0,0,0\n", 2, "'finger': must be a whole number"),
+        # issue 12: once accepted with garbage ids after a cast warning
+        (GOOD + "0,10,1e19,0,0,0,1,0,0,0\n", 2, "'finger': must be a whole number in 0..2147"),
+        (GOOD + "1e308,2e308,0,0,0,0,1,0,0,0\n", 2, "'t_end_us': not a finite number"),
+        (GOOD + "1e308,1e308,0,0,0,0,1,0,0,0\n", 2, "'t_start_us': must be a whole number in 0..4"),
+        (GOOD + "0,4294967296,0,0,0,0,1,0,0,0\n", 2, "'t_end_us': must be a whole number in 0..42"),
+        (GOOD + "0,10,0,0,0,0,1e200,0,0,0\n", 2, "not unit length"),
+        ("\ufeff" + GOOD + "0,10,-1,0,0,0,1,0,0,0\n", 2, "'finger': must be a whole number"),
         (GOOD + "0,10,0,0,0,0,2,0,0,0\n", 2, "not unit length"),
         (GOOD + "0,10,0,0,0,0,1,0,0,0\n5,20,0,0,0,0,1,0,0,0\n", 3, "overlaps the one on line 2"),
         (GOOD + "0,10,0,0,0,0,1,0,0\n", 2, "'qz': missing value"),
