@@ -38,8 +38,9 @@ def test_reads_columns_skips_comments_and_ignores_extras(tmp_path):
         ("x,y,z\n1,2,3\n1,nan,3\n", r"data\.csv:3: column 'y': not a finite number"),
         ("x,y,z\n1,inf,3\n", r"data\.csv:2: column 'y': not a finite number"),
         ("x,y,z\n1,2\n", r"data\.csv:2: column 'z': missing value"),
-        ("", r"empty file"),
-        ("# only\nx,y,z\n", r"no data rows"),
+        ("", r"data\.csv:1: no header row \(the file is empty"),
+        ("# only\n\n", r"data\.csv:1: no header row"),
+        ("# only\nx,y,z\n", r"data\.csv:2: no data rows"),
     ],
 )
 def test_errors_name_file_line_and_column(tmp_path, text, expect):

@@ -57,6 +57,21 @@ class Table:
 
         return np.column_stack([np.asarray(self.columns[n], dtype=float) for n in names])
 
+    def within(self, names, limit):
+        """The named float columns as an (n, k) array, every |value| <= ``limit``, or
+        ``InputError`` naming the first offending line and column."""
+        import numpy as np
+
+        a = self.array(*names)
+        bad = np.argwhere(np.abs(a) > limit)
+        if bad.size:
+            i, j = (int(v) for v in bad[0])
+            raise InputError(
+                f"{where(self.path, self.lines[i], names[j])}: must be within +-{limit:g},"
+                f" got {float(a[i, j])!r}"
+            )
+        return a
+
     def whole(self, name, low=0, high=MAX_WHOLE):
         """The float column ``name`` as int64, every value a whole number in [low, high]
         (``high`` at most 2**53, where floats still hold every integer), or ``InputError``
@@ -94,7 +109,7 @@ def read_csv(path, required, optional_text=(), optional_float=()):
         try:
             header_line, header = next(rows)
         except StopIteration:
-            raise InputError(f"{path}: empty file, expected a header row") from None
+            raise InputError(_no_header(path)) from None
         index = _header_index(path, header_line, header, required)
         floats = [c for c in (*required, *optional_float) if c in index]
         texts = [c for c in optional_text if c in index]
@@ -113,7 +128,7 @@ def read_csv(path, required, optional_text=(), optional_float=()):
                 columns[name].append(_cell(path, line_no, name, row, index[name]))
             lines.append(line_no)
     if not lines:
-        raise InputError(f"{path}: no data rows after the header")
+        raise InputError(f"{where(path, header_line)}: no data rows after the header")
     return Table(path, columns, lines)
 
 
@@ -127,7 +142,11 @@ def preamble(path):
                 comments.append((line_no, s))
             elif s:
                 return comments, line_no, _parse_one(path, line_no, s)
-    raise InputError(f"{path}: empty file, expected a header row")
+    raise InputError(_no_header(path))
+
+
+def _no_header(path):
+    return f"{where(path, 1)}: no header row (the file is empty or only comments)"
 
 
 def comment_lines(path):

@@ -32,6 +32,8 @@ PROBE_TAG = "# probe:"
 HOLD_TAG = "# hold:"
 MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_PROBE = 2**31 - 1
+LIMIT = 1e6  # |value| of a length (m) or an angle (rad)
+MIN_RADIUS_M = 1e-6  # the fingertip's radius
 
 
 class ProbeLog(NamedTuple):
@@ -60,13 +62,14 @@ def _fields(path, line_no, tokens, tag):
     return out
 
 
-def _floats(path, line_no, key, text, n):
+def _floats(path, line_no, key, text, n, limit=LIMIT):
     try:
         values = [float(x) for x in text.split(",")]
     except ValueError:
         values = []
-    if len(values) != n or not all(np.isfinite(values)):
-        what = "a finite number" if n == 1 else f"{n} comma-separated finite numbers"
+    if len(values) != n or not all(abs(v) <= limit for v in values):
+        what = "a number" if n == 1 else f"{n} comma-separated numbers"
+        what += f" within +-{limit:g}"
         raise InputError(f"{where(path, line_no, key)}: expected {what}, got {show(text)}")
     return values
 
@@ -87,8 +90,10 @@ def _header(path):
         if key not in f:
             raise InputError(f"{where(path, line_no, key)}: missing in the '# probe:' line")
     (radius,) = _floats(path, line_no, "radius_m", f["radius_m"], 1)
-    if radius <= 0.0:
-        raise InputError(f"{where(path, line_no, 'radius_m')}: must be positive, got {radius!r}")
+    if radius < MIN_RADIUS_M:
+        raise InputError(
+            f"{where(path, line_no, 'radius_m')}: must be at least {MIN_RADIUS_M:g}, got {radius!r}"
+        )
     centre = _floats(path, line_no, "centre_m", f["centre_m"], 3)
     half = None
     hold = next(((i, t) for i, t in head if t.startswith(HOLD_TAG)), None)
@@ -96,7 +101,7 @@ def _header(path):
         h = _fields(path, hold[0], hold[1][len(HOLD_TAG) :].split(), HOLD_TAG)
         if "half_width_us" not in h:
             raise InputError(f"{where(path, hold[0], 'half_width_us')}: missing in '# hold:'")
-        (half,) = _floats(path, hold[0], "half_width_us", h["half_width_us"], 1)
+        (half,) = _floats(path, hold[0], "half_width_us", h["half_width_us"], 1, MAX_TIME_US)
         if half < 0.0:
             raise InputError(f"{where(path, hold[0], 'half_width_us')}: must be >= 0")
     return radius, np.array(centre), half
@@ -120,7 +125,7 @@ def read_probe_log(path):
         probe,
         t_start,
         t_end,
-        table.array("dtheta_x", "dtheta_y"),
+        table.within(("dtheta_x", "dtheta_y"), LIMIT),
         radius,
         centre,
         half,

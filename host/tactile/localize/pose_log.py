@@ -51,6 +51,8 @@ GENERIC = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy
 SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
 MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_FINGER = 2**31 - 1  # a sensor index (generic log) or a pass number (SCARA log)
+LIMIT = 1e6  # |value| of a position (m), angle (rad), length (m) or sensor noise (N, N*m)
+MIN_RADIUS_M = 1e-6  # a fingertip's radius
 
 # Largest rms error (deg) of a kept frame's normal when the log gives the sensor's noise.  At
 # the thesis's sensor noise a fingertip normal has ~6 deg at 5 N, so 10 deg keeps every frame
@@ -153,17 +155,18 @@ def read_pose_log(path):
     if kind == "pose":
         from tactile.localize.kinematics import pose_from_quaternion
 
-        q = table.array("qw", "qx", "qy", "qz")
-        norm = np.linalg.norm(np.clip(q, -2.0, 2.0), axis=1)  # clipped: no overflow, still not 1
+        q = table.within(("qw", "qx", "qy", "qz"), LIMIT)
+        norm = np.linalg.norm(q, axis=1)
         bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
         if bad.size:
             raise InputError(
                 f"{where(path, lines[bad[0]], 'qw')}: quaternion (qw,qx,qy,qz) is not unit"
                 f" length (|q| = {norm[bad[0]]:.6g})"
             )
-        log.R, log.t = pose_from_quaternion(table.array("px", "py", "pz"), q, scalar_first=True)
+        p = table.within(("px", "py", "pz"), LIMIT)
+        log.R, log.t = pose_from_quaternion(p, q, scalar_first=True)
     else:
-        log.joints = table.array("q1", "q2", "q3", "z")
+        log.joints = table.within(("q1", "q2", "q3", "z"), LIMIT)
         if "rig" in tags:
             log.lengths = _parse_rig(path, *tags["rig"])
     if "probe" in tags:
@@ -211,20 +214,20 @@ def _parse_probe(path, line, text):
             raise InputError(
                 f"{where(path, line)}: probe: {key}: not numbers: {show(value)}"
             ) from None
-        if v.size != need[key] or not np.all(np.isfinite(v)):
+        if v.size != need[key] or not np.all(np.abs(v) <= LIMIT):
             raise InputError(
-                f"{where(path, line)}: probe: {key}: need {need[key]} finite number(s), got"
-                f" {show(value)}"
+                f"{where(path, line)}: probe: {key}: need {need[key]} number(s) within"
+                f" +-{LIMIT:g}, got {show(value)}"
             )
         out[{"radius_m": "radius", "centre_m": "centre"}.get(key, key)] = (
             float(v[0]) if key == "radius_m" else v
         )
     if "radius" not in out or "centre" not in out:
         raise InputError(f"{where(path, line)}: probe: need radius_m=R and centre_m=cx,cy,cz")
-    if not out["radius"] > 0:
-        raise InputError(f"{where(path, line)}: probe: radius_m must be > 0")
-    if out["axis"] is not None and not np.max(np.abs(out["axis"])) > 0:
-        raise InputError(f"{where(path, line)}: probe: axis must not be zero")
+    if not out["radius"] >= MIN_RADIUS_M:
+        raise InputError(f"{where(path, line)}: probe: radius_m must be >= {MIN_RADIUS_M:g}")
+    if out["axis"] is not None and not np.max(np.abs(out["axis"])) >= 1e-6:
+        raise InputError(f"{where(path, line)}: probe: axis must not be (nearly) zero")
     return out
 
 
@@ -244,9 +247,10 @@ def _parse_sensor(path, line, text):
             raise InputError(
                 f"{where(path, line)}: sensor: {key}: not numbers: {show(value)}"
             ) from None
-        if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v < 0):
+        if v.size != 3 or not np.all((v >= 0) & (v <= LIMIT)):
             raise InputError(
-                f"{where(path, line)}: sensor: {key}: need 3 finite numbers >= 0, got {show(value)}"
+                f"{where(path, line)}: sensor: {key}: need 3 numbers >= 0 and <= {LIMIT:g}, got"
+                f" {show(value)}"
             )
         out[key] = v
     if len(out) != 2:
@@ -267,8 +271,8 @@ def _parse_rig(path, line, text):
         raise InputError(
             f"{where(path, line)}: rig: need 'scara L1=.. L2=.. L3=.. L4=..' (m), got {show(text)}"
         ) from None
-    if not all(np.isfinite(v) and v > 0 for v in lengths):
-        raise InputError(f"{where(path, line)}: rig: lengths must be finite and > 0")
+    if not all(0 < v <= LIMIT for v in lengths):
+        raise InputError(f"{where(path, line)}: rig: lengths must be > 0 and <= {LIMIT:g} m")
     return lengths
 
 
