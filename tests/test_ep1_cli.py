@@ -14,6 +14,9 @@ from tactile.ep1.probes_csv import format_probes, read_probes
 from tactile.errors import InputError
 from tactile_sim.ep1.probes import measure, sphere_plus_probes
 
+# issue 12: no numpy warning may reach a user of the CLI
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
 
 @pytest.fixture(autouse=True)
 def only_ep1_groups(monkeypatch):
