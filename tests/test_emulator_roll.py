@@ -269,6 +269,11 @@ COLS = "probe,t_start_us,t_end_us,dtheta_x,dtheta_y"
         ([HEAD, "probe,t_start_us,t_end_us,dtheta_x", "0,1,2,0.5"], 2, "dtheta_y"),
         ([HEAD, COLS, "0,1,2,0.5,0", "1,2,3,x,0"], 4, "dtheta_x"),
         ([HEAD, COLS, "0,1,2,0.5,0", "1.5,2,3,0.5,0"], 4, "probe"),
+        ([HEAD, COLS, "1e19,1,2,0.5,0"], 3, "'probe': must be a whole number in 0..2147483647"),
+        ([HEAD, COLS, "0,1e308,1e308,0.5,0"], 3, "'t_start_us': must be a whole number in 0.."),
+        ([HEAD, COLS, "0,1,2,1e300,0"], 3, "'dtheta_x': must be within +-1e+06"),
+        ([HEAD.replace("0.01", "1e-320"), COLS, "0,1,2,0.5,0"], 1, "radius_m"),
+        (["\ufeff" + HEAD, COLS, "0,1,2,0.5,0", "1,2,3,x,0"], 4, "dtheta_x"),  # Excel's BOM
         ([HEAD, "# hold: half_width_us=abc", COLS, "0,1,2,0.5,0"], 2, "half_width_us"),
         ([HEAD, COLS, "0,5,2,0.5,0"], 3, "t_end_us"),
     ],

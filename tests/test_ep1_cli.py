@@ -14,6 +14,9 @@ from tactile.ep1.probes_csv import format_probes, read_probes
 from tactile.errors import InputError
 from tactile_sim.ep1.probes import measure, sphere_plus_probes
 
+# issue 12: no numpy warning may reach a user of the CLI
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
 
 @pytest.fixture(autouse=True)
 def only_ep1_groups(monkeypatch):
@@ -173,3 +176,21 @@ def test_probe_csv_values_round_trip_exactly(tmp_path):
     path.write_text(format_probes(rows))
     th, dp = read_probes(path)
     np.testing.assert_array_equal(np.column_stack([th, dp]), rows)
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("scale", [1e-320, 1e-300, 1e300])
+def test_probes_at_the_floats_edges_print_no_nan(tmp_path, capsys, scale):
+    """Issue 12: du, dv of 1e-320 once printed kx: nan (1 / subnormal overflowed)."""
+    rows = measure(sphere_plus_probes(1.0, 2.0, 0.1), 1.0)
+    rows[:, 2:] *= scale
+    path = tmp_path / "edge.csv"
+    path.write_text(format_probes(rows))
+    code = main(["ep1", "estimate", str(path), "--finger-radius", "1"])
+    out, err = capsys.readouterr()
+    assert code in (0, 3) and "nan" not in (out + err).lower() and err.count("\n") <= 1
+    code = main(["ep1", "estimate", str(path), "--finger-radius", "1e-320"])
+    assert (
+        code == 2
+        and "--finger-radius: must be a number in [1e-300, 1e300]" in capsys.readouterr().err
+    )

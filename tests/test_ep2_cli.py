@@ -6,6 +6,9 @@ import pytest
 
 from tactile.cli.main import main
 
+# issue 12: no numpy warning may reach a user of the CLI
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
 
 @pytest.fixture
 def cyl_csv(tmp_path):

@@ -2,10 +2,13 @@
 
 import json
 import math
+import os
+import pathlib
 
 import numpy as np
 import pytest
 
+from tactile import tabular
 from tactile.errors import InputError
 from tactile.jsonout import clean, dumps
 from tactile.tabular import read_csv
@@ -35,8 +38,9 @@ def test_reads_columns_skips_comments_and_ignores_extras(tmp_path):
         ("x,y,z\n1,2,3\n1,nan,3\n", r"data\.csv:3: column 'y': not a finite number"),
         ("x,y,z\n1,inf,3\n", r"data\.csv:2: column 'y': not a finite number"),
         ("x,y,z\n1,2\n", r"data\.csv:2: column 'z': missing value"),
-        ("", r"empty file"),
-        ("# only\nx,y,z\n", r"no data rows"),
+        ("", r"data\.csv:1: no header row \(the file is empty"),
+        ("# only\n\n", r"data\.csv:1: no header row"),
+        ("# only\nx,y,z\n", r"data\.csv:2: no data rows"),
     ],
 )
 def test_errors_name_file_line_and_column(tmp_path, text, expect):
@@ -49,9 +53,9 @@ def test_unreadable_file_and_bad_encoding(tmp_path):
     with pytest.raises(InputError, match="cannot read"):
         read_csv(tmp_path / "missing.csv", REQ)
     path = tmp_path / "bin.csv"
-    path.write_bytes(b"x,y,z\n\xff\xfe,1,2\n")
-    with pytest.raises(InputError, match="not valid CSV"):
-        read_csv(path, REQ)
+    path.write_bytes(b"x,y,z\n1,2,3\n\xff\xfe,1,2\n")
+    with pytest.raises(InputError, match=r"bin\.csv:3: not UTF-8 text \(byte 0xff at byte 1"):
+        read_csv(path, REQ)  # at its own line (it was line 0)
 
 
 def test_json_never_contains_nan():
@@ -62,3 +66,85 @@ def test_json_never_contains_nan():
     assert clean((1, b"ab\x00")) == [1, "ab\x00"]
     with pytest.raises(TypeError):
         dumps({"x": object()})
+
+
+# -- issue 12: Excel files, bounded reading, user text in messages --------------------------
+
+
+def test_excel_csv_utf8_with_its_byte_order_mark_is_read(tmp_path):
+    path = tmp_path / "excel.csv"
+    path.write_bytes(b"\xef\xbb\xbfx,y,z\r\n1,2,3\r\n4,5,6\r\n")  # Excel's "CSV UTF-8"
+    table = read_csv(path, REQ)
+    assert table.lines == [2, 3]
+    np.testing.assert_array_equal(table.array(*REQ), [[1, 2, 3], [4, 5, 6]])
+
+
+@pytest.mark.parametrize("eol", [b"\n", b"\r\n", b"\r"])
+@pytest.mark.parametrize("chunk", [3, 7, 1 << 16])
+def test_line_endings_and_numbers_survive_any_chunking(tmp_path, monkeypatch, eol, chunk):
+    monkeypatch.setattr(tabular, "_CHUNK", chunk)  # lines and CR LF pairs cut across reads
+    rows = [b"# c", b"x,y,z", b"1,2,3", b"", b"4,5,6"]
+    path = tmp_path / "e.csv"
+    path.write_bytes(eol.join(rows) + eol)
+    table = read_csv(path, REQ)
+    assert table.lines == [3, 5]
+    np.testing.assert_array_equal(table.array(*REQ), [[1, 2, 3], [4, 5, 6]])
+
+
+def test_utf16_is_named_as_such(tmp_path):
+    path = tmp_path / "u16.csv"
+    path.write_bytes("x,y,z\n1,2,3\n".encode("utf-16"))
+    with pytest.raises(InputError, match=r"u16\.csv:1: UTF-16 text; save it as 'CSV UTF-8'"):
+        read_csv(path, REQ)
+
+
+def test_a_huge_line_is_refused_at_its_line_without_reading_it_all(tmp_path):
+    path = tmp_path / "long.csv"
+    path.write_bytes(b"x,y,z\n1,2,3\n" + b"7" * (tabular.MAX_LINE_BYTES + 1) + b",1,2\n")
+    with pytest.raises(InputError, match=r"long\.csv:3: line longer than 65536 bytes"):
+        read_csv(path, REQ)
+    path.write_bytes(b"x,y,z\n" + b"1" * (tabular.MAX_LINE_BYTES - 4) + b",2,3\n")  # at the limit
+    with pytest.raises(InputError, match=r"long\.csv:2: column 'x': not a finite number"):
+        read_csv(path, REQ)
+
+
+@pytest.mark.parametrize("what", ["device", "directory", "fifo"])
+def test_only_regular_files_are_read(tmp_path, what):
+    path = {"device": pathlib.Path("/dev/zero"), "directory": tmp_path}.get(what)
+    if path is None:
+        path = tmp_path / "pipe.csv"
+        os.mkfifo(path)  # opened without blocking: refused, not waited on
+    with pytest.raises(InputError, match="a CSV must be a regular file") as exc:
+        read_csv(path, REQ)
+    assert str(exc.value).startswith(f"{path}: ")
+
+
+def test_size_and_row_limits(tmp_path, monkeypatch):
+    path = _write(tmp_path, "x,y,z\n" + "1,2,3\n" * 5)
+    monkeypatch.setattr(tabular, "MAX_ROWS", 4)
+    with pytest.raises(InputError, match=r"data\.csv:6: more than 4 data rows"):
+        read_csv(path, REQ)
+    monkeypatch.setattr(tabular, "MAX_FILE_BYTES", 20)
+    with pytest.raises(InputError, match=r"data\.csv: larger than 0 MiB \(the limit"):
+        read_csv(path, REQ)
+
+
+def test_user_text_in_messages_is_escaped_and_cut(tmp_path):
+    path = _write(tmp_path, "x,y,z\n1,2,\x1b[2J" + "9" * 500 + "a\n")
+    with pytest.raises(InputError) as exc:
+        read_csv(path, REQ)
+    msg = str(exc.value)
+    assert "\x1b" not in msg and "\\x1b[2J" in msg and len(msg) < len(str(path)) + 120
+    path = _write(tmp_path, "a\x07,b\n1,2\n")
+    with pytest.raises(InputError, match=r"header has: 'a\\x07', b\)") as exc:
+        read_csv(path, REQ)
+
+
+@pytest.mark.parametrize("value", ["0.5", "-1", "1e19", "1e308", "8"])
+def test_whole_number_columns_are_range_checked(tmp_path, value):
+    table = read_csv(_write(tmp_path, f"x,y,z\n1,2,3\n{value},5,6\n"), REQ)
+    assert table.whole("y", 0, 7).tolist() == [2, 5]
+    with pytest.raises(InputError) as exc:
+        table.whole("x", 0, 7)
+    expect = f"data.csv:3: column 'x': must be a whole number in 0..7, got {float(value)!r}"
+    assert str(exc.value).endswith(expect)

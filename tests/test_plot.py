@@ -16,6 +16,9 @@ from scipy.interpolate import BSpline
 
 from tactile.ep2 import analyze_patch
 
+# issue 12: no numpy warning may reach a user of the CLI
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 XS = (-2.0, 0.0, 2.0)  # three fingers
 YS = np.linspace(0.0, 4.0, 6)  # six stops each

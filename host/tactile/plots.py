@@ -8,6 +8,7 @@ inside them, with the Agg backend; without it they raise ``PlotUnavailable``.
 
 import numpy as np
 
+from tactile.ep2 import extent
 from tactile.errors import InputError, TactileError
 
 __all__ = [
@@ -25,6 +26,8 @@ S_CMAP = "RdBu_r"  # diverging: convex (S > 0) red, saddle white, concave blue
 C_CMAP = "viridis"
 NORMAL_LENGTH = 0.15  # arrow length as a fraction of the contacts' largest extent
 SURFACE_SAMPLES = 25  # per direction, for drawing the fitted surface
+SMALLEST, LARGEST = 1e-4, 1e5  # spreads drawn in the input unit; others in a power of ten
+FAR = 1e12  # a box whose middle is this many spreads from 0 is drawn about that middle
 
 
 class PlotUnavailable(TactileError):
@@ -45,18 +48,52 @@ def require_matplotlib():
 
 def _contacts(points, normals):
     """Validated (n, 3) points and unit normals."""
+    from tactile.ep2.patch_frame import unit_normals
+
     pts = np.asarray(points, float)
     nrm = np.asarray(normals, float)
     if pts.ndim != 2 or pts.shape[1] != 3 or nrm.shape != pts.shape or not len(pts):
         raise InputError(f"points and normals must both be (n, 3); got {pts.shape}, {nrm.shape}")
-    length = np.linalg.norm(nrm, axis=1, keepdims=True)
-    if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm)) and np.all(length > 0)):
+    ok = np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm))
+    if not (ok and np.all(np.max(np.abs(nrm), axis=1) > 0)):
         raise InputError("points and normals must be finite, normals of non-zero length")
-    return pts, nrm / length
+    problem = extent.spread_problem(pts)
+    if problem is not None:
+        raise InputError(f"contact {problem[0]}: {problem[2]}")
+    return pts, unit_normals(nrm)
 
 
 def _span(points):
-    return float(max(np.ptp(points, axis=0).max(), 1e-12))
+    """Largest side of the points' box (at least 1e-300), without overflow."""
+    return float(max(2.0 * extent.box(points)[1].max(), extent.MIN_SPREAD))
+
+
+class _View:
+    """What is drawn: (p - origin) / unit.  Coordinates far from unit size are drawn in a
+    power-of-ten unit, and a box whose middle is over ``FAR`` spreads from 0 about that
+    middle; both are named on the axes.  matplotlib's 3-D projection and shading square
+    coordinates, which leave the float range beyond ~1e+-154."""
+
+    def __init__(self, points, span):
+        self.e = int(np.floor(np.log10(span)))
+        self.unit = 1.0 if SMALLEST <= span <= LARGEST else 10.0**self.e
+        middle = extent.box(np.asarray(points, float))[0]
+        self.origin = np.where(np.abs(middle) > FAR * span, middle, 0.0)
+
+    def __call__(self, p):
+        return (np.asarray(p, float) - self.origin) / self.unit
+
+    def length(self, v):
+        return np.asarray(v, float) / self.unit
+
+    def labels(self, names):
+        out = []
+        for name, o in zip(names, self.origin, strict=True):
+            text = f"{name} - {float(o)!r}" if o else name
+            if self.unit != 1.0:
+                text = f"({text}) / 1e{self.e}" if o else f"{text} / 1e{self.e}"
+            out.append(text)
+        return out
 
 
 def _equal_3d(ax, points, pad):
@@ -96,14 +133,16 @@ def plot_contacts(points, normals, path, finger=None, title=None):
     """Contact points with their normals in the input frame (fig. 39 ii)."""
     plt = require_matplotlib()
     pts, nrm = _contacts(points, normals)
-    length = NORMAL_LENGTH * _span(pts)
+    span = _span(pts)
+    view = _View(pts, span)
+    pts, length = view(pts), view.length(NORMAL_LENGTH * span)
     fig = plt.figure(figsize=(5.5, 5.0))
     ax = fig.add_subplot(projection="3d")
     _contacts_3d(ax, pts, nrm, finger, length)
-    _equal_3d(ax, np.vstack([pts, pts + nrm * length]), 0.05 * _span(pts))
+    _equal_3d(ax, np.vstack([pts, pts + nrm * length]), view.length(0.05 * span))
     if finger is not None:
         ax.legend(fontsize=7, loc="upper left")
-    ax.set(xlabel="x", ylabel="y", zlabel="z")
+    ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels("xyz"), strict=True)))
     ax.set_title(title or f"{len(pts)} contacts and normals", fontsize=10)
     return _save(plt, fig, path)
 
@@ -123,7 +162,11 @@ def plot_patch(result, points, normals, path, finger=None, title=None):
         np.linspace(x0, x1, SURFACE_SAMPLES), np.linspace(y0, y1, SURFACE_SAMPLES), indexing="ij"
     )
     gz = result.surface(np.column_stack([gx.ravel(), gy.ravel()])).reshape(gx.shape)
-    length = NORMAL_LENGTH * _span(pts)
+    span = _span(pts)
+    view = _View(pts, span)
+    pts, length = view(pts), view.length(NORMAL_LENGTH * span)
+    gx, gy, gz = np.moveaxis(view(np.stack([gx, gy, gz], axis=-1)), -1, 0)
+    net = None if net is None else view(net)
 
     fig = plt.figure(figsize=(6.0, 5.2))
     ax = fig.add_subplot(projection="3d")
@@ -136,8 +179,9 @@ def plot_patch(result, points, normals, path, finger=None, title=None):
         every.append(net.reshape(-1, 3))
     _contacts_3d(ax, pts, nrm, finger, length)
     every = np.vstack(every)
-    _equal_3d(ax, every, 0.05 * _span(pts))
-    ax.set(xlabel="patch x", ylabel="patch y", zlabel="patch z")
+    _equal_3d(ax, every, view.length(0.05 * span))
+    names = ("patch x", "patch y", "patch z")
+    ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels(names), strict=True)))
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7, loc="upper left")
     ax.set_title(title or _summary(result), fontsize=10)
@@ -179,13 +223,15 @@ def plot_maps(result, path, points=None, title=None):
     """
     plt = require_matplotlib()
     grids = map_grids(result)
-    x, y = grids["x"], grids["y"]
+    flat = np.column_stack([grids["x"].ravel(), grids["y"].ravel(), np.zeros(grids["x"].size)])
+    view = _View(flat, _span(flat))
+    x, y = (v.reshape(grids["x"].shape) for v in view(flat)[:, :2].T)
     fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.4), layout="constrained")
     panels = (
         ("S", "shape index S", dict(cmap=S_CMAP, vmin=-1.0, vmax=1.0)),
         ("C", "curvedness C = (2/pi) ln R", dict(cmap=C_CMAP)),
     )
-    xy = None if points is None else result.frame.to_patch(np.asarray(points, float))
+    xy = None if points is None else view(result.frame.to_patch(np.asarray(points, float)))
     for ax, (key, label, style) in zip(axes, panels, strict=True):
         values = grids[key]
         if values is None:
@@ -199,7 +245,8 @@ def plot_maps(result, path, points=None, title=None):
         if xy is not None:
             ax.plot(xy[:, 0], xy[:, 1], "k.", ms=3)
         ax.set_aspect("equal")
-        ax.set(xlabel="patch x", ylabel="patch y", title=label)
+        xlabel, ylabel, _ = view.labels(("patch x", "patch y", ""))
+        ax.set(xlabel=xlabel, ylabel=ylabel, title=label)
     n = x.shape[0]
     fig.suptitle(title or f"S and C on the {n}x{n} grid; {_summary(result)}", fontsize=10)
     return _save(plt, fig, path)

@@ -1,17 +1,47 @@
-"""Reading the project's CSV contracts (EP1 probes, EP2 contacts) with exact error locations.
+"""Reading the project's CSV files (EP2 contacts, pose logs, EP1 probes and probe logs).
 
-``read_csv`` returns float columns plus each row's source line number.
-Every error is an ``InputError`` whose message names file, line and column.
+This is the one place a CSV is read: ``read_csv`` for the rows, ``preamble`` and
+``comment_lines`` for the ``#`` lines some formats carry.  Every error is an ``InputError``
+(exit 2) whose one-line message names file, line and column.
+
+Limits (README, "Files the host reads"): a regular file (not a device, pipe or directory) of
+at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most ``MAX_ROWS`` data
+rows.  UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; lines end in
+LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.
 """
 
+import contextlib
 import csv
 import math
+import os
+import stat
+from array import array
 
 from tactile.errors import InputError, where
 
+__all__ = [
+    "MAX_FILE_BYTES",
+    "MAX_LINE_BYTES",
+    "MAX_ROWS",
+    "Table",
+    "comment_lines",
+    "preamble",
+    "read_csv",
+    "show",
+]
+
+MAX_LINE_BYTES = 64 * 1024
+MAX_FILE_BYTES = 64 * 1024 * 1024
+MAX_ROWS = 1_000_000
+MAX_WHOLE = 2**53  # the largest whole-number value a column may hold (floats are exact to it)
+SHOW_CHARS = 40  # of a cell or header quoted in a message
+
+_CHUNK = 1 << 16
+_BOM = b"\xef\xbb\xbf"
+
 
 class Table:
-    """Columns by name (lists of floats or strings) and the line each row came from."""
+    """Columns by name (float arrays or lists of strings) and the line each row came from."""
 
     def __init__(self, path, columns, lines):
         self.path = path
@@ -27,6 +57,47 @@ class Table:
 
         return np.column_stack([np.asarray(self.columns[n], dtype=float) for n in names])
 
+    def within(self, names, limit):
+        """The named float columns as an (n, k) array, every |value| <= ``limit``, or
+        ``InputError`` naming the first offending line and column."""
+        import numpy as np
+
+        a = self.array(*names)
+        bad = np.argwhere(np.abs(a) > limit)
+        if bad.size:
+            i, j = (int(v) for v in bad[0])
+            raise InputError(
+                f"{where(self.path, self.lines[i], names[j])}: must be within +-{limit:g},"
+                f" got {float(a[i, j])!r}"
+            )
+        return a
+
+    def whole(self, name, low=0, high=MAX_WHOLE):
+        """The float column ``name`` as int64, every value a whole number in [low, high]
+        (``high`` at most 2**53, where floats still hold every integer), or ``InputError``
+        naming the first offending line."""
+        import numpy as np
+
+        v = np.asarray(self.columns[name], dtype=float)
+        bad = np.flatnonzero((v != np.round(v)) | (v < low) | (v > high))
+        if bad.size:
+            i = int(bad[0])
+            raise InputError(
+                f"{where(self.path, self.lines[i], name)}: must be a whole number in"
+                f" {low}..{high}, got {float(v[i])!r}"
+            )
+        return v.astype(np.int64)
+
+
+def show(text, limit=SHOW_CHARS, quote=True):
+    """``text`` for a one-line message: quoted (or, with ``quote=False``, left bare when it
+    is printable), control characters escaped, long text cut."""
+    cut = len(text) > limit
+    text = text[:limit]
+    if quote or not text.isprintable():
+        text = repr(text)
+    return text + ("..." if cut else "")
+
 
 def read_csv(path, required, optional_text=(), optional_float=()):
     """Read ``path``: header row, ``#`` comment lines, unknown columns ignored.
@@ -34,41 +105,166 @@ def read_csv(path, required, optional_text=(), optional_float=()):
     ``required`` and ``optional_float`` columns must be finite numbers;
     ``optional_text`` columns are kept as stripped strings.
     """
-    try:
-        handle = open(path, newline="", encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
-    with handle:
-        rows = _data_rows(path, handle)
+    with contextlib.closing(_rows(path)) as rows:
         try:
             header_line, header = next(rows)
         except StopIteration:
-            raise InputError(f"{path}: empty file, expected a header row") from None
+            raise InputError(_no_header(path)) from None
         index = _header_index(path, header_line, header, required)
         floats = [c for c in (*required, *optional_float) if c in index]
         texts = [c for c in optional_text if c in index]
-        columns = {c: [] for c in (*floats, *texts)}
+        columns = {c: array("d") for c in floats}
+        columns.update({c: [] for c in texts})
         lines = []
         for line_no, row in rows:
+            if len(lines) == MAX_ROWS:
+                raise InputError(
+                    f"{where(path, line_no)}: more than {MAX_ROWS:,} data rows (the limit for"
+                    " one file; split it)"
+                )
             for name in floats:
                 columns[name].append(_number(path, line_no, name, row, index[name]))
             for name in texts:
                 columns[name].append(_cell(path, line_no, name, row, index[name]))
             lines.append(line_no)
     if not lines:
-        raise InputError(f"{path}: no data rows after the header")
+        raise InputError(f"{where(path, header_line)}: no data rows after the header")
     return Table(path, columns, lines)
 
 
-def _data_rows(path, handle):
-    reader = csv.reader(handle)
+def preamble(path):
+    """(``#`` lines before the header as [(line, stripped text)], header line, header row)."""
+    comments = []
+    with contextlib.closing(_text_lines(path)) as lines:
+        for line_no, text in lines:
+            s = text.strip()
+            if s.startswith("#"):
+                comments.append((line_no, s))
+            elif s:
+                return comments, line_no, _parse_one(path, line_no, s)
+    raise InputError(_no_header(path))
+
+
+def _no_header(path):
+    return f"{where(path, 1)}: no header row (the file is empty or only comments)"
+
+
+def comment_lines(path):
+    """Every ``#`` line of the file as [(line, stripped text)], in file order."""
+    with contextlib.closing(_text_lines(path)) as lines:
+        return [(n, t.strip()) for n, t in lines if t.lstrip().startswith("#")]
+
+
+# --- reading bytes into lines --------------------------------------------------------------
+
+
+def _open(path):
+    """A binary handle on a regular file within ``MAX_FILE_BYTES``, or ``InputError``.
+
+    Opened non-blocking, so a FIFO is refused instead of waiting for a writer."""
     try:
-        for row in reader:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    info = os.fstat(fd)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(fd)
+        what = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise InputError(f"{path}: {what} (a CSV must be a regular file)")
+    if info.st_size > MAX_FILE_BYTES:
+        os.close(fd)
+        raise InputError(_too_big(path))
+    return os.fdopen(fd, "rb")
+
+
+def _too_big(path):
+    return f"{path}: larger than {MAX_FILE_BYTES // 2**20} MiB (the limit for one file; split it)"
+
+
+def _text_lines(path):
+    """Yield (line number, text with its line ending) of every physical line, decoded.
+
+    At most ``MAX_LINE_BYTES`` per line and ``MAX_FILE_BYTES`` in all are ever held or read.
+    """
+    with _open(path) as fh:
+        carry, line_no, total = b"", 0, 0
+        while True:
+            chunk = fh.read(_CHUNK)
+            total += len(chunk)
+            if total > MAX_FILE_BYTES:
+                raise InputError(_too_big(path))
+            if total == len(chunk) and chunk.startswith((b"\xff\xfe", b"\xfe\xff")):
+                raise InputError(f"{where(path, 1)}: UTF-16 text; save it as 'CSV UTF-8'")
+            parts = (carry + chunk).splitlines(keepends=True)  # LF, CR LF or CR
+            # the last piece may be incomplete, or a CR whose LF is in the next chunk
+            carry = parts.pop() if chunk and parts else b""
+            for raw in parts:
+                line_no += 1
+                if len(raw) > MAX_LINE_BYTES and len(raw.rstrip(b"\r\n")) > MAX_LINE_BYTES:
+                    raise InputError(_too_long(path, line_no))
+                if line_no == 1 and raw.startswith(_BOM):
+                    raw = raw[len(_BOM) :]
+                yield line_no, _decode(path, line_no, raw)
+            if len(carry) > MAX_LINE_BYTES + 1:
+                raise InputError(_too_long(path, line_no + 1))
+            if not chunk:
+                return
+
+
+def _too_long(path, line_no):
+    return f"{where(path, line_no)}: line longer than {MAX_LINE_BYTES} bytes (the limit)"
+
+
+def _decode(path, line_no, raw):
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"{where(path, line_no)}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at byte"
+            f" {exc.start + 1} of the line); save it as 'CSV UTF-8'"
+        ) from None
+
+
+# --- lines into rows and cells -------------------------------------------------------------
+
+
+def _rows(path):
+    """Yield (line number, cells) of the header and data rows; blank and ``#`` lines skipped."""
+    with contextlib.closing(_text_lines(path)) as lines:
+        numbered = _Numbered(lines)
+        reader = csv.reader(numbered)
+        while True:
+            try:
+                row = next(reader)
+            except StopIteration:
+                return
+            except csv.Error as exc:
+                raise InputError(f"{where(path, numbered.line)}: not valid CSV: {exc}") from None
             if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
                 continue
-            yield reader.line_num, row
-    except (csv.Error, UnicodeDecodeError) as exc:
-        raise InputError(f"{where(path, reader.line_num)}: not valid CSV: {exc}") from None
+            yield numbered.line, row
+
+
+class _Numbered:
+    """Iterator over the text of (line, text) pairs that remembers the last line number."""
+
+    def __init__(self, lines):
+        self.lines = lines
+        self.line = 0
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        self.line, text = next(self.lines)
+        return text
+
+
+def _parse_one(path, line_no, text):
+    try:
+        return next(csv.reader([text]))
+    except csv.Error as exc:
+        raise InputError(f"{where(path, line_no)}: not valid CSV: {exc}") from None
 
 
 def _header_index(path, line_no, header, required):
@@ -77,9 +273,11 @@ def _header_index(path, line_no, header, required):
         index.setdefault(name.strip(), i)
     missing = [c for c in required if c not in index]
     if missing:
+        names = ", ".join(show(h.strip(), 20, quote=False) for h in header[:20])
+        more = f" and {len(header) - 20} more" if len(header) > 20 else ""
         raise InputError(
             f"{where(path, line_no)}: missing required column(s) {', '.join(missing)}"
-            f" (header has: {', '.join(h.strip() for h in header)})"
+            f" (header has: {names}{more})"
         )
     return index
 
@@ -95,7 +293,7 @@ def _number(path, line_no, name, row, i):
     try:
         value = float(text)
     except ValueError:
-        raise InputError(f"{where(path, line_no, name)}: not a number: {text!r}") from None
+        raise InputError(f"{where(path, line_no, name)}: not a number: {show(text)}") from None
     if not math.isfinite(value):
-        raise InputError(f"{where(path, line_no, name)}: not a finite number: {text!r}")
+        raise InputError(f"{where(path, line_no, name)}: not a finite number: {show(text)}")
     return value

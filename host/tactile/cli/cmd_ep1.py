@@ -26,8 +26,10 @@ def add_sensor_arguments(parser):
 
 
 def check_sensor_arguments(args):
-    if not (math.isfinite(args.finger_radius) and args.finger_radius > 0):
-        raise InputError(f"--finger-radius: must be a positive number, got {args.finger_radius}")
+    if not 1e-300 <= args.finger_radius <= 1e300:
+        raise InputError(
+            f"--finger-radius: must be a number in [1e-300, 1e300], got {args.finger_radius}"
+        )
     for name in ("resolution", "noise_theta"):
         value = getattr(args, name)
         if not (math.isfinite(value) and value >= 0):

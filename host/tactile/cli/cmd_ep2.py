@@ -78,6 +78,8 @@ def run(args):
             results = analyze_sweep(
                 g.points, g.normals, finger=g.finger, split=args.split, lines=g.lines, **opts
             )
+        except InputError as exc:  # a split part EP2 cannot represent (``ep2.extent``)
+            raise InputError(f"{args.file}: patch {name}: {exc}") from None
         except DataError as exc:
             if len(groups) == 1:
                 raise DataError(f"{args.file}: {exc}") from None

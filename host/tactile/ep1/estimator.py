@@ -161,6 +161,8 @@ def _solve_small(dtheta, dp, R1, u0):
     sa = max(map(abs, X + Y)) or 1.0
     fu, fv = R1, R1 * math.cos(u0)
     sb = max(max(map(abs, U)) * fu, max(map(abs, V)) * abs(fv)) or 1.0
+    # subnormal data (du ~ 1e-320) are scaled as if at 1e-300: 1 / 1e-320 is not a float
+    sa, sb = max(sa, 1e-300), max(sb, 1e-300)
     ia, fu, fv = 1.0 / sa, fu / sb, fv / sb
     P = [-y * ia for y in Y]
     Q = [x * ia for x in X]

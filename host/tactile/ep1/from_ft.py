@@ -23,12 +23,17 @@ from typing import NamedTuple
 import numpy as np
 
 from tactile.errors import InputError, where
+from tactile.tabular import comment_lines, show
 
 __all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
 
 LOG_COLUMNS = ("probe", "t_start_us", "t_end_us", "dtheta_x", "dtheta_y")
 PROBE_TAG = "# probe:"
 HOLD_TAG = "# hold:"
+MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
+MAX_PROBE = 2**31 - 1
+LIMIT = 1e6  # |value| of a length (m) or an angle (rad)
+MIN_RADIUS_M = 1e-6  # the fingertip's radius
 
 
 class ProbeLog(NamedTuple):
@@ -51,31 +56,26 @@ def _fields(path, line_no, tokens, tag):
         key, eq, value = token.partition("=")
         if not eq or not value:
             raise InputError(
-                f"{where(path, line_no)}: expected key=value in {tag!r}, got {token!r}"
+                f"{where(path, line_no)}: expected key=value in {tag!r}, got {show(token)}"
             )
         out[key] = value
     return out
 
 
-def _floats(path, line_no, key, text, n):
+def _floats(path, line_no, key, text, n, limit=LIMIT):
     try:
         values = [float(x) for x in text.split(",")]
     except ValueError:
         values = []
-    if len(values) != n or not all(np.isfinite(values)):
-        what = "a finite number" if n == 1 else f"{n} comma-separated finite numbers"
-        raise InputError(f"{where(path, line_no, key)}: expected {what}, got {text!r}")
+    if len(values) != n or not all(abs(v) <= limit for v in values):
+        what = "a number" if n == 1 else f"{n} comma-separated numbers"
+        what += f" within +-{limit:g}"
+        raise InputError(f"{where(path, line_no, key)}: expected {what}, got {show(text)}")
     return values
 
 
 def _header(path):
-    try:
-        with open(path, encoding="utf-8") as fh:
-            head = [
-                (i, line.strip()) for i, line in enumerate(fh, 1) if line.lstrip().startswith("#")
-            ]
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    head = comment_lines(path)
     probe = next(((i, t) for i, t in head if t.startswith(PROBE_TAG)), None)
     if probe is None:
         raise InputError(
@@ -84,14 +84,16 @@ def _header(path):
     line_no, text = probe
     tokens = text[len(PROBE_TAG) :].split()
     if tokens[:1] != ["sphere"]:
-        raise InputError(f"{where(path, line_no)}: the probe must be 'sphere', got {text!r}")
+        raise InputError(f"{where(path, line_no)}: the probe must be 'sphere', got {show(text)}")
     f = _fields(path, line_no, tokens[1:], PROBE_TAG)
     for key in ("radius_m", "centre_m"):
         if key not in f:
             raise InputError(f"{where(path, line_no, key)}: missing in the '# probe:' line")
     (radius,) = _floats(path, line_no, "radius_m", f["radius_m"], 1)
-    if radius <= 0.0:
-        raise InputError(f"{where(path, line_no, 'radius_m')}: must be positive, got {radius!r}")
+    if radius < MIN_RADIUS_M:
+        raise InputError(
+            f"{where(path, line_no, 'radius_m')}: must be at least {MIN_RADIUS_M:g}, got {radius!r}"
+        )
     centre = _floats(path, line_no, "centre_m", f["centre_m"], 3)
     half = None
     hold = next(((i, t) for i, t in head if t.startswith(HOLD_TAG)), None)
@@ -99,7 +101,7 @@ def _header(path):
         h = _fields(path, hold[0], hold[1][len(HOLD_TAG) :].split(), HOLD_TAG)
         if "half_width_us" not in h:
             raise InputError(f"{where(path, hold[0], 'half_width_us')}: missing in '# hold:'")
-        (half,) = _floats(path, hold[0], "half_width_us", h["half_width_us"], 1)
+        (half,) = _floats(path, hold[0], "half_width_us", h["half_width_us"], 1, MAX_TIME_US)
         if half < 0.0:
             raise InputError(f"{where(path, hold[0], 'half_width_us')}: must be >= 0")
     return radius, np.array(centre), half
@@ -112,25 +114,18 @@ def read_probe_log(path):
 
     radius, centre, half = _header(path)
     table = read_csv(path, LOG_COLUMNS)
-    data = table.array(*LOG_COLUMNS)
-    for k, name in enumerate(LOG_COLUMNS[:3]):
-        bad = (data[:, k] != np.round(data[:, k])) | (data[:, k] < 0)
-        if bad.any():
-            line = table.lines[int(np.argmax(bad))]
-            text = float(data[int(np.argmax(bad)), k])
-            raise InputError(
-                f"{where(path, line, name)}: expected a whole number >= 0, got {text!r}"
-            )
-    late = data[:, 2] < data[:, 1]
+    probe = table.whole("probe", 0, MAX_PROBE)
+    t_start, t_end = (table.whole(c, 0, MAX_TIME_US) for c in ("t_start_us", "t_end_us"))
+    late = t_end < t_start
     if late.any():
         line = table.lines[int(np.argmax(late))]
         raise InputError(f"{where(path, line, 't_end_us')}: before t_start_us")
     return ProbeLog(
         str(path),
-        data[:, 0].astype(np.int64),
-        data[:, 1].astype(np.int64),
-        data[:, 2].astype(np.int64),
-        data[:, 3:5].copy(),
+        probe,
+        t_start,
+        t_end,
+        table.within(("dtheta_x", "dtheta_y"), LIMIT),
         radius,
         centre,
         half,

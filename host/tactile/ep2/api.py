@@ -19,12 +19,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2 import centre_jet, centre_result, discontinuity, patch_frame
+from tactile.ep2 import centre_jet, centre_result, discontinuity, extent, patch_frame
 from tactile.ep2.centre_result import hk_eps
 from tactile.ep2.shape_index import hk_labels
 from tactile.errors import DataError, InputError
 
 METHODS = ("jet", "spline")
+MAX_GRID = 256  # analysis grid N x N: memory grows as N^2
+MAX_SEGMENTS = 64  # spline segments per direction
+MAX_NOISE_SPREADS = 1e6  # a position noise beyond this many spreads leaves no shape to fit
 WEIGHTINGS = ("auto", "tangent", "position")
 JSON_KEYS = (
     "n_points method model shape confidence S k1 k2 radius C S_interval k1_interval k2_interval"
@@ -150,8 +153,10 @@ def analyze_patch(
     Raises ``InputError`` for malformed input and ``DataError`` when the
     contacts do not determine the curvature (the message says why).
     """
-    pts, nrm = _validate(points, normals, method, weighting)
+    pts, nrm = _validate(points, normals, method, weighting, lines)
+    _check_options(pts, noise_pos, noise_normal, grid, segments, max_normal_angle, break_angle)
     pts, nrm, finger, lines, dropped = _drop_duplicates(pts, nrm, finger, lines)
+    pts, middle = extent.centred(pts)  # the frame's origin moves back in ``_result``
     breaks = discontinuity.find_breaks(nrm, finger, break_angle)
     opts = dict(
         order=2 if order is None else order,
@@ -175,7 +180,7 @@ def analyze_patch(
         if order not in (None, centre_jet.ORDER):
             raise InputError(f"the jet order is {centre_jet.ORDER}; --order is for method spline")
         out = _analyze_jet(pts, nrm, opts)
-    return _result(out, len(pts), method, maps, breaks, dropped)
+    return _result(out, len(pts), method, maps, breaks, dropped, middle)
 
 
 def _analyze_jet(pts, nrm, opts):
@@ -244,11 +249,17 @@ def _model_text(score, model):
     return f"{names[model]}: chi2 + 2 dof {lead:.3g} below the {names[runner]}"
 
 
-def _result(out, n, method, maps, breaks, dropped):
+def _result(out, n, method, maps, breaks, dropped, middle):
     """PatchResult from the method's fields: direction, HK label, warnings, maps."""
     L = out["scale"]
-    eps = hk_eps(out["k1_interval"], out["k2_interval"], out["k1"], out["k2"])
-    K, H = out["k1"] * out["k2"], 0.5 * (out["k1"] + out["k2"])
+    # HK label in units of the patch (K of 1/L^2 leaves the float range beyond L ~ 1e+-154)
+    k1, k2 = out["k1"] * L, out["k2"] * L
+    iv1, iv2 = (
+        None if v is None else tuple(x * L for x in v)
+        for v in (out["k1_interval"], out["k2_interval"])
+    )
+    eps = hk_eps(iv1, iv2, k1, k2)
+    K, H = k1 * k2, 0.5 * (k1 + k2)
     warnings = [f"{dropped} duplicated row(s) counted once"] if dropped else []
     warnings += out.get("warnings", [])
     warnings += [f"normals turn {a:.0f} deg at row {r} (finger {f})" for r, f, a in breaks]
@@ -280,7 +291,7 @@ def _result(out, n, method, maps, breaks, dropped):
         warnings=warnings,
         discontinuities=breaks,
         maps=grid_maps,
-        frame=out["frame"],
+        frame=patch_frame.PatchFrame(out["frame"].origin + middle, out["frame"].rot),
         scale=L,
         surface_fn=out["surface"],
         fit=out.get("fit"),
@@ -288,7 +299,7 @@ def _result(out, n, method, maps, breaks, dropped):
     )
 
 
-def _validate(points, normals, method, weighting):
+def _validate(points, normals, method, weighting, lines=None):
     if method not in METHODS:
         raise InputError(f"unknown method {method!r} (choose {', '.join(METHODS)})")
     if weighting not in WEIGHTINGS:
@@ -301,7 +312,35 @@ def _validate(points, normals, method, weighting):
         raise InputError(f"points and normals must both be (n, 3); got {pts.shape} and {nrm.shape}")
     if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm))):
         raise InputError("points and normals must be finite numbers")
+    problem = extent.spread_problem(pts)
+    if problem is not None:
+        row, axis, why = problem
+        at = f"contact {row}" if lines is None else f"line {lines[row]}"
+        raise InputError(f"{at}: column '{extent.AXES[axis]}': {why}")
     return pts, patch_frame.unit_normals(nrm)
+
+
+def _check_options(pts, noise_pos, noise_normal, grid, segments, max_angle, break_angle):
+    """Numbers the fit can use, or ``InputError`` naming the keyword and its CLI option."""
+
+    def refuse(name, rule, value):
+        option = "--" + name.replace("_", "-")
+        return InputError(f"{name} ({option}): must be {rule}, got {value!r}")
+
+    top = MAX_NOISE_SPREADS * 2.0 * float(extent.box(pts)[1].max())
+    if noise_pos is not None and not 0.0 <= noise_pos <= top:
+        rule = f"a number >= 0 and at most {MAX_NOISE_SPREADS:g} contact spreads ({top:.3g})"
+        raise refuse("noise_pos", rule, noise_pos)
+    if noise_normal is not None and not 0.0 <= noise_normal <= np.pi:
+        raise refuse("noise_normal", "a number of rad in [0, pi]", noise_normal)
+    if not 0.0 < max_angle <= 90.0:
+        raise refuse("max_normal_angle", "a number of deg in (0, 90]", max_angle)
+    if not 0.0 <= break_angle <= 180.0:
+        raise refuse("break_angle", "a number of deg in [0, 180]", break_angle)
+    if not 2 <= grid <= MAX_GRID:
+        raise refuse("grid", f"a whole number in 2..{MAX_GRID}", grid)
+    if not all(1 <= n <= MAX_SEGMENTS for n in np.atleast_1d(segments)):
+        raise refuse("segments", f"a whole number in 1..{MAX_SEGMENTS}", segments)
 
 
 def _drop_duplicates(pts, nrm, finger, lines):

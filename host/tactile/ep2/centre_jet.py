@@ -437,7 +437,11 @@ def _tensor(coef, pinv):
     """t (B, 3) at the origin and dt / d(weighted data) (B, 3, m), by complex step."""
     ch = coef[:, list(jet_basis.CHANNELS)]
     steps = ch[:, None, :] + 1j * 1e-20 * np.eye(5)[None]  # (B, 5 copies, 5 channels)
-    a, b, c = shape_entries(*np.moveaxis(steps, -1, 0))
+    # a patch its contacts do not determine (one line) can carry astronomically large
+    # coefficients, whose squares leave the float range: ``centre_result.determination``
+    # refuses it from its spread and covariance; the other patches of the batch are exact
+    with np.errstate(over="ignore", invalid="ignore"):
+        a, b, c = shape_entries(*np.moveaxis(steps, -1, 0))
     t = np.stack([a[:, 0].real, b[:, 0].real, c[:, 0].real], axis=1)
     J = np.stack([a.imag, b.imag, c.imag], axis=1) / 1e-20  # (B, 3, 5)
     return t, J @ pinv[:, list(jet_basis.CHANNELS), :]

@@ -261,16 +261,22 @@ def grid_statistics(channels, scale, plane):
 
 
 def maps(channels, gx, gy, scale, plane, hk_eps):
-    """Grid maps in input units: k1, k2, H, K, HK labels; S, S regions, C unless a plane."""
+    """Grid maps in input units: k1, k2, H, K, HK labels; S, S regions, C unless a plane.
+
+    ``hk_eps`` (K, H) zero bands in units of the patch (1/L^2, 1/L): labels, S and C come
+    from the curvatures in those units, so no square of a curvature leaves the float range;
+    ``K`` itself is +-inf where |K| exceeds it (L under ~1e-154)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        k1, k2 = (v / scale for v in eigen(*shape_entries(*channels)))
+        k1, k2 = eigen(*shape_entries(*channels))
     H, K = 0.5 * (k1 + k2), k1 * k2
-    out = {"x": gx * scale, "y": gy * scale, "k1": k1, "k2": k2, "H": H, "K": K}
+    out = {"x": gx * scale, "y": gy * scale, "k1": k1 / scale, "k2": k2 / scale, "H": H / scale}
+    with np.errstate(over="ignore", under="ignore"):
+        out["K"] = K / scale / scale
     out["hk"] = hk_labels(K, H, hk_eps[0], hk_eps[1])
     if not plane:
         s = shape_index(k1, k2)
         r = curvedness_r(k1, k2)
-        safe = np.where(r > 0, r, 1.0)
+        safe = np.where(r > 0, r, 1.0) / scale
         out.update(S=s, S_region=s_region_map(s), C=np.where(r > 0, curvedness_c(safe), np.nan))
     return out
 

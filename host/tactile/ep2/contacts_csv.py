@@ -11,8 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tactile.ep2 import extent
 from tactile.errors import InputError, where
-from tactile.tabular import read_csv
+from tactile.tabular import read_csv, show
 
 REQUIRED = ("x", "y", "z", "nx", "ny", "nz")
 
@@ -33,14 +34,13 @@ def read_contacts(path):
     table = read_csv(path, REQUIRED, optional_text=("finger", "patch"))
     pts = table.array("x", "y", "z")
     nrm = table.array("nx", "ny", "nz")
-    length = np.linalg.norm(nrm, axis=1)
-    bad = np.flatnonzero(~(length > 0))
+    bad = np.flatnonzero(~(np.max(np.abs(nrm), axis=1) > 0))
     if bad.size:
         raise InputError(f"{where(path, table.lines[bad[0]], 'nx')}: zero-length normal (nx,ny,nz)")
     finger = table.columns.get("finger")
     patch = table.columns.get("patch")
     if patch is None:
-        return [Contacts(None, pts, nrm, finger, list(table.lines))]
+        return _checked(path, [Contacts(None, pts, nrm, finger, list(table.lines))])
     out = []
     for name in dict.fromkeys(patch):
         rows = [i for i, p in enumerate(patch) if p == name]
@@ -53,4 +53,16 @@ def read_contacts(path):
                 [table.lines[i] for i in rows],
             )
         )
-    return out
+    return _checked(path, out)
+
+
+def _checked(path, groups):
+    """Refuse a patch whose coordinates EP2 cannot represent (``extent``), at the row
+    that sets its spread."""
+    for g in groups:
+        problem = extent.spread_problem(g.points)
+        if problem is not None:
+            row, axis, why = problem
+            name = "" if g.patch is None else f"patch {show(g.patch)}: "
+            raise InputError(f"{where(path, g.lines[row], extent.AXES[axis])}: {name}{why}")
+    return groups

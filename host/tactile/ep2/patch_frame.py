@@ -42,13 +42,17 @@ class PatchFrame:
 
 
 def unit_normals(normals):
-    """Normalise rows; zero-length rows raise ``DataError`` naming the row index."""
+    """Normalise rows; zero-length rows raise ``DataError`` naming the row index.
+
+    A row far from unit length (1e-300 or 1e300) is first divided by its largest component,
+    so the squares in its norm neither overflow nor underflow."""
     n = np.asarray(normals, float)
-    length = np.linalg.norm(n, axis=1)
-    bad = np.flatnonzero(~(length > 0))
+    big = np.max(np.abs(n), axis=1) if n.size else np.zeros(len(n))
+    bad = np.flatnonzero(~(big > 0))
     if bad.size:
         raise DataError(f"normal of contact {bad[0]} has zero length")
-    return n / length[:, None]
+    n = np.where(((big > 1e-100) & (big < 1e100))[:, None], n, n / big[:, None])
+    return n / np.linalg.norm(n, axis=1)[:, None]
 
 
 def frame_from_contacts(points, normals):

@@ -36,6 +36,7 @@ import numpy as np
 
 from tactile.errors import InputError, where
 from tactile.localize.contact import NO_CONTACT
+from tactile.tabular import show
 
 __all__ = [
     "PoseLog",
@@ -48,6 +49,10 @@ __all__ = [
 
 GENERIC = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
 SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
+MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
+MAX_FINGER = 2**31 - 1  # a sensor index (generic log) or a pass number (SCARA log)
+LIMIT = 1e6  # |value| of a position (m), angle (rad), length (m) or sensor noise (N, N*m)
+MIN_RADIUS_M = 1e-6  # a fingertip's radius
 
 # Largest rms error (deg) of a kept frame's normal when the log gives the sensor's noise.  At
 # the thesis's sensor noise a fingertip normal has ~6 deg at 5 N, so 10 deg keeps every frame
@@ -128,6 +133,7 @@ def read_pose_log(path):
 
     tags, header_line, header = _scan(path)
     names = {h.strip() for h in header}
+    shown = ",".join(show(h.strip(), 20, False) for h in header[:20])
     if set(GENERIC) <= names:
         kind, cols = "pose", GENERIC
     elif set(SCARA) <= names:
@@ -135,28 +141,21 @@ def read_pose_log(path):
     else:
         raise InputError(
             f"{where(path, header_line)}: expected columns {','.join(GENERIC)} (or the SCARA"
-            f" log's {','.join(SCARA)}); header has: {','.join(h.strip() for h in header)}"
+            f" log's {','.join(SCARA)}); header has: {shown}"
         )
     table = read_csv(path, cols)
     lines = list(table.lines)
-    a = table.array("t_start_us", "t_end_us", "finger")
-    for c, name in enumerate(("t_start_us", "t_end_us", "finger")):
-        bad = np.flatnonzero((a[:, c] != np.round(a[:, c])) | (a[:, c] < 0))
-        if bad.size:
-            raise InputError(
-                f"{where(path, lines[bad[0]], name)}: must be a whole number >= 0,"
-                f" got {a[bad[0], c]!r}"
-            )
-    bad = np.flatnonzero(a[:, 1] < a[:, 0])
+    t_start, t_end = (table.whole(c, 0, MAX_TIME_US) for c in ("t_start_us", "t_end_us"))
+    finger = table.whole("finger", 0, MAX_FINGER)
+    bad = np.flatnonzero(t_end < t_start)
     if bad.size:
         raise InputError(f"{where(path, lines[bad[0]], 't_end_us')}: ends before t_start_us")
-    log = PoseLog(str(path), kind, a[:, 0].astype(np.int64), a[:, 1].astype(np.int64),
-                  a[:, 2].astype(int), lines)  # fmt: skip
+    log = PoseLog(str(path), kind, t_start, t_end, finger, lines)
     _check_overlap(log)
     if kind == "pose":
         from tactile.localize.kinematics import pose_from_quaternion
 
-        q = table.array("qw", "qx", "qy", "qz")
+        q = table.within(("qw", "qx", "qy", "qz"), LIMIT)
         norm = np.linalg.norm(q, axis=1)
         bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
         if bad.size:
@@ -164,9 +163,10 @@ def read_pose_log(path):
                 f"{where(path, lines[bad[0]], 'qw')}: quaternion (qw,qx,qy,qz) is not unit"
                 f" length (|q| = {norm[bad[0]]:.6g})"
             )
-        log.R, log.t = pose_from_quaternion(table.array("px", "py", "pz"), q, scalar_first=True)
+        p = table.within(("px", "py", "pz"), LIMIT)
+        log.R, log.t = pose_from_quaternion(p, q, scalar_first=True)
     else:
-        log.joints = table.array("q1", "q2", "q3", "z")
+        log.joints = table.within(("q1", "q2", "q3", "z"), LIMIT)
         if "rig" in tags:
             log.lengths = _parse_rig(path, *tags["rig"])
     if "probe" in tags:
@@ -182,61 +182,52 @@ def log_columns(path):
 
 
 def _scan(path):
-    """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor), the header's
-    line number and the header row."""
-    import csv
+    """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor) before the
+    header, the header's line number and the header row."""
+    from tactile.tabular import preamble
 
+    comments, header_line, header = preamble(path)
     tags = {}
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            for no, text in enumerate(fh, start=1):
-                s = text.strip()
-                if not s:
-                    continue
-                if s.startswith("#"):
-                    tag, colon, body = s[1:].partition(":")
-                    if colon and tag.strip() in ("probe", "rig", "sensor"):
-                        tags[tag.strip()] = (no, body.strip())
-                    continue
-                return tags, no, next(csv.reader([s]))
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(f"{path}: not UTF-8 text: {exc.reason}") from None
-    raise InputError(f"{path}: empty file, expected a header row")
+    for no, s in comments:
+        tag, colon, body = s[1:].partition(":")
+        if colon and tag.strip() in ("probe", "rig", "sensor"):
+            tags[tag.strip()] = (no, body.strip())
+    return tags, header_line, header
 
 
 def _parse_probe(path, line, text):
     words = text.split()
     if not words or words[0] != "sphere":
-        raise InputError(f"{where(path, line)}: probe: only 'sphere' is known, got {text!r}")
+        raise InputError(f"{where(path, line)}: probe: only 'sphere' is known, got {show(text)}")
     out = {"axis": None}
     need = {"radius_m": 1, "centre_m": 3, "axis": 3}
     for word in words[1:]:
         key, eq, value = word.partition("=")
         if key not in need or not eq:
             raise InputError(
-                f"{where(path, line)}: probe: unknown field {word!r}"
+                f"{where(path, line)}: probe: unknown field {show(word)}"
                 " (radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az])"
             )
         try:
             v = np.array([float(x) for x in value.split(",")])
         except ValueError:
-            raise InputError(f"{where(path, line)}: probe: {key}: not numbers: {value!r}") from None
-        if v.size != need[key] or not np.all(np.isfinite(v)):
             raise InputError(
-                f"{where(path, line)}: probe: {key}: need {need[key]} finite number(s), got"
-                f" {value!r}"
+                f"{where(path, line)}: probe: {key}: not numbers: {show(value)}"
+            ) from None
+        if v.size != need[key] or not np.all(np.abs(v) <= LIMIT):
+            raise InputError(
+                f"{where(path, line)}: probe: {key}: need {need[key]} number(s) within"
+                f" +-{LIMIT:g}, got {show(value)}"
             )
         out[{"radius_m": "radius", "centre_m": "centre"}.get(key, key)] = (
             float(v[0]) if key == "radius_m" else v
         )
     if "radius" not in out or "centre" not in out:
         raise InputError(f"{where(path, line)}: probe: need radius_m=R and centre_m=cx,cy,cz")
-    if not out["radius"] > 0:
-        raise InputError(f"{where(path, line)}: probe: radius_m must be > 0")
-    if out["axis"] is not None and not np.linalg.norm(out["axis"]) > 0:
-        raise InputError(f"{where(path, line)}: probe: axis must not be zero")
+    if not out["radius"] >= MIN_RADIUS_M:
+        raise InputError(f"{where(path, line)}: probe: radius_m must be >= {MIN_RADIUS_M:g}")
+    if out["axis"] is not None and not np.max(np.abs(out["axis"])) >= 1e-6:
+        raise InputError(f"{where(path, line)}: probe: axis must not be (nearly) zero")
     return out
 
 
@@ -247,18 +238,19 @@ def _parse_sensor(path, line, text):
         key, eq, value = word.partition("=")
         if key not in ("noise_force_N", "noise_torque_Nm") or not eq:
             raise InputError(
-                f"{where(path, line)}: sensor: unknown field {word!r}"
+                f"{where(path, line)}: sensor: unknown field {show(word)}"
                 " (noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz)"
             )
         try:
             v = np.array([float(x) for x in value.split(",")])
         except ValueError:
             raise InputError(
-                f"{where(path, line)}: sensor: {key}: not numbers: {value!r}"
+                f"{where(path, line)}: sensor: {key}: not numbers: {show(value)}"
             ) from None
-        if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v < 0):
+        if v.size != 3 or not np.all((v >= 0) & (v <= LIMIT)):
             raise InputError(
-                f"{where(path, line)}: sensor: {key}: need 3 finite numbers >= 0, got {value!r}"
+                f"{where(path, line)}: sensor: {key}: need 3 numbers >= 0 and <= {LIMIT:g}, got"
+                f" {show(value)}"
             )
         out[key] = v
     if len(out) != 2:
@@ -271,16 +263,16 @@ def _parse_sensor(path, line, text):
 def _parse_rig(path, line, text):
     words = text.split()
     if not words or words[0] != "scara":
-        raise InputError(f"{where(path, line)}: rig: only 'scara' is known, got {text!r}")
+        raise InputError(f"{where(path, line)}: rig: only 'scara' is known, got {show(text)}")
     kv = dict(w.partition("=")[::2] for w in words[1:])
     try:
         lengths = tuple(float(kv[k]) for k in ("L1", "L2", "L3", "L4"))
     except (KeyError, ValueError):
         raise InputError(
-            f"{where(path, line)}: rig: need 'scara L1=.. L2=.. L3=.. L4=..' (m), got {text!r}"
+            f"{where(path, line)}: rig: need 'scara L1=.. L2=.. L3=.. L4=..' (m), got {show(text)}"
         ) from None
-    if not all(np.isfinite(v) and v > 0 for v in lengths):
-        raise InputError(f"{where(path, line)}: rig: lengths must be finite and > 0")
+    if not all(0 < v <= LIMIT for v in lengths):
+        raise InputError(f"{where(path, line)}: rig: lengths must be > 0 and <= {LIMIT:g} m")
     return lengths
 
 
