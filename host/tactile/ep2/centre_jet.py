@@ -105,6 +105,7 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     models = [quad, rnd]  # + quadric 2- and 4-jets by AIC: tried, see _finish
     frame = (L, O, M)
     out = _finish(models, rows, mask, sig, dof, frame, (noise_pos, noise_normal), reason)
+    out.bias = _truncation(out, _quadric(_rows(p, nrm, mask, sig, geo, ORDER + 1)), rows, sig, dof)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xy_mean, out.mean_axes = xy_mean, mean_axes
     return out
@@ -532,6 +533,27 @@ def _finish(models, rows, mask, sig, dof, frame, stated, reason):
         reason=reason,
         split=(),
     )
+
+
+def _truncation(fits, quartic, rows, sig, dof):
+    """The bias vector for the intervals: the model-choice one, or the 3-jet's truncation
+    as the 4-jet sees it, whichever is larger.  The difference d = t_4 - t is shrunk by its
+    own noise, max(0, 1 - 3 v / |d|^2) with v = tr Cov(t_4) - tr Cov(t) (under no bias
+    |d|^2 ~ v chi^2_3 / 3: kept in ~3 % of noise-only draws), so it only widens where the
+    4-jet sees a curvature the 3-jet misses (strongly curved, tilted height fields).
+    Nothing where the layout does not determine the 4-jet, nor for the round model (the
+    closed form holds every even order of a sphere or cylinder, which a 4-jet truncates)."""
+    t4, G = _tensor(quartic.sol.coef, quartic.sol.pinv)
+    raw4 = _cov(G, rows, quartic.sol.rss, quartic.sol.rank, sig, dof)[2]
+    d = np.where(np.isfinite(t4), t4 - fits.t, 0.0)
+    v = np.maximum(np.trace(raw4, axis1=1, axis2=2) - np.trace(fits.cov_noise, axis1=1, axis2=2), 0)
+    size = np.sum(d * d, axis=1)
+    keep = np.maximum(1.0 - 3.0 * v / np.where(size > 0, size, np.inf), 0.0)
+    full = quartic.sol.rank == quartic.sol.coef.shape[1]
+    keep = np.where(full & (fits.model == 0), keep, 0.0)  # round: exact where 4-jets are not
+    trunc = keep[:, None] * d
+    larger = np.sum(trunc * trunc, axis=1) > np.sum(fits.bias * fits.bias, axis=1)
+    return np.where(larger[:, None], trunc, fits.bias)
 
 
 def _pad(coef, width):
