@@ -1,6 +1,7 @@
 """Property-based tests of the protocol (hypothesis): identity, damage tolerance, range checks."""
 
 import pytest
+from conftest import FUZZ_SCALE
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -94,7 +95,9 @@ def _damage(frame, kind, data):
     return frame[:i] + frame[i + 1 :]
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    max_examples=300 * FUZZ_SCALE, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(st.data())
 def test_damage_loses_only_damaged_frames(data):
     """Garbage between frames and damaged frames: never raises, delivers every intact frame.
@@ -129,7 +132,7 @@ def test_damage_loses_only_damaged_frames(data):
     assert decoder.pending_bytes <= 251
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200 * FUZZ_SCALE, deadline=None)
 @given(st.binary(max_size=3000))
 def test_arbitrary_bytes_never_raise(blob):
     decoder = StreamDecoder()
