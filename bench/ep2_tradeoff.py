@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from tactile.ep2 import analyze_patch, centre_jet
+from tactile.errors import DataError
 from tactile_sim.ep2 import cases
 
 FAMILIES = ("sphere r=4 ", "sphere r=10 ", "cylinder r=3 ", "cylinder r=10 ", "saddle r=10 ")
@@ -54,15 +55,21 @@ def run(trials, noise):
         saved = {k: getattr(centre_jet, k) for k in consts}
         for k, v in consts.items():
             setattr(centre_jet, k, v)
-        err, t_used = [], 0.0
+        err, t_used, refused = [], 0.0, 0
         for d in data:
             t0 = time.perf_counter()
-            res = analyze_patch(d["points"], d["normals"], **kw)
-            t_used += time.perf_counter() - t0
+            try:
+                res = analyze_patch(d["points"], d["normals"], **kw)
+            except DataError:  # a refusal is an answer too: counted, not scored
+                refused += 1
+                continue
+            finally:
+                t_used += time.perf_counter() - t0
             err.append(_s(res) - d["truth"]["S"])
         for k, v in saved.items():
             setattr(centre_jet, k, v)
-        rows.append((name, float(np.sqrt(np.mean(np.square(err)))), 1e3 * t_used / len(data)))
+        rms = float(np.sqrt(np.mean(np.square(err))))
+        rows.append((name, rms, 1e3 * t_used / len(data), refused))
     return rows, len(data)
 
 
@@ -74,10 +81,10 @@ def main():
     args = ap.parse_args()
     rows, n = run(args.trials, args.noise)
     print(f"{n} patches, noise {args.noise:g}\n")
-    print("| variant | RMS S error | ms / patch |")
-    print("|---|---|---|")
-    for name, e, ms in rows:
-        print(f"| {name} | {e:.5f} | {ms:.2f} |")
+    print("| variant | RMS S error (answered) | refused | ms / patch |")
+    print("|---|---|---|---|")
+    for name, e, ms, refused in rows:
+        print(f"| {name} | {e:.5f} | {refused} | {ms:.2f} |")
     if args.png:
         import matplotlib
 
@@ -85,7 +92,7 @@ def main():
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(6.4, 4.2), layout="constrained")
-        for i, (name, e, ms) in enumerate(rows):
+        for i, (name, e, ms, _) in enumerate(rows):
             ax.scatter(ms, e, marker="os^v<>Dp"[i % 8], s=30, label=name)
         ax.set(xlabel="run time per patch (ms)", ylabel="RMS S error (dimensionless)")
         ax.set_yscale("log")
