@@ -29,9 +29,9 @@ def tune():
     return cases.tune_cases()
 
 
-@pytest.fixture(scope="module")
-def holdout():
-    return cases.holdout_cases()
+@pytest.fixture(scope="module", params=["holdout", "holdout2"])
+def holdout(request):
+    return cases.split(request.param)
 
 
 @pytest.fixture(scope="module")
