@@ -27,7 +27,8 @@ def test_record_writes_capture_frames_and_meta_that_agree(cli, tmp_path):
     capture, rows, meta = _files(out)
     messages, counters = decode_bytes(capture)
     data = [m for m in messages if m.type_name in ("SAMPLE", "CONTACT")]
-    assert len(rows) - 1 == len(data) == meta["samples"] > 100
+    # > 20: a real stream (500 at 1 kHz on a quiet machine; 64 seen at load 5)
+    assert len(rows) - 1 == len(data) == meta["samples"] > 20
     first = data[0]
     assert rows[1].split(",")[:3] == [str(first.seq), str(first.timestamp_us), first.type_name]
     assert meta["ended"] == "duration" and meta["device"]["rate_hz"] == 1000
