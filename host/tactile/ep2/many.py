@@ -55,6 +55,13 @@ def _chunk(work, opts, split):
     return [analyze_one(g, name, opts, split) for g, name in work]
 
 
+def _quiet_worker():
+    """Workers leave Ctrl-C to the parent, which stops them (no traceback per worker)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def chunk_size(n_patches, jobs):
     """Patches per chunk: small enough that every worker gets several chunks (even load,
     early first output), large enough that pickling a chunk costs little beside its fits."""
@@ -79,7 +86,7 @@ def _parallel(groups, names, opts, split, jobs):
     # fork where the platform has it: workers start at once and inherit the imports
     methods = multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
+    with ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_quiet_worker) as pool:
         pending = deque()
 
         def submit():
