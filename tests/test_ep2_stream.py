@@ -174,3 +174,19 @@ def test_progress_bar_only_on_a_terminal_for_long_files(monkeypatch):
     bar = _progress(PROGRESS_FROM + 1)
     assert bar is not None and bar.total == PROGRESS_FROM + 1
     bar.close()
+
+
+def test_a_part_ep2_cannot_represent_stops_both_runs_at_the_same_patch(tmp_path, capsys):
+    rows = _patches()
+    good = [pid for pid in rows if pid not in ("line", "9")]
+    # --split cuts this sweep where its normal turns 90 deg; the first part spans 1e-301
+    tiny = ["0,0,0,0,0,1,0,tiny", "1e-301,0,0,0,0,1,0,tiny"]
+    tiny += [f"{x},0,0,1,0,0,0,tiny" for x in (5, 6, 7)]
+    lines = sum((rows[p] for p in good[:3]), []) + tiny + sum((rows[p] for p in good[3:]), [])
+    path = tmp_path / "tiny.csv"
+    path.write_text("x,y,z,nx,ny,nz,finger,patch\n" + "\n".join(lines) + "\n")
+    one = _run(capsys, str(path), "--split", "--json")
+    assert one[0] == 2 and "patch tiny:" in one[2] and "under the 1e-300" in one[2]
+    assert len(one[2].splitlines()) == 1 and "Traceback" not in one[2]
+    assert [json.loads(x)["patch"] for x in one[1].splitlines()] == [12, "a", 3]
+    assert _run(capsys, str(path), "--split", "--json", "--jobs", "2") == one
