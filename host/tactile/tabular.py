@@ -41,7 +41,8 @@ _BOM = b"\xef\xbb\xbf"
 
 
 class Table:
-    """Columns by name (float arrays or lists of strings) and the line each row came from."""
+    """Columns by name (float arrays or lists of strings) and the line each row came from
+    (an ``array('q')``: a few bytes a row, not one Python object per cell)."""
 
     def __init__(self, path, columns, lines):
         self.path = path
@@ -115,7 +116,8 @@ def read_csv(path, required, optional_text=(), optional_float=()):
         texts = [c for c in optional_text if c in index]
         columns = {c: array("d") for c in floats}
         columns.update({c: [] for c in texts})
-        lines = []
+        shared = {c: {} for c in texts}  # one str object per distinct cell (patch ids repeat)
+        lines = array("q")
         for line_no, row in rows:
             if len(lines) == MAX_ROWS:
                 raise InputError(
@@ -125,7 +127,8 @@ def read_csv(path, required, optional_text=(), optional_float=()):
             for name in floats:
                 columns[name].append(_number(path, line_no, name, row, index[name]))
             for name in texts:
-                columns[name].append(_cell(path, line_no, name, row, index[name]))
+                text = _cell(path, line_no, name, row, index[name])
+                columns[name].append(shared[name].setdefault(text, text))
             lines.append(line_no)
     if not lines:
         raise InputError(f"{where(path, header_line)}: no data rows after the header")

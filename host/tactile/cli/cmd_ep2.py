@@ -43,18 +43,26 @@ def add_arguments(parser):
     p.add_argument("--break-angle", type=float, default=30.0, help="discontinuity angle (deg)")
     p.add_argument("--split", action="store_true", help="split a patch at discontinuities")
     p.add_argument("--json", action="store_true", help="one JSON object per patch per line")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        metavar="N",
+        help="analyse patches in N processes (default 1); the output is the same, in file order",
+    )
 
 
 def run(args):
-    from tactile.ep2 import analyze_sweep
     from tactile.ep2.contacts_csv import read_contacts
+    from tactile.ep2.many import MAX_JOBS, outcomes
     from tactile.errors import DataError, InputError
-    from tactile.jsonout import dumps
 
     if args.grid < 2:
         raise InputError(f"--grid must be at least 2 (got {args.grid})")
     if args.segments < 1:
         raise InputError(f"--segments must be at least 1 (got {args.segments})")
+    if not 1 <= args.jobs <= MAX_JOBS:
+        raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
     groups = read_contacts(args.file)
     if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
         raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
@@ -70,32 +78,27 @@ def run(args):
         max_normal_angle=args.max_normal_angle,
         break_angle=args.break_angle,
     )
+    names = [patch_id(g.patch) for g in groups]
+    out = _Printer(args.json)
     failed = []
-    records = []
-    for g in groups:
-        name = patch_id(g.patch)
-        try:
-            results = analyze_sweep(
-                g.points, g.normals, finger=g.finger, split=args.split, lines=g.lines, **opts
-            )
-        except InputError as exc:  # a split part EP2 cannot represent (``ep2.extent``)
-            raise InputError(f"{args.file}: patch {name}: {exc}") from None
-        except DataError as exc:
-            if len(groups) == 1:
-                raise DataError(f"{args.file}: {exc}") from None
-            failed.append((name, str(exc)))
-            records.append(
-                {"patch": name, "n_points": len(g.points), "shape": None, "error": str(exc)}
-            )
-            continue
-        for i, res in enumerate(results):
-            label = name if len(results) == 1 else f"{name}#{i + 1}"  # split parts: text
-            records.append(res.to_dict(label))
-    if args.json:
-        for rec in records:
-            print(dumps(rec))
-    else:
-        print(_table(records))
+    bar = _progress(len(groups))
+    try:
+        for done in outcomes(groups, names, opts, split=args.split, jobs=args.jobs):
+            if done.input_error is not None:
+                raise InputError(f"{args.file}: patch {done.name}: {done.input_error}")
+            if done.data_error is not None:
+                if len(groups) == 1:
+                    raise DataError(f"{args.file}: {done.data_error}")
+                failed.append((done.name, done.data_error))
+                rec = {"patch": done.name, "n_points": done.n_points, "shape": None}
+                done.records.append({**rec, "error": done.data_error})
+            out.records(done.records)
+            if bar is not None:
+                bar.update()
+    finally:
+        if bar is not None:
+            bar.close()
+    out.close()
     if failed:
         name, why = failed[0]
         raise DataError(
@@ -103,6 +106,49 @@ def run(args):
             f" first: patch {name}: {why}"
         )
     return 0
+
+
+PROGRESS_FROM = 2000  # patches: a bar on stderr (a terminal only) for files larger than this
+
+
+def _progress(n_patches):
+    """A tqdm bar on stderr for a long file when stderr is a terminal; None otherwise (no
+    tqdm installed, output piped or captured, few patches)."""
+    import sys
+
+    if n_patches <= PROGRESS_FROM or not sys.stderr.isatty():
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    return tqdm(total=n_patches, unit="patch", desc="ep2 analyze", file=sys.stderr)
+
+
+class _Printer:
+    """Each patch's lines as soon as they are known, flushed: JSON lines, or the table
+    (its header before the first row, its footnote at the end)."""
+
+    def __init__(self, as_json):
+        self.as_json = as_json
+        self.started = False
+
+    def records(self, records):
+        if self.as_json:
+            from tactile.jsonout import dumps
+
+            lines = [dumps(r) for r in records]
+        else:
+            lines = [] if self.started else [_HEAD]
+            self.started = True
+            for r in records:
+                lines.extend(_rows(r))
+        print("\n".join(lines), flush=True)
+
+    def close(self):
+        if not self.as_json:
+            lines = [] if self.started else [_HEAD]
+            print("\n".join([*lines, _FOOT]), flush=True)
 
 
 def patch_id(text):
@@ -125,26 +171,23 @@ def _fmt(v, spec=".4g"):
     return "-" if v is None else format(v, spec)
 
 
-def _table(records):
-    """One line per patch, everything at the patch centre; S_mean etc. only in --json."""
-    head = (
-        f"{'patch':<10} {'n':>4} {'shape':<16} {'conf':>5} {'S':>7} {'S 95%':>15} "
-        f"{'k1 (1/u)':>10} {'k2 (1/u)':>10} {'radius (u)':>10} {'C':>7}  model"
+_HEAD = (
+    f"{'patch':<10} {'n':>4} {'shape':<16} {'conf':>5} {'S':>7} {'S 95%':>15} "
+    f"{'k1 (1/u)':>10} {'k2 (1/u)':>10} {'radius (u)':>10} {'C':>7}  model"
+)
+_FOOT = "u = the CSV's length unit; S, k1, k2, radius, C at the patch centre (--json: more)"
+
+
+def _rows(r):
+    """One record's table lines: the patch centre's values (S_mean etc. only in --json),
+    then its warnings."""
+    if r.get("shape") is None:
+        return [f"{r['patch']:<10} {r['n_points']:>4} refused: {r['error']}"]
+    si = r["S_interval"]
+    s95 = "-" if si is None else f"[{si[0]:.3f},{si[1]:.3f}]"
+    line = (
+        f"{r['patch']:<10} {r['n_points']:>4} {r['shape']:<16} {r['confidence']:>5.2f} "
+        f"{_fmt(r['S'], '.3f'):>7} {s95:>15} {_fmt(r['k1']):>10} {_fmt(r['k2']):>10} "
+        f"{_fmt(r['radius']):>10} {_fmt(r['C'], '.3f'):>7}  {r['model'].split(':')[0]}"
     )
-    lines = [head]
-    for r in records:
-        if r.get("shape") is None:
-            lines.append(f"{r['patch']:<10} {r['n_points']:>4} refused: {r['error']}")
-            continue
-        si = r["S_interval"]
-        s95 = "-" if si is None else f"[{si[0]:.3f},{si[1]:.3f}]"
-        lines.append(
-            f"{r['patch']:<10} {r['n_points']:>4} {r['shape']:<16} {r['confidence']:>5.2f} "
-            f"{_fmt(r['S'], '.3f'):>7} {s95:>15} {_fmt(r['k1']):>10} {_fmt(r['k2']):>10} "
-            f"{_fmt(r['radius']):>10} {_fmt(r['C'], '.3f'):>7}  {r['model'].split(':')[0]}"
-        )
-        lines.extend(f"  warning: {w}" for w in r.get("warnings", []))
-    lines.append(
-        "u = the CSV's length unit; S, k1, k2, radius, C at the patch centre (--json: more)"
-    )
-    return "\n".join(lines)
+    return [line, *(f"  warning: {w}" for w in r.get("warnings", []))]

@@ -41,19 +41,30 @@ def read_contacts(path):
     patch = table.columns.get("patch")
     if patch is None:
         return _checked(path, [Contacts(None, pts, nrm, finger, list(table.lines))])
-    out = []
-    for name in dict.fromkeys(patch):
-        rows = [i for i, p in enumerate(patch) if p == name]
-        out.append(
-            Contacts(
-                name,
-                pts[rows],
-                nrm[rows],
-                None if finger is None else [finger[i] for i in rows],
-                [table.lines[i] for i in rows],
-            )
+    names, rows = group_rows(patch)
+    lines = np.asarray(table.lines, dtype=np.int64)
+    out = [
+        Contacts(
+            name,
+            pts[r],
+            nrm[r],
+            None if finger is None else [finger[i] for i in r],
+            lines[r].tolist(),
         )
+        for name, r in zip(names, rows)
+    ]
     return _checked(path, out)
+
+
+def group_rows(ids):
+    """Group row indices by id in one pass: (ids in order of first appearance, one int64
+    index array per id with its rows in file order).  Linear in the rows, however the ids
+    are interleaved (a stable sort of small integer codes)."""
+    code_of = {}
+    codes = np.fromiter((code_of.setdefault(p, len(code_of)) for p in ids), np.int64, len(ids))
+    order = np.argsort(codes, kind="stable")
+    ends = np.cumsum(np.bincount(codes, minlength=len(code_of)))
+    return list(code_of), np.split(order, ends[:-1])
 
 
 def _checked(path, groups):

@@ -1,0 +1,192 @@
+"""``tactile ep2 analyze`` at scale (issue 13): grouping of scattered rows, streamed output,
+``--jobs``."""
+
+import json
+
+import numpy as np
+import pytest
+
+from tactile.cli.main import main
+from tactile.ep2.contacts_csv import group_rows, read_contacts
+
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
+
+def _reference_groups(ids):
+    """The obvious (quadratic) grouping: ids by first appearance, rows in file order."""
+    return {name: [i for i, p in enumerate(ids) if p == name] for name in dict.fromkeys(ids)}
+
+
+@pytest.mark.parametrize("kind", ["numeric", "text", "mixed"])
+def test_grouping_matches_the_reference_on_interleaved_unsorted_ids(kind):
+    rng = np.random.default_rng(13)
+    pool = {
+        "numeric": [str(v) for v in rng.permutation(400)[:60]],
+        "text": [f"p{v}" for v in rng.permutation(400)[:60]],
+        "mixed": ["b", "10", "2", "a", "007", "7", "1.5", "x y"],
+    }[kind]
+    ids = [pool[i] for i in rng.integers(0, len(pool), 3000)]
+    names, rows = group_rows(ids)
+    ref = _reference_groups(ids)
+    assert names == list(ref)
+    assert [r.tolist() for r in rows] == list(ref.values())
+    assert all(r.dtype == np.int64 for r in rows)
+
+
+def test_grouping_of_one_id_and_of_every_row_its_own_id():
+    names, rows = group_rows(["7"] * 5)
+    assert names == ["7"] and rows[0].tolist() == [0, 1, 2, 3, 4]
+    ids = [str(v) for v in range(50, 0, -1)]
+    names, rows = group_rows(ids)
+    assert names == ids and [r.tolist() for r in rows] == [[i] for i in range(50)]
+
+
+def _patches():
+    """Good patches of several shapes and ids, and patches the data do not determine."""
+    from tactile_sim.ep2 import make, sweep
+
+    good = [
+        ("12", sweep(make("sphere", 8.0), noise_pos=0.005, noise_normal=0.005, seed=1)),
+        ("a", sweep(make("cylinder", 6.0, 30.0), noise_pos=0.005, noise_normal=0.005, seed=2)),
+        ("3", sweep(make("saddle", 9.0), noise_pos=0.005, noise_normal=0.005, seed=3)),
+        ("2.5", sweep(make("plane"), noise_pos=0.005, noise_normal=0.005, seed=4)),
+        ("007", sweep(make("pit", 7.0), noise_pos=0.005, noise_normal=0.005, seed=5)),
+    ]
+    rows = {}
+    for pid, data in good:
+        table = np.column_stack([data["points"], data["normals"]])
+        rows[pid] = [
+            ",".join(f"{v:.10g}" for v in r) + f",{int(f)},{pid}"
+            for r, f in zip(table, data["finger"])
+        ]
+    for pid in ("line", "9"):  # one finger along a line: refused, exit 3
+        rows[pid] = [f"0,{y},0,0,0,1,0,{pid}" for y in range(6)]
+    return rows
+
+
+def _scattered(rows, seed):
+    """All patches' rows merged in a random order, each patch's rows still in its order."""
+    rng = np.random.default_rng(seed)
+    queues = {pid: list(r) for pid, r in rows.items()}
+    out = []
+    while queues:
+        pid = list(queues)[rng.integers(len(queues))]
+        out.append(queues[pid].pop(0))
+        if not queues[pid]:
+            del queues[pid]
+    return out
+
+
+@pytest.fixture
+def mixed_csv(tmp_path):
+    path = tmp_path / "mixed.csv"
+    path.write_text("x,y,z,nx,ny,nz,finger,patch\n" + "\n".join(_scattered(_patches(), 1)) + "\n")
+    return path
+
+
+def test_scattered_rows_give_the_patches_of_the_contiguous_file(mixed_csv, tmp_path):
+    rows = _patches()
+    plain = tmp_path / "plain.csv"
+    plain.write_text("x,y,z,nx,ny,nz,finger,patch\n" + "\n".join(sum(rows.values(), [])) + "\n")
+    a, b = read_contacts(str(mixed_csv)), read_contacts(str(plain))
+    first = list(dict.fromkeys(line.rsplit(",", 1)[1] for line in _scattered(rows, 1)))
+    assert [g.patch for g in a] == first  # order of first appearance in the file
+    by_id = {g.patch: g for g in b}
+    for g in a:
+        ref = by_id[g.patch]
+        assert np.array_equal(g.points, ref.points) and np.array_equal(g.normals, ref.normals)
+        assert g.finger == ref.finger
+        assert g.lines == sorted(g.lines) and len(g.lines) == len(ref.lines)
+
+
+def _run(capsys, *args):
+    capsys.readouterr()
+    code = main(["ep2", "analyze", *args])
+    cap = capsys.readouterr()
+    return code, cap.out, cap.err
+
+
+@pytest.mark.parametrize("fmt", [[], ["--json"]])
+def test_jobs_give_the_sequential_output_byte_for_byte(mixed_csv, capsys, fmt):
+    one = _run(capsys, str(mixed_csv), *fmt)
+    assert one[0] == 3 and "2 of 7 patch(es) not determined" in one[2]
+    assert len(one[2].splitlines()) == 1 and "Traceback" not in one[2]
+    for jobs in ("2", "3"):
+        assert _run(capsys, str(mixed_csv), *fmt, "--jobs", jobs) == one
+
+
+def test_streamed_records_are_analyze_patch_results_in_file_order(mixed_csv, capsys):
+    from tactile.ep2 import analyze_patch
+    from tactile.jsonout import dumps
+
+    code, out, _ = _run(capsys, str(mixed_csv), "--json", "--jobs", "2")
+    assert code == 3
+    recs = out.splitlines()
+    groups = read_contacts(str(mixed_csv))
+    assert len(recs) == len(groups)
+    for line, g in zip(recs, groups):
+        rec = json.loads(line)
+        assert "NaN" not in line and "Infinity" not in line
+        if g.patch in ("line", "9"):
+            assert rec["shape"] is None and "not determined" in rec["error"]
+            continue
+        want = analyze_patch(g.points, g.normals, finger=g.finger, lines=g.lines)
+        pid = {"12": 12, "3": 3, "2.5": 2.5}.get(g.patch, g.patch)
+        assert line == dumps(want.to_dict(pid))
+
+
+def test_table_streams_header_rows_and_footnote_once(mixed_csv, capsys):
+    code, out, _ = _run(capsys, str(mixed_csv), "--jobs", "2")
+    lines = out.splitlines()
+    assert code == 3 and lines[0].startswith("patch") and lines[-1].startswith("u = ")
+    assert sum(x.startswith("patch ") for x in lines) == 1
+    assert sum("refused:" in x for x in lines) == 2
+
+
+@pytest.mark.parametrize("jobs", ["0", "-1", "257"])
+def test_bad_jobs_exit_2_one_line(mixed_csv, capsys, jobs):
+    code, out, err = _run(capsys, str(mixed_csv), "--jobs", jobs)
+    assert code == 2 and out == "" and "--jobs" in err and len(err.splitlines()) == 1
+
+
+def test_progress_bar_only_on_a_terminal_for_long_files(monkeypatch):
+    import sys
+
+    from tactile.cli.cmd_ep2 import PROGRESS_FROM, _progress
+
+    class Stream:
+        def __init__(self, tty):
+            self.tty = tty
+
+        def isatty(self):
+            return self.tty
+
+        def write(self, text):
+            return len(text)
+
+        def flush(self):
+            pass
+
+    monkeypatch.setattr(sys, "stderr", Stream(False))  # piped or captured: never a bar
+    assert _progress(10 * PROGRESS_FROM) is None
+    monkeypatch.setattr(sys, "stderr", Stream(True))
+    assert _progress(PROGRESS_FROM) is None
+    bar = _progress(PROGRESS_FROM + 1)
+    assert bar is not None and bar.total == PROGRESS_FROM + 1
+    bar.close()
+
+
+def test_a_part_ep2_cannot_represent_stops_both_runs_at_the_same_patch(tmp_path, capsys):
+    rows = _patches()
+    good = [pid for pid in rows if pid not in ("line", "9")]
+    # --split cuts this sweep where its normal turns 90 deg; the first part spans 1e-301
+    tiny = ["0,0,0,0,0,1,0,tiny", "1e-301,0,0,0,0,1,0,tiny"]
+    tiny += [f"{x},0,0,1,0,0,0,tiny" for x in (5, 6, 7)]
+    lines = sum((rows[p] for p in good[:3]), []) + tiny + sum((rows[p] for p in good[3:]), [])
+    path = tmp_path / "tiny.csv"
+    path.write_text("x,y,z,nx,ny,nz,finger,patch\n" + "\n".join(lines) + "\n")
+    one = _run(capsys, str(path), "--split", "--json")
+    assert one[0] == 2 and "patch tiny:" in one[2] and "under the 1e-300" in one[2]
+    assert len(one[2].splitlines()) == 1 and "Traceback" not in one[2]
+    assert [json.loads(x)["patch"] for x in one[1].splitlines()] == [12, "a", 3]
+    assert _run(capsys, str(path), "--split", "--json", "--jobs", "2") == one
