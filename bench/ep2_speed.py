@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from tactile.ep2 import analyze_patch
+from tactile.ep2 import analyze_patch, analyze_patches
 from tactile_sim.ep2 import make, sweep
 
 CASES = (
@@ -37,12 +37,34 @@ def median_ms(d, kw, n=400):
     return 1e3 * float(np.median(ts))
 
 
+def batched(n=512):
+    """ms per patch: a loop of analyze_patch against analyze_patches at several chunk
+    sizes, on the same n noisy patches, side by side in one run."""
+    ds = [
+        sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=s)
+        for s in range(n)
+    ]
+    pairs = [(d["points"], d["normals"]) for d in ds]
+    t0 = time.perf_counter()
+    for p, q in pairs:
+        analyze_patch(p, q)
+    loop = 1e3 * (time.perf_counter() - t0) / n
+    print(f"\n| {n} patches | ms / patch | speed-up |\n|---|---|---|")
+    print(f"| analyze_patch loop | {loop:.2f} | 1.0 |")
+    for chunk in (16, 64, 256, 512):
+        t0 = time.perf_counter()
+        analyze_patches(pairs, chunk=chunk)
+        ms = 1e3 * (time.perf_counter() - t0) / n
+        print(f"| analyze_patches, chunk {chunk} | {ms:.2f} | {loop / ms:.1f} |")
+
+
 def main():
     d = sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=1)
     print("| configuration | median ms / patch (36 contacts, 8x8 grid) |")
     print("|---|---|")
     for name, kw in CASES:
         print(f"| {name} | {median_ms(d, kw):.3f} |")
+    batched()
     tactile = os.path.join(os.path.dirname(sys.executable), "tactile")
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "p1000.csv")

@@ -11,5 +11,6 @@ See docs/ep2.md for the math, conventions and benchmarks.
 """
 
 from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep
+from tactile.ep2.batch import analyze_patches
 
-__all__ = ["PatchResult", "analyze_patch", "analyze_sweep"]
+__all__ = ["PatchResult", "analyze_patch", "analyze_patches", "analyze_sweep"]

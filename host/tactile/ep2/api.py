@@ -153,11 +153,51 @@ def analyze_patch(
     Raises ``InputError`` for malformed input and ``DataError`` when the
     contacts do not determine the curvature (the message says why).
     """
+    kw = dict(
+        method=method, order=order, segments=segments, weighting=weighting,
+        noise_pos=noise_pos, noise_normal=noise_normal, grid=grid, align=align, solver=solver,
+        max_normal_angle=max_normal_angle, shrink=shrink, intervals=intervals,
+        break_angle=break_angle,
+    )  # fmt: skip
+    prep = _prepare(points, normals, finger, lines, kw)
+    pts, nrm, opts = prep.points, prep.normals, prep.opts
+    if method == "spline":
+        from tactile.ep2 import spline_analysis
+
+        out = spline_analysis.analyze(pts, nrm, opts)
+    else:
+        out = _analyze_jet(pts, nrm, opts)
+    return _result(out, len(pts), method, maps, prep.breaks, prep.dropped, prep.middle)
+
+
+@dataclass
+class Prepared:
+    """One patch ready to fit: validated, duplicates dropped, centred (``analyze_patch``)."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    opts: dict
+    breaks: list
+    dropped: int
+    middle: np.ndarray
+
+
+def _prepare(points, normals, finger, lines, kw):
+    """Validation and the steps before the fit, shared by one patch and a batch."""
+    method, weighting, order = kw["method"], kw["weighting"], kw["order"]
+    noise_pos, noise_normal = kw["noise_pos"], kw["noise_normal"]
     pts, nrm = _validate(points, normals, method, weighting, lines)
-    _check_options(pts, noise_pos, noise_normal, grid, segments, max_normal_angle, break_angle)
+    _check_options(
+        pts, noise_pos, noise_normal, kw["grid"], kw["segments"], kw["max_normal_angle"],
+        kw["break_angle"],
+    )  # fmt: skip
     pts, nrm, finger, lines, dropped = _drop_duplicates(pts, nrm, finger, lines)
     pts, middle = extent.centred(pts)  # the frame's origin moves back in ``_result``
-    breaks = discontinuity.find_breaks(nrm, finger, break_angle)
+    breaks = discontinuity.find_breaks(nrm, finger, kw["break_angle"])
+    if method != "spline" and order not in (None, centre_jet.ORDER):
+        raise InputError(f"the jet order is {centre_jet.ORDER}; --order is for method spline")
+    grid, segments, align, solver = kw["grid"], kw["segments"], kw["align"], kw["solver"]
+    max_normal_angle, shrink, intervals = kw["max_normal_angle"], kw["shrink"], kw["intervals"]
     opts = dict(
         order=2 if order is None else order,
         segments=segments,
@@ -172,53 +212,50 @@ def analyze_patch(
         intervals=intervals,
         lines=lines,
     )
-    if method == "spline":
-        from tactile.ep2 import spline_analysis
-
-        out = spline_analysis.analyze(pts, nrm, opts)
-    else:
-        if order not in (None, centre_jet.ORDER):
-            raise InputError(f"the jet order is {centre_jet.ORDER}; --order is for method spline")
-        out = _analyze_jet(pts, nrm, opts)
-    return _result(out, len(pts), method, maps, breaks, dropped, middle)
+    return Prepared(pts, nrm, opts, breaks, dropped, middle)
 
 
 def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
     noise = (opts["noise_pos"], opts["noise_normal"])
     fits = centre_jet.fit(pts[None], nrm[None], mask, *noise, opts["max_normal_angle"])
-    why = fits.reason[0]
+    return jet_outcome(fits, 0, opts)
+
+
+def jet_outcome(fits, i, opts):
+    """The analysis of patch ``i`` of a ``centre_jet.fit`` stack (``DataError`` if refused)."""
+    why = fits.reason[i]
     if why is not None and opts["lines"] is not None and "contact " in why:
-        i = int(why.split("contact ")[1].split()[0])
-        why = why.replace(f"contact {i} ", f"line {opts['lines'][i]} ")
+        k = int(why.split("contact ")[1].split()[0])
+        why = why.replace(f"contact {k} ", f"line {opts['lines'][k]} ")
     if why is not None:
         raise DataError(why)
-    L, axes = float(fits.scale[0]), fits.axes[0]
-    t, bias, nu = fits.t[0], fits.bias[0], float(fits.dof[0])
-    cov = fits.cov[0] * centre_result.widen(nu)
-    split = tuple((d[0], c[0], (z[0][0], z[1][0])) for d, c, z in fits.split)
+    L, axes = float(fits.scale[i]), fits.axes[i]
+    t, bias, nu = fits.t[i], fits.bias[i], float(fits.dof[i])
+    cov = fits.cov[i] * centre_result.widen(nu)
+    split = tuple((d[i], c[i], (z[0][i], z[1][i])) for d, c, z in fits.split)
     refusal, warning, gap = centre_result.consistency(split, nu, L, axes)
-    spread = fits.xy_mean[0], fits.mean_axes[0]
-    refusal = refusal or centre_result.determination(cov, axes, L, spread, fits.noise[0, 0])
+    spread = fits.xy_mean[i], fits.mean_axes[i]
+    refusal = refusal or centre_result.determination(cov, axes, L, spread, fits.noise[i, 0])
     if refusal is not None:
         raise DataError(refusal)
     # a mild disagreement: intervals about the joint estimate that reach both sides' (gap/2
     # as one more sd in its direction: with the 95 % radius, about the whole gap)
     out = centre_result.summary(
-        t, cov + np.outer(gap, gap) / 4, bias, L, opts["intervals"], fits.cov_noise[0]
+        t, cov + np.outer(gap, gap) / 4, bias, L, opts["intervals"], fits.cov_noise[i]
     )
     out["warnings"] = [] if warning is None else [warning]
-    coef, model, xy = fits.coef[0], int(fits.model[0]), fits.xy[0]
+    coef, model, xy = fits.coef[i], int(fits.model[i]), fits.xy[i][fits.mask[i]]
     channels, gx, gy = centre_result.grid_channels(coef, model, xy, opts["grid"])
     stats, _ = centre_result.grid_statistics(channels, L, out["shape"] == "plane")
     out.update(stats)
     out.update(
         order=centre_jet.ORDER,
         weighting="auto" if not any(fits.stated) else "stated",
-        model=_model_text(fits.score[0], model),
-        noise_pos=float(fits.noise[0, 0]),
-        noise_normal=float(fits.noise[0, 1]),
-        frame=patch_frame.PatchFrame(fits.origin[0], axes),
+        model=_model_text(fits.score[i], model),
+        noise_pos=float(fits.noise[i, 0]),
+        noise_normal=float(fits.noise[i, 1]),
+        frame=patch_frame.PatchFrame(fits.origin[i], axes),
         scale=L,
         surface=lambda q: _jet_height(coef, model, q),
         grid=(channels, gx, gy),

@@ -1,0 +1,63 @@
+"""``analyze_patches`` equals ``analyze_patch`` patch by patch (issue 13): labels, model
+choice, values and intervals to round-off; a refused or malformed patch gives its error
+in its place and the others still come out."""
+
+import numpy as np
+import pytest
+
+from tactile.ep2 import analyze_patch, analyze_patches
+from tactile.errors import DataError, InputError
+from tactile_sim.ep2 import cases
+
+FIELDS = ("S", "k1", "k2", "radius", "C", "S_mean", "R_mean", "noise_pos", "noise_normal")
+INTERVALS = ("S_interval", "k1_interval", "k2_interval", "radius_interval")
+
+
+def _mixture():
+    """Shapes, sizes, contact counts, noise, a line (refused), a malformed patch."""
+    picked = [c for c in cases.split("holdout2")[::15]] + cases.split("degenerate")[::8]
+    patches = []
+    for k, case in enumerate(picked):
+        d = cases.draw(case, k)
+        patches.append({"points": d["points"], "normals": d["normals"], "finger": d["finger"]})
+    nan = patches[0]["points"].copy()
+    nan[3, 0] = np.nan
+    bad = dict(patches[0], points=nan)  # malformed: InputError
+    zero = dict(patches[1], normals=np.zeros_like(patches[1]["normals"]))  # DataError
+    return patches[:5] + [bad, zero] + patches[5:]
+
+
+def _same(a, b):
+    if a is None or b is None:
+        return a is None and b is None
+    return np.allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 256])
+def test_batch_equals_one_at_a_time(chunk):
+    patches = _mixture()
+    batch = analyze_patches(patches, chunk=chunk)
+    assert len(batch) == len(patches)
+    kinds = set()
+    for p, got in zip(patches, batch, strict=True):
+        try:
+            want = analyze_patch(p["points"], p["normals"], finger=p["finger"])
+        except (DataError, InputError) as exc:
+            assert type(got) is type(exc) and str(got) == str(exc)
+            kinds.add(type(exc).__name__)
+            continue
+        kinds.add("answer")
+        assert (got.shape, got.model, got.warnings) == (want.shape, want.model, want.warnings)
+        assert got.confidence == pytest.approx(want.confidence, abs=1e-9)
+        for f in FIELDS:
+            assert _same(getattr(got, f), getattr(want, f)), f
+        for f in INTERVALS:
+            assert _same(getattr(got, f), getattr(want, f)), f
+    assert kinds == {"answer", "DataError", "InputError"}
+
+
+def test_spline_falls_back_to_one_at_a_time():
+    p = _mixture()[0]
+    (got,) = analyze_patches([(p["points"], p["normals"])], method="spline", order=3)
+    want = analyze_patch(p["points"], p["normals"], method="spline", order=3)
+    assert got.S == want.S and got.model == want.model
