@@ -73,8 +73,13 @@ def shape_index(k1, k2):
 
 
 def default(points, normals, finger, **kw):
-    """``analyze_patch``: S at the centre (from k1, k2 when S itself is null: a plane)."""
-    res = analyze_patch(points, normals, finger=finger, **kw)
+    """``analyze_patch``, summarised by ``summarise``."""
+    return summarise(analyze_patch(points, normals, finger=finger, **kw))
+
+
+def summarise(res):
+    """A ``PatchResult`` as the bench scores it: S at the centre (from k1, k2 when S itself
+    is null: a plane), whether S was reported, the intervals, the label."""
     k1, k2 = float(res.k1), float(res.k2)
     return {
         "S": shape_index(k1, k2),

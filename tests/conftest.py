@@ -30,6 +30,16 @@ FUZZ_SCALE = 50 if FUZZ == "long" else 1  # multiply a campaign's CI example cou
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
+def load_bench(name):
+    """A script of ``bench/`` as a module (its estimators and rules, not a copy of them)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, ROOT / "bench" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 @pytest.fixture(scope="session")
 def vectors():
     return json.loads((ROOT / "protocol" / "vectors.json").read_text())

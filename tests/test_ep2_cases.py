@@ -6,7 +6,6 @@ differences of the unit normal field (Weingarten, dn = S dX) of the sim's own
 height function.
 """
 
-import importlib.util
 import json
 import os
 import pathlib
@@ -15,6 +14,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import load_bench
 
 from tactile.ep2.patch_frame import frame_from_contacts
 from tactile_sim.ep2 import cases, layouts, truth
@@ -253,10 +253,7 @@ def test_steep_and_unreachable_cases():
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("ep2_trust", ROOT / "bench" / "ep2_trust.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_bench("ep2_trust")
 
 
 def test_wrong_label_rule():

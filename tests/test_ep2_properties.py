@@ -17,12 +17,12 @@ Bugs these properties found are pinned as strict xfails at the end (underflow to
 intervals; noise-free patches that depend on the padding).
 """
 
-import importlib.util
 import math
 import pathlib
 
 import numpy as np
 import pytest
+from conftest import load_bench
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
@@ -44,14 +44,7 @@ SETTINGS = dict(
 )
 
 
-def _load_bench():
-    spec = importlib.util.spec_from_file_location("ep2_trust", ROOT / "bench" / "ep2_trust.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-BENCH = _load_bench()
+BENCH = load_bench("ep2_trust")
 
 
 # -- random scenes --------------------------------------------------------------------------
@@ -165,21 +158,6 @@ def _finite_everywhere(obj, path="record"):
         assert math.isfinite(obj), (path, obj)
 
 
-def _bench_out(res):
-    k1, k2 = float(res.k1), float(res.k2)
-    return {
-        "S": BENCH.shape_index(k1, k2),
-        "S_reported": res.S is not None,
-        "S_interval": res.S_interval,
-        "k1": k1,
-        "k2": k2,
-        "k1_interval": res.k1_interval,
-        "k2_interval": res.k2_interval,
-        "shape": res.shape,
-        "confidence": res.confidence,
-    }
-
-
 # -- analyze_patch --------------------------------------------------------------------------
 
 
@@ -208,7 +186,7 @@ def test_answers_are_finite_and_never_confidently_wrong_and_lines_are_refused(sc
         tr = truth.at_centre(obj, pts[keep], unit_normals(nrm[keep]), scene["unit"], rot)
     except ValueError:  # the patch-centre normal line misses the object: no truth to judge by
         return
-    out = _bench_out(res)
+    out = BENCH.summarise(res)
     if out["shape"] != "uncertain" and out["confidence"] >= BENCH.CONFIDENT:
         event("confident label judged against the truth")
     assert not BENCH.wrong_label(out, tr), (out, tr)

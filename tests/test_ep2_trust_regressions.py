@@ -28,7 +28,6 @@ Library bugs are pinned as strict xfails (their ``reason`` says what is wrong).
 Truth comes from ``tactile_sim.ep2.truth`` (at the patch centre) or closed forms.
 """
 
-import importlib.util
 import json
 import pathlib
 import re
@@ -36,6 +35,7 @@ import re
 import numpy as np
 import pytest
 import serial
+from conftest import load_bench
 
 from tactile.ep2 import analyze_patch, peers
 from tactile.errors import DataError
@@ -46,14 +46,7 @@ from tactile_sim.ep2.sweep import write_csv
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
-def _load_bench():
-    spec = importlib.util.spec_from_file_location("ep2_trust", ROOT / "bench" / "ep2_trust.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-BENCH = _load_bench()
+BENCH = load_bench("ep2_trust")
 
 
 def _answer(d):
