@@ -12,7 +12,7 @@ import re
 
 import numpy as np
 import pytest
-import serial
+from sweep_record import record_sweep
 
 from tactile.ep2 import analyze_patch
 from tactile.errors import InputError
@@ -23,7 +23,6 @@ from tactile.localize.pose_log import (
     read_pose_log,
 )
 from tactile.localize.sphere import sphere_contact
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR, SceneError, load_scene
 from tactile_sim.urlhandler import register
@@ -47,19 +46,7 @@ def _scene_file(tmp_path, name, noiseless=False, **motion):
     return path
 
 
-def _record(url):
-    """Run the sweep through ``sim://`` to its end; CONTACT frames as arrays."""
-    port = serial.serial_for_url(url, timeout=0.005)
-    decoder, msgs = StreamDecoder(), []
-    end = port.emulator.motion.duration_s * 1e6 + 10_000
-    while port.emulator.t_us < end:
-        msgs += decoder.feed(port.read(65536))
-    c = [m for m in msgs if m.type_name == "CONTACT"]
-    t = np.array([m.timestamp_us for m in c], dtype=np.int64)
-    sensor = np.array([m.sensor for m in c])
-    wrench = np.array([[m.fx, m.fy, m.fz, m.tx, m.ty, m.tz] for m in c]) * C.FORCE_LSB_N
-    phase = np.array([m.phase for m in c])
-    return port.emulator.motion, t, sensor, wrench, phase, decoder.counters
+_record = record_sweep
 
 
 def _world(motion, tmp_path, t, sensor, wrench):

@@ -34,7 +34,6 @@ import re
 
 import numpy as np
 import pytest
-import serial
 from conftest import load_bench
 
 from tactile.ep2 import analyze_patch, peers
@@ -520,13 +519,11 @@ def test_normal_angle_refusal_says_what_to_do_and_the_option_raises_the_limit(tm
 def _emulated_contacts(tmp_path, seed, noiseless=False):
     """Record ``sim://ep2_sweep_sphere`` (scene seed ``seed``) and place its CONTACT frames in
     the world through the pose log, as tests/test_emulator_sweep.py does."""
-    from tactile.localize.pose_log import posed_world_contacts, read_pose_log
-    from tactile.stream_decoder import StreamDecoder
-    from tactile_protocol import constants as C
-    from tactile_sim.emulator.scene import SCENE_DIR
-    from tactile_sim.urlhandler import register
+    from sweep_record import record_sweep
 
-    register()
+    from tactile.localize.pose_log import posed_world_contacts, read_pose_log
+    from tactile_sim.emulator.scene import SCENE_DIR
+
     text = (SCENE_DIR / "ep2_sweep_sphere.toml").read_text(encoding="utf-8")
     text, n = re.subn(r"(?m)^seed = .*$", f"seed = {seed}", text)
     assert n == 1
@@ -534,16 +531,7 @@ def _emulated_contacts(tmp_path, seed, noiseless=False):
         text = re.sub(r"(?m)^noise_(force_N|torque_Nm) = .*$", r"noise_\1 = [0.0, 0.0, 0.0]", text)
     scene = tmp_path / "ep2_sweep_sphere.toml"
     scene.write_text(text, encoding="utf-8")
-    port = serial.serial_for_url(f"sim://{scene}", timeout=0.005)
-    decoder, msgs = StreamDecoder(), []
-    end = port.emulator.motion.duration_s * 1e6 + 10_000
-    while port.emulator.t_us < end:
-        msgs += decoder.feed(port.read(65536))
-    c = [m for m in msgs if m.type_name == "CONTACT"]
-    t = np.array([m.timestamp_us for m in c], dtype=np.int64)
-    sensor = np.array([m.sensor for m in c])
-    wrench = np.array([[m.fx, m.fy, m.fz, m.tx, m.ty, m.tz] for m in c]) * C.FORCE_LSB_N
-    motion = port.emulator.motion
+    motion, t, sensor, wrench, _, _ = record_sweep(f"sim://{scene}")
     poses = tmp_path / "poses.csv"
     motion.write_pose_log(poses)
     points, normals, finger, _ = posed_world_contacts(read_pose_log(poses), t, sensor, wrench, 1.39)
