@@ -235,7 +235,7 @@ def jet_outcome(fits, i, opts):
     cov = fits.cov[i] * centre_result.widen(nu)
     split = tuple((d[i], c[i], (z[0][i], z[1][i])) for d, c, z in fits.split)
     refusal, warning, gap = centre_result.consistency(split, nu, L, axes)
-    spread = fits.xy_mean[i], fits.mean_axes[i]
+    spread = fits.xyz_mean[i][fits.mask[i]], fits.mean_axes[i]
     refusal = refusal or centre_result.determination(cov, axes, L, spread, fits.noise[i, 0])
     if refusal is not None:
         raise DataError(refusal)

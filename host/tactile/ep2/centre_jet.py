@@ -70,7 +70,7 @@ class JetFits:
     mask: np.ndarray  # (B, n)
     reason: list  # per patch: None, or why it is refused
     split: tuple  # positions alone, normals alone (``_split_fits``)
-    xy_mean: np.ndarray = None  # (B, n, 2) contacts in the mean-normal frame (/ L)
+    xyz_mean: np.ndarray = None  # (B, n, 3) contacts in the mean-normal frame (/ L)
     mean_axes: np.ndarray = None  # (B, 3, 3) that frame's axes in world coordinates
 
 
@@ -88,7 +88,7 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     centre[:, 2] = 0.0
     O = O + np.einsum("bi,bij->bj", centre, M)
     p = (p - centre[:, None, :]) / L[:, None, None]
-    xy_mean = p[..., :2].copy()
+    xyz_mean = p.copy()
     sig, dof = _noise(p, nrm, mask, noise_pos, noise_normal, L)
     first = _quadric(_refit_rows(p, nrm, mask, sig))
     O, M, p, nrm = _reframe(O, M, L, p, nrm, first.sol.coef)
@@ -107,7 +107,7 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     out = _finish(models, rows, mask, sig, dof, frame, (noise_pos, noise_normal), reason)
     out.bias = _truncation(out, _quadric(_rows(p, nrm, mask, sig, geo, ORDER + 1)), rows, sig, dof)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
-    out.xy_mean, out.mean_axes = xy_mean, mean_axes
+    out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
     return out
 
 

@@ -32,6 +32,7 @@ from tactile.ep2.surface_geometry import eigen, principal, shape_entries
 
 MAX_HALF_WIDTH = 0.25  # x 1/L: the curvature's 95 % half-width beyond which it is not determined
 MIN_SPREAD = 5.0  # the contacts' spread in their thinnest direction, in position-noise sds
+PATH_PLANE_DEG = 45.0  # contacts in one plane tilted further than this from the surface: one path
 AGREE = 0.99999  # positions vs normals: test level (false alarms 1e-5 per patch)
 AGREE_REL = 0.5  # ... and the curvature gap must exceed this share of the curvature
 AGREE_TILT = 0.05  # ... or the tilt gap this many rad (3 deg)
@@ -48,24 +49,25 @@ def widen(nu, q=3, p=0.95):
 def determination(cov, axes, scale, spread, noise_pos):
     """None, or why the curvature is not determined (worst direction in world coordinates).
 
-    Two limits: the contacts' spread across their thinnest direction in the mean-normal
-    frame (``spread`` = (xy / L, frame axes); under ``MIN_SPREAD`` position-noise sds the
-    positions themselves are noise there, and the jet's regressors with them), and the
-    curvature's 95 % half-width in its worst direction (``MAX_HALF_WIDTH`` / L).
+    Three limits, all on data rather than on the fit: ``spread`` = (contacts (n, 3) in the
+    mean-normal frame / L, that frame's axes).
+
+    - their spread across their thinnest tangent direction: under ``MIN_SPREAD``
+      position-noise sds the positions are noise there, and the jet's regressors with them;
+    - their thickness out of the best plane through them, where that plane stands across
+      the surface (normal over ``PATH_PLANE_DEG`` from the mean normal): one finger's path
+      over a curved surface is a planar curve that bends in the tangent frame by its own
+      sagitta, so it passes the first test, yet curvature across it is only "seen" through
+      the model's truncation (found by the property test, a line off a sphere's apex);
+    - the curvature's 95 % half-width in its worst direction (``MAX_HALF_WIDTH`` / L).
     """
     w = np.linalg.eigvalsh(cov)  # noise only: the model-choice bias is bounded, not unknown
     half = 1.96 * math.sqrt(max(float(w[-1]), 0.0))
-    xy, mean_axes = spread  # the contacts in the mean-normal frame: set by data, not a fit
-    spread_w, spread_v = np.linalg.eigh(np.cov(xy.T, bias=True))
-    thin = math.sqrt(max(float(spread_w[0]), 0.0))
+    pts, mean_axes = spread  # the contacts in the mean-normal frame: set by data, not a fit
     sigma = max(noise_pos / scale, 1e-3)
-    if thin < MIN_SPREAD * sigma:
-        d = spread_v[0, 0] * mean_axes[0] + spread_v[1, 0] * mean_axes[1]
-        return (
-            f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
-            f" contacts lie near one line, spread only {thin * scale:.3g} across it, under"
-            f" {MIN_SPREAD:g} times their position noise ({sigma * scale:.3g}): sweep across it"
-        )
+    why = _thin_line(pts, mean_axes, scale, sigma) or _one_path_plane(pts, mean_axes, scale, sigma)
+    if why is not None:
+        return why
     if half <= MAX_HALF_WIDTH:
         return None
     # curvature along u = (cos th, sin th): a cos^2 + 2 b cos sin + c sin^2; worst th
@@ -78,6 +80,35 @@ def determination(cov, axes, scale, spread, noise_pos):
         f" interval is +/- {half / scale:.3g} per unit length, over {MAX_HALF_WIDTH:g}/L"
         f" (L = {scale:.4g}); the contacts do not span that direction well (near one line,"
         " lines too close, or bunched): sweep across it"
+    )
+
+
+def _thin_line(pts, mean_axes, scale, sigma):
+    spread_w, spread_v = np.linalg.eigh(np.cov(pts[:, :2].T, bias=True))
+    thin = math.sqrt(max(float(spread_w[0]), 0.0))
+    if thin >= MIN_SPREAD * sigma:
+        return None
+    d = spread_v[0, 0] * mean_axes[0] + spread_v[1, 0] * mean_axes[1]
+    return (
+        f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
+        f" contacts lie near one line, spread only {thin * scale:.3g} across it, under"
+        f" {MIN_SPREAD:g} times their position noise ({sigma * scale:.3g}): sweep across it"
+    )
+
+
+def _one_path_plane(pts, mean_axes, scale, sigma):
+    w, v = np.linalg.eigh(np.cov(pts.T, bias=True))
+    thick, p = math.sqrt(max(float(w[0]), 0.0)), v[:, 0]
+    if thick >= MIN_SPREAD * sigma or abs(p[2]) >= math.cos(math.radians(PATH_PLANE_DEG)):
+        return None
+    d = p[0] * mean_axes[0] + p[1] * mean_axes[1]
+    d = d / np.linalg.norm(d)
+    tilt = math.degrees(math.acos(min(abs(float(p[2])), 1.0)))
+    return (
+        f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
+        f" contacts lie in one plane standing {tilt:.0f} deg from the surface (one path), within"
+        f" {thick * scale:.3g} of it, under {MIN_SPREAD:g} times their position noise"
+        f" ({sigma * scale:.3g}): sweep across it"
     )
 
 
