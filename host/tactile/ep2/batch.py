@@ -65,9 +65,10 @@ def _chunk(patches, kw):
         opts = prepared[0][1].opts
         noise = (opts["noise_pos"], opts["noise_normal"])
         fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"])
+        pre = api.outcome_inputs(fits, opts["grid"])
         for b, (j, prep) in enumerate(prepared):
             try:
-                res = api.jet_outcome(fits, b, prep.opts)
+                res = api.jet_outcome(fits, b, prep.opts, pre)
                 results[j] = api._result(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
