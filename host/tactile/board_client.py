@@ -250,4 +250,5 @@ def info_dict(info):
     d["autostart"] = bool(info.flags & C.CFG_AUTOSTART)
     d["streaming"] = bool(info.flags & C.CFG_STREAMING)
     d["cal_ids"] = [getattr(info, f"cal_id_{i}") for i in range(info.n_sensors)]
+    d["cal_crcs"] = [getattr(info, f"cal_crc_{i}") for i in range(info.n_sensors)]
     return d
