@@ -60,7 +60,7 @@ COMMAND_NAMES = {
 COMMAND_FIELDS = {
     C.CMD_CONFIG: ("rate_hz", "enter_threshold", "exit_threshold", "debounce", "flags"),
     C.CMD_TARE: ("sensor", "n_samples"),
-    C.CMD_SET_CAL: ("sensor", "cal_id", "matrix"),
+    C.CMD_SET_CAL: ("sensor", "cal_id") + tuple(f"c{r}{c}" for r in range(6) for c in range(6)),
 }
 MAX_READ = 65536  # bytes per read call: bounded whatever the device claims to have
 
@@ -228,6 +228,13 @@ class BoardClient:
             int(flags),
         )
         return self.command(C.CMD_CONFIG, values, timeout=timeout)
+
+    def set_calibration(self, sensor, cal_id, coeffs, timeout=2.0):
+        """SET_CAL: 36 coefficients (row-major, N and N*m per ADC count), stored on the board.
+
+        The board writes flash before it ACKs, hence the longer timeout.
+        """
+        return self.command(C.CMD_SET_CAL, (sensor, cal_id, *coeffs), timeout=timeout)
 
     def start(self, timeout=1.0):
         return self.command(C.CMD_START, timeout=timeout)
