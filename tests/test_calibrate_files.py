@@ -380,7 +380,9 @@ def test_volts_per_count_is_needed_exactly_for_a_matrix_per_volt(tmp_path):
     per_count = _write(tmp_path, "c.csv", _csv_text(GOOD, "# id: 1\n"))
     _refused(per_count, r"--volts-per-count: .* per ADC count already", volts_per_count=1e-9)
     _refused(str(SAMPLE), r"--volts-per-count: needed")
-    _refused(str(SAMPLE), r"--volts-per-count: -1.0 is not a positive", volts_per_count=-1.0)
+    for bad in (-1.0, 0.0, float("nan"), float("inf")):
+        msg = _refused(str(SAMPLE), r"--volts-per-count: must be a positive", volts_per_count=bad)
+        assert "nan" not in msg and "inf" not in msg
 
 
 def test_files_that_are_not_files(tmp_path):

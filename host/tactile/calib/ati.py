@@ -206,6 +206,6 @@ def _float(text):
 def _serial_id(serial):
     """The calibration id a serial number gives (FT8578 -> 8578), and where it came from."""
     digits = re.sub(r"\D", "", serial)
-    if digits and 1 <= int(digits[:12]) <= MAX_ID and len(digits) <= 10:
+    if digits and len(digits) <= 10 and 1 <= int(digits) <= MAX_ID:
         return int(digits), f"Serial {serial}"
     return None, None

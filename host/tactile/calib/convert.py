@@ -71,7 +71,7 @@ def si_per_count(mf, volts_per_count=None):
             " V_excitation / (128 x 2^23) times any amplifier gain (docs/calibration.md)"
         )
     if volts_per_count is not None and not (0 < volts_per_count < float("inf")):
-        raise InputError(f"--volts-per-count: {volts_per_count!r} is not a positive number")
+        raise InputError("--volts-per-count: must be a positive, finite number of volts")
     rows = [U.force_factor(mf.units.force)] * 3 + [U.torque_factor(mf.units.torque)] * 3
     per_gauge = 1.0 if gauge_v is None else gauge_v * volts_per_count
     return np.asarray(mf.matrix, dtype=float) * np.asarray(rows)[:, None] * per_gauge
