@@ -7,11 +7,17 @@ even (Python's ``round``) and clamped to int32.  ``bias`` holds gauge codes
 captured by TARE (kept in RAM, as ATI's bias is).  The matrix and its id live
 in ``cal<N>.bin`` on the board; a sensor without a file gets the identity
 (1 uN per count) with id 0 and the host is told FAULT_NO_CALIBRATION.
+
+``raw`` keeps the 36 coefficients as float32 bytes, exactly as SET_CAL carried them, and
+``crc`` their checksum (``cal_checksum``), which HELLO/INFO report so the host can verify
+the matrix, not only its id.  The file is written from ``raw``: on a port whose floats
+are single precision, ``scaled / SCALE`` need not give the received float32 back.
 """
 
 import struct
 
 from tactile_protocol.crc16 import crc16
+from tactile_protocol.messages import CAL_COEFFS_FMT
 
 N = 6
 SCALE = 1e6  # N -> uN, N*m -> uN*m
@@ -19,6 +25,7 @@ INT32_MAX = 0x7FFFFFFF
 INT32_MIN = -0x80000000
 _MAGIC = b"TCAL"
 _FMT = "<4sBI36f"  # magic, format version, cal_id, C row-major
+_HEAD = "<4sBI"
 _SIZE = struct.calcsize(_FMT)
 _FLOAT32_MAX = 3.4028234663852886e38
 
@@ -45,6 +52,8 @@ class Calibration:
         self.scaled = [0.0] * (N * N)
         self.bias = [0.0] * N
         self.cal_id = 0
+        self.raw = b""
+        self.crc = 0
         self.present = False
         self.set(identity() if coeffs is None else coeffs, cal_id)
         self.present = coeffs is not None
@@ -54,11 +63,14 @@ class Calibration:
             raise ValueError("calibration: need 36 finite float32 coefficients")
         for k in range(N * N):
             self.scaled[k] = coeffs[k] * SCALE
+        self.raw = struct.pack(CAL_COEFFS_FMT, *coeffs)
+        self.crc = crc16(self.raw)
         self.cal_id = cal_id
         self.present = True
 
     def coefficients(self):
-        return [v / SCALE for v in self.scaled]
+        """The 36 coefficients as float32 values, as received (row-major)."""
+        return list(struct.unpack(CAL_COEFFS_FMT, self.raw))
 
     def apply(self, counts, out):
         """out[r] = round(1e6 * sum_c C[r][c] (counts[c] - bias[c])), clamped to int32."""
@@ -84,7 +96,7 @@ class Calibration:
 
     # --- persistence --------------------------------------------------------------
     def to_bytes(self, sensor):
-        body = struct.pack(_FMT, _MAGIC, 1, self.cal_id, *self.coefficients())
+        body = struct.pack(_HEAD, _MAGIC, 1, self.cal_id) + self.raw
         crc = crc16(body)
         return body + bytes((crc & 0xFF, crc >> 8))
 
