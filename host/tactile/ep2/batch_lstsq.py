@@ -105,6 +105,14 @@ def _cholesky(G):
     """Upper R with R^T R = G per problem, and ok (B,): False where a pivot is not positive
     (R is then the identity, a placeholder the SVD replaces)."""
     B, p, _ = G.shape
+    try:  # LAPACK for the whole stack; it refuses the stack if one problem fails
+        R = np.swapaxes(np.linalg.cholesky(G), -1, -2)
+        d = np.diagonal(R, axis1=-2, axis2=-1)
+        ok = np.all(d * d > 1e-14 * np.diagonal(G, axis1=-2, axis2=-1), axis=-1)
+        R[~ok] = np.eye(p)
+        return R, ok
+    except np.linalg.LinAlgError:
+        pass
     R = np.zeros_like(G)
     ok = np.ones(B, bool)
     for k in range(p):

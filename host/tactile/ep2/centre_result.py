@@ -150,6 +150,9 @@ def consistency(split, dof, scale, axes):
     if d2 <= crit:
         return None, None, np.zeros(3)
     kp, kn = (np.array(eigen(*t)) / scale for t in (tp, tn))
+    # round-off zeros print as 0 (a batch and a single patch differ there, nowhere else)
+    top = max(float(np.abs(kp).max()), float(np.abs(kn).max()))
+    kp, kn = (np.where(np.abs(k) <= 1e-12 * top, 0.0, k) for k in (kp, kn))
     tilt = math.degrees(math.atan(math.hypot(gap[0], gap[1])))
     text = (
         "positions and normals disagree: the positions give curvatures"
