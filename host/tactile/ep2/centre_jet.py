@@ -470,9 +470,10 @@ def _cov(G, rows, rss, rank, sig, dof):
     parts = [lifted[:, k, None, None] ** 2 * unit[k] for k in range(2)]
     used = rows.w.sum(axis=1)
     s2 = np.maximum(rss / np.maximum(used - rank, 1), 1.0)
-    cov = s2[:, None, None] * (parts[0] + parts[1])
-    # the noise as estimated, no floor: what the estimate's own scatter is (debiasing)
-    raw = s2[:, None, None] * sum(sig[:, k, None, None] ** 2 * unit[k] for k in range(2))
+    with np.errstate(invalid="ignore"):  # inf x 0 on a failed round fit, which is not used
+        cov = s2[:, None, None] * (parts[0] + parts[1])
+        # the noise as estimated, no floor: what the estimate's own scatter is (debiasing)
+        raw = s2[:, None, None] * sum(sig[:, k, None, None] ** 2 * unit[k] for k in range(2))
     share = np.stack([np.trace(q_, axis1=1, axis2=2) for q_ in parts], axis=1)
     with np.errstate(invalid="ignore"):  # inf / inf on a failed round fit, which is not used
         share = share / np.maximum(share.sum(axis=1, keepdims=True), 1e-300)
