@@ -73,7 +73,7 @@ def test_a_recording_without_host_time_says_so(run, msgs, tmp_path):
     legacy = variant(run, tmp_path / "legacy", _text(msgs), meta_change=lambda d: None)
     rec = tactile.load_recording(legacy)
     assert rec.host_utc_s is None and rec.host_monotonic_s is None
-    assert rec.host_time_source is None and "older tactile" in rec.host_time_why
+    assert rec.host_time_source is None and "did not map the board's clock" in rec.host_time_why
 
 
 def test_host_time_columns_are_used_as_written_and_empty_cells_are_nan(run, msgs, tmp_path):

@@ -221,8 +221,8 @@ def _host_time(col, segment, board_us, meta):
             return mono, utc, "frames.csv", _missing(known, "frames.csv has no host time", meta)
     entries = _time_segments(meta)
     if not entries:
-        why = "the recording has no host time (frames.csv has no host-time columns and"
-        return None, None, None, why + " meta.json no time_base: recorded by an older tactile)"
+        why = "the recording has no host time (frames.csv has no host-time columns and meta.json"
+        return None, None, None, why + " no time_base: its recorder did not map the board's clock)"
     mono = np.full(len(board_us), np.nan)
     utc = np.full(len(board_us), np.nan)
     for e in entries:

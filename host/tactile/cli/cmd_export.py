@@ -1,6 +1,6 @@
 """``tactile export RUN --format mcap [-o FILE]``: a recording as a file other tools open.
 
-``mcap``: ROS 2 messages (``tactile.export_mcap``) for Foxglove and ``ros2 bag``; it needs
+``mcap``: ROS 2 messages (``tactile.export_mcap``) for Foxglove and ROS 2 tools; it needs
 the ``export`` extra, and without it the command prints the install line and exits 2.
 The one-line summary names the file, the messages per topic and the clock of the stamps.
 """
