@@ -234,7 +234,7 @@ def _host_time(col, segment, board_us, meta):
         utc[rows] = float(e["host_utc_ref_s"]) + d
     known = np.isfinite(utc)
     if not known.any():
-        return None, None, None, "no host time: " + _reasons(meta)
+        return None, None, None, _reasons(meta)
     return mono, utc, "meta.json", _missing(known, "its segment has no usable mapping", meta)
 
 
