@@ -93,7 +93,7 @@ def test_host_time_columns_are_used_as_written_and_empty_cells_are_nan(run, msgs
     np.testing.assert_array_equal(rec.host_monotonic_s, expect)
     np.testing.assert_array_equal(rec.host_utc_s, expect_utc)
     assert rec.host_time_why.startswith(f"1 of {len(msgs)} rows have no host time")
-    assert "row 7" in rec.host_time_why
+    assert "row 7: frames.csv has no host time (meta.json has no time_base)" in rec.host_time_why
     # the board's own columns are unchanged by the extra ones
     np.testing.assert_array_equal(rec.board_us, [m.timestamp_us for m in msgs])
     np.testing.assert_array_equal(rec.force_N[:, 0], [m.fx / 1e6 for m in msgs])
@@ -203,7 +203,7 @@ def _contacts_variant(run, dest, first_line, scale):
 
 def test_contacts_in_cm_by_their_units_line_are_given_in_metres(run, tmp_path):
     metres = tactile.load_recording(run).contacts.points_m
-    rec = tactile.load_recording(_contacts_variant(run, tmp_path / "cm", "# units: cm", 100.0))
+    rec = tactile.load_recording(_contacts_variant(run, tmp_path / "cm", "# units: cm, 1", 100.0))
     assert rec.contacts.file_unit == "cm"
     np.testing.assert_allclose(rec.contacts.points_m, metres, rtol=1e-14, atol=1e-18)
     bad = _contacts_variant(run, tmp_path / "in", "# units: inch", 1.0)

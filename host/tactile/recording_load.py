@@ -31,6 +31,7 @@ unwrapped from its first row (a step back of under half the wrap is a frame out 
 """
 
 import pathlib
+import re
 import shlex
 from dataclasses import dataclass
 
@@ -240,7 +241,10 @@ def _host_time(col, segment, board_us, meta):
 
 def _reasons(meta):
     """The time_base's own words for segments without a usable mapping."""
-    why = [e.get("why") for e in _time_segments(meta) if not e.get("usable") and e.get("why")]
+    entries = _time_segments(meta)
+    if not entries:
+        return "meta.json has no time_base"
+    why = [e.get("why") for e in entries if not e.get("usable") and e.get("why")]
     return "; ".join(dict.fromkeys(why)) or "meta.json's time_base has no usable mapping"
 
 
@@ -297,7 +301,7 @@ def _contacts_unit(csv_path, meta):
     stated = units_line(csv_path)
     if stated is not None:
         line_no, text = stated
-        unit = text.split()[0] if text.split() else ""
+        unit = re.split(r"[\s,;()]+", text)[0]
         if unit not in LENGTH_UNITS:
             raise InputError(
                 f"{csv_path}:{line_no}: units {show(text)}: not a length unit"
