@@ -148,3 +148,31 @@ def test_whole_number_columns_are_range_checked(tmp_path, value):
         table.whole("x", 0, 7)
     expect = f"data.csv:3: column 'x': must be a whole number in 0..7, got {float(value)!r}"
     assert str(exc.value).endswith(expect)
+
+
+def test_blank_float_columns_are_nan_where_empty_and_checked_elsewhere(tmp_path):
+    path = _write(tmp_path, "x,y,z,t\n1,2,3,\n4,5,6, 7.5 \n")
+    table = read_csv(path, REQ, blank_float=("t", "absent"))
+    np.testing.assert_array_equal(table.columns["t"], [np.nan, 7.5])
+    assert "absent" not in table.columns
+    bad = _write(tmp_path, "x,y,z,t\n1,2,3,nan\n")  # 'nan' written out is not a blank
+    with pytest.raises(InputError, match=r"data\.csv:2: column 't': not a finite number"):
+        read_csv(bad, REQ, blank_float=("t",))
+    short = _write(tmp_path, "x,y,z,t\n1,2,3\n")
+    with pytest.raises(InputError, match=r"data\.csv:2: column 't': missing value"):
+        read_csv(short, REQ, blank_float=("t",))
+
+
+def test_a_caller_may_raise_the_byte_and_row_limits(tmp_path):
+    path = _write(tmp_path, "x,y,z\n" + "1,2,3\n" * 5)
+    with pytest.raises(InputError, match=r"data\.csv:6: more than 4 data rows"):
+        read_csv(path, REQ, max_rows=4)
+    assert len(read_csv(path, REQ, max_rows=5)) == 5
+    with pytest.raises(InputError, match=r"data\.csv: larger than 0 MiB"):
+        read_csv(path, REQ, max_bytes=10)
+
+
+def test_the_units_line_is_found_before_the_header(tmp_path):
+    path = _write(tmp_path, "# rig: x\n#  Units :  cm \nx,y,z\n1,2,3\n# units: m\n")
+    assert tabular.units_line(path) == (2, "cm")
+    assert tabular.units_line(_write(tmp_path, "x,y,z\n1,2,3\n")) is None

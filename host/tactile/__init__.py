@@ -1,6 +1,16 @@
 """tactile host package: stream decoding, EP1/EP2 shape analysis and the CLI.
 
-Imports stay lazy: ``import tactile`` pulls in nothing heavy.
+Imports stay lazy: ``import tactile`` pulls in nothing heavy.  ``tactile.load_recording``
+(``tactile.recording_load``) imports NumPy when first used.
 """
 
 __version__ = "0.1.0"
+__all__ = ["load_recording"]
+
+
+def __getattr__(name):
+    if name == "load_recording":
+        from tactile.recording_load import load_recording
+
+        return load_recording
+    raise AttributeError(f"module 'tactile' has no attribute {name!r}")

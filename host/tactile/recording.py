@@ -108,3 +108,48 @@ def remove_recording(outdir):
     """Delete the files a recording writes in ``outdir`` (for scratch output like the demo's)."""
     for name in (CAPTURE, FRAMES, DEVICE, META, "contacts.csv", "probes.csv"):
         (pathlib.Path(outdir) / name).unlink(missing_ok=True)
+
+
+# --- reading frames.csv back (``tactile.recording_load``) ------------------------------------
+
+FRAME_NUMBERS = (
+    "seq",
+    "timestamp_us",
+    "sensor",
+    "flags",
+    *("fx_N", "fy_N", "fz_N", "tx_Nm", "ty_Nm", "tz_Nm"),
+)
+# Empty where not given: phase and contact id of a SAMPLE; the host time of a row whose
+# board -> host mapping is unusable (the columns themselves are a newer recorder's).
+FRAME_BLANKS = ("phase", "contact_id", "host_monotonic_s", "host_utc_s")
+# The units a '# units:' line of frames.csv may name: its columns are N, N*m, us and s.
+FRAME_UNITS = frozenset({"si", "n", "n*m", "nm", "n.m", "n·m", "m", "s", "us", "µs"})
+# A recording is the project's own file and may be long: 1 kHz x 3 sensors for 55 min.
+MAX_FRAMES_BYTES = 2 * 2**30
+MAX_FRAME_ROWS = 10_000_000
+
+
+def read_frames(path):
+    """frames.csv as a ``tabular.Table`` (``FRAME_NUMBERS``, ``FRAME_BLANKS`` as NaN where
+    empty, ``type`` as text), after checking that a ``# units:`` line names SI units."""
+    import re
+
+    from tactile.tabular import read_csv, show, units_line
+
+    stated = units_line(path)
+    if stated is not None:
+        line_no, text = stated
+        wrong = [u for u in re.split(r"[\s,;()]+", text.lower()) if u and u not in FRAME_UNITS]
+        if wrong or not text:
+            raise InputError(
+                f"{path}:{line_no}: units {show(text)}: frames.csv holds N, N*m and s (SI);"
+                " this file says otherwise"
+            )
+    return read_csv(
+        path,
+        FRAME_NUMBERS,
+        optional_text=("type",),
+        blank_float=FRAME_BLANKS,
+        max_bytes=MAX_FRAMES_BYTES,
+        max_rows=MAX_FRAME_ROWS,
+    )

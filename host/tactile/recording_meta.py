@@ -100,3 +100,23 @@ def document(sessions):
     doc["decoder"] = _decoder_totals(sessions)
     doc["sessions"] = sessions
     return doc
+
+
+def read_meta(path):
+    """The meta.json document at ``path`` (a dict), or ``InputError`` naming what is wrong."""
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file (not a 'tactile record' directory?)") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: unreadable: {exc}") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{path}: not a recording's meta.json (not a JSON object)")
+    return doc
+
+
+def sessions_of(doc):
+    """The session entries of a meta.json document, oldest first (an older single-run
+    document is its own one session)."""
+    sessions = doc.get("sessions")
+    return list(sessions) if isinstance(sessions, list) and sessions else [doc]

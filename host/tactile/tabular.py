@@ -1,13 +1,14 @@
 """Reading the project's CSV files (EP2 contacts, pose logs, EP1 probes and probe logs).
 
-This is the one place a CSV is read: ``read_csv`` for the rows, ``preamble`` and
-``comment_lines`` for the ``#`` lines some formats carry.  Every error is an ``InputError``
-(exit 2) whose one-line message names file, line and column.
+This is the one place a CSV is read: ``read_csv`` for the rows, ``preamble``,
+``comment_lines`` and ``units_line`` for the ``#`` lines some formats carry.  Every error is
+an ``InputError`` (exit 2) whose one-line message names file, line and column.
 
 Limits (README, "Files the host reads"): a regular file (not a device, pipe or directory) of
 at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most ``MAX_ROWS`` data
 rows.  UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; lines end in
-LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.
+LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.  A reader of the
+project's own larger files (a recording's frames.csv) may raise the byte and row limits.
 """
 
 import contextlib
@@ -29,11 +30,13 @@ __all__ = [
     "read_csv",
     "rows",
     "show",
+    "units_line",
 ]
 
 MAX_LINE_BYTES = 64 * 1024
 MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_ROWS = 1_000_000
+NAN = float("nan")
 MAX_WHOLE = 2**53  # the largest whole-number value a column may hold (floats are exact to it)
 SHOW_CHARS = 40  # of a cell or header quoted in a message
 
@@ -101,32 +104,49 @@ def show(text, limit=SHOW_CHARS, quote=True):
     return text + ("..." if cut else "")
 
 
-def read_csv(path, required, optional_text=(), optional_float=()):
+def read_csv(
+    path,
+    required,
+    optional_text=(),
+    optional_float=(),
+    blank_float=(),
+    *,
+    max_bytes=None,
+    max_rows=None,
+):
     """Read ``path``: header row, ``#`` comment lines, unknown columns ignored.
 
-    ``required`` and ``optional_float`` columns must be finite numbers;
-    ``optional_text`` columns are kept as stripped strings.
+    ``required`` and ``optional_float`` columns must be finite numbers; ``blank_float``
+    columns (optional) too, but an empty cell there is NaN (a value not known);
+    ``optional_text`` columns are kept as stripped strings.  ``max_bytes`` and ``max_rows``
+    replace ``MAX_FILE_BYTES`` and ``MAX_ROWS`` for this file.
     """
-    with contextlib.closing(_rows(path)) as rows:
+    max_rows = MAX_ROWS if max_rows is None else max_rows
+    with contextlib.closing(_rows(path, max_bytes)) as rows:
         try:
             header_line, header = next(rows)
         except StopIteration:
             raise InputError(_no_header(path)) from None
         index = _header_index(path, header_line, header, required)
         floats = [c for c in (*required, *optional_float) if c in index]
+        blanks = [c for c in blank_float if c in index]
         texts = [c for c in optional_text if c in index]
-        columns = {c: array("d") for c in floats}
+        columns = {c: array("d") for c in (*floats, *blanks)}
         columns.update({c: [] for c in texts})
         shared = {c: {} for c in texts}  # one str object per distinct cell (patch ids repeat)
         lines = array("q")
         for line_no, row in rows:
-            if len(lines) == MAX_ROWS:
+            if len(lines) == max_rows:
                 raise InputError(
-                    f"{where(path, line_no)}: more than {MAX_ROWS:,} data rows (the limit for"
+                    f"{where(path, line_no)}: more than {max_rows:,} data rows (the limit for"
                     " one file; split it)"
                 )
             for name in floats:
                 columns[name].append(_number(path, line_no, name, row, index[name]))
+            for name in blanks:
+                i = index[name]
+                empty = not _cell(path, line_no, name, row, i)
+                columns[name].append(NAN if empty else _number(path, line_no, name, row, i))
             for name in texts:
                 text = _cell(path, line_no, name, row, index[name])
                 columns[name].append(shared[name].setdefault(text, text))
@@ -160,6 +180,17 @@ def _no_header(path):
     return f"{where(path, 1)}: no header row (the file is empty or only comments)"
 
 
+def units_line(path):
+    """The ``# units: ...`` line among the ``#`` lines before the header, as (line, the text
+    after the colon, stripped), or None when the file states no unit."""
+    comments, _, _ = preamble(path)
+    for line_no, text in comments:
+        key, _, value = text[1:].partition(":")
+        if key.strip().lower() == "units":
+            return line_no, value.strip()
+    return None
+
+
 def comment_lines(path):
     """Every ``#`` line of the file as [(line, stripped text)], in file order."""
     with contextlib.closing(_text_lines(path)) as lines:
@@ -169,41 +200,45 @@ def comment_lines(path):
 # --- reading bytes into lines --------------------------------------------------------------
 
 
-def _open(path):
-    """A binary handle on a regular file within ``MAX_FILE_BYTES``, or ``InputError``.
+def _open(path, max_bytes=None):
+    """A binary handle on a regular file within ``max_bytes`` (``MAX_FILE_BYTES``), or
+    ``InputError``.
 
     Opened non-blocking, so a FIFO is refused instead of waiting for a writer."""
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as exc:
         raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
     info = os.fstat(fd)
     if not stat.S_ISREG(info.st_mode):
         os.close(fd)
         what = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
         raise InputError(f"{path}: {what} (a CSV must be a regular file)")
-    if info.st_size > MAX_FILE_BYTES:
+    if info.st_size > max_bytes:
         os.close(fd)
-        raise InputError(_too_big(path))
+        raise InputError(_too_big(path, max_bytes))
     return os.fdopen(fd, "rb")
 
 
-def _too_big(path):
-    return f"{path}: larger than {MAX_FILE_BYTES // 2**20} MiB (the limit for one file; split it)"
+def _too_big(path, max_bytes):
+    return f"{path}: larger than {max_bytes // 2**20:,} MiB (the limit for one file; split it)"
 
 
-def _text_lines(path):
+def _text_lines(path, max_bytes=None):
     """Yield (line number, text with its line ending) of every physical line, decoded.
 
-    At most ``MAX_LINE_BYTES`` per line and ``MAX_FILE_BYTES`` in all are ever held or read.
+    At most ``MAX_LINE_BYTES`` per line and ``max_bytes`` (``MAX_FILE_BYTES``) in all are
+    ever held or read.
     """
-    with _open(path) as fh:
+    max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
+    with _open(path, max_bytes) as fh:
         carry, line_no, total = b"", 0, 0
         while True:
             chunk = fh.read(_CHUNK)
             total += len(chunk)
-            if total > MAX_FILE_BYTES:
-                raise InputError(_too_big(path))
+            if total > max_bytes:
+                raise InputError(_too_big(path, max_bytes))
             if total == len(chunk) and chunk.startswith((b"\xff\xfe", b"\xfe\xff")):
                 raise InputError(f"{where(path, 1)}: UTF-16 text; save it as 'CSV UTF-8'")
             parts = (carry + chunk).splitlines(keepends=True)  # LF, CR LF or CR
@@ -239,9 +274,9 @@ def _decode(path, line_no, raw):
 # --- lines into rows and cells -------------------------------------------------------------
 
 
-def _rows(path):
+def _rows(path, max_bytes=None):
     """Yield (line number, cells) of the header and data rows; blank and ``#`` lines skipped."""
-    with contextlib.closing(_text_lines(path)) as lines:
+    with contextlib.closing(_text_lines(path, max_bytes)) as lines:
         numbered = _Numbered(lines)
         reader = csv.reader(numbered)
         while True:
