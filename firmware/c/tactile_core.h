@@ -77,6 +77,7 @@ void tc_cal_set(tc_cal_t *c, const uint32_t bits[36], uint32_t cal_id); /* keeps
 void tc_cal_identity(tc_cal_t *c); /* 1 uN per count, id 0, not present, bias 0 */
 void tc_cal_set_bias_sums(tc_cal_t *c, const int64_t sums[6], uint32_t n);
 void tc_cal_apply(const tc_cal_t *c, const int32_t counts[6], int32_t out[6]);
+size_t tc_cal_size(void); /* sizeof(tc_cal_t), for foreign callers */
 
 /* --- contact gate: hysteresis + debounce (tactile_fw/gate.py, thesis §5.1) --- */
 enum { TC_GATE_NONE = -1, TC_GATE_BEGIN = 0, TC_GATE_IN = 1, TC_GATE_END = 2 };
@@ -88,6 +89,7 @@ typedef struct {
 void tc_gate_configure(tc_gate_t *g, int32_t enter, int32_t exit_, uint8_t debounce, int three_d);
 void tc_gate_reset(tc_gate_t *g);
 int tc_gate_update(tc_gate_t *g, int32_t fx, int32_t fy, int32_t fz);
+size_t tc_gate_size(void); /* sizeof(tc_gate_t), for foreign callers */
 
 /* --- hardware --- */
 typedef struct {

@@ -13,6 +13,11 @@ static int64_t floor_shift(int64_t v, int k)
     return v >= 0 ? v >> k : -(((-v) - 1) >> k) - 1;
 }
 
+size_t tc_cal_size(void)
+{
+    return sizeof(tc_cal_t);
+}
+
 int tc_cal_bad_coefficient(const uint32_t *bits, size_t n)
 {
     size_t k;

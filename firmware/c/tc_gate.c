@@ -3,6 +3,11 @@
  * exact squared magnitudes in 64 bits, as the Python gate does with its exact ints. */
 #include "tactile_core.h"
 
+size_t tc_gate_size(void)
+{
+    return sizeof(tc_gate_t);
+}
+
 void tc_gate_reset(tc_gate_t *g)
 {
     g->in_contact = 0;

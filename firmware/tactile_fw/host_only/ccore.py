@@ -172,6 +172,16 @@ def load(path):
         "tc_unpack": (ctypes.c_int, [ctypes.c_char_p, _sz, ctypes.POINTER(Header), _vp]),
         "tc_assembler_init": (None, [_vp]),
         "tc_assembler_feed": (ctypes.c_int, [_vp, _u8]),
+        "tc_cal_size": (_sz, []),
+        "tc_cal_set": (None, [_vp, ctypes.POINTER(_u32), _u32]),
+        "tc_cal_set_bias_sums": (None, [_vp, ctypes.POINTER(ctypes.c_int64), _u32]),
+        "tc_cal_apply": (
+            None,
+            [_vp, ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_int32)],
+        ),
+        "tc_gate_size": (_sz, []),
+        "tc_gate_configure": (None, [_vp, ctypes.c_int32, ctypes.c_int32, _u8, ctypes.c_int]),
+        "tc_gate_update": (ctypes.c_int, [_vp, ctypes.c_int32, ctypes.c_int32, ctypes.c_int32]),
         "tc_board_size": (_sz, []),
         "tc_board_init": (ctypes.c_int, [_vp, ctypes.POINTER(Config), ctypes.POINTER(Hal)]),
         "tc_board_boot": (None, [_vp]),
@@ -350,5 +360,3 @@ class CBoard:
         if name in STATS:
             return self.stat(name)
         raise AttributeError(name)
-
-
