@@ -141,6 +141,14 @@ class Header(ctypes.Structure):
     _fields_ = [("version", _u8), ("type", _u8), ("seq", _u16), ("timestamp_us", _u32)]
 
 
+class Assembler(ctypes.Structure):  # tc_assembler_t
+    _fields_ = [("buf", _u8 * 251), ("n", _u16), ("overflow", _u8), ("body_len", _u8)]
+
+
+class Encoder(ctypes.Structure):  # tc_encoder_t
+    _fields_ = [("seq", _u16), ("body", _u8 * 250), ("out", _u8 * 252)]
+
+
 STATS = (
     "samples",
     "i2c_errors",
@@ -170,6 +178,7 @@ def load(path):
         "tc_msg_size": (_sz, []),
         "tc_pack": (_sz, [_pu8, _u8, _u16, _u32, _vp]),
         "tc_unpack": (ctypes.c_int, [ctypes.c_char_p, _sz, ctypes.POINTER(Header), _vp]),
+        "tc_encode": (_sz, [_vp, _u8, _u32, _vp]),
         "tc_assembler_init": (None, [_vp]),
         "tc_assembler_feed": (ctypes.c_int, [_vp, _u8]),
         "tc_cal_size": (_sz, []),
