@@ -45,13 +45,22 @@ def harness(tmp_path_factory):
     proc.wait(timeout=30)
 
 
+def died(proc):
+    proc.wait(timeout=30)
+    return AssertionError("the harness died:\n" + proc.stderr.read().decode(errors="replace"))
+
+
 def run(proc, script):
-    proc.stdin.write(struct.pack("<I", len(script)) + script)
-    proc.stdin.flush()
+    if proc.poll() is not None:
+        raise died(proc)
+    try:
+        proc.stdin.write(struct.pack("<I", len(script)) + script)
+        proc.stdin.flush()
+    except BrokenPipeError:
+        raise died(proc) from None
     head = proc.stdout.read(4)
     if len(head) < 4:
-        proc.wait(timeout=30)
-        raise AssertionError("the harness died:\n" + proc.stderr.read().decode(errors="replace"))
+        raise died(proc)
     (n,) = struct.unpack("<I", head)
     return proc.stdout.read(n)
 
@@ -67,9 +76,11 @@ def host_bytes(data):
 
 @st.composite
 def op(draw):
-    kind = draw(st.integers(0, 9))
+    kind = draw(st.integers(0, 10))
     if kind <= 2:
         return host_bytes(draw(st.one_of(sensible(4), hostile(), st.binary(max_size=300))))
+    if kind == 10:  # a run without delimiter around the assembler's limit
+        return host_bytes(b"\x55" * draw(st.integers(C.MAX_ENCODED - 2, 700)) + b"\0")
     if kind <= 4:
         return bytes((1,)) + struct.pack("<H", draw(st.integers(0, 30_000)))
     if kind == 5:
