@@ -250,3 +250,14 @@ def test_a_refused_configuration_is_an_error_not_a_crash(ccore_lib):
         ccore.CBoard(ccore_lib, rig.buses, [(0, 5)], rig.link, rig.clock, rig.storage)
     with pytest.raises(ValueError, match="tx buffer"):
         ccore.CBoard(ccore_lib, rig.buses, [(0, 0)], rig.link, rig.clock, rig.storage, tx_size=9)
+
+
+def test_the_core_compiles_for_a_cortex_m0plus(tmp_path):
+    """arm-none-eabi-gcc -mcpu=cortex-m0plus -Os, warnings as errors (skipped without it)."""
+    cc = shutil.which("arm-none-eabi-gcc")
+    if cc is None:
+        pytest.skip("arm-none-eabi-gcc not installed (apt-get install gcc-arm-none-eabi)")
+    flags = ["-std=c99", "-mcpu=cortex-m0plus", "-mthumb", "-Os", "-Wall", "-Wextra"]
+    flags += ["-Wpedantic", "-Wconversion", "-Werror", "-I", str(ccore.SRC)]
+    for src in ccore.sources():
+        subprocess.run([cc, *flags, "-c", str(src), "-o", str(tmp_path / "x.o")], check=True)
