@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from tactile.ep2 import analyze_patch, analyze_patches
+from tactile.ep2 import analyze_patch, analyze_patches, batch_lstsq
 from tactile_sim.ep2 import make, sweep
 
 CASES = (
@@ -56,6 +56,14 @@ def batched(n=512):
         analyze_patches(pairs, chunk=chunk)
         ms = 1e3 * (time.perf_counter() - t0) / n
         print(f"| analyze_patches, chunk {chunk} | {ms:.2f} | {loop / ms:.1f} |")
+    fast, batch_lstsq.FAST_MAX_COND = batch_lstsq.FAST_MAX_COND, 0.0  # the SVD for every fit
+    t0 = time.perf_counter()
+    analyze_patches(pairs, chunk=256)
+    ms = 1e3 * (time.perf_counter() - t0) / n
+    batch_lstsq.FAST_MAX_COND = fast
+    print(
+        f"| analyze_patches, chunk 256, SVD for every solve (before) | {ms:.2f} | {loop / ms:.1f} |"
+    )
 
 
 def main():

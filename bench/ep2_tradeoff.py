@@ -5,7 +5,9 @@ Data: tune-split cases of bench/ep2_trust.py (``tactile_sim.ep2.cases``): sphere
 10, cylinders r 3 and 10 (rotations 0-90 deg), saddles and quadrics r 10, 27 and 36
 contacts, one noise level.  Error = RMS of S at the patch centre minus the truth there
 (S from k1, k2 when a plane label leaves S null).  The defaults (``centre_jet``) are the
-first row; every other row changes one thing.
+first row; every other row changes one thing.  Each jet variant is timed twice on the
+same data, one patch at a time and batched (``analyze_patches``, results equal); then the
+default at several chunk sizes, which is where ``batch.CHUNK`` comes from.
 """
 
 import argparse
@@ -13,7 +15,8 @@ import time
 
 import numpy as np
 
-from tactile.ep2 import analyze_patch, centre_jet
+from tactile.ep2 import analyze_patch, analyze_patches, centre_jet
+from tactile.ep2.batch import CHUNK
 from tactile.errors import DataError
 from tactile_sim.ep2 import cases
 
@@ -48,6 +51,14 @@ def _s(res):
     return float(2 / np.pi * np.arctan2(k1 + k2, k1 - k2))
 
 
+def batched_ms(data, kw, chunk):
+    """ms per patch of ``analyze_patches`` on the same data (results equal the loop's)."""
+    pairs = [(d["points"], d["normals"]) for d in data]
+    t0 = time.perf_counter()
+    analyze_patches(pairs, chunk=chunk, **kw)
+    return 1e3 * (time.perf_counter() - t0) / len(data)
+
+
 def run(trials, noise):
     data = [cases.draw(c, t) for c in _cases(noise) for t in range(trials)]
     rows = []
@@ -66,11 +77,13 @@ def run(trials, noise):
             finally:
                 t_used += time.perf_counter() - t0
             err.append(_s(res) - d["truth"]["S"])
+        batch = batched_ms(data, kw, CHUNK) if kw.get("method") != "spline" else None
         for k, v in saved.items():
             setattr(centre_jet, k, v)
         rms = float(np.sqrt(np.mean(np.square(err))))
-        rows.append((name, rms, 1e3 * t_used / len(data), refused))
-    return rows, len(data)
+        rows.append((name, rms, 1e3 * t_used / len(data), batch, refused))
+    chunks = [(c, batched_ms(data, {}, c)) for c in (1, 16, 64, 256, 1024)]
+    return rows, len(data), chunks
 
 
 def main():
@@ -79,12 +92,16 @@ def main():
     ap.add_argument("--noise", type=float, default=0.01)
     ap.add_argument("--png")
     args = ap.parse_args()
-    rows, n = run(args.trials, args.noise)
+    rows, n, chunks = run(args.trials, args.noise)
     print(f"{n} patches, noise {args.noise:g}\n")
-    print("| variant | RMS S error (answered) | refused | ms / patch |")
-    print("|---|---|---|---|")
-    for name, e, ms, refused in rows:
-        print(f"| {name} | {e:.5f} | {refused} | {ms:.2f} |")
+    print(f"| variant | RMS S error (answered) | refused | ms / patch, loop | batched ({CHUNK}) |")
+    print("|---|---|---|---|---|")
+    for name, e, ms, batch, refused in rows:
+        b = "per patch" if batch is None else f"{batch:.2f}"
+        print(f"| {name} | {e:.5f} | {refused} | {ms:.2f} | {b} |")
+    print("\n| chunk (patches per fit) | ms / patch, default |\n|---|---|")
+    for c, ms in chunks:
+        print(f"| {c} | {ms:.2f} |")
     if args.png:
         import matplotlib
 
@@ -92,7 +109,7 @@ def main():
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(6.4, 4.2), layout="constrained")
-        for i, (name, e, ms, _) in enumerate(rows):
+        for i, (name, e, ms, _, _) in enumerate(rows):
             ax.scatter(ms, e, marker="os^v<>Dp"[i % 8], s=30, label=name)
         ax.set(xlabel="run time per patch (ms)", ylabel="RMS S error (dimensionless)")
         ax.set_yscale("log")

@@ -17,7 +17,7 @@ from tactile_protocol import constants as C
 from tactile_protocol.cobs_codec import encode
 from tactile_protocol.crc16 import crc16
 from tactile_protocol.framing import encode_frame
-from tactile_protocol.messages import BY_NAME, SPECS, field_codes
+from tactile_protocol.messages import BY_NAME, SPECS, cal_checksum, field_codes
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -69,7 +69,7 @@ TYPICAL = {
         1,
         0,
         0,
-        2,
+        C.PROTOCOL_VERSION,
         b"SIM-ADS1219x6",
         1,
         1000,
@@ -83,12 +83,16 @@ TYPICAL = {
         3,
         0x0A,
         0x5EED1D01,
+        0x6B1D,
+        0,
+        0,
+        0,
     ),
     "INFO": (
         1,
         0,
         0,
-        2,
+        C.PROTOCOL_VERSION,
         b"SIM-ADS1219x6",
         3,
         1000,
@@ -102,6 +106,10 @@ TYPICAL = {
         2,
         0x23,
         0x5EED1D01,
+        "SET_CAL",  # replaced below by cal_checksum(TYPICAL SET_CAL's matrix)
+        "IDENTITY",
+        0xFFFF,
+        0,
     ),
     "SAMPLE": (0, 0x40, 1234567, -2345678, 45, -1000, 2000, 0),
     "CONTACT": (2, C.PHASE_BEGIN, 7, 0x40, 5100000, 0, -12, 1, 2, 3),
@@ -116,6 +124,20 @@ TYPICAL = {
     "STOP": (),
     "SET_CAL": (0, 20260101) + tuple(float(i - 17) / 8 for i in range(36)),
 }
+IDENTITY_1UN = tuple(1e-6 if r == c else 0.0 for r in range(6) for c in range(6))
+CAL_CASES = (("SET_CAL", TYPICAL["SET_CAL"][2:]), ("IDENTITY", IDENTITY_1UN))
+TYPICAL["INFO"] = tuple(
+    cal_checksum(dict(CAL_CASES)[v]) if isinstance(v, str) else v for v in TYPICAL["INFO"]
+)
+
+
+def cal_checksum_cases():
+    """HELLO/INFO cal_crc: the typical SET_CAL matrix and the firmware's 1 uN/count identity."""
+    return [
+        {"name": n, "coeffs": list(c), "coeffs_hex": _hex(struct.pack("<36f", *c)),
+         "crc": cal_checksum(c)}
+        for n, c in CAL_CASES
+    ]  # fmt: skip
 
 
 def _fields_json(name, values):
@@ -167,7 +189,9 @@ def _flipped(seq):
 
 
 def _hello(seq, ts, boot_id):
-    values = TYPICAL["HELLO"][:-1] + (boot_id,)
+    fields = BY_NAME["HELLO"][4]
+    values = list(TYPICAL["HELLO"])
+    values[fields.index("boot_id")] = boot_id
     return encode_frame(C.MSG_HELLO, seq, ts, values)
 
 
@@ -249,6 +273,7 @@ def main():
             for t, name, fmt, fields in SPECS
         },
         "crc16": crc_cases(),
+        "cal_checksum": cal_checksum_cases(),
         "cobs": cobs_cases(),
         "frames": frame_cases(),
         "streams": streams,

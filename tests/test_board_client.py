@@ -58,7 +58,7 @@ def _frame_v(version, mtype, values, seq=0):
 
 
 HELLO = (0, 1, 0, C.PROTOCOL_VERSION, b"SIM", 1, 1000, 1, 0, 0, 0, 1000, 1390000, 1112000, 3, 0x0B,
-         0xB0071D)  # fmt: skip
+         0xB0071D, 0x1234, 0, 0, 0)  # fmt: skip
 
 
 def test_handshake_and_commands_against_the_emulator():

@@ -41,7 +41,11 @@ def harness(tmp_path_factory):
         [str(exe)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE
     )
     yield proc
-    proc.stdin.close()
+    for pipe in (proc.stdin, proc.stdout, proc.stderr):
+        try:
+            pipe.close()
+        except BrokenPipeError:  # the harness died: its report is already in a failure
+            pass
     proc.wait(timeout=30)
 
 

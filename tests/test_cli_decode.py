@@ -14,7 +14,8 @@ def _capture(tmp_path, junk=b""):
         enc.encode(
             MSG_HELLO,
             0,
-            (1, 2, 3, PROTOCOL_VERSION, b"SIM", 1, 1000, 5, 0, 0, 0, 500, 5, 4, 2, 3, 9),
+            (1, 2, 3, PROTOCOL_VERSION, b"SIM", 1, 1000, 5, 0, 0, 0, 500, 5, 4, 2, 3, 9)
+            + (7, 0, 0, 0),
         )
     )
     for i in range(5):

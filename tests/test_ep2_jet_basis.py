@@ -262,6 +262,35 @@ def test_rank_deficient_problem_gives_the_minimum_norm_solution_and_its_rank():
         assert sol.leverage[k].sum() == pytest.approx(sol.rank[k])
 
 
+def test_fast_path_and_svd_path_agree_and_each_problem_takes_its_own_path(monkeypatch):
+    """CholeskyQR2 (well conditioned, a zero column included) equals the SVD path to
+    round-off; a problem conditioned past ``FAST_MAX_COND``, a rank-deficient one and one
+    with fewer rows than columns go to the SVD without changing the others."""
+    rng = _rng(14)
+    A, b, w = _problem(rng, B=6, m=30, p=6)
+    A[1, :, 3] = 0.0  # a dead column: fast path, coefficient 0, blind there
+    A[2, :, 2] = A[2, :, 0] * (1 + 1e-7 * rng.normal(size=30))  # cond ~1e7: SVD
+    A[3, :, 5] = A[3, :, 4]  # rank 5: SVD
+    w[4, 4:] = 0.0  # 4 rows for 6 columns: SVD, rank 4
+    X = A * w[..., None]
+    X = X / np.where((n := np.linalg.norm(X, axis=1)) > 0, n, 1.0)[:, None, :]
+    _, _, fast = batch_lstsq._cholesky_qr2(X, np.linalg.norm(X, axis=1) > 0)
+    np.testing.assert_array_equal(fast, [True, True, False, False, False, True])
+    mixed = batch_lstsq.solve(A, b, w)
+    monkeypatch.setattr(batch_lstsq, "FAST_MAX_COND", 0.0)  # everything through the SVD
+    svd = batch_lstsq.solve(A, b, w)
+    np.testing.assert_array_equal(mixed.rank, [6, 5, 6, 5, 4, 6])
+    np.testing.assert_array_equal(mixed.rank, svd.rank)
+    for k in (0, 1, 3, 4, 5):  # problem 2: its cond amplifies round-off
+        c = np.abs(svd.coef[k]).max()
+        np.testing.assert_allclose(mixed.coef[k], svd.coef[k], rtol=1e-9, atol=1e-12 * c)
+        np.testing.assert_allclose(mixed.leverage[k], svd.leverage[k], atol=1e-12)
+        np.testing.assert_allclose(mixed.blind[k], svd.blind[k], atol=1e-12)
+        p_scale = np.abs(svd.pinv[k]).max()
+        np.testing.assert_allclose(mixed.pinv[k], svd.pinv[k], atol=1e-10 * p_scale)
+    assert mixed.coef[1, 3] == 0.0 and mixed.blind[1, 3, 3] == 1.0
+
+
 # --- the F widening ----------------------------------------------------------------------
 
 

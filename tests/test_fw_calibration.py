@@ -1,6 +1,8 @@
 """F/T = C (g - bias) (ATI's convention, thesis ch. 5): the fixed-point definition, exact,
 and its distance from the float product (NumPy)."""
 
+import binascii
+import struct
 from fractions import Fraction
 
 import numpy as np
@@ -131,6 +133,22 @@ def test_round_trip_through_a_file(tmp_path):
     assert back.present and back.cal_id == 123456789
     assert np.array_equal(np.float32(back.coefficients()), c.ravel())
     assert not calibration.load(store, 1).present  # no file: identity
+
+
+def test_the_file_holds_the_received_float32_bytes_not_a_rescaled_copy():
+    """A port with single-precision floats computes scaled = c * 1e6; the file must not
+    store scaled / 1e6 (an ulp away there), or the checksum INFO reports after a reboot
+    would differ from the host's.  Simulated: the scaled copy is perturbed by one part in
+    1e7, as a float32 round trip can; the file and the checksum still match what was sent."""
+    c = [float(np.float32(1.2345678e-6 * (k + 1))) for k in range(36)]
+    sent = struct.pack("<36f", *c)
+    cal = Calibration(c, cal_id=9)
+    cal.a[:] = [v + 1 for v in cal.a]  # the fixed-point copy is not what the file holds
+    store = MemoryStorage()
+    cal.save(store, 0)
+    assert store.read("cal0.bin")[9 : 9 + 144] == sent  # magic 4, version 1, id 4, then C
+    back = calibration.load(store, 0)
+    assert back.crc == cal.crc == binascii.crc_hqx(sent, 0xFFFF)
 
 
 def test_corrupt_file_is_ignored():

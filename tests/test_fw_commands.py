@@ -1,5 +1,6 @@
 """Command validation: every command gets ACK or NAK; refused values are never applied."""
 
+import binascii
 import struct
 
 import pytest
@@ -71,6 +72,10 @@ def info(rig):
                 "debounce",
                 "flags",
                 "boot_id",
+                "crc0",
+                "crc1",
+                "crc2",
+                "crc3",
             ),
             inf[3],
             strict=True,
@@ -229,12 +234,16 @@ def test_set_cal_stores_applies_and_reports_id(rig):
     m = [0.0] * 36
     for r in range(6):
         m[r * 6 + r] = 2e-6 if r < 3 else 1e-7
+    identity = struct.pack("<36f", *calibration.identity())
+    assert info(rig)["crc0"] == binascii.crc_hqx(identity, 0xFFFF)  # no file: the identity's
     seq, frames = rig.command(CMD_SET_CAL, cal_values(0, 4242, m))
     assert name(only_reply(frames, seq)) == "ACK"
-    assert info(rig)["cal0"] == 4242
+    sent = struct.pack("<36f", *m)  # the bytes SET_CAL carried, hashed by another route
+    assert (info(rig)["cal0"], info(rig)["crc0"]) == (4242, binascii.crc_hqx(sent, 0xFFFF))
     stored = calibration.load(rig.storage, 0)
     assert stored.cal_id == 4242
-    assert stored.coefficients() == pytest.approx(m, rel=1e-7)
+    assert struct.pack("<36f", *stored.coefficients()) == sent  # bit for bit, not approximately
+    assert stored.crc == binascii.crc_hqx(sent, 0xFFFF)  # what the board reports after a reboot
 
 
 @pytest.mark.parametrize("k", [0, 17, 35])

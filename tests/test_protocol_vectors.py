@@ -12,7 +12,7 @@ from tactile_protocol import cobs_codec
 from tactile_protocol.constants import MAX_ENCODED, PROTOCOL_VERSION
 from tactile_protocol.crc16 import crc16
 from tactile_protocol.framing import FRAME_OK, FrameAssembler, FrameEncoder
-from tactile_protocol.messages import BY_NAME, SPECS, field_codes
+from tactile_protocol.messages import BY_NAME, SPECS, cal_checksum, field_codes
 
 
 def _values(case, padded=False):
@@ -35,6 +35,20 @@ def test_crc_matches_vectors_and_binascii(vectors):
         data = bytes.fromhex(case["data_hex"])
         assert crc16(data) == case["crc"]
         assert binascii.crc_hqx(data, 0xFFFF) == case["crc"]
+
+
+def test_cal_checksum_matches_vectors_and_binascii(vectors):
+    """HELLO/INFO cal_crc: CRC-16 of SET_CAL's 36 float32 (LE, row-major), PROTOCOL.md §4."""
+    names = {c["name"] for c in vectors["cal_checksum"]}
+    assert names == {"SET_CAL", "IDENTITY"}
+    for case in vectors["cal_checksum"]:
+        packed = b"".join(struct.pack("<f", v) for v in case["coeffs"])  # one by one
+        assert packed.hex() == case["coeffs_hex"]
+        assert binascii.crc_hqx(packed, 0xFFFF) == case["crc"]
+        assert cal_checksum(case["coeffs"]) == case["crc"]
+    typical = {c["type"]: c for c in vectors["frames"] if c["group"] == "typical"}
+    sent = [typical["SET_CAL"]["fields"][f"c{r}{c}"] for r in range(6) for c in range(6)]
+    assert typical["INFO"]["fields"]["cal_crc_0"] == cal_checksum(sent)
 
 
 def test_crc_over_a_window_needs_no_slice():

@@ -69,6 +69,7 @@ typedef struct {
     int32_t bias_q8[TC_N_GAUGES];         /* TARE bias in 1/256 counts */
     int64_t offset[TC_N_GAUGES];          /* sum a bias_q8 - 2^(S+7) */
     uint32_t cal_id;
+    uint16_t crc; /* CRC-16 of the 36 float32 as SET_CAL carried them (HELLO/INFO cal_crc) */
     uint8_t present;
 } tc_cal_t;
 /* Coefficients as float32 bit patterns; -1 if all finite, else the first bad index. */

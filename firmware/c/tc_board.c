@@ -144,6 +144,7 @@ void tc_board_send_info(tc_board_t *b, uint8_t type)
     m.max_rate_hz = b->max_rate_hz;
     for (i = 0; i < b->n; i++) {
         m.cal_id[i] = b->cals[i].cal_id;
+        m.cal_crc[i] = b->cals[i].crc;
     }
     m.rate_hz = b->settings.rate_hz;
     m.enter_threshold = b->settings.enter;

@@ -102,10 +102,20 @@ static void offsets(tc_cal_t *c)
 
 void tc_cal_set(tc_cal_t *c, const uint32_t bits[36], uint32_t cal_id)
 {
-    int r;
+    int r, k;
+    uint16_t crc = 0xFFFF;
     for (r = 0; r < N; r++) {
         set_row(c, r, bits + N * r);
     }
+    for (k = 0; k < N * N; k++) { /* little-endian float32, as on the wire */
+        uint8_t le[4];
+        le[0] = (uint8_t)bits[k];
+        le[1] = (uint8_t)(bits[k] >> 8);
+        le[2] = (uint8_t)(bits[k] >> 16);
+        le[3] = (uint8_t)(bits[k] >> 24);
+        crc = tc_crc16(le, 4, crc);
+    }
+    c->crc = crc;
     c->cal_id = cal_id;
     c->present = 1;
     offsets(c);

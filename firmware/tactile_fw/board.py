@@ -383,8 +383,10 @@ class Board:
     def info_values(self):
         s = self.settings
         ids = [0, 0, 0, 0]
+        crcs = [0, 0, 0, 0]
         for i in range(self.n):
             ids[i] = self.cals[i].cal_id
+            crcs[i] = self.cals[i].crc
         flags = s.flags | (CFG_STREAMING if self.streaming else 0)
         return (
             FW_VERSION[0],
@@ -404,6 +406,10 @@ class Board:
             s.debounce,
             flags,
             self.boot_id,
+            crcs[0],
+            crcs[1],
+            crcs[2],
+            crcs[3],
         )
 
     def send_info(self, mtype=MSG_INFO):

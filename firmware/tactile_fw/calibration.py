@@ -23,11 +23,16 @@ Integer fixed point, identical here, on MicroPython and in the C core
 Per sample every intermediate stays below 2^30, a small int on 32-bit
 MicroPython ports, so calibrating allocates nothing: g = gh 2^12 + gl and
 A = Ah 2^12 + Al (gl, Al in 0..4095), three sums of products, carries.
+
+``raw`` keeps the 36 coefficients as float32 bytes, exactly as SET_CAL carried them, and
+``crc`` their checksum (``cal_checksum``), which HELLO/INFO report so the host can verify
+the matrix, not only its id.  The file is written from ``raw``.
 """
 
 import struct
 
 from tactile_protocol.crc16 import crc16
+from tactile_protocol.messages import CAL_COEFFS_FMT
 
 N = 6
 INT32_MAX = 0x7FFFFFFF
@@ -37,6 +42,7 @@ S_MAX = 40  # a row of tiny coefficients: finer steps than this are not kept
 BIAS_FRAC = 8  # the bias in 1/256 counts
 _MAGIC = b"TCAL"
 _FMT = "<4sBI36f"  # magic, format version, cal_id, C row-major
+_HEAD = "<4sBI"
 _SIZE = struct.calcsize(_FMT)
 _FLOAT32_MAX = 3.4028234663852886e38
 
@@ -101,7 +107,8 @@ def _bit_length(p):
 
 class Calibration:
     def __init__(self, coeffs=None, cal_id=0):
-        self.coeffs = [0.0] * (N * N)
+        self.raw = b""
+        self.crc = 0
         self.a_hi = [0] * (N * N)  # A >> 12
         self.a_lo = [0] * (N * N)  # A & 0xFFF
         self.a = [0] * (N * N)
@@ -121,16 +128,18 @@ class Calibration:
             self.shift[r] = s
             for j in range(N):
                 k = N * r + j
-                self.coeffs[k] = struct.unpack("<f", struct.pack("<f", coeffs[k]))[0]
                 self.a[k] = a[j]
                 self.a_hi[k] = a[j] >> 12
                 self.a_lo[k] = a[j] & 0xFFF
+        self.raw = struct.pack(CAL_COEFFS_FMT, *coeffs)
+        self.crc = crc16(self.raw)
         self.cal_id = cal_id
         self.present = True
         self._offsets()
 
     def coefficients(self):
-        return list(self.coeffs)
+        """The 36 coefficients as float32 values, as received (row-major)."""
+        return list(struct.unpack(CAL_COEFFS_FMT, self.raw))
 
     # --- bias (TARE) ----------------------------------------------------------------
     def set_bias_sums(self, sums, n):
@@ -205,7 +214,7 @@ class Calibration:
 
     # --- persistence --------------------------------------------------------------
     def to_bytes(self, sensor):
-        body = struct.pack(_FMT, _MAGIC, 1, self.cal_id, *self.coefficients())
+        body = struct.pack(_HEAD, _MAGIC, 1, self.cal_id) + self.raw
         crc = crc16(body)
         return body + bytes((crc & 0xFF, crc >> 8))
 

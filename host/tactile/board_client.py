@@ -60,7 +60,7 @@ COMMAND_NAMES = {
 COMMAND_FIELDS = {
     C.CMD_CONFIG: ("rate_hz", "enter_threshold", "exit_threshold", "debounce", "flags"),
     C.CMD_TARE: ("sensor", "n_samples"),
-    C.CMD_SET_CAL: ("sensor", "cal_id", "matrix"),
+    C.CMD_SET_CAL: ("sensor", "cal_id") + tuple(f"c{r}{c}" for r in range(6) for c in range(6)),
 }
 MAX_READ = 65536  # bytes per read call: bounded whatever the device claims to have
 
@@ -229,6 +229,13 @@ class BoardClient:
         )
         return self.command(C.CMD_CONFIG, values, timeout=timeout)
 
+    def set_calibration(self, sensor, cal_id, coeffs, timeout=2.0):
+        """SET_CAL: 36 coefficients (row-major, N and N*m per ADC count), stored on the board.
+
+        The board writes flash before it ACKs, hence the longer timeout.
+        """
+        return self.command(C.CMD_SET_CAL, (sensor, cal_id, *coeffs), timeout=timeout)
+
     def start(self, timeout=1.0):
         return self.command(C.CMD_START, timeout=timeout)
 
@@ -250,4 +257,5 @@ def info_dict(info):
     d["autostart"] = bool(info.flags & C.CFG_AUTOSTART)
     d["streaming"] = bool(info.flags & C.CFG_STREAMING)
     d["cal_ids"] = [getattr(info, f"cal_id_{i}") for i in range(info.n_sensors)]
+    d["cal_crcs"] = [getattr(info, f"cal_crc_{i}") for i in range(info.n_sensors)]
     return d

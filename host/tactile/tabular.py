@@ -27,6 +27,7 @@ __all__ = [
     "comment_lines",
     "preamble",
     "read_csv",
+    "rows",
     "show",
 ]
 
@@ -133,6 +134,13 @@ def read_csv(path, required, optional_text=(), optional_float=()):
     if not lines:
         raise InputError(f"{where(path, header_line)}: no data rows after the header")
     return Table(path, columns, lines)
+
+
+def rows(path):
+    """Yield (line number, cells) of every row of a CSV without a header (a calibration
+    matrix): blank and ``#`` lines skipped, the same limits and messages as ``read_csv``."""
+    with contextlib.closing(_rows(path)) as found:
+        yield from found
 
 
 def preamble(path):

@@ -12,7 +12,7 @@ except ImportError:  # CPython
         return x
 
 
-PROTOCOL_VERSION = const(2)  # 2: HELLO/INFO carry boot_id
+PROTOCOL_VERSION = const(3)  # 2: HELLO/INFO carry boot_id; 3: and cal_crc per sensor
 
 # --- sizes (bytes) -----------------------------------------------------------
 HEADER_SIZE = const(8)  # version u8, type u8, seq u16, timestamp_us u32

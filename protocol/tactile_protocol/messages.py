@@ -27,6 +27,7 @@ from tactile_protocol.constants import (
     MSG_STATUS,
     PROTOCOL_VERSION,
 )
+from tactile_protocol.crc16 import crc16
 
 HEADER_FMT = "<BBHI"
 
@@ -47,14 +48,14 @@ _INFO = (
         "cal_id_3",
     )
     + _CONFIG
-    + ("boot_id",)
+    + ("boot_id", "cal_crc_0", "cal_crc_1", "cal_crc_2", "cal_crc_3")
 )
 _CAL = ("sensor", "cal_id") + tuple("c%d%d" % (r, c) for r in range(6) for c in range(6))
 
 # (type, name, payload format without byte-order prefix, field names)
 SPECS = (
-    (MSG_HELLO, "HELLO", "BBBB16sBH4IHiiBBI", _INFO),
-    (MSG_INFO, "INFO", "BBBB16sBH4IHiiBBI", _INFO),
+    (MSG_HELLO, "HELLO", "BBBB16sBH4IHiiBBI4H", _INFO),
+    (MSG_INFO, "INFO", "BBBB16sBH4IHiiBBI4H", _INFO),
     (MSG_SAMPLE, "SAMPLE", "BB6i", ("sensor", "flags") + _FT),
     (MSG_CONTACT, "CONTACT", "BBHB6i", ("sensor", "phase", "contact_id", "flags") + _FT),
     (
@@ -188,3 +189,15 @@ def unpack(body, n=None):
         raise ValueError("%s: %d bytes, expected %d" % (entry[1], n, entry[3]))
     values = struct.unpack_from(entry[2], body, 0)
     return values[1], values[2], values[3], values[4:]
+
+
+CAL_COEFFS_FMT = "<36f"  # SET_CAL's c00..c55 as they travel: float32, little-endian, row-major
+
+
+def cal_checksum(coeffs):
+    """HELLO/INFO ``cal_crc_N``: CRC-16/CCITT-FALSE of the 36 coefficients as SET_CAL sends them.
+
+    ``coeffs`` are 36 numbers (row-major); each is rounded to float32 first, exactly as
+    packing SET_CAL does, so host and device hash the same 144 bytes.
+    """
+    return crc16(struct.pack(CAL_COEFFS_FMT, *coeffs))

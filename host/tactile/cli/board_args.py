@@ -1,4 +1,5 @@
-"""What the board commands (info, config, tare, record, live) share: ``--port`` and connecting."""
+"""What the board commands (info, config, tare, calibrate, record, live) share: ``--port``
+and connecting."""
 
 import os
 

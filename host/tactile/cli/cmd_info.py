@@ -33,7 +33,8 @@ def format_info(d):
             f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"
             f"  (protocol {d['protocol_version']})",
             f"sensor        {printable(d['sensor_model'])} x {d['n_sensors']}, "
-            f"calibration ids {d['cal_ids']}",
+            f"calibration ids {d['cal_ids']} (checksums "
+            f"{', '.join(f'0x{c:04x}' for c in d['cal_crcs'])})",
             f"rate          {d['rate_hz']} Hz (ceiling {d['max_rate_hz']} Hz)",
             f"gate          {d['gate']}: enter {d['enter_threshold_N']:.4g} N, "
             f"exit {d['exit_threshold_N']:.4g} N, debounce {d['debounce']}",

@@ -18,6 +18,7 @@ COMMANDS = {
     "info": ("tactile.cli.cmd_info", "show a board's INFO"),
     "config": ("tactile.cli.cmd_config", "set sample rate, contact gate and streams"),
     "tare": ("tactile.cli.cmd_tare", "bias the F/T sensor"),
+    "calibrate": ("tactile.cli.cmd_calibrate", "load a 6x6 calibration matrix onto a sensor"),
     "record": ("tactile.cli.cmd_record", "record a stream: raw capture, contacts CSV, metadata"),
     "live": ("tactile.cli.cmd_live", "terminal view of force/torque and contact state"),
     "decode": ("tactile.cli.cmd_decode", "decode a raw byte capture into JSON lines"),

@@ -19,9 +19,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2 import centre_jet, centre_result, discontinuity, extent, patch_frame
+from tactile.ep2 import (
+    centre_jet,
+    centre_result,
+    discontinuity,
+    extent,
+    grid_batch,
+    jet_basis,
+    patch_frame,
+)
 from tactile.ep2.centre_result import hk_eps
 from tactile.ep2.shape_index import hk_labels
+from tactile.ep2.surface_geometry import principal
 from tactile.errors import DataError, InputError
 
 METHODS = ("jet", "spline")
@@ -219,11 +228,38 @@ def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
     noise = (opts["noise_pos"], opts["noise_normal"])
     fits = centre_jet.fit(pts[None], nrm[None], mask, *noise, opts["max_normal_angle"])
-    return jet_outcome(fits, 0, opts)
+    return jet_outcome(fits, 0, opts, outcome_inputs(fits, opts["grid"]))
 
 
-def jet_outcome(fits, i, opts):
-    """The analysis of patch ``i`` of a ``centre_jet.fit`` stack (``DataError`` if refused)."""
+@dataclass
+class OutcomeInputs:
+    """What ``jet_outcome`` needs of a whole ``centre_jet.fit`` stack, computed for the
+    stack at once (``outcome_inputs``): Cov widening, the contacts' spread, the grid."""
+
+    widen: np.ndarray
+    spread: tuple
+    grid: tuple
+    stats: dict
+    direction1: np.ndarray
+
+
+def outcome_inputs(fits, n_grid):
+    """``OutcomeInputs`` of every patch of ``fits`` (an N x N grid)."""
+    ch, gx, gy = grid_batch.channels(fits.coef, fits.model, fits.xy, fits.mask, n_grid)
+    zx, zy, zxx, zxy, zyy = (fits.coef[:, k] for k in jet_basis.CHANNELS)
+    d1 = np.asarray(principal(zx, zy, zxx, zxy, zyy)["dir1"], float)
+    return OutcomeInputs(
+        widen=centre_result.widen(fits.dof),
+        spread=centre_result.spread_eigen(fits.xyz_mean, fits.mask),
+        grid=(ch, gx, gy),
+        stats=grid_batch.statistics(ch, fits.scale),
+        direction1=np.einsum("bi,bij->bj", d1, fits.axes),
+    )
+
+
+def jet_outcome(fits, i, opts, pre):
+    """The analysis of patch ``i`` of a ``centre_jet.fit`` stack (``DataError`` if refused);
+    ``pre`` = ``outcome_inputs`` of the stack."""
     why = fits.reason[i]
     if why is not None and opts["lines"] is not None and "contact " in why:
         k = int(why.split("contact ")[1].split()[0])
@@ -232,10 +268,10 @@ def jet_outcome(fits, i, opts):
         raise DataError(why)
     L, axes = float(fits.scale[i]), fits.axes[i]
     t, bias, nu = fits.t[i], fits.bias[i], float(fits.dof[i])
-    cov = fits.cov[i] * centre_result.widen(nu)
+    cov = fits.cov[i] * float(pre.widen[i])
     split = tuple((d[i], c[i], (z[0][i], z[1][i])) for d, c, z in fits.split)
     refusal, warning, gap = centre_result.consistency(split, nu, L, axes)
-    spread = fits.xyz_mean[i][fits.mask[i]], fits.mean_axes[i]
+    spread = tuple(v[i] for v in pre.spread), fits.mean_axes[i]
     refusal = refusal or centre_result.determination(cov, axes, L, spread, fits.noise[i, 0])
     if refusal is not None:
         raise DataError(refusal)
@@ -246,9 +282,8 @@ def jet_outcome(fits, i, opts):
     )
     out["warnings"] = [] if warning is None else [warning]
     coef, model, xy = fits.coef[i], int(fits.model[i]), fits.xy[i][fits.mask[i]]
-    channels, gx, gy = centre_result.grid_channels(coef, model, xy, opts["grid"])
-    stats, _ = centre_result.grid_statistics(channels, L, out["shape"] == "plane")
-    out.update(stats)
+    out.update(grid_batch.at(pre.stats, i, L, out["shape"] == "plane"))
+    ch, gx, gy = pre.grid
     out.update(
         order=centre_jet.ORDER,
         weighting="auto" if not any(fits.stated) else "stated",
@@ -258,16 +293,14 @@ def jet_outcome(fits, i, opts):
         frame=patch_frame.PatchFrame(fits.origin[i], axes),
         scale=L,
         surface=lambda q: _jet_height(coef, model, q),
-        grid=(channels, gx, gy),
-        direction1=centre_result.direction1(coef, axes),
+        grid=([c[i] for c in ch], gx[i], gy[i]),
+        direction1=pre.direction1[i],
         box=(xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max()),
     )
     return out
 
 
 def _jet_height(coef, model, xy):
-    from tactile.ep2 import jet_basis
-
     z = jet_basis.design(xy[:, 0], xy[:, 1], jet_basis.order_of(len(coef)), ((0, 0),)) @ coef
     if model == 1:
         z = z + jet_basis.round_excess(xy[:, 0], xy[:, 1], jet_basis.hessian(coef))[0]

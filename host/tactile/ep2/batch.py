@@ -8,8 +8,8 @@ patch equals ``analyze_patch``'s to round-off; a patch that is refused or malfor
 its exception in its place and the others still come out.
 
 Only the default method is batched; ``method="spline"`` falls back to one patch at a time.
-The per-patch analysis after the fit is still Python per patch: the fit is ~90 % of the
-cost, so this is where the gain is (``bench/ep2_speed.py``).
+The per-patch analysis after the fit (refusal tests, intervals, label, grid statistics)
+is still Python per patch, about a quarter of the batched cost (``bench/ep2_speed.py``).
 """
 
 import numpy as np
@@ -17,7 +17,7 @@ import numpy as np
 from tactile.ep2 import api, centre_jet
 from tactile.errors import DataError, InputError
 
-CHUNK = 64  # patches per fit call (bench/ep2_speed.py: 4.2x the loop at 64-512, 3.6x at 16)
+CHUNK = 256  # patches per fit call (bench/ep2_speed.py, ep2_tradeoff.py: best of 16-1024)
 
 
 def analyze_patches(patches, *, chunk=CHUNK, **kw):
@@ -65,9 +65,10 @@ def _chunk(patches, kw):
         opts = prepared[0][1].opts
         noise = (opts["noise_pos"], opts["noise_normal"])
         fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"])
+        pre = api.outcome_inputs(fits, opts["grid"])
         for b, (j, prep) in enumerate(prepared):
             try:
-                res = api.jet_outcome(fits, b, prep.opts)
+                res = api.jet_outcome(fits, b, prep.opts, pre)
                 results[j] = api._result(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )

@@ -1,10 +1,20 @@
-"""Weighted least squares for a stack of small problems, by SVD (never normal equations).
+"""Weighted least squares for a stack of small problems: CholeskyQR2, SVD where it matters.
 
 Each problem is min |w * (A c - b)|^2 with its own A (m, p), b (m,) and row
 weights w (m,); a weight of 0 removes a row (padding).  Columns are scaled
-to unit norm before the SVD, and singular values below ``RCOND`` times the
-largest are dropped, so a rank-deficient problem gets the minimum-norm
-solution in the scaled columns and its rank says so; nothing raises.
+to unit norm first.  A column that is zero (every row removed, or switched off by the
+caller) is structurally blind: its coefficient is 0 and its direction is in ``blind``.
+
+Well-conditioned problems are factorised by CholeskyQR2 (X = Q R from the Cholesky factor
+of X^T X, applied twice): Q is orthonormal to round-off and R as accurate as Householder's
+while cond(X) stays below ~1e8 (Yamamoto et al., ETNA 44, 2015); it is a handful of
+batched matmuls, where LAPACK's SVD is one call per tiny matrix (``bench/ep2_speed.py``).
+A problem whose first Cholesky factor fails or gives cond(X) over ``FAST_MAX_COND``
+(Frobenius estimate, within a factor p of the 2-norm one) goes to the SVD: singular
+values below ``RCOND`` times the largest are dropped, so a rank-deficient problem gets
+the minimum-norm solution in the scaled columns and its rank says so; nothing raises.
+Never the normal equations' solution itself: the Gram matrix only yields R, and the
+second pass removes the loss of orthogonality that its squared condition brings.
 """
 
 from dataclasses import dataclass
@@ -12,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 RCOND = 1e-10
+FAST_MAX_COND = 1e6  # CholeskyQR2 up to here (safe to ~1e8), the SVD beyond
 
 
 @dataclass
@@ -34,27 +45,104 @@ class Solution:
 
 def solve(A, b, w):
     """Solve every problem of the stack: A (..., m, p), b (..., m), w (..., m)."""
+    lead, (m, p) = A.shape[:-2], A.shape[-2:]
+    A, b, w = A.reshape(-1, m, p), b.reshape(-1, m), w.reshape(-1, m)
     Aw = A * w[..., None]
     bw = b * w
-    scale = np.sqrt(np.einsum("...mp,...mp->...p", Aw, Aw))
-    scale = np.where(scale > 0, scale, 1.0)
-    U, s, Vt = np.linalg.svd(Aw / scale[..., None, :], full_matrices=False)
-    keep = s > RCOND * s[..., :1]
-    inv_s = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
-    Ukeep = U * keep[..., None, :]
-    pinv = (np.swapaxes(Vt, -1, -2) * inv_s[..., None, :]) @ np.swapaxes(Ukeep, -1, -2)
-    pinv = pinv / scale[..., :, None]
-    coef = np.einsum("...pm,...m->...p", pinv, bw)
-    Vkeep = np.swapaxes(Vt, -1, -2) * keep[..., None, :]
-    blind = np.eye(Vt.shape[-1]) - Vkeep @ np.swapaxes(Vkeep, -1, -2)
-    residual = bw - np.einsum("...mp,...p->...m", Aw, coef)
-    return Solution(
+    scale = np.sqrt(np.einsum("bmp,bmp->bp", Aw, Aw))
+    live = scale > 0
+    scale = np.where(live, scale, 1.0)
+    X = Aw / scale[:, None, :]
+    Q, P, fast = _cholesky_qr2(X, live)
+    blind = np.zeros((len(X), p, p))
+    blind[:, np.arange(p), np.arange(p)] = ~live
+    slow = np.flatnonzero(~fast)
+    if slow.size:  # near-singular or rank-deficient: the SVD decides the rank
+        Q[slow], P[slow], blind[slow] = _svd(X[slow])
+    pinv = (P @ np.swapaxes(Q, -1, -2)) / scale[:, :, None]  # pinv(X) = P Q^T
+    coef = (pinv @ bw[..., None])[..., 0]
+    residual = bw - (Aw @ coef[..., None])[..., 0]
+    out = Solution(
         coef=coef,
         pinv=pinv,
-        leverage=np.einsum("...mk,...mk->...m", Ukeep, Ukeep),
-        rss=np.einsum("...m,...m->...", residual, residual),
-        rank=keep.sum(axis=-1),
+        leverage=np.einsum("bmk,bmk->bm", Q, Q),
+        rss=np.einsum("bm,bm->b", residual, residual),
+        rank=p - np.rint(np.trace(blind, axis1=-2, axis2=-1)).astype(int),
         residual=residual,
         blind=blind,
         scale=scale,
     )
+    for name in ("coef", "pinv", "leverage", "rss", "rank", "residual", "blind", "scale"):
+        v = getattr(out, name)
+        setattr(out, name, v.reshape(lead + v.shape[1:]))
+    return out
+
+
+def _cholesky_qr2(X, live):
+    """(Q (B, m, p), P (B, p, p), ok (B,)): X = Q R with R = R2 R1, so pinv(X) = P Q^T with
+    P = R^-1, where ok; a zero column (``~live``) stays zero in Q, its coefficient 0."""
+    dead = ~live
+    R1, ok = _cholesky(_gram(X, dead))
+    R1i = np.linalg.inv(R1)
+    cond = np.sqrt(np.einsum("bij,bij->b", R1, R1) * np.einsum("bij,bij->b", R1i, R1i))
+    ok &= cond <= FAST_MAX_COND
+    Q1 = X @ R1i
+    R2, ok2 = _cholesky(_gram(Q1, dead))
+    R2i = np.linalg.inv(R2)
+    Q = Q1 @ R2i
+    return Q, R1i @ R2i, ok & ok2
+
+
+def _gram(X, dead):
+    """X^T X with a unit diagonal on zero columns (their R row is e_k: coefficient 0)."""
+    G = np.swapaxes(X, -1, -2) @ X
+    k = np.arange(G.shape[-1])
+    G[:, k, k] = np.where(dead, 1.0, G[:, k, k])
+    return G
+
+
+def _cholesky(G):
+    """Upper R with R^T R = G per problem, and ok (B,): False where a pivot is not positive
+    (R is then the identity, a placeholder the SVD replaces)."""
+    B, p, _ = G.shape
+    try:  # LAPACK for the whole stack; it refuses the stack if one problem fails
+        R = np.swapaxes(np.linalg.cholesky(G), -1, -2)
+        d = np.diagonal(R, axis1=-2, axis2=-1)
+        ok = np.all(d * d > 1e-14 * np.diagonal(G, axis1=-2, axis2=-1), axis=-1)
+        R[~ok] = np.eye(p)
+        return R, ok
+    except np.linalg.LinAlgError:
+        pass
+    R = np.zeros_like(G)
+    ok = np.ones(B, bool)
+    for k in range(p):
+        col = R[:, :k, k]
+        d = G[:, k, k] - np.einsum("bi,bi->b", col, col)
+        good = d > 1e-14 * G[:, k, k]
+        ok &= good
+        rkk = np.sqrt(np.where(good, d, 1.0))
+        R[:, k, k] = rkk
+        if k + 1 < p:
+            R[:, k, k + 1 :] = (
+                G[:, k, k + 1 :] - (col[:, None, :] @ R[:, :k, k + 1 :])[:, 0]
+            ) / rkk[:, None]
+    R[~ok] = np.eye(p)
+    return R, ok
+
+
+def _svd(X):
+    """(U kept (B, m, p), P (B, p, p), blind (B, p, p)) of the SVD path: pinv(X) = P U^T."""
+    U, s, Vt = np.linalg.svd(X, full_matrices=False)
+    keep = s > RCOND * s[..., :1]
+    inv_s = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
+    Ukeep = U * keep[..., None, :]
+    V = np.swapaxes(Vt, -1, -2)
+    P = V * inv_s[..., None, :]  # pinv = V diag(1/s) U^T
+    Vkeep = V * keep[..., None, :]
+    p = X.shape[-1]
+    blind = np.eye(p) - Vkeep @ np.swapaxes(Vkeep, -1, -2)
+    short = p - s.shape[-1]  # fewer rows than columns: pad to p singular directions
+    if short:
+        Ukeep = np.concatenate([Ukeep, np.zeros(Ukeep.shape[:-1] + (short,))], axis=-1)
+        P = np.concatenate([P, np.zeros(P.shape[:-1] + (short,))], axis=-1)
+    return Ukeep, P, blind

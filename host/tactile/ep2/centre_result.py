@@ -26,7 +26,7 @@ import math
 import numpy as np
 from scipy.special import fdtri
 
-from tactile.ep2 import classify, jet_basis, uncertainty
+from tactile.ep2 import classify, grid_batch, jet_basis, uncertainty
 from tactile.ep2.shape_index import curvedness_c, curvedness_r, hk_labels, s_region_map, shape_index
 from tactile.ep2.surface_geometry import eigen, principal, shape_entries
 
@@ -39,11 +39,13 @@ AGREE_TILT = 0.05  # ... or the tilt gap this many rad (3 deg)
 
 
 def widen(nu, q=3, p=0.95):
-    """Factor on Cov for a noise estimated with ``nu`` degrees of freedom: q F(q, nu) / chi^2_q."""
-    if not np.isfinite(nu):
-        return 1.0
+    """Factor on Cov for a noise estimated with ``nu`` degrees of freedom: q F(q, nu) / chi^2_q
+    (1 for a stated noise, nu = inf).  ``nu`` a number or an array."""
+    nu = np.asarray(nu, float)
     chi2 = {1: uncertainty.CHI2_1_95, 2: uncertainty.CHI2_2_95, 3: uncertainty.CHI2_3_95}[q]
-    return float(q * fdtri(q, max(nu, 1.0), p) / chi2)
+    finite = np.isfinite(nu)
+    out = np.where(finite, q * fdtri(q, np.maximum(np.where(finite, nu, 1.0), 1.0), p) / chi2, 1.0)
+    return float(out) if out.ndim == 0 else out
 
 
 def determination(cov, axes, scale, spread, noise_pos):
@@ -63,9 +65,10 @@ def determination(cov, axes, scale, spread, noise_pos):
     """
     w = np.linalg.eigvalsh(cov)  # noise only: the model-choice bias is bounded, not unknown
     half = 1.96 * math.sqrt(max(float(w[-1]), 0.0))
-    pts, mean_axes = spread  # the contacts in the mean-normal frame: set by data, not a fit
+    (w2, v2, w3, v3), mean_axes = spread  # from data, not a fit (``spread_eigen``)
     sigma = max(noise_pos / scale, 1e-3)
-    why = _thin_line(pts, mean_axes, scale, sigma) or _one_path_plane(pts, mean_axes, scale, sigma)
+    why = _thin_line(w2, v2, mean_axes, scale, sigma)
+    why = why or _one_path_plane(w3, v3, mean_axes, scale, sigma)
     if why is not None:
         return why
     if half <= MAX_HALF_WIDTH:
@@ -83,8 +86,21 @@ def determination(cov, axes, scale, spread, noise_pos):
     )
 
 
-def _thin_line(pts, mean_axes, scale, sigma):
-    spread_w, spread_v = np.linalg.eigh(np.cov(pts[:, :2].T, bias=True))
+def spread_eigen(xyz, mask):
+    """Eigen-decompositions (ascending) of the contacts' covariance in the mean-normal frame
+    (``xyz`` (B, n, 3) / L, ``mask`` (B, n)), tangent 2 x 2 block and full 3 x 3, per patch:
+    (w2 (B, 2), v2 (B, 2, 2), w3 (B, 3), v3 (B, 3, 3)) for ``determination``."""
+    count = np.maximum(mask.sum(axis=1), 1)[:, None]
+    centred = np.where(
+        mask[..., None], xyz - (xyz * mask[..., None]).sum(axis=1)[:, None] / count[..., None], 0.0
+    )
+    cov = np.swapaxes(centred, 1, 2) @ centred / count[..., None]
+    w2, v2 = np.linalg.eigh(cov[:, :2, :2])
+    w3, v3 = np.linalg.eigh(cov)
+    return w2, v2, w3, v3
+
+
+def _thin_line(spread_w, spread_v, mean_axes, scale, sigma):
     thin = math.sqrt(max(float(spread_w[0]), 0.0))
     if thin >= MIN_SPREAD * sigma:
         return None
@@ -96,8 +112,7 @@ def _thin_line(pts, mean_axes, scale, sigma):
     )
 
 
-def _one_path_plane(pts, mean_axes, scale, sigma):
-    w, v = np.linalg.eigh(np.cov(pts.T, bias=True))
+def _one_path_plane(w, v, mean_axes, scale, sigma):
     thick, p = math.sqrt(max(float(w[0]), 0.0)), v[:, 0]
     if thick >= MIN_SPREAD * sigma or abs(p[2]) >= math.cos(math.radians(PATH_PLANE_DEG)):
         return None
@@ -135,6 +150,9 @@ def consistency(split, dof, scale, axes):
     if d2 <= crit:
         return None, None, np.zeros(3)
     kp, kn = (np.array(eigen(*t)) / scale for t in (tp, tn))
+    # round-off zeros print as 0 (a batch and a single patch differ there, nowhere else)
+    top = max(float(np.abs(kp).max()), float(np.abs(kn).max()))
+    kp, kn = (np.where(np.abs(k) <= 1e-12 * top, 0.0, k) for k in (kp, kn))
     tilt = math.degrees(math.atan(math.hypot(gap[0], gap[1])))
     text = (
         "positions and normals disagree: the positions give curvatures"
@@ -235,60 +253,11 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None):
     return out
 
 
-def grid_channels(coef, model, xy, n):
-    """(zx, zy, zxx, zxy, zyy) of the fitted surface on the N x N grid over the contacts' box
-    (final frame, / L), and the grid's x, y."""
-    xs = np.linspace(xy[:, 0].min(), xy[:, 0].max(), n)
-    ys = np.linspace(xy[:, 1].min(), xy[:, 1].max(), n)
-    gx, gy = (g.ravel() for g in np.meshgrid(xs, ys, indexing="ij"))
-    derivs = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
-    rows = jet_basis.design(gx, gy, centre_order(coef), derivs)
-    ch = list(np.split(rows @ coef, 5))
-    if model == 1:
-        H = jet_basis.hessian(coef)
-        _, ex, ey = jet_basis.round_excess(gx, gy, H)
-        exx, exy, eyy = jet_basis.round_second(gx, gy, H)
-        ch = [ch[0] + ex, ch[1] + ey, ch[2] + exx, ch[3] + exy, ch[4] + eyy]
-    return ch, gx, gy
-
-
-def centre_order(coef):
-    """Jet order from the number of coefficients."""
-    p, q = coef.shape[-1], 0
-    while jet_basis.n_coef(q) < p:
-        q += 1
-    return q
-
-
 def grid_statistics(channels, scale, plane):
-    """The thesis's grid statistics (§4.8.2): mean and sd of S, R, C, k1, k2 over the grid
-    points where the fitted surface is finite (a steep fit can overflow far from the centre)."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        k1, k2 = eigen(*shape_entries(*channels))
-    ok = np.isfinite(k1) & np.isfinite(k2)
-    if not ok.any():
-        keys = ("R_mean", "R_std", "k1_mean", "k2_mean", "k1_std", "k2_std", "S_mean", "S_std")
-        return dict.fromkeys((*keys, "C_mean")), (k1, k2)
-    k1, k2 = k1[ok], k2[ok]
-    r = curvedness_r(k1, k2)
-    out = {
-        "R_mean": float(r.mean()) / scale,
-        "R_std": float(r.std()) / scale,
-        "k1_mean": float(k1.mean()) / scale,
-        "k2_mean": float(k2.mean()) / scale,
-        "k1_std": float(k1.std()) / scale,
-        "k2_std": float(k2.std()) / scale,
-        "S_mean": None,
-        "S_std": None,
-        "C_mean": None,
-    }
-    if not plane:
-        s = shape_index(k1, k2)
-        pos = r > 0
-        out.update(S_mean=float(s.mean()), S_std=float(s.std()))
-        if pos.any():
-            out["C_mean"] = float(curvedness_c(r[pos] / scale).mean())
-    return out, (k1, k2)
+    """The thesis's grid statistics (§4.8.2) of one patch's grid channels (each (N^2,)):
+    ``grid_batch.statistics`` for a stack of one."""
+    stats = grid_batch.statistics([np.asarray(c)[None] for c in channels], np.array([scale]))
+    return grid_batch.at(stats, 0, scale, plane)
 
 
 def maps(channels, gx, gy, scale, plane, hk_eps):

@@ -20,8 +20,6 @@ the previous version (docs/ep2.md) carried to all orders.  Everything here
 broadcasts over leading (batch) axes.
 """
 
-from math import factorial
-
 import numpy as np
 
 CHANNELS = (1, 2, 3, 4, 5)  # columns of z_x, z_y, z_xx, z_xy, z_yy in every jet of order >= 2
@@ -53,17 +51,26 @@ def design(x, y, order, derivs=((0, 0), (1, 0), (0, 1))):
     x, y: (..., n).  Returns (..., len(derivs) * n, p): the blocks stacked in
     the order of ``derivs`` (default: positions, x-slopes, y-slopes).
     """
-    blocks = []
-    for dx, dy in derivs:
-        cols = []
-        for i, j in monomials(order):
-            if i < dx or j < dy:
-                cols.append(np.zeros_like(x))
-                continue
-            scale = factorial(i - dx) * factorial(j - dy)
-            cols.append(x ** (i - dx) * y ** (j - dy) / scale)
-        blocks.append(np.stack(cols, axis=-1))
-    return np.concatenate(blocks, axis=-2)
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    mons = monomials(order)
+    top = order + 1
+    xp, yp = _scaled_powers(x, top), _scaled_powers(y, top)  # x^k / k!
+    n = x.shape[-1]
+    out = np.zeros(x.shape[:-1] + (len(derivs) * n, len(mons)))
+    for b, (dx, dy) in enumerate(derivs):
+        rows = out[..., b * n : (b + 1) * n, :]
+        for col, (i, j) in enumerate(mons):
+            if i >= dx and j >= dy:
+                rows[..., col] = xp[i - dx] * yp[j - dy]
+    return out
+
+
+def _scaled_powers(v, top):
+    """[v^k / k! for k < top] (Taylor basis: the jet's columns are products of two)."""
+    out = [np.ones_like(v)]
+    for k in range(1, top):
+        out.append(out[-1] * v / k)
+    return out
 
 
 def hessian(coef):

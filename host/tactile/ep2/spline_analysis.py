@@ -81,7 +81,7 @@ def analyze(pts, nrm, opts):
     )
     rows = fit.grid_rows(*grid_xy, first=1)
     channels = np.split(rows @ fit.coef, 5)
-    stats, _ = centre_result.grid_statistics(channels, scale, out["shape"] == "plane")
+    stats = centre_result.grid_statistics(channels, scale, out["shape"] == "plane")
     out.update(stats)
     gx, gy = (g.ravel() for g in np.meshgrid(*grid_xy, indexing="ij"))
     out["grid"] = (channels, gx, gy)

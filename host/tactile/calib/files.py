@@ -1,0 +1,258 @@
+"""Reading a calibration file: bounded, then by its content (ATI XML, JSON or CSV).
+
+``read(path)`` returns a ``MatrixFile``: the 6x6 matrix exactly as the file states it (rows
+fx fy fz tx ty tz, columns gauges g0..g5), its units, its id if it carries one, and where
+each row came from, for messages.  The format is decided by the first character that is
+not white space (``<`` XML, ``{`` or ``[`` JSON, anything else CSV), not by the file's
+name.  Every error is an ``InputError`` (exit 2) naming file, line or row, and column or
+field.
+
+CSV (read by ``tactile.tabular``): six lines of six numbers separated by commas (or by
+white space), no header; ``#`` lines are comments, except ``# units: FORCE, TORQUE [per
+GAUGE]`` (default ``N, N-m per count``) and ``# id: N``.  JSON: ``{"id": N, "matrix":
+[[six numbers] x 6], "units": "N, N-m per count"}``, ``id`` and ``units`` optional, no
+other keys.
+"""
+
+import json
+import math
+import os
+import stat
+from collections import namedtuple
+
+from tactile import tabular
+from tactile.calib import units as U
+from tactile.errors import InputError, where
+
+__all__ = ["MatrixFile", "read", "ROWS", "GAUGES", "MAX_BYTES", "MAX_ID"]
+
+MAX_BYTES = 1 << 20  # a calibration file is a few kB
+MAX_ID = 0xFFFFFFFF  # cal_id is a u32; 0 means "no calibration"
+ROWS = ("fx", "fy", "fz", "tx", "ty", "tz")
+GAUGES = ("g0", "g1", "g2", "g3", "g4", "g5")
+JSON_KEYS = ("id", "matrix", "units")
+
+MatrixFile = namedtuple(
+    "MatrixFile",
+    "path kind matrix units cal_id id_from label notes places",
+    defaults=((),),
+)
+MatrixFile.__doc__ = """A matrix as a file states it.
+
+``matrix``: 6 lists of 6 floats; ``units``: ``units.Units``; ``cal_id``: int or None;
+``id_from``: where the id came from; ``label``: one line saying what the file is;
+``notes``: lines worth telling the user; ``places``: per row, its location for messages.
+"""
+
+
+def read(path, index=None):
+    """The ``MatrixFile`` at ``path``; ``index`` picks one of several ATI calibrations (1-based)."""
+    data = read_bounded(path)
+    first = data.lstrip(b"\xef\xbb\xbf \t\r\n")[:1]
+    if first == b"<":
+        from tactile.calib import ati
+
+        return ati.parse(path, data, index)
+    if index is not None:
+        raise InputError(f"--index: {path} is not an ATI .cal (only those hold several matrices)")
+    if first in (b"{", b"["):
+        return _json(path, data)
+    return _csv(path)
+
+
+def read_bounded(path, limit=MAX_BYTES):
+    """The bytes of a regular file of at most ``limit`` bytes (non-blocking: a FIFO is refused)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    info = os.fstat(fd)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(fd)
+        what = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise InputError(f"{path}: {what} (a calibration must be a regular file)")
+    with os.fdopen(fd, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise InputError(f"{path}: larger than {limit // 1024} KiB (a calibration is a few kB)")
+    if not data.strip():
+        raise InputError(f"{path}: empty file")
+    return data
+
+
+def check_id(value, what):
+    """``value`` as a calibration id (1..2^32-1) or InputError naming ``what``."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_ID:
+        raise InputError(
+            f"{what}: {value!r} is not a calibration id (a whole number 1..{MAX_ID}; 0 means none)"
+        )
+    return value
+
+
+def _cell_place(path, line, r, j):
+    return f"{where(path, line)}: row {r + 1} ({ROWS[r]}), column {j + 1} ({GAUGES[j]})"
+
+
+def _number(text, place):
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"{place}: not a number: {tabular.show(text)}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{place}: not a finite number: {tabular.show(text)}")
+    return v
+
+
+# --- CSV -------------------------------------------------------------------------------------
+
+
+def _csv(path):
+    spec, cal_id, id_from = U.SI, None, None
+    for line, text in tabular.comment_lines(path):
+        key, sep, value = text.lstrip("#").partition(":")
+        key = key.strip().lower()
+        if not sep or key not in ("units", "unit", "id"):
+            continue
+        if key == "id":
+            try:
+                number = int(value.strip())
+            except ValueError:
+                raise InputError(
+                    f"{where(path, line)}: id: not a whole number: {tabular.show(value.strip())}"
+                ) from None
+            cal_id = check_id(number, f"{where(path, line)}: id")
+            id_from = f"line {line}"
+        else:
+            try:
+                spec = U.parse(value)
+            except ValueError as exc:
+                raise InputError(f"{where(path, line)}: units: {exc}") from None
+    matrix, places = [], []
+    for line, cells in tabular.rows(path):
+        r = len(matrix)
+        if r == 6:
+            raise InputError(f"{where(path, line)}: a 7th row; the matrix has 6 ({' '.join(ROWS)})")
+        if len(cells) == 1 and len(cells[0].split()) > 1:
+            cells = cells[0].split()  # white-space separated (numpy.savetxt's default)
+        while len(cells) > 6 and not cells[-1].strip():
+            cells = cells[:-1]  # a trailing comma
+        if len(cells) != 6:
+            raise InputError(
+                f"{where(path, line)}: row {r + 1} ({ROWS[r]}) has {len(cells)} value"
+                f"{'s' * (len(cells) != 1)}, need 6 (gauges {' '.join(GAUGES)})"
+            )
+        row = []
+        for j, cell in enumerate(cells):
+            place = _cell_place(path, line, r, j)
+            if r == 0 and j == 0 and not _is_number(cell):
+                place += " (a calibration CSV has no header row)"
+            row.append(_number(cell.strip(), place))
+        matrix.append(row)
+        places.append(f"{where(path, line)}: row {r + 1} ({ROWS[r]})")
+    if len(matrix) < 6:
+        raise InputError(
+            f"{path}: {len(matrix)} row{'s' * (len(matrix) != 1)} of numbers, need 6"
+            f" ({' '.join(ROWS)}, one per line)"
+        )
+    label = f"CSV matrix, {U.describe(spec)}"
+    return MatrixFile(path, "CSV", matrix, spec, cal_id, id_from, label, [], places)
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+# --- JSON ------------------------------------------------------------------------------------
+
+
+def _json(path, data):
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        bad = data[exc.start]
+        raise InputError(f"{where(path, line)}: not UTF-8 text (byte 0x{bad:02x})") from None
+    try:
+        doc = json.loads(text, parse_constant=_no_constant(path), object_pairs_hook=_no_dupes(path))
+    except json.JSONDecodeError as exc:
+        raise InputError(
+            f"{where(path, exc.lineno)}: column {exc.colno}: not valid JSON: {exc.msg}"
+        ) from None
+    except RecursionError:
+        raise InputError(f"{path}: JSON nested too deeply to be a calibration") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{path}: the JSON must be an object with 'matrix' (and 'id', 'units')")
+    extra = [k for k in doc if k not in JSON_KEYS]
+    if extra:
+        raise InputError(
+            f"{path}: field {extra[0]!r}: unknown (a calibration JSON has {', '.join(JSON_KEYS)})"
+        )
+    if "matrix" not in doc:
+        raise InputError(f"{path}: field 'matrix': missing (6 lists of 6 numbers)")
+    spec = U.SI
+    if "units" in doc:
+        if not isinstance(doc["units"], str):
+            raise InputError(f"{path}: field 'units': must be text like 'N, N-m per count'")
+        try:
+            spec = U.parse(doc["units"])
+        except ValueError as exc:
+            raise InputError(f"{path}: field 'units': {exc}") from None
+    cal_id = check_id(doc["id"], f"{path}: field 'id'") if "id" in doc else None
+    matrix = _json_matrix(path, doc["matrix"])
+    places = [f"{path}: field matrix[{r}] ({ROWS[r]})" for r in range(6)]
+    label = f"JSON matrix, {U.describe(spec)}"
+    id_from = "field 'id'" if cal_id is not None else None
+    return MatrixFile(path, "JSON", matrix, spec, cal_id, id_from, label, [], places)
+
+
+def _json_matrix(path, m):
+    if not isinstance(m, list) or len(m) != 6:
+        n = _count(m, "row") if isinstance(m, list) else type(m).__name__
+        raise InputError(f"{path}: field 'matrix': {n}, need a list of 6 rows ({' '.join(ROWS)})")
+    out = []
+    for r, row in enumerate(m):
+        field = f"{path}: field matrix[{r}] ({ROWS[r]})"
+        if not isinstance(row, list) or len(row) != 6:
+            n = _count(row, "value") if isinstance(row, list) else type(row).__name__
+            raise InputError(f"{field}: {n}, need a list of 6 numbers (gauges {' '.join(GAUGES)})")
+        values = []
+        for j, v in enumerate(row):
+            place = f"{path}: field matrix[{r}][{j}] ({ROWS[r]}, {GAUGES[j]})"
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise InputError(f"{place}: not a number: {tabular.show(json.dumps(v))}")
+            try:
+                v = float(v)
+            except OverflowError:  # a JSON integer beyond any float
+                v = math.inf
+            if not math.isfinite(v):
+                raise InputError(f"{place}: not a finite number")
+            values.append(v)
+        out.append(values)
+    return out
+
+
+def _count(items, noun):
+    return f"{len(items)} {noun}{'s' * (len(items) != 1)}"
+
+
+def _no_constant(path):
+    def reject(name):
+        raise InputError(f"{path}: {name} is not a finite number (JSON's NaN and Infinity)")
+
+    return reject
+
+
+def _no_dupes(path):
+    def pairs(items):
+        seen = {}
+        for k, v in items:
+            if k in seen:
+                raise InputError(f"{path}: field {k!r}: given twice")
+            seen[k] = v
+        return seen
+
+    return pairs

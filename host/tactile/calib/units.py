@@ -1,0 +1,132 @@
+"""The force, torque and gauge units a calibration file may state, and their SI factors.
+
+A file states its units as ``FORCE, TORQUE per GAUGE`` (``lbf, lbf-in per V``; ATI's
+``.cal`` files say ``ForceUnits="lbf" TorqueUnits="lbf-in"`` and are per volt).  A force
+unit is one of ``FORCE_N``; a torque unit is a force unit times a length unit of
+``LENGTH_M``, written ``FORCE-LENGTH`` (``N-mm``, ``kgf-cm``; ``*``, ``.``, ``·`` or a
+space may stand for the dash, and ``Nm`` for ``N-m``).  The gauge unit is ``count`` (the
+board's ADC code, what the firmware multiplies) or a voltage.
+
+Factors are exact by definition (NIST SP 811, appendix B.8): the pound is 0.45359237 kg,
+standard gravity 9.80665 m/s^2, the inch 0.0254 m; so 1 lbf = 4.4482216152605 N.
+"""
+
+import re
+from collections import namedtuple
+
+__all__ = ["Units", "SI", "parse", "force_factor", "torque_factor", "gauge_factor"]
+
+STANDARD_GRAVITY = 9.80665  # m/s^2
+POUND_KG = 0.45359237
+_LBF = POUND_KG * STANDARD_GRAVITY
+
+FORCE_N = {
+    "N": 1.0,
+    "kN": 1e3,
+    "mN": 1e-3,
+    "lbf": _LBF,
+    "klbf": 1e3 * _LBF,
+    "ozf": _LBF / 16,
+    "kgf": STANDARD_GRAVITY,
+    "gf": 1e-3 * STANDARD_GRAVITY,
+}
+# ATI's DAQ F/T library spells the mass-named units without the f: "lb", "klb", "kg", "g".
+FORCE_ALIASES = {"lb": "lbf", "klb": "klbf", "oz": "ozf", "kg": "kgf", "g": "gf"}
+LENGTH_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "ft": 0.3048}
+GAUGE_V = {"count": None, "V": 1.0, "mV": 1e-3}  # None: the ADC code itself
+GAUGE_ALIASES = {"counts": "count"}
+
+Units = namedtuple("Units", "force torque gauge")
+SI = Units("N", "N-m", "count")  # what SET_CAL carries (PROTOCOL.md §4)
+
+_SEPARATORS = re.compile(r"\s*[-*.\u00b7 ]\s*")
+
+
+def _force(name):
+    name = FORCE_ALIASES.get(name, name)
+    return name if name in FORCE_N else None
+
+
+def force_factor(name):
+    """Newtons per ``name``, or None for a unit not known here."""
+    canon = _force(name.strip())
+    return None if canon is None else FORCE_N[canon]
+
+
+def _torque(text):
+    """``text`` as a canonical ``FORCE-LENGTH``, or None."""
+    text = text.strip()
+    if text in ("Nm", "Nmm"):
+        text = "N-" + text[1:]
+    parts = _SEPARATORS.split(text)
+    if len(parts) != 2:
+        return None
+    force = _force(parts[0])
+    if force is None or parts[1] not in LENGTH_M:
+        return None
+    return f"{force}-{parts[1]}"
+
+
+def torque_factor(name):
+    """Newton-metres per ``name``, or None for a unit not known here."""
+    canon = _torque(name)
+    if canon is None:
+        return None
+    force, length = canon.split("-")
+    return FORCE_N[force] * LENGTH_M[length]
+
+
+def gauge_factor(name):
+    """Volts per ``name`` (None for ``count``); KeyError for a unit not known here."""
+    return GAUGE_V[GAUGE_ALIASES.get(name, name)]
+
+
+def known(kind):
+    """The units of ``kind`` (force, torque, gauge) for an error message."""
+    if kind == "force":
+        return ", ".join(FORCE_N)
+    if kind == "torque":
+        return "FORCE-LENGTH with LENGTH one of " + ", ".join(LENGTH_M) + " (N-m, lbf-in ...)"
+    return ", ".join(GAUGE_V)
+
+
+def canonical_force(name):
+    canon = _force(name.strip())
+    if canon is None:
+        raise ValueError(f"unknown force unit {name.strip()!r} (known: {known('force')})")
+    return canon
+
+
+def canonical_torque(name):
+    canon = _torque(name)
+    if canon is None:
+        raise ValueError(f"unknown torque unit {name.strip()!r} ({known('torque')})")
+    return canon
+
+
+def canonical_gauge(name):
+    name = GAUGE_ALIASES.get(name.strip(), name.strip())
+    if name not in GAUGE_V:
+        raise ValueError(f"unknown gauge unit {name!r} (known: {known('gauge')})")
+    return name
+
+
+def parse(text):
+    """``"lbf, lbf-in per V"`` -> Units; ``per GAUGE`` defaults to ``count``.
+
+    ValueError with a message for a spec that does not parse or names an unknown unit.
+    """
+    head, sep, gauge = text.partition(" per ")
+    parts = [p for p in head.split(",")]
+    if len(parts) != 2 or not all(p.strip() for p in parts):
+        raise ValueError(f"{text.strip()!r} is not 'FORCE, TORQUE [per GAUGE]' (e.g. 'N, N-m')")
+    return Units(
+        canonical_force(parts[0]),
+        canonical_torque(parts[1]),
+        canonical_gauge(gauge) if sep else "count",
+    )
+
+
+def describe(units):
+    """``Units`` as the spec ``parse`` reads back: ``lbf, lbf-in per V``."""
+    return f"{units.force}, {units.torque} per {units.gauge}"
