@@ -193,7 +193,7 @@ def test_tare_captures_the_mean_and_acks_when_done(rig):
     assert not replies(frames, seq)  # 20 samples at 1 kHz take 20 ms
     rig.run(20_000)
     assert name(only_reply(rig.frames(), seq)) == "ACK"
-    assert rig.board.cals[0].bias == [float(c) for c in codes]
+    assert rig.board.cals[0].bias_counts() == [float(c) for c in codes]
     rig.config(rate=1000, flags=CFG_STREAM_SAMPLES)
     rig.command(CMD_START)
     rig.run(5000)

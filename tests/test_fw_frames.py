@@ -89,7 +89,7 @@ def test_board_stream_frame_equals_a_vector(vectors, kind):
     rig.command(CMD_START)
     board = rig.board
     # identity calibration (1 uN per count): a bias of -F/T puts zero counts at the values
-    board.cals[s].bias[:] = [-f[k] for k in ("fx", "fy", "fz", "tx", "ty", "tz")]
+    board.cals[s].set_bias([-f[k] for k in ("fx", "fy", "fz", "tx", "ty", "tz")])
     board.sensors[s].counts[:] = [0] * 6
     board.gates[s].reset()
     board.gates[s].contact_id = f.get("contact_id", 1) - 1

@@ -470,9 +470,7 @@ class Board:
         self.tare_left[i] -= 1
         if self.tare_left[i] == 0:
             self.tare_mask &= ~(1 << i)
-            bias = self.cals[i].bias
-            for k in range(frontend.N_GAUGES):
-                bias[k] = sums[k] / self.tare_n
+            self.cals[i].set_bias_sums(sums, self.tare_n)
             if not self.tare_mask:
                 self.ack(CMD_TARE, self.tare_seq)
                 self.tare_seq = -1

@@ -6,7 +6,7 @@ chatters when |F| hovers near it, so the gate has two levels: a contact
 begins after ``debounce`` consecutive samples with |F| > enter and ends after
 ``debounce`` consecutive samples with |F| < exit (exit <= enter).  |F| is
 taken in the x-y plane (thesis) or in 3-D (CFG_GATE_3D).  Integer bounds
-decide most samples; the rest compare squared magnitudes (no square root).
+decide most samples; the rest compare exact squared magnitudes (no square root).
 """
 
 try:
@@ -35,8 +35,8 @@ class ContactGate:
             raise ValueError("gate: need 0 <= exit <= enter and debounce >= 1")
         self.enter = enter
         self.exit = exit_
-        self.enter2 = float(enter) * float(enter)
-        self.exit2 = float(exit_) * float(exit_)
+        self.enter2 = enter * enter
+        self.exit2 = exit_ * exit_
         self.debounce = debounce
         self.three_d = three_d
         self.reset()
@@ -48,9 +48,9 @@ class ContactGate:
     def _cmp(self, fx, fy, fz, level, level2):
         """+1, 0, -1 as |F| is above, at or below ``level``.
 
-        max|f_i| <= |F| <= sum|f_i| decides most samples in integers; only
-        samples inside that band take the float path (floats are heap objects
-        on MicroPython, small ints are not).
+        max|f_i| <= |F| <= sum|f_i| decides most samples in small integers; only
+        samples inside that band square the components, exactly (as the C core
+        does in 64 bits; on MicroPython those squares are long ints, heap objects).
         """
         ax = fx if fx >= 0 else -fx
         ay = fy if fy >= 0 else -fy
@@ -65,12 +65,9 @@ class ContactGate:
             return 1
         if hi < level:
             return -1
-        x = float(fx)
-        y = float(fy)
-        m2 = x * x + y * y
+        m2 = fx * fx + fy * fy
         if self.three_d:
-            z = float(fz)
-            m2 += z * z
+            m2 += fz * fz
         return 1 if m2 > level2 else (-1 if m2 < level2 else 0)
 
     def update(self, fx, fy, fz):
