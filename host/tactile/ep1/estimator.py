@@ -5,7 +5,9 @@ Each probe i gives, from eq. 29 with the fingertip metric of eq. 20,
     b_i = M1 dp_i = S a_i,  a_i = [-dtheta_y, dtheta_x]^T,  S = (K1 + K2~)^-1 = [[k1, k2], [k2, k3]]
 
 i.e. two rows [a_x, a_y, 0] and [0, a_x, a_y] of a linear system in (k1, k2, k3) (eq. 33).  The
-stack is solved by Householder QR (never the normal equations of eq. 32).  K1 = I / R1 is
+stack is solved by orthogonalisation, never the normal equations of eq. 32: NumPy's batched
+Householder QR in ``estimate_batch``, and for one point (``estimate``) the same problem
+reduced through the QR of the m x 2 probe directions in plain floats (``_lsq``).  K1 = I / R1 is
 isotropic, so K2~ has the eigenvectors of S and eigenvalues kappa = 1/s - 1/R1: the
 principal curvatures come straight from S's closed-form eigen-decomposition (atan2/hypot),
 and kx, ky, kxy follow from Euler's equation (eq. 64) without inverting a near-singular
@@ -25,11 +27,11 @@ Every principal direction gets a status with the bound the data support:
 """
 
 import math
-from math import ldexp
-from operator import mul as _mul
 from typing import NamedTuple
 
 import numpy as np
+
+from tactile.ep1._lsq import solve_point
 
 __all__ = ["Estimate", "estimate", "estimate_batch", "euler_principal", "STATUSES", "EXIT_OK"]
 
@@ -149,112 +151,27 @@ def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
     return out
 
 
-def _solve_small(X, Y, U, V, R1, u0):
-    """Least squares for (k1, k2, k3) of eq. 33 in plain floats (microseconds, no NumPy).
-
-    ``X, Y, U, V``: lists of dtheta_x, dtheta_y, du, dv.  Per probe S a_i = b_i with
-    a_i = (P_i, Q_i) = (-dtheta_y, dtheta_x) and b_i = (R1 du, R1 cos(u0) dv).  With the thin
-    QR [P Q] = W T of the m x 2 matrix (T = [[t11, t12], [0, t22]]), eq. 33's A is
-    diag(W, W) times the 4 x 3 matrix M with rows [t11 t12 0], [0 t22 0], [0 t11 t12],
-    [0 0 t22], so the 2m x 3 problem reduces exactly to M k = (W^T bx, W^T by) plus the part
-    of b outside range(W).  W^T b and that part come from modified Gram-Schmidt on [P Q bx]
-    and [P Q by] (backward stable for least squares, Bjorck 1967), M from two Givens
-    rotations; A and M share their R factor, so the rank test is the batch path's.
-    Returns (k, rss, theta), or None if A is rank deficient or the rotations are too small.
-    """
-    m = len(X)
-    norm_a = math.hypot(*X, *Y)  # sqrt(m) theta; ||A||_F = sqrt(2) norm_a
-    theta = norm_a / math.sqrt(m)
-    if not theta >= MIN_THETA:
-        return None
-    if u0 != 0.0:
-        c = math.cos(u0)
-        V = [v * c for v in V]
-    # Exact power-of-two scaling, only when near under/overflow: results do not change.
-    ea, eb = _exponent(norm_a, X, Y), _exponent(math.hypot(*U, *V), U, V)
-    if ea:
-        X, Y = [ldexp(x, ea) for x in X], [ldexp(y, ea) for y in Y]
-        norm_a = math.hypot(*X, *Y)
-    if eb:
-        U, V = [ldexp(u, eb) for u in U], [ldexp(v, eb) for v in V]
-    tol = RANK_TOL * math.sqrt(2.0) * norm_a
-    t11 = math.hypot(*Y)  # first pivot of A
-    if not t11 > tol:
-        return None
-    # Modified Gram-Schmidt with q1 = P / t11 = -Y / t11 and q2 = w / t22, unnormalised.
-    t12 = -_dot(Y, X) / t11
-    w = _orth(X, Y, -t12 / t11)  # X - t12 q1
-    t22 = math.hypot(*w)
-    rho = math.hypot(t11, t22)  # second pivot of A (>= t11, so never below tol)
-    cs, sn = t22 / rho, t11 / rho
-    t = cs * t12
-    rho3 = math.hypot(t, t22)  # third pivot of A
-    if not rho3 > tol:
-        return None
-    c11, bx = _project(U, Y, -t11)
-    c21, bx = _project(bx, w, t22)
-    c12, by = _project(V, Y, -t11)
-    c22, by = _project(by, w, t22)
-    e = cs * c12 - sn * c21
-    k3 = (t * e + t22 * c22) / rho3 / rho3
-    k2 = (cs * c21 + sn * c12 - sn * t12 * k3) / rho
-    k1 = (c11 - t12 * k2) / t11
-    res = math.hypot(*bx, *by, (t22 * e - t * c22) / rho3)
-    f, res = (_ldexp_clamped(R1, ea - eb), _ldexp_clamped(res, -eb)) if ea or eb else (R1, res)
-    k = (k1 * f, k2 * f, k3 * f)
-    if not abs(k[0]) <= 1e300 or not abs(k[1]) <= 1e300 or not abs(k[2]) <= 1e300:
-        k = tuple(min(max(x, -1e300), 1e300) for x in k)  # absurd inputs stay finite
-    res *= R1
-    return k, min(res * res, 1e300), theta
-
-
-def _project(b, v, norm):
-    """(q . b, b - (q . b) q) for q = v / norm, |v| = |norm|: a modified Gram-Schmidt step."""
-    c = _dot(v, b) / norm
-    return c, _orth(b, v, c / norm)
-
-
-def _orth(b, v, g):
-    return [x - g * y for x, y in zip(b, v)]  # noqa: B905 (equal lengths)
-
-
-def _dot(x, y):
-    return sum(map(_mul, x, y))
-
-
-def _exponent(norm, *cols):
-    """Power of two that brings ``norm`` to about 1 if it is near under/overflow, else 0."""
-    if 1e-100 <= norm <= 1e100 or norm == 0.0:
-        return 0
-    if norm == math.inf:  # hypot overflowed: the largest entry is finite
-        norm = max(max(map(abs, c)) for c in cols)
-    return -math.frexp(norm)[1]
-
-
-def _ldexp_clamped(x, e):
-    """x 2^e, at most 1e300 in magnitude (math.ldexp raises on overflow)."""
-    if x == 0.0 or math.frexp(x)[1] + e < 997:
-        return ldexp(x, e)
-    return math.copysign(1e300, x)
-
-
-def _side(s, R1, inv_r1, theta, noise_b, sigma_theta, resolution):
+def _side(s, R1, inv_r1, theta, theta_safe, noise_b, sigma_theta, resolution):
     """Interval, curvature and status of one principal value s of S (scalar ``_from_s``)."""
-    ds = (noise_b + sigma_theta * abs(s)) / max(theta, 1e-300) + 1e-13 * (abs(s) + R1)
+    a = abs(s)
+    ds = (noise_b + sigma_theta * a) / theta_safe + 1e-13 * (a + R1)
     lo, hi = s - ds, s + ds
-    k_lo = min(1.0 / hi - inv_r1, 1e300) if hi > 0.0 else 1.0 - inv_r1
-    k_hi = min(1.0 / lo - inv_r1, 1e300) if lo > 0.0 else 1.0 - inv_r1
-    kappa = 1.0 / (1e-150 if abs(s) < 1e-150 else s) - inv_r1
-    code = FLAT if k_lo <= 0.0 <= k_hi else OK
-    if lo > 0.0 and R1 / max(lo, 1e-300) < CANCEL_TOL:
-        code = NEAR_SINGULAR
-    if lo <= 0.0:
-        code = NEAR_SINGULAR if hi >= R1 else (BELOW_RES if hi > 0.0 else code)
-    if hi <= 0.0:
-        code = INCONSISTENT
+    if lo > 0.0:
+        k_lo, k_hi = min(1.0 / hi - inv_r1, 1e300), min(1.0 / lo - inv_r1, 1e300)
+        code = FLAT if k_lo <= 0.0 <= k_hi else OK
+        if R1 / max(lo, 1e-300) < CANCEL_TOL:
+            code = NEAR_SINGULAR
+        dkappa = 0.5 * (k_hi - k_lo)
+    else:
+        k_hi, dkappa = 1.0 - inv_r1, 1e300
+        if hi > 0.0:
+            k_lo = min(1.0 / hi - inv_r1, 1e300)
+            code = NEAR_SINGULAR if hi >= R1 else BELOW_RES
+        else:
+            k_lo, code = k_hi, INCONSISTENT
     if resolution > 0.0 and s * theta <= resolution:
         code = BELOW_RES
-    dkappa = 0.5 * (k_hi - k_lo) if lo > 0.0 else 1e300
+    kappa = 1.0 / (1e-150 if a < 1e-150 else s) - inv_r1
     return s, kappa, code, k_lo, k_hi, dkappa
 
 
@@ -274,8 +191,8 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
     """Estimate K2~ from probes ``dtheta`` (m, 2) and ``dp`` = (du, dv) (m, 2) (eqs. 29-33).
 
     ``resolution`` (arc length on the fingertip) and ``sigma_theta`` (rad) describe the
-    sensors; with both zero the uncertainty comes from the residual alone.  Same results
-    as ``estimate_batch`` to round-off, at a few microseconds per call.
+    sensors; with both zero the uncertainty comes from the residual alone.  Same results as
+    ``estimate_batch`` to round-off; one call costs microseconds (``bench/ep1_speed.py``).
     """
     if finger_radius <= 0.0:
         raise ValueError("finger radius must be positive")
@@ -285,7 +202,7 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
         raise ValueError(f"dtheta has {n} probes but dp has {len(U)}")
     if n < 2:
         return _underdetermined(n, "need probes in at least two independent directions")
-    solved = _solve_small(X, Y, U, V, finger_radius, u0)
+    solved = solve_point(X, Y, U, V, finger_radius, u0, RANK_TOL, MIN_THETA)
     if solved is None:
         return _underdetermined(n, "probe directions span fewer than two independent directions")
     k, rss, theta = solved
@@ -301,7 +218,7 @@ def _principal(k, R1, theta, sigma_res, resolution, sigma_theta):
     half = math.hypot(0.5 * (k1 - k3), k2)
     angle_hi = 0.5 * math.atan2(2.0 * k2, k1 - k3)
     noise_b = max(sigma_res, 0.5 * resolution)
-    args = (R1, 1.0 / R1, theta, noise_b, sigma_theta, resolution)
+    args = (R1, 1.0 / R1, theta, max(theta, 1e-300), noise_b, sigma_theta, resolution)
     return _side(mean + half, *args), _side(mean - half, *args), angle_hi
 
 
@@ -310,7 +227,7 @@ def _result(k, hi, lo, angle_hi, R1, theta, resolution, rss, n):
     code_hi, code_lo = hi[2], lo[2]
     code = max(code_hi, code_lo)  # harder failures are larger
     bounds, notes = {}, []
-    for label, side in (("k1", lo), ("k2", hi)):
+    for label, side in (("k1", lo), ("k2", hi)) if code else ():
         note = _bound(label, side, theta, R1, resolution)
         if note:
             bounds[label] = note
