@@ -113,3 +113,18 @@ def test_fewer_than_two_probes_are_underdetermined_on_both_paths(m):
 def test_single_point_rejects_mismatched_probe_counts():
     with pytest.raises(ValueError, match="dtheta has 3 probes but dp has 2"):
         estimate(np.ones((3, 2)), np.ones((2, 2)), 1.0)
+
+
+@pytest.mark.parametrize(("k", "c"), [(0, 400), (0, -400), (400, 0), (-20, -300), (900, 0)])
+def test_one_point_at_extreme_magnitudes_scales_by_powers_of_two(k, c):
+    """dtheta, dp x 2^k and R1 x 2^c leave the geometry alone (S x 2^c, curvature x 2^-c,
+    residual x 2^(k + c)): data near under/overflow are rescaled exactly inside."""
+    rows = measure(sphere_plus_probes(1.0, 0.7, 0.3), 1.0, 1e-3, rng=np.random.default_rng(1))
+    th, dp = rows[:, :2], rows[:, 2:]
+    e0 = estimate(th, dp, 1.0)
+    e1 = estimate(np.ldexp(th, k), np.ldexp(dp, k), np.ldexp(1.0, c))
+    assert e0.status == e1.status == "ok"
+    np.testing.assert_allclose(np.ldexp(e1.S, -c), e0.S, rtol=1e-15)
+    for field in ("kx", "ky", "k1", "k2"):
+        assert np.ldexp(getattr(e1, field), c) == pytest.approx(getattr(e0, field), rel=1e-14)
+    assert np.ldexp(e1.residual, -c - k) == pytest.approx(e0.residual, rel=1e-14)

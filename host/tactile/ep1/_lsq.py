@@ -18,7 +18,7 @@ def solve_point(X, Y, U, V, R1, u0, rank_tol, min_theta):
     ``X, Y, U, V``: lists of dtheta_x, dtheta_y, du, dv; R1 the finger radius and u0 its
     start parameter (eq. 20).  Scales the data by exact powers of two when they are near
     under/overflow (elsewhere nothing changes) and solves with ``_reduced_qr``.  Returns
-    (k, rss, theta), or None if a pivot of A is at most ``rank_tol`` ||A||_F or the RMS
+    (k, |residual|, theta), or None if a pivot of A is at most ``rank_tol`` ||A||_F or the RMS
     rotation theta is below ``min_theta``.
     """
     m = len(X)
@@ -29,7 +29,9 @@ def solve_point(X, Y, U, V, R1, u0, rank_tol, min_theta):
     if u0 != 0.0:
         c = math.cos(u0)
         V = [v * c for v in V]
-    ea, eb = _exponent(norm_a, X, Y), _exponent(math.hypot(*U, *V), U, V)
+    norm_b = math.hypot(*U, *V)
+    ea = 0 if 1e-100 <= norm_a <= 1e100 else _exponent(norm_a, X, Y)
+    eb = 0 if 1e-100 <= norm_b <= 1e100 else _exponent(norm_b, U, V)
     if ea:
         X, Y = [ldexp(x, ea) for x in X], [ldexp(y, ea) for y in Y]
         norm_a = math.hypot(*X, *Y)
@@ -43,8 +45,7 @@ def solve_point(X, Y, U, V, R1, u0, rank_tol, min_theta):
     k = (k1 * f, k2 * f, k3 * f)
     if not abs(k[0]) <= 1e300 or not abs(k[1]) <= 1e300 or not abs(k[2]) <= 1e300:
         k = tuple(min(max(x, -1e300), 1e300) for x in k)  # absurd inputs stay finite
-    res *= R1
-    return k, min(res * res, 1e300), theta
+    return k, min(res * R1, 1e300), theta
 
 
 def _reduced_qr(X, Y, U, V, tol):
@@ -92,8 +93,8 @@ def _reduced_qr(X, Y, U, V, tol):
 
 
 def _exponent(norm, *cols):
-    """Power of two that brings ``norm`` to about 1 if it is near under/overflow, else 0."""
-    if 1e-100 <= norm <= 1e100 or norm == 0.0:
+    """Power of two that brings ``norm`` (near under/overflow) to about 1; 0 for norm 0."""
+    if norm == 0.0:
         return 0
     if norm == math.inf:  # hypot overflowed: the largest entry is finite
         norm = max(max(map(abs, c)) for c in cols)

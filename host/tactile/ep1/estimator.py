@@ -194,6 +194,7 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
     sensors; with both zero the uncertainty comes from the residual alone.  Same results as
     ``estimate_batch`` to round-off; one call costs microseconds (``bench/ep1_speed.py``).
     """
+    finger_radius, u0 = float(finger_radius), float(u0)
     if finger_radius <= 0.0:
         raise ValueError("finger radius must be positive")
     (X, Y), (U, V) = _columns(dtheta), _columns(dp)
@@ -205,10 +206,10 @@ def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0)
     solved = solve_point(X, Y, U, V, finger_radius, u0, RANK_TOL, MIN_THETA)
     if solved is None:
         return _underdetermined(n, "probe directions span fewer than two independent directions")
-    k, rss, theta = solved
-    sigma_res = math.sqrt(rss / (2 * n - 3))
+    k, res, theta = solved
+    sigma_res = res / math.sqrt(2 * n - 3)
     hi, lo, angle_hi = _principal(k, finger_radius, theta, sigma_res, resolution, sigma_theta)
-    return _result(k, hi, lo, angle_hi, finger_radius, theta, resolution, rss, n)
+    return _result(k, hi, lo, angle_hi, finger_radius, theta, resolution, res, n)
 
 
 def _principal(k, R1, theta, sigma_res, resolution, sigma_theta):
@@ -222,7 +223,7 @@ def _principal(k, R1, theta, sigma_res, resolution, sigma_theta):
     return _side(mean + half, *args), _side(mean - half, *args), angle_hi
 
 
-def _result(k, hi, lo, angle_hi, R1, theta, resolution, rss, n):
+def _result(k, hi, lo, angle_hi, R1, theta, resolution, res, n):
     """The ``Estimate``: s_hi belongs to the smaller curvature k2, s_lo to k1."""
     code_hi, code_lo = hi[2], lo[2]
     code = max(code_hi, code_lo)  # harder failures are larger
@@ -257,7 +258,7 @@ def _result(k, hi, lo, angle_hi, R1, theta, resolution, rss, n):
         d1,
         d2,
         [[k[0], k[1]], [k[1], k[2]]],
-        math.sqrt(rss / (2 * n)),
+        res / math.sqrt(2 * n),
         n,
         bounds,
     )
