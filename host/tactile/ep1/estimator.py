@@ -5,7 +5,9 @@ Each probe i gives, from eq. 29 with the fingertip metric of eq. 20,
     b_i = M1 dp_i = S a_i,  a_i = [-dtheta_y, dtheta_x]^T,  S = (K1 + K2~)^-1 = [[k1, k2], [k2, k3]]
 
 i.e. two rows [a_x, a_y, 0] and [0, a_x, a_y] of a linear system in (k1, k2, k3) (eq. 33).  The
-stack is solved by Householder QR (never the normal equations of eq. 32).  K1 = I / R1 is
+stack is solved by orthogonalisation, never the normal equations of eq. 32: NumPy's batched
+Householder QR in ``estimate_batch``, and for one point (``estimate``) the same problem
+reduced through the QR of the m x 2 probe directions in plain floats (``_lsq``).  K1 = I / R1 is
 isotropic, so K2~ has the eigenvectors of S and eigenvalues kappa = 1/s - 1/R1: the
 principal curvatures come straight from S's closed-form eigen-decomposition (atan2/hypot),
 and kx, ky, kxy follow from Euler's equation (eq. 64) without inverting a near-singular
@@ -25,10 +27,11 @@ Every principal direction gets a status with the bound the data support:
 """
 
 import math
-from operator import mul as _mul
 from typing import NamedTuple
 
 import numpy as np
+
+from tactile.ep1._lsq import solve_point
 
 __all__ = ["Estimate", "estimate", "estimate_batch", "euler_principal", "STATUSES", "EXIT_OK"]
 
@@ -83,6 +86,9 @@ def estimate_batch(dtheta, dp, R1, u0=0.0, resolution=0.0, sigma_theta=0.0):
     dp = np.asarray(dp, float)
     A, b = _systems(dtheta, dp, R1, u0)
     m2 = A.shape[-2]
+    if m2 < 3:  # fewer than two probes: zero rows make R square, and rank deficient
+        A = np.concatenate([A, np.zeros(A.shape[:-2] + (3 - m2, 3))], axis=-2)
+        b = np.concatenate([b, np.zeros(b.shape[:-1] + (3 - m2,))], axis=-1)
     Q, Rm = np.linalg.qr(A)
     qb = np.einsum("...ij,...i->...j", Q, b)
     diag = np.abs(np.diagonal(Rm, axis1=-2, axis2=-1))
@@ -95,9 +101,9 @@ def estimate_batch(dtheta, dp, R1, u0=0.0, resolution=0.0, sigma_theta=0.0):
     k = np.where(rank_ok[..., None], k, 0.0)
     res = b - np.einsum("...ij,...j->...i", A, k)
     rss = np.einsum("...i,...i->...", res, res)
-    residual = np.sqrt(rss / m2)
+    residual = np.sqrt(rss / max(m2, 1))
     sigma_res = np.sqrt(rss / max(m2 - 3, 1)) if m2 > 3 else np.zeros_like(rss)
-    theta = np.sqrt(np.mean(np.einsum("...i,...i->...", dtheta, dtheta), axis=-1))
+    theta = np.sqrt(np.mean(np.einsum("...i,...i->...", dtheta, dtheta), axis=-1)) if m2 else rss
     rank_ok = rank_ok & (theta >= MIN_THETA)
     return _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
 
@@ -113,9 +119,9 @@ def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
     theta_safe = np.maximum(theta, 1e-300)
     out = {"residual": residual, "theta": theta, "S": k}
     for name, s in (("hi", mean + half), ("lo", mean - half)):  # s_hi: smaller curvature
-        ds = (noise_b + sigma_theta * np.abs(s)) / theta_safe + 1e-13 * (np.abs(s) + R1)
-        lo, hi = s - ds, s + ds
-        with np.errstate(over="ignore", divide="ignore"):
+        with np.errstate(over="ignore", divide="ignore"):  # theta ~ 1e-300: ds = inf
+            ds = (noise_b + sigma_theta * np.abs(s)) / theta_safe + 1e-13 * (np.abs(s) + R1)
+            lo, hi = s - ds, s + ds
             k_lo = 1.0 / np.where(hi > 0.0, hi, 1.0) - 1.0 / R1  # curvature lower bound
             k_hi = 1.0 / np.where(lo > 0.0, lo, 1.0) - 1.0 / R1
         k_lo, k_hi = np.minimum(k_lo, 1e300), np.minimum(k_hi, 1e300)
@@ -145,181 +151,121 @@ def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
     return out
 
 
-def _solve_small(dtheta, dp, R1, u0):
-    """Least squares for (k1, k2, k3) of eq. 33 by modified Gram-Schmidt on the augmented
-    matrix [A b] (backward stable for least squares, Bjorck 1967), in plain floats so one
-    point costs microseconds, not NumPy's per-call overhead.
-
-    ``dtheta`` = (all dtheta_x, all dtheta_y) and ``dp`` = (all du, all dv) as lists.
-    With P = -dtheta_y and Q = dtheta_x per probe the columns are c1 = [P; 0], c2 = [Q; P],
-    c3 = [0; Q], b = [R1 du; R1 cos(u0) dv]; the first step only touches the upper half.
-    """
-    X, Y = dtheta
-    U, V = dp
-    theta = math.sqrt((_dot(X, X) + _dot(Y, Y)) / len(X))
-    # Scale A and b to unit max entry so that no dot product under- or overflows.
-    sa = max(map(abs, X + Y)) or 1.0
-    fu, fv = R1, R1 * math.cos(u0)
-    sb = max(max(map(abs, U)) * fu, max(map(abs, V)) * abs(fv)) or 1.0
-    # subnormal data (du ~ 1e-320) are scaled as if at 1e-300: 1 / 1e-320 is not a float
-    sa, sb = max(sa, 1e-300), max(sb, 1e-300)
-    ia, fu, fv = 1.0 / sa, fu / sb, fv / sb
-    P = [-y * ia for y in Y]
-    Q = [x * ia for x in X]
-    k, rss, ok = _mgs(P, Q, [x * fu for x in U], [x * fv for x in V])
-    ok = ok and theta >= MIN_THETA
-    ratio = sb / sa if sb / sa < 1e300 else 1e300
-    return [x * ratio for x in k], min(rss * sb * sb, 1e300), ok, theta
-
-
-def _mgs(P, Q, bx, by):
-    scale = max(math.sqrt(2.0 * (_dot(P, P) + _dot(Q, Q))), 1e-300)  # ||A||_F
-    r11 = math.sqrt(_dot(P, P))
-    if r11 <= RANK_TOL * scale:
-        return [0.0, 0.0, 0.0], _dot(bx, bx) + _dot(by, by), False
-    q1 = [x / r11 for x in P]
-    r12, r1b = _dot(q1, Q), _dot(q1, bx)
-    c2 = [x - r12 * y for x, y in zip(Q, q1)] + P  # noqa: B905 (equal lengths)
-    c3 = [0.0] * len(P) + Q
-    b = [x - r1b * y for x, y in zip(bx, q1)] + by  # noqa: B905
-    r22 = math.sqrt(_dot(c2, c2))
-    if r22 <= RANK_TOL * scale:
-        return [0.0, 0.0, 0.0], _dot(b, b), False
-    q2 = [x / r22 for x in c2]
-    r23, r2b = _dot(q2, c3), _dot(q2, b)
-    c3 = [x - r23 * y for x, y in zip(c3, q2)]  # noqa: B905
-    b = [x - r2b * y for x, y in zip(b, q2)]  # noqa: B905
-    r33 = math.sqrt(_dot(c3, c3))
-    if r33 <= RANK_TOL * scale:
-        return [0.0, 0.0, 0.0], _dot(b, b), False
-    q3 = [x / r33 for x in c3]
-    r3b = _dot(q3, b)
-    b = [x - r3b * y for x, y in zip(b, q3)]  # noqa: B905
-    rss = _dot(b, b)  # residual vector itself, not |b|^2 - r3b^2 (cancellation)
-    k3 = r3b / r33
-    k2 = (r2b - r23 * k3) / r22
-    k1 = (r1b - r12 * k2) / r11  # r13 = q1 . c3 = 0
-    return [k1, k2, k3], rss, True
-
-
-def _dot(x, y):
-    return sum(map(_mul, x, y))
-
-
-def _from_s_scalar(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta):
-    """Scalar twin of ``_from_s`` (same formulas, ``math`` instead of NumPy)."""
-    k1, k2, k3 = (min(max(x, -1e300), 1e300) for x in k)
-    mean = 0.5 * (k1 + k3)
-    half = math.hypot(0.5 * (k1 - k3), k2)
-    angle_hi = 0.5 * math.atan2(2.0 * k2, k1 - k3)
-    noise_b = max(sigma_res, 0.5 * resolution)
-    theta_safe = max(theta, 1e-300)
-    out = {"residual": residual, "theta": theta}
-    for name, s in (("hi", mean + half), ("lo", mean - half)):
-        ds = (noise_b + sigma_theta * abs(s)) / theta_safe + 1e-13 * (abs(s) + R1)
-        lo, hi = s - ds, s + ds
-        k_lo = min(_inv(hi if hi > 0.0 else 1.0) - 1.0 / R1, 1e300)
-        k_hi = min(_inv(lo if lo > 0.0 else 1.0) - 1.0 / R1, 1e300)
-        kappa = 1.0 / (1e-150 if abs(s) < 1e-150 else s) - 1.0 / R1
+def _side(s, R1, inv_r1, theta, theta_safe, noise_b, sigma_theta, resolution):
+    """Interval, curvature and status of one principal value s of S (scalar ``_from_s``)."""
+    a = abs(s)
+    ds = (noise_b + sigma_theta * a) / theta_safe + 1e-13 * (a + R1)
+    lo, hi = s - ds, s + ds
+    if lo > 0.0:
+        k_lo, k_hi = min(1.0 / hi - inv_r1, 1e300), min(1.0 / lo - inv_r1, 1e300)
         code = FLAT if k_lo <= 0.0 <= k_hi else OK
-        if lo > 0.0 and R1 / max(lo, 1e-300) < CANCEL_TOL:
+        if R1 / max(lo, 1e-300) < CANCEL_TOL:
             code = NEAR_SINGULAR
-        if lo <= 0.0:
-            code = NEAR_SINGULAR if hi >= R1 else (BELOW_RES if hi > 0.0 else code)
-        if hi <= 0.0:
-            code = INCONSISTENT
-        if resolution > 0.0 and s * theta <= resolution:
-            code = BELOW_RES
-        if not rank_ok:
-            code = UNDERDET
-        out["s_" + name], out["kappa_" + name], out["code_" + name] = s, kappa, code
-        out["klo_" + name], out["khi_" + name] = k_lo, k_hi
-        out["dkappa_" + name] = 0.5 * (k_hi - k_lo) if lo > 0.0 else 1e300
-    c, sn = math.cos(angle_hi), math.sin(angle_hi)
-    ka, kb = out["kappa_hi"], out["kappa_lo"]
-    out["kx"] = ka * c * c + kb * sn * sn
-    out["ky"] = ka * sn * sn + kb * c * c
-    out["kxy"] = (ka - kb) * c * sn
-    out["k1"], out["k2"] = kb, ka
-    out["angle1"] = angle_hi + 0.5 * math.pi
-    out["code"] = max(out["code_hi"], out["code_lo"])
-    return out
-
-
-def _inv(x):
-    try:
-        return 1.0 / x
-    except ZeroDivisionError:
-        return 1e300
+        dkappa = 0.5 * (k_hi - k_lo)
+    else:
+        k_hi, dkappa = 1.0 - inv_r1, 1e300
+        if hi > 0.0:
+            k_lo = min(1.0 / hi - inv_r1, 1e300)
+            code = NEAR_SINGULAR if hi >= R1 else BELOW_RES
+        else:
+            k_lo, code = k_hi, INCONSISTENT
+    if resolution > 0.0 and s * theta <= resolution:
+        code = BELOW_RES
+    kappa = 1.0 / (1e-150 if a < 1e-150 else s) - inv_r1
+    return s, kappa, code, k_lo, k_hi, dkappa
 
 
 def _direction(angle):
-    return [float(np.cos(angle)), float(np.sin(angle))]
+    return [math.cos(angle), math.sin(angle)]
+
+
+def _columns(a):
+    """The two columns of an (m, 2) array-like as lists of floats."""
+    a = np.asarray(a, float)
+    if a.ndim != 2 or a.shape[1] != 2:
+        a = a.reshape(-1, 2)
+    return a.T.tolist()
 
 
 def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0):
     """Estimate K2~ from probes ``dtheta`` (m, 2) and ``dp`` = (du, dv) (m, 2) (eqs. 29-33).
 
     ``resolution`` (arc length on the fingertip) and ``sigma_theta`` (rad) describe the
-    sensors; with both zero the uncertainty comes from the residual alone.
+    sensors; with both zero the uncertainty comes from the residual alone.  Same results as
+    ``estimate_batch`` to round-off; one call costs microseconds (``bench/ep1_speed.py``).
     """
+    finger_radius, u0 = float(finger_radius), float(u0)
     if finger_radius <= 0.0:
         raise ValueError("finger radius must be positive")
-    dtheta = np.asarray(dtheta, float).reshape(-1, 2)
-    dp = np.asarray(dp, float).reshape(-1, 2)
-    n = len(dtheta)
+    (X, Y), (U, V) = _columns(dtheta), _columns(dp)
+    n = len(X)
+    if len(U) != n:
+        raise ValueError(f"dtheta has {n} probes but dp has {len(U)}")
     if n < 2:
         return _underdetermined(n, "need probes in at least two independent directions")
-    k, rss, rank_ok, theta = _solve_small(dtheta.T.tolist(), dp.T.tolist(), finger_radius, u0)
-    sigma_res = math.sqrt(rss / (2 * n - 3)) if 2 * n > 3 else 0.0
-    f = _from_s_scalar(
-        k,
-        finger_radius,
-        theta,
-        sigma_res,
-        math.sqrt(rss / (2 * n)),
-        rank_ok,
-        resolution,
-        sigma_theta,
-    )
-    S = [[k[0], k[1]], [k[1], k[2]]]
-    code_hi, code_lo = int(f["code_hi"]), int(f["code_lo"])
-    code = max(code_hi, code_lo)
-    status = STATUSES[code]
-    if code == UNDERDET:
+    solved = solve_point(X, Y, U, V, finger_radius, u0, RANK_TOL, MIN_THETA)
+    if solved is None:
         return _underdetermined(n, "probe directions span fewer than two independent directions")
+    k, res, theta = solved
+    sigma_res = res / math.sqrt(2 * n - 3)
+    hi, lo, angle_hi = _principal(k, finger_radius, theta, sigma_res, resolution, sigma_theta)
+    return _result(k, hi, lo, angle_hi, finger_radius, theta, resolution, res, n)
+
+
+def _principal(k, R1, theta, sigma_res, resolution, sigma_theta):
+    """Both principal values of S (closed form, atan2/hypot) through ``_side``."""
+    k1, k2, k3 = k
+    mean = 0.5 * (k1 + k3)
+    half = math.hypot(0.5 * (k1 - k3), k2)
+    angle_hi = 0.5 * math.atan2(2.0 * k2, k1 - k3)
+    noise_b = max(sigma_res, 0.5 * resolution)
+    args = (R1, 1.0 / R1, theta, max(theta, 1e-300), noise_b, sigma_theta, resolution)
+    return _side(mean + half, *args), _side(mean - half, *args), angle_hi
+
+
+def _result(k, hi, lo, angle_hi, R1, theta, resolution, res, n):
+    """The ``Estimate``: s_hi belongs to the smaller curvature k2, s_lo to k1."""
+    code_hi, code_lo = hi[2], lo[2]
+    code = max(code_hi, code_lo)  # harder failures are larger
     bounds, notes = {}, []
-    for label, which, c in (("k1", "lo", code_lo), ("k2", "hi", code_hi)):
-        note = _bound(label, c, f, which, finger_radius, resolution)
+    for label, side in (("k1", lo), ("k2", hi)) if code else ():
+        note = _bound(label, side, theta, R1, resolution)
         if note:
             bounds[label] = note
             notes.append(note["text"])
-    resolved = code in (OK, FLAT)
-    k1 = f["k1"] if code_lo in (OK, FLAT) else None
-    k2 = f["k2"] if code_hi in (OK, FLAT) else None
-    umbilic = abs(f["k1"] - f["k2"]) <= f["dkappa_hi"] + f["dkappa_lo"]
-    d1 = _direction(f["angle1"]) if resolved and not umbilic else None
-    d2 = _direction(f["angle1"] + 0.5 * np.pi) if d1 else None
-    message = "; ".join(notes) if notes else "curvature determined"
+    ka, kb = hi[1], lo[1]
+    c, sn = math.cos(angle_hi), math.sin(angle_hi)
+    resolved = code <= FLAT
+    if resolved:
+        kx = ka * c * c + kb * sn * sn  # Euler's equation (eq. 64)
+        ky = ka * sn * sn + kb * c * c
+        kxy = (ka - kb) * c * sn
+        K = [[kx, kxy], [kxy, ky]]
+    else:
+        kx = ky = K = None
+    umbilic = abs(kb - ka) <= hi[5] + lo[5]
+    angle1 = angle_hi + 0.5 * math.pi  # direction of k1 (of s_lo)
+    d1 = _direction(angle1) if resolved and not umbilic else None
+    d2 = _direction(angle1 + 0.5 * math.pi) if d1 else None
     return Estimate(
-        status,
-        message,
-        f["kx"] if resolved else None,
-        f["ky"] if resolved else None,
-        [[f["kx"], f["kxy"]], [f["kxy"], f["ky"]]] if resolved else None,
-        k1,
-        k2,
+        STATUSES[code],
+        "; ".join(notes) if notes else "curvature determined",
+        kx,
+        ky,
+        K,
+        kb if code_lo <= FLAT else None,
+        ka if code_hi <= FLAT else None,
         d1,
         d2,
-        S,
-        f["residual"],
+        [[k[0], k[1]], [k[1], k[2]]],
+        res / math.sqrt(2 * n),
         n,
         bounds,
     )
 
 
-def _bound(label, code, f, which, R1, resolution):
-    s, k_lo, k_hi = f["s_" + which], f["klo_" + which], f["khi_" + which]
+def _bound(label, side, theta, R1, resolution):
+    s, _, code, k_lo, k_hi, _ = side
     if code == FLAT:
         rmin = 1.0 / max(abs(k_lo), abs(k_hi), 1e-300)
         return {
@@ -337,7 +283,7 @@ def _bound(label, code, f, which, R1, resolution):
             + (f", a concave radius above {_fmt(rmin)}" if rmin else ""),
         }
     if code == BELOW_RES:
-        theta = max(f["theta"], 1e-300)
+        theta = max(theta, 1e-300)
         if resolution > 0 and s * theta <= resolution:
             # measured at most one step: the true displacement is below s theta + r / 2
             k_min = 1.0 / max(max(s, 0.0) + 0.5 * resolution / theta, 1e-300) - 1.0 / R1
