@@ -46,23 +46,34 @@ def compiler():
 
 
 def build(out_dir, flags=CFLAGS, extra=(), name="libtactile_core.so"):
-    """Compile the core as a shared library in ``out_dir``; its path (reused if current)."""
+    """Compile the core as a shared library in ``out_dir``; its path (reused if current).
+
+    ``name`` may hold ``{digest}``, replaced by a hash of the sources and flags: a cache
+    shared by checkouts of different sources then keeps one library per version.
+    """
     cc = compiler()
     files = sources()
     digest = hashlib.sha256()
     for f in [*files, *sorted(SRC.glob("*.h"))]:
         digest.update(f.read_bytes())
     digest.update(repr((cc, flags, extra)).encode())
-    out = pathlib.Path(out_dir) / name
+    out = pathlib.Path(out_dir) / name.format(digest=digest.hexdigest()[:16])
     stamp = out.with_suffix(".sha256")
     if out.exists() and stamp.exists() and stamp.read_text() == digest.hexdigest():
         return out
     out.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [cc, *flags, "-shared", "-I", str(SRC), *map(str, files), *extra, "-o", str(out)]
+    # Built under a name of this process's own, then renamed: processes that share a cache
+    # directory (tests, two emulators) never load a half-written library.
+    tmp = out.with_name("%s.%d.tmp" % (out.name, os.getpid()))
+    cmd = [cc, *flags, "-shared", "-I", str(SRC), *map(str, files), *extra, "-o", str(tmp)]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
+        tmp.unlink(missing_ok=True)
         raise CoreBuildError("%s failed:\n%s" % (" ".join(cmd), r.stderr))
-    stamp.write_text(digest.hexdigest())
+    os.replace(tmp, out)
+    tmp_stamp = stamp.with_name("%s.%d.tmp" % (stamp.name, os.getpid()))
+    tmp_stamp.write_text(digest.hexdigest())
+    os.replace(tmp_stamp, stamp)
     return out
 
 
@@ -71,7 +82,7 @@ _u8, _u16, _u32, _sz = ctypes.c_uint8, ctypes.c_uint16, ctypes.c_uint32, ctypes.
 _vp, _pu8 = ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint8)
 
 I2C_WRITE = ctypes.CFUNCTYPE(ctypes.c_int, _vp, _u8, _u8, _pu8, _sz)
-I2C_READ = ctypes.CFUNCTYPE(ctypes.c_int, _vp, _u8, _u8, _u8, _pu8, _sz)
+I2C_READ = ctypes.CFUNCTYPE(ctypes.c_int, _vp, _u8, _u8, _u8, _vp, _sz)  # buf: an address
 LINK_WRITE = ctypes.CFUNCTYPE(_sz, _vp, _pu8, _sz)
 LINK_READ = ctypes.CFUNCTYPE(_sz, _vp, _pu8, _sz)
 TICKS = ctypes.CFUNCTYPE(_u32, _vp)
@@ -293,10 +304,8 @@ class CBoard:
                 self.buses[bus].writeto(addr, raw)
             return 0
 
-        def i2c_read(ctx, bus, addr, cmd, buf, n):
-            tmp = bytearray(n)
-            self.buses[bus].readfrom_mem_into(addr, cmd, tmp)
-            ctypes.memmove(buf, bytes(tmp), n)
+        def i2c_read(ctx, bus, addr, cmd, buf, n):  # straight into the core's buffer
+            self.buses[bus].readfrom_mem_into(addr, cmd, (_u8 * n).from_address(buf))
             return 0
 
         def write(ctx, data, n):
