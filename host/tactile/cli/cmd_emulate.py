@@ -5,6 +5,9 @@ Prints the device path; open it with any serial program (``tactile record
 pty, which survives the scene's simulated disconnects.  It replaces only an
 emulator's own link (a symlink to a pty): a file, a directory or another
 symlink at PATH is refused with one line (exit 2) and left as it was.
+``--core c`` serves the C firmware core (``firmware/c``, built with the host's C
+compiler on first use) instead of the MicroPython one, behind the same pty; without
+``--core`` the scene's ``[board] core`` decides (default ``python``).
 """
 
 import sys
@@ -25,6 +28,12 @@ def add_arguments(parser):
         help="write the robot's log for the scene here (for tactile record --pose-log)",
     )
     parser.add_argument(
+        "--core",
+        choices=("python", "c"),
+        help="firmware to run: the MicroPython one or the C core (default: the scene's "
+        "[board] core, else python)",
+    )
+    parser.add_argument(
         "--now",
         action="store_true",
         help="start the scene at once (default: when a host first opens the port)",
@@ -43,7 +52,7 @@ def run(args):
 
         pty_link.check(args.link)  # before the scene is built: refuse a file at once
     scene = load_scene(args.scene)
-    board = EmulatedBoard(scene)
+    board = EmulatedBoard(scene, core=args.core)
     link = scene.link or {}
     faults = None if args.no_faults else LinkFaults.from_scene(scene.link)
     server = PtyServer(
@@ -58,8 +67,8 @@ def run(args):
     path = server.open()
     print(path, flush=True)
     when = "now" if args.now else "when a host opens the port"
-    print(f"emulating scene '{scene.name}' ({scene.path}), starting {when}; Ctrl-C to stop",
-          file=sys.stderr)  # fmt: skip
+    print(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
+          f"starting {when}; Ctrl-C to stop", file=sys.stderr)  # fmt: skip
     try:
         if args.now:
             server.serve(args.duration)

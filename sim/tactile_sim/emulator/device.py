@@ -1,4 +1,7 @@
-"""The emulated board: the real firmware (``tactile_fw.board.Board``) on simulated hardware.
+"""The emulated board: a real firmware core on simulated hardware.
+
+The core is the scene's ``[board] core`` or the caller's choice (``cores``): the
+MicroPython firmware (``tactile_fw.board.Board``) or the C core (``firmware/c``).
 
 Per sensor: six ADS122C04 register models on a simulated I2C bus
 (``tactile_sim.adc_model``, ``tactile_sim.i2c_bus``), each converting one
@@ -14,13 +17,14 @@ import math
 import os
 
 from tactile_fw import calibration, settings
-from tactile_fw.board import Board, boot_id_from
-from tactile_fw.frontend import ADDRESS_PLAN, make_sensor
+from tactile_fw.board import boot_id_from
+from tactile_fw.frontend import ADDRESS_PLAN
 from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
 from tactile_fw.timing import ManualClock
 from tactile_protocol import constants as C
 from tactile_sim.adc_model import FULL_SCALE_CODES, ADS122C04Model
+from tactile_sim.emulator import cores
 from tactile_sim.emulator.ft_model import FTModel
 from tactile_sim.emulator.scene import MOTIONS
 from tactile_sim.emulator.scene_schema import GATES, STREAMS
@@ -69,15 +73,21 @@ def board_settings(scene, max_rate_hz):
 
 
 class EmulatedBoard:
-    """Firmware + simulated sensors on simulated time; see the module docstring."""
+    """Firmware + simulated sensors on simulated time; see the module docstring.
 
-    def __init__(self, scene, motion=None, boot_id=None):
+    ``core``: ``"python"`` or ``"c"`` (``cores.CORES``); None: the scene's ``[board] core``.
+    """
+
+    def __init__(self, scene, motion=None, boot_id=None, core=None):
         self.scene = scene
+        self.core = core or scene.board["core"]
+        if self.core not in cores.CORES:
+            raise ValueError(f"core must be one of {', '.join(cores.CORES)}, got {self.core!r}")
         self.motion = motion if motion is not None else build_motion(scene)
         self.clock = ManualClock(0)
         self.link = PipeLink(LINK_CAPACITY)
         self.buses, self.adcs, self.models = [], [], []
-        sensors = [self._sensor(i) for i in range(scene.board["sensors"])]
+        layout = [self._sensor(i) for i in range(scene.board["sensors"])]
         override = scene.board["max_rate_hz"] or None
         if override:
             period = 1e6 / override
@@ -86,8 +96,15 @@ class EmulatedBoard:
         storage = MemoryStorage()
         if boot_id is None:  # a new one per power-up, as a real board draws it
             boot_id = boot_id_from(os.urandom(8))
-        self.board = Board(
-            sensors, self.link, self.clock, storage, max_rate_hz=override, boot_id=boot_id
+        self.board = cores.make_board(
+            self.core,
+            self.buses,
+            layout,
+            self.link,
+            self.clock,
+            storage,
+            max_rate_hz=override,
+            boot_id=boot_id,
         )
         board_settings(scene, self.board.max_rate_hz).save(storage)
         for i, model in enumerate(self.models):
@@ -112,7 +129,7 @@ class EmulatedBoard:
             adc.source = self._gauge_source(model, adc, j)
             bus.attach(addr, adc)
             self.adcs.append(adc)
-        return make_sensor(bus, slot, bus_key=bus_index)
+        return bus_index, slot
 
     @staticmethod
     def _gauge_source(model, adc, j):
@@ -130,6 +147,11 @@ class EmulatedBoard:
     @property
     def t_us(self):
         return self.clock.t_us
+
+    @property
+    def tx_dropped(self):
+        """Frames the firmware dropped because the host did not read them."""
+        return cores.tx_dropped(self.board)
 
     def _next_conversion_us(self):
         t = self.clock.t_us

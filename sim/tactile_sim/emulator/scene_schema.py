@@ -21,6 +21,7 @@ from tactile_protocol import constants as C
 from tactile_protocol.messages import BY_NAME
 from tactile_sim.adc_model import FULL_SCALE_CODES
 from tactile_sim.emulator import sensor_faults
+from tactile_sim.emulator.cores import CORES, DEFAULT_CORE
 from tactile_sim.emulator.toml_keys import (
     Bad,
     Bool,
@@ -113,6 +114,11 @@ BOARD = {
         0,
         "Hz",
         "0: the hardware's ceiling; else override it (benches only)",
+    ),
+    "core": Choice(
+        CORES,
+        DEFAULT_CORE,
+        "firmware run: the MicroPython one, or the C core (firmware/c, built with cc)",
     ),
 }
 SENSOR = {

@@ -1,10 +1,11 @@
-"""``sim://SCENE[?realtime=1&faults=0]``: an emulated board as an in-process pyserial port.
+"""``sim://SCENE[?realtime=1&faults=0&core=c]``: an emulated board as an in-process pyserial port.
 
 SCENE is a shipped scene name (``sim://press``) or a path
 (``sim:///abs/path.toml``).  Reading advances the emulator's simulated time
 (as fast as possible by default, or paced by the wall clock with
 ``realtime=1``) until the bytes asked for exist or the timeout has passed
-in simulated time.  ``faults=0`` ignores the scene's ``[link]`` faults.
+in simulated time.  ``faults=0`` ignores the scene's ``[link]`` faults;
+``core=c`` (or ``python``) runs that firmware core instead of the scene's.
 Modelled on pyserial's ``protocol_loop``: everything the host does with a
 real port works here, so one code path serves both.
 """
@@ -13,6 +14,8 @@ import time
 import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
+
+from tactile_sim.emulator.cores import CORES
 
 STEP_US = 2000
 
@@ -31,7 +34,7 @@ class Serial(SerialBase):
         # A bad scene raises its SceneError (a ValueError, as pyserial's bad settings do):
         # the CLI reports it as bad input (exit 2), naming file, section and key.
         scene = load_scene(scene_name)
-        self.emulator = EmulatedBoard(scene)
+        self.emulator = EmulatedBoard(scene, core=options["core"])
         self.faults = LinkFaults.from_scene(scene.link) if options["faults"] else None
         self.realtime = options["realtime"]
         self._buffer = bytearray()
@@ -46,11 +49,16 @@ class Serial(SerialBase):
             raise SerialException(f"expected sim://SCENE, got {url!r}")
         name = parts.netloc + parts.path
         query = urllib.parse.parse_qs(parts.query)
-        options = {"realtime": False, "faults": True}
+        options = {"realtime": False, "faults": True, "core": None}
         for key, values in query.items():
             if key not in options:
-                raise SerialException(f"{url}: unknown option {key!r} (realtime, faults)")
-            options[key] = values[-1] not in ("0", "false", "no")
+                raise SerialException(f"{url}: unknown option {key!r} (realtime, faults, core)")
+            if key == "core":
+                if values[-1] not in CORES:
+                    raise SerialException(f"{url}: core must be one of {', '.join(CORES)}")
+                options[key] = values[-1]
+            else:
+                options[key] = values[-1] not in ("0", "false", "no")
         return name, options
 
     def _reconfigure_port(self):

@@ -1,0 +1,78 @@
+"""The firmware cores an emulated board can run, by name: ``python`` and ``c``.
+
+- ``python``: ``tactile_fw.board.Board``, the MicroPython firmware, on the simulated buses;
+- ``c``: the C core (``firmware/c``) built by ``cc`` into ``$XDG_CACHE_HOME/tactile/ccore``
+  (once per version of its sources, named by their hash) and driven through ctypes
+  (``tactile_fw.host_only.ccore``): its HAL's I2C callbacks reach the same simulated buses
+  and ADC models; its byte link, clock and flash are the same ``PipeLink``,
+  ``ManualClock`` and ``MemoryStorage``.
+
+Both take the same arguments and give an object with ``boot``, ``poll``, ``idle_us``,
+``max_rate_hz`` and the STATUS counters, so nothing above this module knows which runs;
+for the same scene and boot id the two write the same bytes (tests/test_emulator_cores.py).
+"""
+
+import functools
+import os
+import pathlib
+
+from tactile.errors import BoardError
+
+CORES = ("python", "c")
+DEFAULT_CORE = "python"
+
+
+class CoreUnavailable(BoardError):
+    """The core cannot run here (the C core without a C compiler); one line, exit 4."""
+
+
+def cache_dir():
+    root = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
+    return pathlib.Path(root) / "tactile" / "ccore"
+
+
+@functools.lru_cache(maxsize=1)
+def c_library():
+    """The C core as a loaded shared library, built on first use (cached across runs)."""
+    from tactile_fw.host_only import ccore
+
+    try:
+        return ccore.load(ccore.build(cache_dir(), name="libtactile_core-{digest}.so"))
+    except ccore.NoCompiler as exc:
+        raise CoreUnavailable(f"core 'c': {exc}") from None
+    except ccore.CoreBuildError as exc:
+        first = str(exc).splitlines()[-1] if str(exc).strip() else "no message"
+        raise CoreUnavailable(f"core 'c': the C compiler refused firmware/c: {first}") from None
+    except OSError as exc:
+        raise CoreUnavailable(f"core 'c': cannot build in {cache_dir()}: {exc}") from None
+
+
+def python_board(buses, layout, link, clock, storage, **kw):
+    from tactile_fw.board import Board
+    from tactile_fw.frontend import make_sensor
+
+    sensors = [make_sensor(buses[bus], slot, bus_key=bus) for bus, slot in layout]
+    return Board(sensors, link, clock, storage, **kw)
+
+
+def c_board(buses, layout, link, clock, storage, **kw):
+    from tactile_fw.host_only.ccore import CBoard
+
+    return CBoard(c_library(), buses, layout, link, clock, storage, **kw)
+
+
+BUILDERS = {"python": python_board, "c": c_board}
+
+
+def make_board(core, buses, layout, link, clock, storage, **kw):
+    """Firmware ``core`` on ``buses`` (by index); ``layout``: (bus, address slot) per sensor.
+
+    ``kw``: ``max_rate_hz``, ``boot_id`` (as ``Board`` takes them).
+    """
+    return BUILDERS[core](buses, layout, link, clock, storage, **kw)
+
+
+def tx_dropped(board):
+    """Frames the board's TX ring dropped (either core)."""
+    tx = getattr(board, "tx", None)
+    return tx.dropped if tx is not None else board.tx_dropped
