@@ -66,3 +66,49 @@ def ccore_lib(tmp_path_factory):
     from tactile_fw.host_only import ccore
 
     return ccore.load(build_or_skip(tmp_path_factory.mktemp("ccore")))
+
+
+# --- the board suite's targets (tests/board_target.py) ----------------------------------
+def pytest_addoption(parser):
+    parser.addoption(
+        "--port",
+        default=None,
+        help="a real board's serial port (e.g. /dev/ttyACM0): the board suite runs on it too",
+    )
+
+
+def pytest_collection_modifyitems(config, items):
+    """Without --port, tests marked ``hardware`` are skipped and say why."""
+    if config.getoption("--port"):
+        return
+    from board_target import NO_PORT
+
+    skip = pytest.mark.skip(reason=NO_PORT)
+    for item in items:
+        if item.get_closest_marker("hardware"):
+            item.add_marker(skip)
+
+
+def _board_targets():
+    from board_target import TARGETS
+
+    return TARGETS
+
+
+@pytest.fixture(params=_board_targets())
+def board(request):
+    """The board under test: the emulator on the Python or the C core, or --port's board.
+
+    A test that only an emulator can run parametrizes it indirectly with
+    ``board_target.EMULATED``.
+    """
+    from board_target import BoardTarget
+
+    if request.param == "c":
+        from tactile_sim.emulator import cores
+
+        try:
+            cores.c_library()
+        except cores.CoreUnavailable as exc:
+            pytest.skip(str(exc))
+    return BoardTarget(request.param, request.config.getoption("--port"))

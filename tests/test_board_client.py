@@ -1,11 +1,15 @@
-"""The host's board client and port opening (issue 7): handshake, commands, clear errors."""
+"""The host's board client and port opening (issue 7): handshake, commands, clear errors.
+
+The handshake and CONFIG against each board (both emulated cores, a real one with
+``--port``): ``test_board_suite.py``.
+"""
 
 import errno
 
 import pytest
 import serial
 
-from tactile.board_client import BoardClient, CommandRefused
+from tactile.board_client import BoardClient
 from tactile.errors import BoardTimeout, PortError, ProtocolVersionError
 from tactile.serial_port import open_port
 from tactile_protocol import constants as C
@@ -59,26 +63,6 @@ def _frame_v(version, mtype, values, seq=0):
 
 HELLO = (0, 1, 0, C.PROTOCOL_VERSION, b"SIM", 1, 1000, 1, 0, 0, 0, 1000, 1390000, 1112000, 3, 0x0B,
          0xB0071D, 0x1234, 0, 0, 0)  # fmt: skip
-
-
-def test_handshake_and_commands_against_the_emulator():
-    client = BoardClient(open_port("sim://press"), "sim://press")
-    hello = client.handshake(1.0)
-    assert hello.type_name == "HELLO" and hello.protocol_version == C.PROTOCOL_VERSION
-    info = client.get_info()
-    assert info.type_name == "INFO" and info.rate_hz == 1000
-    client.configure(500, 2.0, 1.0, 2, C.CFG_STREAM_SAMPLES)
-    assert client.get_info().rate_hz == 500
-    assert client.get_info().enter_threshold == 2_000_000
-    client.tare()
-
-
-def test_a_refused_config_names_the_field_and_changes_nothing():
-    client = BoardClient(open_port("sim://press"), "sim://press")
-    client.handshake(1.0)
-    with pytest.raises(CommandRefused, match=r"refused CONFIG: out of range \(exit_threshold\)"):
-        client.configure(1000, 1.0, 2.0, 3, C.CFG_STREAM_SAMPLES)  # exit above enter
-    assert client.get_info().enter_threshold == 1_390_000
 
 
 def test_frames_arriving_while_a_command_waits_are_kept_in_order():
