@@ -163,7 +163,7 @@ def test_missing_matplotlib_gives_the_install_hint(two_patches, tmp_path, cli, m
     code, stdout, stderr = cli("plot", two_patches, "-o", tmp_path / "out")
     assert code != 0 and stdout == ""
     assert stderr.count("\n") == 1
-    assert "pip install 'tactile[plot]'" in stderr
+    assert "pip install 'tactile-shape[plot]'" in stderr
     assert not (tmp_path / "out").exists()
 
 

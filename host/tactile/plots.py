@@ -20,7 +20,7 @@ __all__ = [
     "require_matplotlib",
 ]
 
-INSTALL_HINT = "matplotlib is not installed; plotting needs: pip install 'tactile[plot]'"
+INSTALL_HINT = "matplotlib is not installed; plotting needs: pip install 'tactile-shape[plot]'"
 DPI = 100
 S_CMAP = "RdBu_r"  # diverging: convex (S > 0) red, saddle white, concave blue
 C_CMAP = "viridis"
