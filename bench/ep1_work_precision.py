@@ -71,27 +71,37 @@ def main():
 
 
 def plot(results, path):
+    """Error against time per method, one panel per object; legend outside the panels."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = list(CASES)
-    fig, axes = plt.subplots(1, len(names), figsize=(4.3 * len(names), 3.6), sharey=True)
+    fig, axes = plt.subplots(
+        1, len(names), figsize=(4.0 * len(names) + 1.4, 3.6), sharey=True, layout="constrained"
+    )
     for ax, name in zip(axes, names, strict=True):
         for method in METHODS:
-            pts = [
+            pts = [  # in rtol order: a line runs from loose to tight tolerance
                 (t * 1e3, max(e, 1e-16)) for n, m, _, e, t in results if n == name and m == method
             ]
             x, y = np.array(pts).T
             ax.loglog(x, y, "o-", ms=3, label=method)
         ax.set_title(name, fontsize=9)
-        ax.set_xlabel("run time (ms)")
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].set_ylabel("max error at end of roll")
-    axes[-1].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0].set_ylabel("max error at the roll's end (rad)")
+    fig.supxlabel("run time per roll (ms, best of 3)", fontsize=10)
+    axes[-1].legend(
+        title="solve_ivp method\n(rtol 1e-3 ... 1e-11)", title_fontsize=8, fontsize=8,
+        loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0,
+    )  # fmt: skip
+    fig.suptitle(
+        "Rolling simulation (eqs. 24-28), 1 rad roll: work against precision\n(error: max over"
+        " u1, v1, u2, v2, \u03c8; a paraboloid's u2, v2 in units of R1 = 1; floor 1e-16)",
+        fontsize=10,
+    )
+    fig.savefig(path, dpi=100)
 
 
 if __name__ == "__main__":
