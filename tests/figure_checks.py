@@ -100,9 +100,10 @@ def overprinted(fig):
     for ax in _plots(fig):
         for axis in _axes_of(ax):
             lo, hi = sorted(axis.get_view_interval())
+            ticks = axis.get_major_ticks() + axis.get_minor_ticks()
             labels = [
                 t.label1
-                for t in axis.get_major_ticks()
+                for t in ticks
                 if lo <= t.get_loc() <= hi and t.label1.get_visible() and t.label1.get_text()
             ]
             boxes = [t.get_window_extent(renderer) for t in labels]
