@@ -103,19 +103,47 @@ def main():
     for c, ms in chunks:
         print(f"| {c} | {ms:.2f} |")
     if args.png:
-        import matplotlib
+        plot(rows, args.noise, args.png)
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(6.4, 4.2), layout="constrained")
-        for i, (name, e, ms, _, _) in enumerate(rows):
-            ax.scatter(ms, e, marker="os^v<>Dp"[i % 8], s=30, label=name)
-        ax.set(xlabel="run time per patch (ms)", ylabel="RMS S error (dimensionless)")
-        ax.set_yscale("log")
-        ax.set_title(f"EP2 error against run time, noise {args.noise:g}", fontsize=10)
-        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-        fig.savefig(args.png, dpi=120)
+def plot(rows, noise, path):
+    """RMS S error against ms per patch: filled one patch at a time, hollow batched."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.6, 4.2), layout="constrained")
+    for i, (name, e, ms, batch, _) in enumerate(rows):
+        marker, colour = "os^v<>Dp"[i % 8], f"C{i % 10}"
+        ax.scatter(ms, e, marker=marker, s=36, color=colour, label=name)
+        if batch is not None:
+            ax.plot([ms, batch], [e, e], color=colour, lw=0.7, alpha=0.6)
+            ax.scatter(batch, e, marker=marker, s=36, facecolors="none", edgecolors=colour)
+    ax.scatter([], [], marker="o", facecolors="none", edgecolors="k", label="(hollow: batched)")
+    ax.set(xlabel="run time per patch (ms)", ylabel="RMS S error (dimensionless)")
+    ax.set(xscale="log", yscale="log")
+    _log_ticks(ax.xaxis)
+    _log_ticks(ax.yaxis)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.set_title(
+        f"EP2 error against run time, noise {noise:g}\n(positions: base length unit; normals: rad)",
+        fontsize=10,
+    )
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
+    fig.savefig(path, dpi=100)
+
+
+def _log_ticks(axis):
+    """Labels only at major ticks; an axis spanning under two decades gets 1, 2, 5 per
+    decade as plain numbers (matplotlib would label every minor tick, overprinting)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    lo, hi = sorted(axis.get_view_interval())
+    if lo > 0 and hi / lo < 100:
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
 
 
 if __name__ == "__main__":

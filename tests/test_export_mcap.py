@@ -160,7 +160,7 @@ def test_without_the_extra_the_command_says_how_to_install_it(run, tmp_path, cli
     code, out, err = cli("export", run, "-o", tmp_path / "x.mcap")
     assert code == 2 and out == ""
     assert err == "tactile export: error: MCAP export needs the 'export' extra:" \
-        " pip install 'tactile[export]'\n"  # fmt: skip
+        " pip install 'tactile-shape[export]'\n"  # fmt: skip
     assert not (tmp_path / "x.mcap").exists()
 
 

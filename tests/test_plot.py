@@ -163,7 +163,7 @@ def test_missing_matplotlib_gives_the_install_hint(two_patches, tmp_path, cli, m
     code, stdout, stderr = cli("plot", two_patches, "-o", tmp_path / "out")
     assert code != 0 and stdout == ""
     assert stderr.count("\n") == 1
-    assert "pip install 'tactile[plot]'" in stderr
+    assert "pip install 'tactile-shape[plot]'" in stderr
     assert not (tmp_path / "out").exists()
 
 
@@ -301,10 +301,11 @@ def test_plane_maps_say_not_computed(tmp_path, mocker):
     res = analyze_patch(pts, nrm, maps=True)
     assert res.shape == "plane"
     spy = mocker.spy(matplotlib.axes.Axes, "pcolormesh")
-    text = mocker.spy(matplotlib.axes.Axes, "text")
+    title = mocker.spy(matplotlib.axes.Axes, "set_title")
     assert_real_png(plots.plot_maps(res, tmp_path / "plane.png"))
     assert spy.call_count == 0
-    assert [c.args[3] for c in text.call_args_list][0].startswith("plane: S not computed")
+    said = [c.args[1] for c in title.call_args_list]
+    assert [t.split("\n")[0] for t in said] == ["plane: S not computed", "plane: C not computed"]
 
 
 def test_contacts_and_patch_draw_the_given_normals_and_the_net(tmp_path, mocker):

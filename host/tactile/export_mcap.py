@@ -27,7 +27,7 @@ import numpy as np
 from tactile import __version__
 from tactile.errors import InputError, TactileError
 
-INSTALL_HINT = "MCAP export needs the 'export' extra: pip install 'tactile[export]'"
+INSTALL_HINT = "MCAP export needs the 'export' extra: pip install 'tactile-shape[export]'"
 SEP = "=" * 80 + "\n"
 TIME = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"
 HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"

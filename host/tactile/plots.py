@@ -4,6 +4,12 @@ mesh (thesis figs. 39 ii, 40, 43, 47) and the S and C maps over the grid (fig. 5
 Functions take arrays or a ``PatchResult`` (``tactile.ep2.analyze_patch``) and a path,
 write the PNG and return the path.  matplotlib (the ``plot`` extra) is imported only
 inside them, with the Agg backend; without it they raise ``PlotUnavailable``.
+
+Every figure names the thesis figure it reproduces, draws geometry to equal scale, puts
+its legend outside the axes and labels each axis with its unit: ``unit`` is the length
+unit of the contacts (``None``: "input unit", the CSV contract allows any).  ``group``
+names what the ``finger`` labels count: fingers (the simulator's three-finger sweep) or
+passes (the ch. 5 rig moves one finger in passes).
 """
 
 import numpy as np
@@ -20,7 +26,7 @@ __all__ = [
     "require_matplotlib",
 ]
 
-INSTALL_HINT = "matplotlib is not installed; plotting needs: pip install 'tactile[plot]'"
+INSTALL_HINT = "matplotlib is not installed; plotting needs: pip install 'tactile-shape[plot]'"
 DPI = 100
 S_CMAP = "RdBu_r"  # diverging: convex (S > 0) red, saddle white, concave blue
 C_CMAP = "viridis"
@@ -28,6 +34,12 @@ NORMAL_LENGTH = 0.15  # arrow length as a fraction of the contacts' largest exte
 SURFACE_SAMPLES = 25  # per direction, for drawing the fitted surface
 SMALLEST, LARGEST = 1e-4, 1e5  # spreads drawn in the input unit; others in a power of ten
 FAR = 1e12  # a box whose middle is this many spreads from 0 is drawn about that middle
+TICK_BINS = (6, 4, 3, 2, 1)  # tick intervals per axis, tried until no labels overprint
+NICE = (1, 2, 2.5, 5, 10)  # tick steps (times a power of ten)
+LEGEND = dict(fontsize=8, loc="upper left", bbox_to_anchor=(1.04, 1.0), borderaxespad=0.0)
+PATCH_FIGURE = {"plane": "fig. 40", "cylinder": "fig. 43", "concave_cylinder": "fig. 47"}
+CONTACTS_REF = "cf. thesis figs. 39 ii, 42 ii, 46 ii"
+MAPS_REF = "cf. thesis fig. 50"
 
 
 class PlotUnavailable(TactileError):
@@ -86,14 +98,19 @@ class _View:
     def length(self, v):
         return np.asarray(v, float) / self.unit
 
-    def labels(self, names):
+    def labels(self, names, unit=None):
+        """Axis labels with the unit, e.g. 'x (cm)', 'x (1e-6 cm)', 'x - 3e+20 (m)'."""
+        scale = f"1e{self.e} " if self.unit != 1.0 else ""
         out = []
         for name, o in zip(names, self.origin, strict=True):
             text = f"{name} - {float(o)!r}" if o else name
-            if self.unit != 1.0:
-                text = f"({text}) / 1e{self.e}" if o else f"{text} / 1e{self.e}"
-            out.append(text)
+            out.append(f"{text} ({scale}{unit_name(unit)})")
         return out
+
+
+def unit_name(unit):
+    """The length unit as drawn: ``unit``, or 'input unit' when the input does not say."""
+    return unit or "input unit"
 
 
 def _equal_3d(ax, points, pad):
@@ -104,11 +121,43 @@ def _equal_3d(ax, points, pad):
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
     ax.set_box_aspect(tuple(hi - lo))
-    ax.locator_params(axis="z", nbins=4)
 
 
-def _contacts_3d(ax, points, normals, finger, length):
-    """Contacts as dots (one colour per finger) with their normals as arrows."""
+def _thin_ticks(fig, ax):
+    """As many ticks per axis as fit without their labels overprinting: a short side of
+    the equal-scale box (a rig's sweep seen edge-on) gets fewer, down to one."""
+    from matplotlib.ticker import MaxNLocator
+
+    ax.tick_params(labelsize=8)
+    axes = (ax.xaxis, ax.yaxis, ax.zaxis)
+    for axis in axes:
+        axis.set_major_locator(MaxNLocator(nbins=TICK_BINS[0], steps=NICE, min_n_ticks=2))
+    step = dict.fromkeys(axes, 0)
+    for _ in TICK_BINS:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        crowded = [a for a in axes if step[a] + 1 < len(TICK_BINS) and _overprinted(a, renderer)]
+        if not crowded:
+            return
+        for axis in crowded:
+            step[axis] += 1
+            n = TICK_BINS[step[axis]]
+            axis.set_major_locator(MaxNLocator(nbins=n, steps=NICE, min_n_ticks=min(n, 2)))
+
+
+def _overprinted(axis, renderer):
+    """True if two drawn tick labels of ``axis`` overlap."""
+    lo, hi = sorted(axis.get_view_interval())
+    boxes = [
+        t.label1.get_window_extent(renderer)
+        for t in axis.get_major_ticks()
+        if lo <= t.get_loc() <= hi and t.label1.get_visible() and t.label1.get_text()
+    ]
+    return any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1 :])
+
+
+def _contacts_3d(ax, points, normals, finger, length, group="finger"):
+    """Contacts as dots (one colour per finger or pass) with their normals as arrows."""
     groups = [(None, np.arange(len(points)))]
     if finger is not None:
         labels = [str(f) for f in finger]
@@ -119,7 +168,7 @@ def _contacts_3d(ax, points, normals, finger, length):
     for n, (label, rows) in enumerate(groups):
         colour = f"C{n % 10}"
         p, v = points[rows], normals[rows] * length
-        ax.scatter(*p.T, color=colour, s=10, depthshade=False, label=label and f"finger {label}")
+        ax.scatter(*p.T, color=colour, s=10, depthshade=False, label=label and f"{group} {label}")
         ax.quiver(*p.T, *v.T, color=colour, linewidth=0.8, arrow_length_ratio=0.25)
 
 
@@ -129,8 +178,8 @@ def _save(plt, fig, path):
     return path
 
 
-def plot_contacts(points, normals, path, finger=None, title=None):
-    """Contact points with their normals in the input frame (fig. 39 ii)."""
+def plot_contacts(points, normals, path, finger=None, title=None, unit=None, group="finger"):
+    """Contact points with their normals in the input frame (figs. 39 ii, 42 ii, 46 ii)."""
     plt = require_matplotlib()
     pts, nrm = _contacts(points, normals)
     span = _span(pts)
@@ -138,16 +187,18 @@ def plot_contacts(points, normals, path, finger=None, title=None):
     pts, length = view(pts), view.length(NORMAL_LENGTH * span)
     fig = plt.figure(figsize=(5.5, 5.0))
     ax = fig.add_subplot(projection="3d")
-    _contacts_3d(ax, pts, nrm, finger, length)
+    _contacts_3d(ax, pts, nrm, finger, length, group)
     _equal_3d(ax, np.vstack([pts, pts + nrm * length]), view.length(0.05 * span))
     if finger is not None:
-        ax.legend(fontsize=7, loc="upper left")
-    ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels("xyz"), strict=True)))
-    ax.set_title(title or f"{len(pts)} contacts and normals", fontsize=10)
+        ax.legend(**LEGEND)
+    ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels("xyz", unit), strict=True)))
+    first = title or f"{len(pts)} contacts and normals"
+    ax.set_title(f"{first}\n({CONTACTS_REF})", fontsize=10)
+    _thin_ticks(fig, ax)
     return _save(plt, fig, path)
 
 
-def plot_patch(result, points, normals, path, finger=None, title=None):
+def plot_patch(result, points, normals, path, finger=None, title=None, unit=None, group="finger"):
     """The fitted patch (with its control mesh for the spline) and the contacts (figs. 40, 43, 47).
 
     Drawn in the patch frame (z = mean outward normal, §5.1.2), to equal scale
@@ -177,24 +228,31 @@ def plot_patch(result, points, normals, path, finger=None, title=None):
         ax.plot_wireframe(*np.moveaxis(net, -1, 0), color="k", linewidth=0.9, label="control mesh")
         ax.scatter(*net.reshape(-1, 3).T, color="k", s=14, marker="s", depthshade=False)
         every.append(net.reshape(-1, 3))
-    _contacts_3d(ax, pts, nrm, finger, length)
+    _contacts_3d(ax, pts, nrm, finger, length, group)
     every = np.vstack(every)
     _equal_3d(ax, every, view.length(0.05 * span))
     names = ("patch x", "patch y", "patch z")
-    ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels(names), strict=True)))
+    ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels(names, unit), strict=True)))
     if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper left")
-    ax.set_title(title or _summary(result), fontsize=10)
+        ax.legend(**LEGEND)
+    ax.set_title(f"{title or _summary(result, unit)}\n({patch_reference(result)})", fontsize=10)
+    _thin_ticks(fig, ax)
     return _save(plt, fig, path)
 
 
-def _summary(result):
-    """'round 3-jet: cylinder (1.00), S 0.501, radius 6.98': S and radius at the centre."""
-    text = f"{result.model.split(':')[0]}: {result.shape} ({result.confidence:.2f})"
+def patch_reference(result):
+    """The thesis figure a patch figure corresponds to, by the fit's label."""
+    number = PATCH_FIGURE.get(result.shape)
+    return f"cf. thesis {number}" if number else "cf. thesis figs. 40, 43, 47"
+
+
+def _summary(result, unit=None):
+    """'round 3-jet: cylinder (confidence 1.00), S 0.501, radius 6.98 cm', at the centre."""
+    text = f"{result.model.split(':')[0]}: {result.shape} (confidence {result.confidence:.2f})"
     if result.S is not None:
         text += f", S {result.S:.3f}"
     if result.radius is not None:
-        text += f", radius {result.radius:.3g}"
+        text += f", radius {result.radius:.3g} {unit_name(unit)}"
     return text
 
 
@@ -214,12 +272,12 @@ def map_grids(result):
     return out
 
 
-def plot_maps(result, path, points=None, title=None):
+def plot_maps(result, path, points=None, title=None, unit=None):
     """S (left, on [-1, 1], diverging colours) and C (right) over the analysis grid (fig. 50).
 
     ``result`` needs ``maps=True``.  ``points`` (input frame), if given, are
     drawn as dots at their patch-frame (x, y).  For a plane the panels say why
-    they are empty.
+    they are empty.  C = (2/pi) ln R depends on the length unit (R is in 1/unit).
     """
     plt = require_matplotlib()
     grids = map_grids(result)
@@ -228,25 +286,28 @@ def plot_maps(result, path, points=None, title=None):
     x, y = (v.reshape(grids["x"].shape) for v in view(flat)[:, :2].T)
     fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.4), layout="constrained")
     panels = (
-        ("S", "shape index S", dict(cmap=S_CMAP, vmin=-1.0, vmax=1.0)),
-        ("C", "curvedness C = (2/pi) ln R", dict(cmap=C_CMAP)),
+        ("S", "shape index S (dimensionless)", dict(cmap=S_CMAP, vmin=-1.0, vmax=1.0)),
+        ("C", f"curvedness C = (2/\u03c0) ln R (R in 1/{unit_name(unit)})", dict(cmap=C_CMAP)),
     )
     xy = None if points is None else view(result.frame.to_patch(np.asarray(points, float)))
     for ax, (key, label, style) in zip(axes, panels, strict=True):
         values = grids[key]
-        if values is None:
-            note = f"plane: {key} not computed\n(curvedness below what the data resolve)"
-            ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes)
+        name = label.rsplit(" (", 1)[0]
+        if values is None:  # said in the title: a note inside would cover the contacts
+            name = f"plane: {key} not computed\n(curvedness below what the data resolve)"
             hx, hy = (0.5 * np.ptp(v) / (v.shape[0] - 1) for v in (x, y))
             ax.set(xlim=(x.min() - hx, x.max() + hx), ylim=(y.min() - hy, y.max() + hy))
         else:
             mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(values), shading="nearest", **style)
             fig.colorbar(mesh, ax=ax, label=label)
         if xy is not None:
-            ax.plot(xy[:, 0], xy[:, 1], "k.", ms=3)
+            ax.plot(xy[:, 0], xy[:, 1], "k.", ms=3, label="contacts")
         ax.set_aspect("equal")
-        xlabel, ylabel, _ = view.labels(("patch x", "patch y", ""))
-        ax.set(xlabel=xlabel, ylabel=ylabel, title=label)
+        xlabel, ylabel, _ = view.labels(("patch x", "patch y", ""), unit)
+        ax.set_title(name, fontsize=10)
+        ax.set(xlabel=xlabel, ylabel=ylabel)
     n = x.shape[0]
-    fig.suptitle(title or f"S and C on the {n}x{n} grid; {_summary(result)}", fontsize=10)
+    first = title or f"S and C on the {n}x{n} grid; {_summary(result, unit)}"
+    dots = "" if xy is None else "; dots: contacts"
+    fig.suptitle(f"{first}\n({MAPS_REF}{dots})", fontsize=10)
     return _save(plt, fig, path)

@@ -1,4 +1,9 @@
-"""``tactile plot CONTACTS.csv|DIR``: PNGs of the contacts, the fitted patch and the S/C maps."""
+"""``tactile plot CONTACTS.csv|DIR``: PNGs of the contacts, the fitted patch and the S/C maps.
+
+Axis labels carry the CSV's length unit (``--units``, else a ``# units: U`` comment line in
+the CSV).  The ``finger`` column of a recording from a one-sensor board counts passes (the
+ch. 5 rig moves one finger in passes), so its legend says "pass".
+"""
 
 WHAT = ("contacts", "patch", "maps")
 METHODS = ("jet", "spline")
@@ -29,6 +34,11 @@ def add_arguments(parser):
     )
     parser.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
     parser.add_argument(
+        "--units",
+        help="length unit of the CSV's x, y, z, for the axis labels"
+        " (default: the CSV's '# units: U' line, else 'input unit')",
+    )
+    parser.add_argument(
         "--what",
         default=",".join(WHAT),
         help=f"comma-separated figures to draw, of {','.join(WHAT)} (default all)",
@@ -58,6 +68,8 @@ def run(args):
     outdir = pathlib.Path(args.outdir) if args.outdir else default_out
     plots.require_matplotlib()  # the install hint before any work
     groups = read_contacts(csv_path)
+    unit = args.units or _declared_units(csv_path)
+    word = _group_word(pathlib.Path(args.source))
     try:
         outdir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -77,6 +89,8 @@ def run(args):
                 out["contacts"],
                 finger=g.finger,
                 title=f"patch {name}: {len(g.points)} contacts and normals",
+                unit=unit,
+                group=word,
             )
         if "patch" not in out and "maps" not in out:
             continue
@@ -96,9 +110,18 @@ def run(args):
             failed.append((name, str(exc)))
             continue
         if "patch" in out:
-            _draw(plots.plot_patch, res, g.points, g.normals, out["patch"], finger=g.finger)
+            _draw(
+                plots.plot_patch,
+                res,
+                g.points,
+                g.normals,
+                out["patch"],
+                finger=g.finger,
+                unit=unit,
+                group=word,
+            )
         if "maps" in out:
-            _draw(plots.plot_maps, res, out["maps"], points=g.points)
+            _draw(plots.plot_maps, res, out["maps"], points=g.points, unit=unit)
     if failed:
         name, why = failed[0]
         raise DataError(
@@ -135,6 +158,36 @@ def _source(path):
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
     return path, path.stem, path.parent
+
+
+def _declared_units(csv_path):
+    """The unit of a leading '# units: U' (or '# unit: U') comment line, else None."""
+    import re
+
+    try:
+        with open(csv_path, encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if not line.startswith("#"):
+                    return None
+                found = re.match(r"#\s*units?\s*[:=]\s*(\S+)", line)
+                if found:
+                    return found.group(1)
+    except OSError:
+        return None
+    return None
+
+
+def _group_word(source):
+    """'pass' for a recording from a one-sensor board (its finger column counts passes),
+    else 'finger'."""
+    import json
+
+    try:
+        meta = json.loads((source / "meta.json").read_text(encoding="utf-8"))
+        sensors = meta["device"]["n_sensors"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return "finger"
+    return "pass" if sensors == 1 else "finger"
 
 
 def _labels(groups):

@@ -1,6 +1,7 @@
 """``tactile study ep1-noise|ep1-paraboloid|ep1-resolution|ep1-arclength|ep1-dtheta``.
 
-Each writes NAME.csv and NAME.png (fig. 20: one PNG per sensor model) into --out.
+Each writes NAME.csv and NAME.png (fig. 20: NAME_SENSOR.png, one per sensor model) into
+--out, and prints the path of every file it wrote.
 """
 
 import os
@@ -33,16 +34,15 @@ def _setup(args):
     return lambda it, desc="": tqdm(list(it), desc=desc, unit="step")
 
 
-def _finish(args, name, rows, plot):
+def _finish(args, name, rows, plot, **plot_kw):
     from tactile_sim.ep1.studies import write_csv
 
     csv_path = os.path.join(args.out, f"{name}.csv")
     write_csv(csv_path, rows)
     print(csv_path)
     if not args.no_plot:
-        png = os.path.join(args.out, f"{name}.png")
-        plot(rows, png)
-        print(png)
+        for png in plot(rows, os.path.join(args.out, f"{name}.png"), **plot_kw):
+            print(png)
     return 0
 
 
@@ -103,7 +103,12 @@ def run_dtheta(args):
         seed=args.seed,
     )
     print(dumps({"widest_range_within_25pct": summary}))
-    return _finish(args, "ep1-dtheta", rows, plot_optimal)
+    setup = (
+        f"'{args.sensor}' sensor, resolution {args.resolution:g} (unit of R1),"
+        f" noise in \u0394\u03b8 {args.noise_theta:g} rad, R1 = {args.finger_radius:g},"
+        f" {args.trials} trials"
+    )
+    return _finish(args, "ep1-dtheta", rows, plot_optimal, setup=setup)
 
 
 SUBCOMMANDS = {

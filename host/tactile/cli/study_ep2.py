@@ -1,4 +1,7 @@
-"""``tactile study ep2-*``: replicas of figs. 30-34 and tables 5-7 as CSV + PNG."""
+"""``tactile study ep2-*``: replicas of figs. 30-34 and tables 5-7 as CSV + PNG.
+
+Each prints the path of every file it wrote (``tactile_sim.ep2.studies.run``).
+"""
 
 
 def _add(parser):
@@ -6,13 +9,12 @@ def _add(parser):
     parser.add_argument("--no-png", action="store_true", help="write CSV only")
 
 
-def _run_with(fn_name, **extra):
+def _run_with(name):
     def run(args):
         from tactile_sim.ep2 import studies
 
-        fn = getattr(studies, fn_name)
-        rows = fn(args.out, png=not args.no_png, **extra)
-        print(f"{fn_name}: {len(rows)} rows written to {args.out}/")
+        _, paths = studies.run(name, args.out, png=not args.no_png)
+        print("\n".join(paths))
         return 0
 
     return run
@@ -20,16 +22,19 @@ def _run_with(fn_name, **extra):
 
 def _add_tables(parser):
     _add(parser)
-    parser.add_argument("--trials", type=int, default=50)
+    parser.add_argument("--trials", type=int, default=50, help="seeds per surface and fit")
 
 
 def _run_tables(args):
+    from tactile.errors import InputError
     from tactile_sim.ep2 import studies
 
-    rows = studies.tables(args.out, trials=args.trials)
+    if args.trials < 1:
+        raise InputError(f"--trials: must be at least 1, got {args.trials}")
+    rows, paths = studies.run("tables", args.out, png=not args.no_png, trials=args.trials)
     print(
-        "| surface | weighting | S | S std | R | radius | thesis S | thesis S std | thesis R"
-        " | thesis radius | label share |"
+        "| surface | weighting | S | S std | R (1/cm) | radius (cm) | thesis S | thesis S std"
+        " | thesis R (1/cm) | thesis radius (cm) | label share |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
@@ -48,6 +53,7 @@ def _run_tables(args):
             )
         ]
         print("| " + " | ".join(cells) + " |")
+    print("\n".join(paths))
     return 0
 
 
@@ -61,12 +67,12 @@ SUBCOMMANDS = {
     "ep2-cylinder-radius": (
         "fig. 33: S of 45-deg cylinders against radius and order",
         _add,
-        _run_with("radius_sweep", kind="cylinder"),
+        _run_with("cylinder-radius"),
     ),
     "ep2-sphere-radius": (
         "fig. 34: S of spheres against radius and order",
         _add,
-        _run_with("radius_sweep", kind="sphere"),
+        _run_with("sphere-radius"),
     ),
     "ep2-tables": (
         "tables 5-7 in simulation, beside the thesis's values",

@@ -1,106 +1,202 @@
-"""PNG figures for the EP1 studies (figs. 16, 18, 20, 21).  Imports matplotlib when called."""
+"""PNG figures for the EP1 studies: thesis figs. 16, 18, 20, 21 and the dtheta choice.
+
+Lengths are in the unit of the fingertip radius R1 (the thesis's "units", R1 = 1 by
+default), angles in rad and errors in % (truncated at 100 % as in fig. 20; an error
+below ``FLOOR`` % is drawn at ``FLOOR``, so exact results stay on a log axis).  Each
+function writes its PNG(s) and returns the list of paths written; matplotlib (Agg) is
+imported when one is called.
+"""
 
 import numpy as np
 
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
 
+FLOOR = 1e-12  # % : smallest error drawn
+DPI = 110
+LEGEND = dict(fontsize=8, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0)
+ERROR_LABEL = "relative curvature error (%)"
+LENGTH = "length unit of R1"
+FLOOR_NOTE = f"(errors truncated at 100 %; below {FLOOR:g} % drawn at {FLOOR:g} %)"
 
-def _figure(n):
+
+def _figure(n, width=3.6):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6), squeeze=False, sharey=True)
+    fig, axes = plt.subplots(
+        1, n, figsize=(width * n + 1.6, 3.5), squeeze=False, sharey=True, layout="constrained"
+    )
     return plt, fig, axes[0]
 
 
-def _panels(rows, panel_key, line_key, x_key, y_key, title, xlabel, path, xlog=True, extra=None):
-    panels = sorted({r[panel_key] for r in rows})
+def _save(plt, fig, path):
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return [str(path)]
+
+
+def _log_ticks(axis):
+    """Labels only at major ticks; an axis spanning under two decades gets 1, 2, 5 per
+    decade as plain numbers (matplotlib would label every minor tick, overprinting)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    lo, hi = sorted(axis.get_view_interval())
+    if lo > 0 and hi / lo < 100:
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def _percent(y):
+    return 100 * np.maximum(np.asarray(y, float), FLOOR / 100)
+
+
+def _lines(ax, rows, line_key, x_key, y_key, fmt):
+    """One line per value of ``line_key``, its points sorted by the x variable."""
+    for lv in sorted({r[line_key] for r in rows}):
+        pts = sorted((r[x_key], r[y_key]) for r in rows if r[line_key] == lv)
+        x, y = np.array(pts).T
+        ax.plot(x, _percent(y), marker="o", ms=3, lw=1.2, label=fmt(lv))
+
+
+def _angle(rad):
+    """'0.25 rad', or '\u03c0/2 rad' for the thesis's quarter turn."""
+    return "\u03c0/2 rad" if np.isclose(rad, np.pi / 2) else f"{rad:.4g} rad"
+
+
+def _panels(rows, line_key, x_key, y_key, xlabel, legend_title, fmt, title, extra=None):
+    """One panel per dtheta (log-log), one line per ``line_key``; returns (plt, fig)."""
+    panels = sorted({r["dtheta"] for r in rows})
     plt, fig, axes = _figure(len(panels))
-    for ax, pv in zip(axes, panels, strict=True):
-        sub = [r for r in rows if r[panel_key] == pv]
-        for lv in sorted({r[line_key] for r in sub}):
-            pts = sorted((r[x_key], r[y_key]) for r in sub if r[line_key] == lv)
-            x, y = np.array(pts).T
-            ax.plot(x, 100 * np.maximum(y, 1e-14), marker="o", ms=3, label=f"{line_key}={lv:g}")
-        ax.set_xscale("log" if xlog else "linear")
-        ax.set_yscale("log")
-        ax.set_title(f"{title} {panel_key}={pv:g}", fontsize=9)
-        ax.set_xlabel(xlabel)
-        ax.grid(True, which="both", alpha=0.3)
+    for ax, dth in zip(axes, panels, strict=True):
+        _lines(ax, [r for r in rows if r["dtheta"] == dth], line_key, x_key, y_key, fmt)
+        ax.set(xscale="log", yscale="log")
+        ax.set_title(f"\u0394\u03b8 = {_angle(dth)}", fontsize=9)
+        ax.grid(True, which="major", alpha=0.3)
+        _log_ticks(ax.xaxis)
+        _log_ticks(ax.yaxis)
         if extra:
             extra(ax)
-    axes[0].set_ylabel("relative curvature error (%)")
-    axes[-1].legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    axes[0].set_ylabel(ERROR_LABEL)
+    fig.supxlabel(xlabel, fontsize=10)
+    axes[-1].legend(title=legend_title, title_fontsize=8, **LEGEND)
+    fig.suptitle(f"{title}\n{FLOOR_NOTE}", fontsize=10)
+    return plt, fig
 
 
 def plot_noise(rows, path):
     """Fig. 16: error vs RCR, one panel per dtheta, one line per angle noise."""
-    _panels(rows, "dtheta", "noise", "rcr", "mean_rel_error", "fig. 16", "RCR = R2/R1", path)
+    plt, fig = _panels(
+        rows,
+        "noise",
+        "rcr",
+        "mean_rel_error",
+        "RCR = R2/R1 (dimensionless)",
+        "noise in \u0394\u03b8\n(rad, 1 sigma)",
+        lambda v: f"{v:g}",
+        "Thesis fig. 16: EP1 on spheres, exact contact sensor, noise in \u0394\u03b8",
+    )
+    return _save(plt, fig, path)
 
 
 def plot_paraboloid(rows, path):
-    """Fig. 18: error along u vs local radius, one panel per dtheta, one line per noise."""
-    _panels(
-        rows, "dtheta", "noise", "radius_u", "mean_rel_error_u", "fig. 18", "radius along u", path
+    """Fig. 18: error along u vs the paraboloid's C (eq. 36), one panel per dtheta, one line
+    per noise.  The local radius along u (table 4) is not monotonic in C (C = 0.1 and 1 give
+    5.30 and 5.61), so the lines run along C and the top axis names each C's radius."""
+    plt, fig = _panels(
+        rows,
+        "noise",
+        "C",
+        "mean_rel_error_u",
+        f"paraboloid C, z = -C(x\u00b2 + y\u00b2) (1/{LENGTH})",
+        "noise in \u0394\u03b8\n(rad, 1 sigma)",
+        lambda v: f"{v:g}",
+        "Thesis fig. 18: EP1 on paraboloids at (u, v) = (1.0, 0.1), error along u",
+        extra=lambda ax: _radius_axis(ax, rows),
     )
+    return _save(plt, fig, path)
+
+
+def _radius_axis(ax, rows):
+    """A top axis at the C values, labelled with the radius along u at (1.0, 0.1)."""
+    radius = dict(sorted({(r["C"], r["radius_u"]) for r in rows}))
+    top = ax.secondary_xaxis("top")
+    top.set_xticks(list(radius), [f"{v:.3g}" for v in radius.values()], fontsize=7)
+    top.minorticks_off()
+    top.set_xlabel(f"radius along u ({LENGTH})", fontsize=8)
+    ax.set_xticks(list(radius), [f"{c:g}" for c in radius], fontsize=8)
+    ax.minorticks_off()
 
 
 def plot_resolution(rows, path):
-    """Fig. 20: one row of panels per sensor model; error vs RCR per resolution."""
+    """Fig. 20: one PNG per sensor model (PATH_SENSOR.png); error vs RCR per resolution."""
+    written = []
+    stem = str(path)[:-4] if str(path).endswith(".png") else str(path)
     for sensor in sorted({r["sensor"] for r in rows}):
-        sub = [r for r in rows if r["sensor"] == sensor]
-        _panels(
-            sub,
-            "dtheta",
+        plt, fig = _panels(
+            [r for r in rows if r["sensor"] == sensor],
             "resolution",
             "rcr",
             "mean_rel_error",
-            f"fig. 20 ({sensor})",
-            "RCR",
-            str(path).replace(".png", f"_{sensor}.png"),
-            extra=lambda ax: ax.axhline(25, color="k", lw=0.6, ls=":"),
+            "RCR = R2/R1 (dimensionless)",
+            f"contact-sensor\nresolution\n({LENGTH})",
+            lambda v: f"{v:g}",
+            f"Thesis fig. 20: EP1 on spheres, no angle noise, '{sensor}' contact-sensor model",
+            extra=_quarter_line,
         )
+        written += _save(plt, fig, f"{stem}_{sensor}.png")
+    return written
+
+
+def _quarter_line(ax):
+    ax.axhline(25, color="0.4", lw=0.8, ls="-.", label="25 % (\u00a73.3.3)")
 
 
 def plot_arclength(rows, path):
     """Fig. 21: arc length vs RCR with the thesis's 0.008 and 125 marks."""
-    plt, fig, (ax,) = _figure(1)
-    cf = [r for r in rows if r.get("source") != "ode"]
+    plt, fig, (ax,) = _figure(1, width=4.4)
+    cf = sorted((r["rcr"], r["ds"]) for r in rows if r.get("source") != "ode")
     ode = [r for r in rows if r.get("source") == "ode"]
-    ax.plot([r["rcr"] for r in cf], [r["ds"] for r in cf], label="closed form (eq. 38)")
+    ax.plot(*np.array(cf).T, label="closed form (eq. 38)")
     ax.plot([r["rcr"] for r in ode], [r["ds"] for r in ode], "o", label="ODE (eqs. 24-28)")
-    for x in (0.008, 125):
-        ax.axvline(x, ls="--", color="k", lw=0.7)
+    for i, x in enumerate((0.008, 125)):
+        ax.axvline(x, ls="--", color="k", lw=0.7, label="RCR 0.008 and 125 (\u00a73.3.3)" * (not i))
     ax.set_xscale("log")
-    ax.set_xlabel("RCR = R2/R1")
-    ax.set_ylabel("arc length on finger")
-    ax.set_title("fig. 21: dtheta = 90 deg")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _log_ticks(ax.xaxis)
+    ax.set(xlabel="RCR = R2/R1 (dimensionless)", ylabel=f"\u0394s on the finger ({LENGTH})")
+    ax.grid(True, alpha=0.3)
+    ax.legend(**LEGEND)
+    fig.suptitle(
+        "Thesis fig. 21: \u0394s for \u0394\u03b8 = 90\u00b0 (\u03c0/2 rad) on spheres", fontsize=10
+    )
+    return _save(plt, fig, path)
 
 
-def plot_optimal(rows, path):
-    """Expected error vs radius for the best dtheta per radius and a few fixed dthetas."""
-    plt, fig, (ax,) = _figure(1)
+def plot_optimal(rows, path, setup=""):
+    """Beyond the thesis: error vs radius for the adaptive and the best (oracle) dtheta per
+    radius and a few fixed dthetas.  ``setup`` (e.g. the sensor) goes into the title."""
+    plt, fig, (ax,) = _figure(1, width=5.0)
     radii = np.array([r["radius"] for r in rows])
+    order = np.argsort(radii)
     keys = [k for k in rows[0] if k.startswith("err_dtheta_")]
     for k in keys[:: max(1, len(keys) // 5)]:
-        ax.plot(radii, [100 * r[k] for r in rows], lw=0.8, label=k[4:])
-    ax.plot(radii, [100 * r["oracle_error"] for r in rows], "k:", lw=1.5, label="oracle dtheta")
-    ax.plot(radii, [100 * r["adaptive_error"] for r in rows], "k", lw=2, label="adaptive dtheta")
-    ax.axhline(25, color="k", lw=0.6, ls=":")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("sphere radius (R1 = 1)")
-    ax.set_ylabel("mean relative error (%)")
-    ax.legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        err = np.array([r[k] for r in rows])
+        ax.plot(radii[order], _percent(err[order]), lw=0.8, label=f"\u0394\u03b8 = {k[11:]} rad")
+    for key, style, label in (
+        ("oracle_error", dict(color="k", ls=":", lw=1.5), "best \u0394\u03b8 per true radius"),
+        ("adaptive_error", dict(color="k", lw=2), "adaptive \u0394\u03b8 (two-stage)"),
+    ):
+        err = np.array([r[key] for r in rows])
+        ax.plot(radii[order], _percent(err[order]), label=label, **style)
+    _quarter_line(ax)
+    ax.set(xscale="log", yscale="log", ylabel=ERROR_LABEL)
+    _log_ticks(ax.xaxis)
+    _log_ticks(ax.yaxis)
+    ax.set_xlabel(f"sphere radius R2 ({LENGTH})")
+    ax.grid(True, alpha=0.3)
+    ax.legend(**LEGEND)
+    title = "Beyond the thesis: EP1 with \u0394\u03b8 chosen per estimate"
+    fig.suptitle(title + (f"\n{setup}" if setup else ""), fontsize=10)
+    return _save(plt, fig, path)

@@ -3,9 +3,11 @@
 Layout as in §4.9: the patch spans [0, 4] x [0, 4] with the object's apex at
 the corner (0, 0) (radius 5.7, the thesis's smallest, just clears the far
 corner at 4 sqrt 2 = 5.66); three fingers 2 apart, 6 stops x 2 readings.
-Each study returns rows (dicts) and writes CSV, plus a PNG unless ``png`` is
-False.  Columns hold the thesis's statistic (grid mean and std of S) and
-this implementation's ``S`` (at the patch centre) and label.
+Each study returns rows (dicts); ``run(name, out)`` runs one of ``STUDIES`` and
+writes its CSV and (unless ``png`` is False) its PNG (``tactile_sim.ep2.plots``),
+returning the rows and the paths written.  Columns hold the thesis's statistic
+(grid mean and std of S) and this implementation's ``S`` (at the patch centre)
+and label.
 """
 
 import csv
@@ -54,7 +56,7 @@ def _row(res, **keys):
     }
 
 
-def cylinders(out, png=True):
+def cylinders():
     """Fig. 30/31: convex cylinders R 6, 10, 500 x 7 rotations, bicubic, tangent/position."""
     rows = []
     for radius in (6, 10, 500):
@@ -67,13 +69,10 @@ def cylinders(out, png=True):
                         _analyse(obj, deg, w), radius=radius, rotation=rot, weighting=w, degree=deg
                     )
                 )
-    _write(out, "ep2_fig30_cylinders", rows)
-    if png:
-        _plot_bars(out, "ep2_fig30_cylinders", rows, "rotation", "radius")
     return rows
 
 
-def rotation(out, png=True):
+def rotation():
     """Fig. 32: RMS over the grid of S - 0.5 against rotation, R 6, 10, 20 (bicubic, tangent)."""
     rows = []
     for radius in (6, 10, 20):
@@ -94,13 +93,10 @@ def rotation(out, png=True):
                         "S_error": None if res is None or res.S is None else res.S - 0.5,
                     }
                 )
-    _write(out, "ep2_fig32_rotation", rows)
-    if png:
-        _plot_lines(out, "ep2_fig32_rotation", rows, "rotation", "rms_S_error")
     return rows
 
 
-def radius_sweep(out, kind="cylinder", png=True):
+def radius_sweep(kind="cylinder"):
     """Fig. 33 (cylinders at 45 deg) / fig. 34 (spheres): S against radius x order x weighting."""
     rows = []
     for radius in RADII:
@@ -108,10 +104,6 @@ def radius_sweep(out, kind="cylinder", png=True):
         for deg in (2, 3, 4):
             for w in ("tangent", "position", "auto"):
                 rows.append(_row(_analyse(obj, deg, w), radius=radius, degree=deg, weighting=w))
-    name = "ep2_fig33_cylinder_radius" if kind == "cylinder" else "ep2_fig34_sphere_radius"
-    _write(out, name, rows)
-    if png:
-        _plot_lines(out, name, rows, "radius", "S_mean", logx=True)
     return rows
 
 
@@ -125,7 +117,7 @@ THESIS_TABLES = {
 }
 
 
-def tables(out, trials=50, noise_pos=0.05, noise_normal=0.03, spacing=2.5, length=6.0, png=False):
+def tables(trials=50, noise_pos=0.05, noise_normal=0.03, spacing=2.5, length=6.0):
     """Tables 5-7 in simulation: plane, convex cylinder R 6.6 cm, concave R 11.25 cm.
 
     36 contacts (3 passes x 6 stops x 2 readings), biquadratic, 8 x 8 grid, tangent
@@ -179,7 +171,6 @@ def tables(out, trials=50, noise_pos=0.05, noise_normal=0.03, spacing=2.5, lengt
                 thesis_radius=thesis[3],
             )
             rows.append(row)
-    _write(out, "ep2_tables5_7", rows)
     return rows
 
 
@@ -187,71 +178,46 @@ def _expected(kind):
     return {"plane": "plane", "cylinder": "cylinder", "concave_cylinder": "concave_cylinder"}[kind]
 
 
+# study -> (function, its keywords, file stem, plot function in tactile_sim.ep2.plots)
+STUDIES = {
+    "cylinders": (cylinders, {}, "ep2_fig30_cylinders", "plot_cylinders"),
+    "rotation": (rotation, {}, "ep2_fig32_rotation", "plot_rotation"),
+    "cylinder-radius": (
+        radius_sweep,
+        {"kind": "cylinder"},
+        "ep2_fig33_cylinder_radius",
+        "plot_cylinder_radius",
+    ),
+    "sphere-radius": (
+        radius_sweep,
+        {"kind": "sphere"},
+        "ep2_fig34_sphere_radius",
+        "plot_sphere_radius",
+    ),
+    "tables": (tables, {}, "ep2_tables5_7", "plot_tables"),
+}
+
+
+def run(name, out, png=True, **kw):
+    """Run study ``name`` (a key of ``STUDIES``; ``kw`` goes to it), write OUT/STEM.csv and,
+    if ``png``, OUT/STEM.png.  Returns (rows, paths written)."""
+    fn, fixed, stem, plot = STUDIES[name]
+    rows = fn(**fixed, **kw)
+    paths = [_write(out, stem, rows)]
+    if png:
+        from tactile_sim.ep2 import plots
+
+        paths.append(getattr(plots, plot)(rows, os.path.join(out, stem + ".png")))
+    return rows, paths
+
+
 def _write(out, name, rows):
     os.makedirs(out, exist_ok=True)
+    path = os.path.join(out, name + ".csv")
     keys = list(dict.fromkeys(k for r in rows for k in r))
-    with open(os.path.join(out, name + ".csv"), "w", newline="", encoding="utf-8") as fh:
+    with open(path, "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, keys)
         w.writeheader()
         for r in rows:
             w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in keys})
-
-
-def _plot_bars(out, name, rows, xkey, groupkey):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    groups = sorted({r[groupkey] for r in rows})
-    fig, axes = plt.subplots(1, len(groups), figsize=(4 * len(groups), 3.2), sharey=True)
-    for ax, g in zip(np.atleast_1d(axes), groups, strict=True):
-        for i, w in enumerate(("tangent", "position", "auto")):
-            sel = [r for r in rows if r[groupkey] == g and r["weighting"] == w]
-            x = np.arange(len(sel)) + 0.27 * (i - 1)
-            y = [r["S_mean"] if r["S_mean"] is not None else np.nan for r in sel]
-            e = [r["S_std"] if r["S_std"] is not None else 0 for r in sel]
-            ax.errorbar(x, y, yerr=e, fmt="o", ms=3, label=w)
-            ax.set_xticks(np.arange(len(sel)), [str(r[xkey]) for r in sel])
-        ax.axhline(0.5, color="k", lw=0.5)
-        ax.set_title(f"{groupkey} {g}")
-        ax.set_xlabel(xkey)
-    np.atleast_1d(axes)[0].set_ylabel("mean S +/- std over grid")
-    np.atleast_1d(axes)[0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name + ".png"), dpi=110)
-    plt.close(fig)
-
-
-def _plot_lines(out, name, rows, xkey, ykey, logx=False):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6, 3.6))
-    series = sorted(
-        {
-            tuple((k, r[k]) for k in r if k in ("radius", "degree", "weighting") and k != xkey)
-            for r in rows
-        }
-    )
-    for key in series:
-        sel = [r for r in rows if all(r[k] == v for k, v in key)]
-        y = [r[ykey] if r[ykey] is not None else np.nan for r in sel]
-        ax.plot(
-            [r[xkey] for r in sel],
-            y,
-            marker="o",
-            ms=3,
-            lw=1,
-            label=", ".join(f"{k} {v}" for k, v in key),
-        )
-    if logx:
-        ax.set_xscale("log")
-    ax.set_xlabel(xkey)
-    ax.set_ylabel(ykey)
-    ax.legend(fontsize=5, ncol=2)
-    fig.tight_layout()
-    fig.savefig(os.path.join(out, name + ".png"), dpi=110)
-    plt.close(fig)
+    return path
