@@ -10,6 +10,7 @@ function of all nine holds, so both get a propagated standard deviation and must
 
 import pathlib
 import re
+import time
 
 import numpy as np
 import pytest
@@ -300,6 +301,16 @@ def test_bad_roll_scenes_name_the_key(tmp_path):
     (tmp_path / "typo.toml").write_text(text)
     with pytest.raises(SceneError, match="speed"):
         build_motion(load_scene(tmp_path / "typo.toml"))
+
+
+def test_a_start_outside_the_chart_is_refused_at_once(tmp_path):
+    """It never crosses the chart's edge, so the roll used to integrate for a minute."""
+    text = SHIPPED.read_text().replace("mu = 0.2", "mu = 0.2\nobject_uv = [58.0, 0.0]")
+    (tmp_path / "far.toml").write_text(text)
+    start = time.process_time()
+    with pytest.raises(SceneError, match=r"\[motion\] object_uv\[0\]: must lie inside the "):
+        build_motion(load_scene(tmp_path / "far.toml"))
+    assert time.process_time() - start < 2.0
 
 
 def test_a_noiseless_roll_scene_draws_no_random_numbers(tmp_path):

@@ -146,6 +146,22 @@ def build(scene):
         ) from None
 
 
+def _starts_inside(scene, finger, obj, o):
+    """The start contacts lie inside their charts: a roll that starts outside one never
+    crosses its edge, so nothing would stop it integrating nonsense (for a minute)."""
+    from tactile_sim.ep1.rolling import CHART_MARGIN
+
+    for key, surf in (("object_uv", obj), ("finger_uv", finger)):
+        for k, name in enumerate("uv"):
+            lo, hi = surf.chart[k]
+            if not lo + CHART_MARGIN < o[key][k] < hi - CHART_MARGIN:
+                raise scene.error(
+                    f"[motion] {key}[{k}]",
+                    f"must lie inside the {surf.name} chart ({lo:g} < {name} < {hi:g}), "
+                    f"got {o[key][k]:g}",
+                )
+
+
 def _build(scene, o):
     from tactile_sim.ep1.experiment import true_curvature
     from tactile_sim.ep1.probes import simulate_probes
@@ -158,6 +174,7 @@ def _build(scene, o):
         raise scene.error("[motion] surface_params", f"{o['surface']}: {exc}") from None
     R1 = o["finger_radius_m"]
     finger = fingertip(R1)
+    _starts_inside(scene, finger, obj, o)
     probes = simulate_probes(
         finger, obj, o["finger_uv"], o["object_uv"], o["dtheta_rad"], o["directions"], o["psi"]
     )
