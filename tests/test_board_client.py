@@ -154,8 +154,8 @@ def test_info_and_config_commands(cli):
     assert code == 0 and '"rate_hz":1000' in out and '"streams":["samples","contacts"]' in out
     code, out, _ = cli("config", "--port", "sim://press", "--rate", "250", "--gate", "3d")
     assert code == 0 and "rate          250 Hz" in out and "gate          3d" in out
-    code, _, err = cli("config", "--port", "sim://press", "--rate", "0")
-    assert code == 4 and "out of range (rate_hz)" in err
+    code, _, err = cli("config", "--port", "sim://press", "--rate", "0")  # checked before sending
+    assert code == 2 and "--rate: 0 Hz is out of range: 1.." in err
     code, _, err = cli("config", "--port", "sim://press", "--streams", "video")
     assert code == 2 and "--streams: unknown stream 'video'" in err
 

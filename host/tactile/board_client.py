@@ -24,6 +24,7 @@ Invalid frames in a stream are passed on, counted, never acted on.
 
 import time
 
+from tactile import board_settings
 from tactile.errors import (
     BoardError,
     BoardTimeout,
@@ -222,8 +223,8 @@ class BoardClient:
         """CONFIG (thresholds in N); values are checked by the board (NAK names the field)."""
         values = (
             int(rate_hz),
-            round(enter / C.FORCE_LSB_N),
-            round(exit_ / C.FORCE_LSB_N),
+            board_settings.to_counts(enter),
+            board_settings.to_counts(exit_),
             int(debounce),
             int(flags),
         )
@@ -246,13 +247,9 @@ class BoardClient:
 def info_dict(info):
     """HELLO/INFO as plain JSON-ready values (thresholds in N, flags named)."""
     d = info.to_dict()
-    d["enter_threshold_N"] = info.enter_threshold * C.FORCE_LSB_N
-    d["exit_threshold_N"] = info.exit_threshold * C.FORCE_LSB_N
-    d["streams"] = [
-        name
-        for name, bit in (("samples", C.CFG_STREAM_SAMPLES), ("contacts", C.CFG_STREAM_CONTACTS))
-        if info.flags & bit
-    ]
+    d["enter_threshold_N"] = board_settings.to_newtons(info.enter_threshold)
+    d["exit_threshold_N"] = board_settings.to_newtons(info.exit_threshold)
+    d["streams"] = board_settings.stream_names(info.flags)
     d["gate"] = "3d" if info.flags & C.CFG_GATE_3D else "xy"
     d["autostart"] = bool(info.flags & C.CFG_AUTOSTART)
     d["streaming"] = bool(info.flags & C.CFG_STREAMING)
