@@ -22,6 +22,7 @@ ends ``command``, each with one line naming the field (``DeviceLied``, exit 4).
 Invalid frames in a stream are passed on, counted, never acted on.
 """
 
+import logging
 import time
 
 from tactile import board_settings
@@ -38,6 +39,8 @@ from tactile.serial_port import describe_lost
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
+
+log = logging.getLogger(__name__)
 
 NAK_REASONS = {
     C.NAK_UNKNOWN_COMMAND: "unknown command",
@@ -152,6 +155,8 @@ class BoardClient:
     def command(self, mtype, values=(), timeout=1.0):
         """Send a command and wait for its ACK; raise CommandRefused on NAK, BoardTimeout."""
         seq = self.send(mtype, values)
+        name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
+        log.info("%s: %s %s (seq %d)", self.name, name, values, seq)
         deadline = self.clock() + timeout
         while self.clock() < deadline:
             reply = None
@@ -167,8 +172,8 @@ class BoardClient:
             if reply is not None and reply.type_code == C.MSG_NAK:
                 raise CommandRefused(f"{self.name}: {nak_message(reply)}")
             if reply is not None:
+                log.debug("%s: ACK for %s (seq %d)", self.name, name, seq)
                 return reply
-        name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
         raise BoardTimeout(f"{self.name}: no answer to {name} within {timeout:g} s")
 
     def handshake(self, timeout=2.0):
