@@ -79,8 +79,20 @@ def _load(name):
         raise
 
 
+def _simulator_ports(argv):
+    """The application layer serves sim:// ports: the library below never imports the
+    simulator (``tests/test_layers.py``)."""
+    import os
+
+    if any("sim://" in a for a in argv) or "sim://" in os.environ.get("TACTILE_PORT", ""):
+        from tactile_sim.urlhandler import register
+
+        register()
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
+    _simulator_ports(argv)
     top = _top_parser()
     if not argv or argv[0].startswith("-"):
         top.parse_args(argv or ["--help"])
