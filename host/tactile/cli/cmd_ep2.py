@@ -53,7 +53,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.ep2.contacts_csv import read_contacts
+    from tactile.ep2.contacts_csv import ContactsFile
     from tactile.ep2.many import MAX_JOBS, outcomes
     from tactile.errors import DataError, InputError
 
@@ -63,7 +63,7 @@ def run(args):
         raise InputError(f"--segments must be at least 1 (got {args.segments})")
     if not 1 <= args.jobs <= MAX_JOBS:
         raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
-    groups = read_contacts(args.file)
+    groups = ContactsFile(args.file)  # checked whole here; read again patch by patch below
     if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
         raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
     opts = dict(
@@ -78,12 +78,12 @@ def run(args):
         max_normal_angle=args.max_normal_angle,
         break_angle=args.break_angle,
     )
-    names = [patch_id(g.patch) for g in groups]
+    named = ((g, patch_id(g.patch)) for g in groups)
     out = _Printer(args.json)
     failed = []
     bar = _progress(len(groups))
     try:
-        for done in outcomes(groups, names, opts, split=args.split, jobs=args.jobs):
+        for done in outcomes(named, opts, split=args.split, jobs=args.jobs):
             if done.input_error is not None:
                 raise InputError(f"{args.file}: patch {done.name}: {done.input_error}")
             if done.data_error is not None:
