@@ -257,6 +257,33 @@ def test_progress_bar_only_on_a_terminal_for_long_files(monkeypatch):
     bar.close()
 
 
+def test_a_large_file_shows_its_checking_pass_on_a_terminal(mixed_csv, monkeypatch):
+    import sys
+
+    from tactile.cli import cmd_ep2
+
+    class Tty:
+        text = ""
+
+        def isatty(self):
+            return True
+
+        def write(self, text):
+            Tty.text += text
+            return len(text)
+
+        def flush(self):
+            pass
+
+    monkeypatch.setattr(sys, "stderr", Tty())
+    assert len(cmd_ep2._checked(str(mixed_csv))) == 7  # small: no bar
+    assert Tty.text == ""
+    monkeypatch.setattr(cmd_ep2, "CHECK_BAR_FROM", 100)
+    assert len(cmd_ep2._checked(str(mixed_csv))) == 7
+    size = mixed_csv.stat().st_size
+    assert "ep2 check: 100%" in Tty.text and f"{size / 1000:.1f}k/{size / 1000:.1f}k" in Tty.text
+
+
 def test_a_part_ep2_cannot_represent_stops_both_runs_at_the_same_patch(tmp_path, capsys):
     rows = _patches()
     good = [pid for pid in rows if pid not in ("line", "9")]

@@ -52,23 +52,23 @@ class Block:
 class CsvBlocks:
     """Iterate the data rows of ``path`` as ``Block``s.  Once the header is read,
     ``header_line`` and ``texts`` (the ``optional_text`` columns present) are set;
-    ``rows`` counts the data rows read so far."""
+    ``rows`` counts the data rows read so far, ``bytes_read`` the bytes."""
 
     def __init__(self, path, required, optional_text=(), *, max_bytes, max_rows):
         self.path, self.required, self.optional_text = path, tuple(required), optional_text
         self.max_bytes, self.max_rows = max_bytes, max_rows
         self.header_line, self.texts, self.rows = None, (), 0
-        self._index = None
+        self._index = self._feed = None
 
     def __iter__(self):
-        feed = _Feed(self.path, _line_blocks(self.path, self.max_bytes, BLOCK_BYTES))
+        feed = self._feed = _Feed(self.path, _line_blocks(self.path, self.max_bytes, BLOCK_BYTES))
         reader = csv.reader(feed)
         slow = None
         while True:
             if feed.at_end_of_run():
                 if slow is not None and len(slow.lines):
                     yield slow.block()
-                run = next(feed.runs, None)
+                run = feed.take()
                 if run is None:
                     break
                 fast = self._fast(*run) if self._index is not None else None
@@ -101,6 +101,10 @@ class CsvBlocks:
             yield slow.block()
         if self._index is None:
             raise InputError(_no_header(self.path))
+
+    @property
+    def bytes_read(self):
+        return 0 if self._feed is None else self._feed.bytes
 
     def _header(self, line_no, row):
         self._index = _header_index(self.path, line_no, row, self.required)
@@ -157,6 +161,13 @@ class _Feed:
     def __init__(self, path, runs):
         self.path, self.runs = path, runs
         self.first, self.raw, self.i, self.line = 1, [], 0, 0
+        self.bytes = 0  # taken from the file so far
+
+    def take(self):
+        """The next run of lines, (first line, bytes), or None at the end of the file."""
+        run = next(self.runs, None)
+        self.bytes += 0 if run is None else len(run[1])
+        return run
 
     def start(self, first, run):
         self.first, self.raw, self.i = first, run.splitlines(keepends=True), 0
@@ -175,7 +186,7 @@ class _Feed:
 
     def __next__(self):
         if self.at_end_of_run():
-            run = next(self.runs, None)
+            run = self.take()
             if run is None:
                 raise StopIteration
             self.start(*run)

@@ -52,17 +52,23 @@ def read_contacts(path):
 class ContactsFile:
     """A contacts CSV checked whole (``InputError`` naming file, line, column), whose
     patches are read again, in blocks, each time it is iterated.  ``len()`` is the number
-    of patches.  Limits: bytes and rows of the file, rows of the patches under way."""
+    of patches.  Limits: bytes and rows of the file, rows of the patches under way;
+    ``progress(bytes checked)`` is called as the checking pass goes."""
 
-    def __init__(self, path, *, max_bytes=MAX_BYTES, max_rows=MAX_ROWS, max_open=None):
+    def __init__(
+        self, path, *, max_bytes=MAX_BYTES, max_rows=MAX_ROWS, max_open=None, progress=None
+    ):
         self.path, self.limits = path, dict(max_bytes=max_bytes, max_rows=max_rows)
         self._stamp = _stamp(path)
         self._scan = _Scan(path)
         blocks = self._blocks()
         for block in blocks:
             self._scan.add(block, blocks.texts)
+            if progress is not None:
+                progress(blocks.bytes_read)
         self._scan.finish(blocks, MAX_OPEN_ROWS if max_open is None else max_open)
         self._check_extent()
+        self._scan.first = self._scan.last = self._scan.lo = self._scan.hi = None  # not needed
 
     def __len__(self):
         return len(self._scan.count)
