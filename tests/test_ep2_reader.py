@@ -288,3 +288,26 @@ def test_one_pass_checks_the_whole_file_before_any_patch(tmp_path):
         fh.write("1e-301,0,0,0,0,1,0,late\n0,0,0,0,0,1,0,late\n")
     with pytest.raises(InputError, match=r"c.csv:202: column 'x': patch 'late': the contacts"):
         ContactsFile(path)
+
+
+@settings(max_examples=300 * FUZZ_SCALE)
+@given(
+    scale=st.one_of(st.integers(-323, -280), st.integers(280, 308), st.integers(-300, 300)),
+    steps=st.lists(st.integers(-(2**60), 2**60), min_size=2, max_size=6),
+    axis=st.integers(0, 2),
+)
+def test_a_spread_extent_refuses_needs_an_odd_coordinate(scale, steps, axis):
+    """The first pass keeps no box per patch: only a patch with a coordinate beyond
+    ``ODD_COORDINATE`` can have a spread ``extent`` refuses, so only those are looked at."""
+    from tactile.ep2 import extent
+
+    lo, hi = contacts_csv.ODD_COORDINATE
+    pts = np.zeros((len(steps), 3))
+    with np.errstate(over="ignore"):
+        pts[:, axis] = np.array(steps, float) * 2.0**-60 * 10.0**scale
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    a = np.abs(pts)
+    odd = ((a > hi) | ((a < lo) & (a > 0))).any()
+    if extent.spread_problem(pts) is not None:
+        event("refused")
+        assert odd

@@ -30,6 +30,9 @@ MAX_ROWS = 200_000_000
 MAX_PATCHES = 2_000_000  # ~250 bytes a patch are kept between the passes
 MAX_ID_CHARS = 64 * 2**20  # the distinct patch ids, all together
 MAX_OPEN_ROWS = tabular.MAX_ROWS  # rows of the patches under way at any line
+# |coordinate| outside these (0 aside) is needed for a spread outside extent's range:
+# above 1e300 a side reaches 5e299, under 1e-300 two floats differ by that only below 9e-285
+ODD_COORDINATE = (1e-280, 1e299)
 
 
 @dataclass
@@ -68,7 +71,7 @@ class ContactsFile:
                 progress(blocks.bytes_read)
         self._scan.finish(blocks, MAX_OPEN_ROWS if max_open is None else max_open)
         self._check_extent()
-        self._scan.first = self._scan.last = self._scan.lo = self._scan.hi = None  # not needed
+        self._scan.first = self._scan.last = None  # the second pass needs codes and counts
 
     def __len__(self):
         return len(self._scan.count)
@@ -83,22 +86,25 @@ class ContactsFile:
 
     def _check_extent(self):
         """Refuse a patch whose coordinates EP2 cannot represent (``extent``), at the row
-        that sets its spread; the first such patch in file order."""
-        bad = self._scan.bad_extent()
-        if bad is None:
-            return
-        for code, g in enumerate(self):
-            if code == bad:
-                row, axis, why = extent.spread_problem(g.points)
+        that sets its spread; the first such patch in file order.  Only a patch with a
+        coordinate near the ends of the float range can have one: those are read again."""
+        odd = self._scan.odd
+        for code, g in enumerate(self if odd else ()):
+            problem = extent.spread_problem(g.points) if code in odd else None
+            if problem is not None:
+                row, axis, why = problem
                 name = "" if g.patch is None else f"patch {show(g.patch)}: "
                 raise InputError(
                     f"{where(self.path, g.lines[row], extent.AXES[axis])}: {name}{why}"
                 )
+            if code == max(odd):
+                return
 
 
 class _Scan:
     """The first pass: per patch (code = order of first appearance) its row count, first
-    and last line and the box of its points; the first zero-length normal."""
+    and last line; the patches with a coordinate where ``extent`` may refuse them; the
+    first zero-length normal."""
 
     def __init__(self, path):
         self.path = path
@@ -107,8 +113,7 @@ class _Scan:
         self.count = np.zeros(0, np.int64)
         self.first = np.zeros(0, np.int64)  # line of the first row
         self.last = np.zeros(0, np.int64)  # line of the last row
-        self.lo = np.zeros((0, 3))
-        self.hi = np.zeros((0, 3))
+        self.odd = set()  # patches with a coordinate beyond ODD_COORDINATE
         self.zero_normal = None  # line of the first zero-length normal
 
     def add(self, block, texts):
@@ -122,9 +127,9 @@ class _Scan:
         self.first[uc[new]] = lines[starts[new]]
         self.last[uc] = lines[np.append(starts[1:], len(order)) - 1]
         self.count[uc] += np.diff(np.append(starts, len(order)))
-        pts = block.numbers[order, :3]
-        self.lo[uc] = np.minimum(self.lo[uc], np.minimum.reduceat(pts, starts))
-        self.hi[uc] = np.maximum(self.hi[uc], np.maximum.reduceat(pts, starts))
+        a = np.abs(block.numbers[:, :3])
+        odd = ((a > ODD_COORDINATE[1]) | ((a < ODD_COORDINATE[0]) & (a > 0))).any(axis=1)
+        self.odd.update(codes[odd].tolist())
 
     def codes(self, block, has_patch):
         """Each row's patch code, new ids coded in order of first appearance."""
@@ -163,19 +168,16 @@ class _Scan:
         n = len(self.code_of)
         if n > len(self.count):
             size = max(n, 2 * len(self.count))
-            for name in ("count", "first", "last", "lo", "hi"):
-                a = getattr(self, name)
-                grown = np.zeros((size, *a.shape[1:]), a.dtype)
-                grown[: len(a)] = a
+            for name in ("count", "first", "last"):
+                grown = np.zeros(size, np.int64)
+                grown[:old] = getattr(self, name)[:old]
                 setattr(self, name, grown)
-        self.lo[old:n] = np.inf
-        self.hi[old:n] = -np.inf
 
     def finish(self, blocks, max_open):
         """Trim to the patches seen; the checks that need the whole file."""
         n = len(self.code_of)
-        for name in ("count", "first", "last", "lo", "hi"):
-            setattr(self, name, getattr(self, name)[:n])
+        for name in ("count", "first", "last"):
+            setattr(self, name, getattr(self, name)[:n].copy())
         if blocks.rows == 0:
             raise InputError(
                 f"{where(self.path, blocks.header_line)}: no data rows after the header"
@@ -210,15 +212,6 @@ class _Scan:
             f" {self.last[k]}, and more than {max_open:,} rows would wait for it (the"
             " limit): sort the file by patch, or split it"
         )
-
-    def bad_extent(self):
-        """The first patch whose box EP2 cannot represent, or None."""
-        half = np.max(0.5 * self.hi - 0.5 * self.lo, axis=1)
-        spread = 2.0 * half
-        bad = np.flatnonzero(
-            (half != 0) & ~((spread >= extent.MIN_SPREAD) & (spread <= extent.MAX_SPREAD))
-        )
-        return int(bad[0]) if bad.size else None
 
 
 class _Gather:
