@@ -147,6 +147,21 @@ def test_every_odd_cell_in_a_plain_file_gets_the_whole_table_readers_answer(
         assert_same(outcome(read_contacts, path), outcome(whole_table, path))
 
 
+@pytest.mark.parametrize("extra", [-1, 0, 1, 2])
+def test_a_plain_line_at_the_length_limit(tmp_path, extra):
+    """A patch id that makes its line the limit long (and a byte either side), in a plain
+    file the fast parser takes: the same answer as the whole-table reader."""
+    row = "1,2,3,0,0,1,0,"
+    long_id = "p" * (tabular.MAX_LINE_BYTES - len(row) + extra)
+    rows = [f"{i},{i % 3},0.5,0,0,1,{i % 3},a" for i in range(3000)]
+    rows[2000] = row + long_id
+    path = tmp_path / "long.csv"
+    path.write_text("x,y,z,nx,ny,nz,finger,patch\n" + "\n".join(rows) + "\n")
+    got = outcome(read_contacts, path)
+    assert_same(got, outcome(whole_table, path))
+    assert isinstance(got, str) == (extra > 0)
+
+
 def _plain_file(path, n_patches, rows=12, seed=0, window=7):
     """Plain rows (the fast parser's case) of ``n_patches`` patches, each patch's rows spread
     over a window of ``window`` patches; numbers with every digit a float can carry."""

@@ -147,9 +147,12 @@ def _plain(run):
 
 
 def _longest_line(run):
-    """Length in bytes of the longest line of ``run`` (only looked at past a line's limit)."""
-    if len(run) <= MAX_LINE_BYTES:
-        return len(run)
+    """Length in bytes of the longest line of ``run`` (lines end in LF), or a number at
+    most ``MAX_LINE_BYTES`` when none is longer: such a line would span a whole aligned
+    window of half that size without a line break, and there are only a few windows."""
+    half = MAX_LINE_BYTES // 2
+    if all(run.find(b"\n", p, p + half) >= 0 for p in range(0, len(run) - half + 1, half)):
+        return min(len(run), MAX_LINE_BYTES)
     ends = np.flatnonzero(np.frombuffer(run, np.uint8) == 10)
     return int(np.diff(ends, prepend=-1, append=len(run) - 1).max())
 
