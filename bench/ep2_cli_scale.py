@@ -2,8 +2,8 @@
 peak RSS, from 1,000 to 1,000,000 patches.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_cli_scale.py [--quick]
-(from a checkout: PYTHONPATH=protocol:firmware:host:sim first; the files go to $TMPDIR,
-2.7 GB for 1M patches; --quick stops at 10k patches).
+[--cli-max N] [--long S]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim first;
+the files go to $TMPDIR, 2.7 GB for 1M patches; --quick stops at 10k patches).
 
 Files of 36-contact patches whose rows are scattered through the file (each patch's rows
 spread over a window of 100 patches).  Every figure but grouping comes from a child
@@ -16,11 +16,13 @@ shares with the parent, so this is the largest single process, not a sum).
    given out): 10k, 100k and 1M patches, wall and peak RSS.
 3. ``tactile ep2 analyze --json``: 1k and 10k patches with --jobs 1 and 2, 100k with
    --jobs 2 (the 10k -> 100k wall ratio), and the 1M-patch file for a bounded time
-   (``LONG_S`` seconds after its first record: peak RSS while it runs; the whole run
-   would take hours at today's estimator cost).
+   (``--long`` seconds after its first record: peak RSS while it runs; the whole run
+   would take hours at today's estimator cost).  Wall and CPU seconds both: on a shared
+   machine the CPU ratio is the steadier measure of linearity.
 """
 
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -98,10 +100,16 @@ def peak_rss_mb(pid):
     return peak
 
 
+def cpu_s():
+    """CPU seconds of the children waited for so far (and of their workers)."""
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
+
+
 def measure(cmd, stop_after=None):
-    """(wall s, peak RSS MB, stdout lines, exit code) of ``cmd``; with ``stop_after``,
-    Ctrl-C it that many seconds after its first line of output."""
-    t0 = time.perf_counter()
+    """(wall s, CPU s, peak RSS MB, stdout lines, exit code, s to the first line) of
+    ``cmd``; with ``stop_after``, Ctrl-C it that many seconds after its first line."""
+    cpu0, t0 = cpu_s(), time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=ENV)
     os.set_blocking(proc.stdout.fileno(), False)
     peak, lines, first = 0, 0, None
@@ -125,7 +133,8 @@ def measure(cmd, stop_after=None):
         time.sleep(0.2)
     wall = time.perf_counter() - t0
     proc.stderr.read()
-    return wall, peak, lines, proc.returncode, (None if first is None else first - t0)
+    start = None if first is None else first - t0
+    return wall, cpu_s() - cpu0, peak, lines, proc.returncode, start
 
 
 def best_of(fn, arg, n=3):
@@ -150,7 +159,14 @@ def grouping(sizes):
 
 
 def main():
-    quick = "--quick" in sys.argv
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="1k and 10k patches only")
+    ap.add_argument("--cli-max", type=int, default=100_000, help="largest file given to the CLI")
+    ap.add_argument("--long", type=int, default=LONG_S, help="s of analysis of the 1M file")
+    args = ap.parse_args()
+    quick = args.quick
     py = sys.executable
     cli = [py, "-m", "tactile.cli.main", "ep2", "analyze", "--json"]
     sizes = (1_000, 10_000) if quick else (1_000, 10_000, 100_000, 1_000_000)
@@ -162,36 +178,42 @@ def main():
             write_csv(files[n], n)
             size = os.path.getsize(files[n]) / 2**20
             print(f"wrote {n:,} patches: {size:,.0f} MiB in {time.perf_counter() - t0:.0f} s")
-        print("\n| patches | file (MiB) | reader wall (s) | rows/s | reader peak RSS (MB) |")
-        print("|---|---|---|---|---|")
+        print(f"\nload average before: {os.getloadavg()[0]:.1f} (2 cores)")
+        print(
+            "\n| patches | file (MiB) | reader wall (s) | CPU (s) | rows/s of CPU | peak RSS (MB) |"
+        )
+        print("|---|---|---|---|---|---|")
         for n in sizes[1:]:
-            wall, rss, _, code, _ = measure([py, "-c", READER, files[n]])
+            wall, cpu, rss, _, code, _ = measure([py, "-c", READER, files[n]])
             assert code == 0
             mib = os.path.getsize(files[n]) / 2**20
-            print(f"| {n:,} | {mib:,.0f} | {wall:.1f} | {n * ROWS / wall:,.0f} | {rss} |")
-        print("\n| patches | jobs | `ep2 analyze` wall (s) | patches/s | peak RSS (MB) |")
-        print("|---|---|---|---|---|")
+            print(
+                f"| {n:,} | {mib:,.0f} | {wall:.1f} | {cpu:.1f} | {n * ROWS / cpu:,.0f} | {rss} |"
+            )
+        print("\n| patches | jobs | `ep2 analyze` wall (s) | CPU (s) | patches/s | peak RSS (MB) |")
+        print("|---|---|---|---|---|---|")
         walls = {}
         runs = [(1_000, 1), (1_000, 2), (10_000, 1), (10_000, 2)]
-        runs += [] if quick else [(100_000, 2)]
+        runs += [] if quick or args.cli_max < 100_000 else [(100_000, 2)]
         for n, jobs in runs:
-            wall, rss, lines, code, _ = measure([*cli, files[n], "--jobs", str(jobs)])
+            wall, cpu, rss, lines, code, _ = measure([*cli, files[n], "--jobs", str(jobs)])
             assert code in (0, 3) and lines == n, (code, lines)
-            walls[n, jobs] = wall
-            print(f"| {n:,} | {jobs} | {wall:.1f} | {n / wall:.0f} | {rss} |")
+            walls[n, jobs] = wall, cpu
+            print(f"| {n:,} | {jobs} | {wall:.1f} | {cpu:.1f} | {n / wall:.0f} | {rss} |")
         if (100_000, 2) in walls:
-            ratio = walls[100_000, 2] / walls[10_000, 2]
-            print(f"\n`ep2 analyze --jobs 2` 10k -> 100k patches: x{ratio:.1f} (10 = linear)")
-        if not quick:
+            (w1, c1), (w2, c2) = walls[10_000, 2], walls[100_000, 2]
+            print(f"\n--jobs 2, 10k -> 100k patches: wall x{w2 / w1:.1f}, CPU x{c2 / c1:.1f}")
+        if not quick and args.long > 0:
             n = 1_000_000
-            wall, rss, lines, code, start = measure(
-                [*cli, files[n], "--jobs", "2"], stop_after=LONG_S
+            wall, cpu, rss, lines, code, start = measure(
+                [*cli, files[n], "--jobs", "2"], stop_after=args.long
             )
             print(
                 f"\n1,000,000 patches, --jobs 2: first record after {start:.0f} s (the checking"
-                f" pass), {lines:,} patches in the next {LONG_S} s, stopped (exit {code});"
+                f" pass), {lines:,} patches in the next {args.long} s, stopped (exit {code});"
                 f" peak RSS {rss} MB"
             )
+        print(f"\nload average after: {os.getloadavg()[0]:.1f}")
     grouping((1_000, 10_000) if quick else (1_000, 10_000, 100_000))
 
 

@@ -260,6 +260,29 @@ def test_patches_under_way_hold_at_most_the_open_row_limit(tmp_path, monkeypatch
     assert len(read_contacts(bare)) == 1  # within the limit of a file read whole
 
 
+@FUZZ
+@given(ids=st.lists(st.integers(0, 6), min_size=1, max_size=40), limit=st.integers(1, 40))
+def test_the_open_row_limit_is_the_rows_held_from_first_row_to_give_out(tmp_path, ids, limit):
+    """The limit against the obvious count: just after each row, the rows of every patch
+    seen so far whose patch, or one before it in file order, still has rows to come."""
+    order = list(dict.fromkeys(ids))
+    last = {p: max(i for i, q in enumerate(ids) if q == p) for p in order}
+    done = [max(last[q] for q in order[: k + 1]) for k in range(len(order))]
+    most = max(
+        sum(ids.count(p) for k, p in enumerate(order) if ids.index(p) <= i and done[k] >= i)
+        for i in range(len(ids))
+    )
+    path = tmp_path / "ids.csv"
+    body = "".join(f"{i},{i % 2},0,0,0,1,0,{p}\n" for i, p in enumerate(ids))
+    path.write_text("x,y,z,nx,ny,nz,finger,patch\n" + body)
+    event("refused" if most > limit else "read")
+    if most > limit:
+        with pytest.raises(InputError, match=f"more than {limit} rows would wait"):
+            ContactsFile(path, max_open=limit)
+    else:
+        assert [g.patch for g in ContactsFile(path, max_open=limit)] == [str(p) for p in order]
+
+
 def test_patch_and_id_limits_name_the_first_row_past_them(tmp_path, monkeypatch):
     path = tmp_path / "ids.csv"
     _contiguous(path, [3] * 6)

@@ -176,8 +176,8 @@ class _Scan:
     def finish(self, blocks, max_open):
         """Trim to the patches seen; the checks that need the whole file."""
         n = len(self.code_of)
-        for name in ("count", "first", "last"):
-            setattr(self, name, getattr(self, name)[:n].copy())
+        self.count = self.count[:n].copy()
+        self.first, self.last = self.first[:n], self.last[:n]
         if blocks.rows == 0:
             raise InputError(
                 f"{where(self.path, blocks.header_line)}: no data rows after the header"
@@ -191,16 +191,16 @@ class _Scan:
     def _check_open_rows(self, has_patch, max_open):
         """At most ``max_open`` rows wait at any line: a patch's rows, counted from its
         first line, wait until it and every patch before it are complete."""
-        done = np.maximum.accumulate(self.last)  # when each patch can be given out
-        t = np.concatenate([self.first, done + 0.5])
-        step = np.concatenate([self.count, -self.count])
-        order = np.argsort(t, kind="stable")
-        held = np.cumsum(step[order])
+        done = np.maximum.accumulate(self.last)  # the line at which each is given out
+        # the most rows wait just after a patch's first line: every row of that patch and
+        # of those before it, but those already given out (``first`` and ``done`` both grow)
+        cum = np.cumsum(self.count)
+        out = np.searchsorted(done, self.first)  # patches given out before each first line
+        held = cum - np.where(out > 0, cum[np.maximum(out, 1) - 1], 0)
         over = np.flatnonzero(held > max_open)
         if not over.size:
             return
-        at = t[order[over[0]]]
-        k = int(np.searchsorted(done, at, side="right"))  # the patch everything waits for
+        k = int(out[over[0]])  # the first patch not given out then: everything waits for it
         if not has_patch:
             raise InputError(
                 f"{where(self.path, self.first[0])}: more than {max_open:,} rows in"
