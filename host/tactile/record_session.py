@@ -13,8 +13,9 @@ Time: every frame's arrival (the ``clock`` reading as its read returned) feeds t
 host fit of ``tactile.timebase.RecordingClock``; frames.csv gets each row's host time as the
 fit stands, and is rewritten with the final fit at the end; meta.json holds the mapping.
 
+A board silent for half a second is PINGed: its ACK's stamp is a point of the fit too.
 ``until`` = (clock, us, how): stop once that time of the pose log's clock has passed (the
-board's as its frames say, pinging it when it is silent, or the host's own clocks).
+board's as its frames say, or the host's own clocks).
 """
 
 import time
@@ -29,7 +30,7 @@ from tactile.timebase import RecordingClock
 from tactile_protocol import constants as C
 
 META_EVERY_S = 1.0
-PING_AFTER_S = 0.5  # silence after which the board is PINGed for its clock (waiting on a log)
+PING_AFTER_S = 0.5  # silence after which the board is PINGed for its clock
 REFIT_EVERY_S = 1.0  # and at least 100 fit durations
 
 
@@ -283,13 +284,13 @@ class Session:
                 return
 
     def _keep_time(self):
-        """Refit now and then; PING a silent board whose clock a pose log waits on."""
+        """Refit now and then; PING a silent board: its ACK carries the board's clock, for
+        the fit (a contacts-only stream is silent between contacts) and for a pose log that
+        waits on the board's time."""
         now = self.clock()
         if now - self._fit_at >= max(REFIT_EVERY_S, 100 * self.timing.fit_s):
             self._fit_at = now
             self.timing.refit()
-        if self.until is None or self.until[0] != "board":
-            return
         silent = now - max(self._heard_at, self._pinged_at or self._heard_at)
         if silent >= PING_AFTER_S:
             self._pinged_at = now

@@ -34,7 +34,8 @@ MAX_BINS = 2048  # beyond this, bins pair up (a fit of 2048 points takes ~50 ms)
 
 
 class BinMinima:
-    """Per bin of board time: the point of least ``h - b``, and count, sum and max of it.
+    """Per bin of board time: the point of least ``h - b``; the count, the sums of ``b`` and of
+    ``h - b``, and the point of greatest ``h - b``.
 
     ``add(b, h)`` takes one frame (board s, host s); board times may come in any order.
     """
@@ -45,7 +46,8 @@ class BinMinima:
         self.width = float(bin_s)
         self.max_bins = int(max_bins)
         self.origin = None  # board time of bin 0's start
-        self.bins = {}  # index -> [b at min, h at min, count, sum(h - b), max(h - b)]
+        # index -> [b at min, h at min, count, sum(b), sum(h - b), b at max, max(h - b)]
+        self.bins = {}
 
     def __len__(self):
         return len(self.bins)
@@ -57,15 +59,21 @@ class BinMinima:
         lag = h - b
         cell = self.bins.get(k)
         if cell is None:
-            self.bins[k] = [b, h, 1, lag, lag]
+            self.bins[k] = [b, h, 1, b, lag, b, lag]
             if len(self.bins) > self.max_bins:
                 self._merge()
             return
-        if lag < cell[1] - cell[0]:
-            cell[0], cell[1] = b, h
-        cell[2] += 1
-        cell[3] += lag
-        cell[4] = max(cell[4], lag)
+        self._join(cell, [b, h, 1, b, lag, b, lag])
+
+    @staticmethod
+    def _join(cell, other):
+        if other[1] - other[0] < cell[1] - cell[0]:
+            cell[0], cell[1] = other[0], other[1]
+        cell[2] += other[2]
+        cell[3] += other[3]
+        cell[4] += other[4]
+        if other[6] > cell[6]:
+            cell[5], cell[6] = other[5], other[6]
 
     def _merge(self):
         """Pair up neighbouring bins (width doubles) until at most ``max_bins`` remain."""
@@ -76,20 +84,17 @@ class BinMinima:
                 cell, into = self.bins[k], merged.get(k // 2)
                 if into is None:
                     merged[k // 2] = list(cell)
-                    continue
-                if cell[1] - cell[0] < into[1] - into[0]:
-                    into[0], into[1] = cell[0], cell[1]
-                into[2] += cell[2]
-                into[3] += cell[3]
-                into[4] = max(into[4], cell[4])
+                else:
+                    self._join(into, cell)
             self.bins = merged
 
     def arrays(self):
-        """(b at min, h at min, count, sum of h - b, max of h - b) per bin, in board order."""
+        """(b at min, h at min, count, sum of b, sum of h - b, b at max, max of h - b) per
+        bin, in board order."""
         if not self.bins:
-            return tuple(np.zeros(0) for _ in range(5))
+            return tuple(np.zeros(0) for _ in range(7))
         a = np.array([self.bins[k] for k in sorted(self.bins)], dtype=float)
-        return a[:, 0], a[:, 1], a[:, 2], a[:, 3], a[:, 4]
+        return tuple(a.T)
 
 
 @dataclass(frozen=True)
@@ -145,7 +150,7 @@ def fit(bins, tau=TAU):
     """
     if not 0.0 < tau < 0.5:
         raise ValueError("tau must be in (0, 0.5)")
-    b, h, count, lag_sum, lag_max = bins.arrays()
+    b, h, count, b_sum, lag_sum, b_max, lag_max = bins.arrays()
     if len(b) == 0:
         return None
     lag = h - b
@@ -160,6 +165,7 @@ def fit(bins, tau=TAU):
     line = a + slope * (b - b0)  # the fitted h - b at each bin's minimum
     above = lag - line
     n = float(np.sum(count))
+    line_sum = a * count + slope * (b_sum - b0 * count)  # sum of the line over each bin
     return ClockFit(
         board0_s=b0,
         host0_s=b0 + a,
@@ -167,6 +173,6 @@ def fit(bins, tau=TAU):
         bins=len(b),
         frames=int(n),
         floor_s=float(np.median(above)),
-        delay_mean_s=float(np.sum(lag_sum - count * line) / n),
-        delay_max_s=float(np.max(lag_max - line)),
+        delay_mean_s=float(np.sum(lag_sum - line_sum) / n),
+        delay_max_s=float(np.max(lag_max - (a + slope * (b_max - b0)))),
     )
