@@ -44,7 +44,9 @@ def test_sim_sweep_without_a_stop_option_ends_with_its_scene(cli, tmp_path):
     assert meta["ended"] == "pose log end" and meta["tared"]
     assert meta["stops_at"] == {"clock": "board", "time_us": 2_878_000,
                                 "from": "the pose log: its '# end:' line"}  # fmt: skip
-    assert 2_878_000 <= meta["time_base"]["segments"][0]["board_last_us"] < 3_500_000
+    # the board's time as last heard: past the end, and not long past (in fast emulation
+    # an idle board's clock runs ahead between PINGs, by how much depends on the machine)
+    assert 2_878_000 <= meta["time_base"]["segments"][0]["board_last_us"] < 15_000_000
     assert meta["contacts_ended"] == 3 and meta["samples"] < 2000
     assert "1283 of 1302 contact readings localised" in stdout and "warning" not in err
     code, stdout, err = cli("ep2", "analyze", out / "contacts.csv", "--json")
@@ -148,7 +150,7 @@ def test_time_columns_of_two_clocks_are_refused(tmp_path):
         read_pose_log(log)
     log.write_text("# probe: sphere radius_m=0.01 centre_m=0,0,0\nt_start_utc_s,t_end_utc_s,"
                    "finger,px,py,pz,qw,qx,qy,qz\n1.7e9,1.6e9,0,0,0,0,1,0,0,0\n")  # fmt: skip
-    with pytest.raises(InputError, match="two.csv:3: column 't_end_utc_s': before"):
+    with pytest.raises(InputError, match="two.csv:3: column .t_end_utc_s.: ends before"):
         read_pose_log(log)
     assert np.array_equal(
         read_pose_log(_log(tmp_path)).t_start[:2], [1_000_000, 1_000_000]

@@ -60,7 +60,9 @@ def read_times(table, clock):
         start, end = (_host_us(table, c) for c in (start_col, end_col))
     bad = np.flatnonzero(end < start)
     if bad.size:
-        raise InputError(f"{where(table.path, table.lines[bad[0]], end_col)}: before {start_col}")
+        raise InputError(
+            f"{where(table.path, table.lines[bad[0]], end_col)}: ends before {start_col}"
+        )
     return start, end
 
 

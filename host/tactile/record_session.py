@@ -255,6 +255,7 @@ class Session:
         self.timing.refit()
         self.timing.utc_minus_mono_end = self.utc() - self.clock()
         if not self.timing.rows:
+            self.timing.final = True  # nothing to rewrite
             return
         try:
             self.rec.rewrite_host(self.timing.host_of)
