@@ -23,7 +23,9 @@ def add_arguments(parser):
     parser.add_argument("--append", action="store_true", help="add to a recording in --out")
     parser.add_argument("--no-tare", action="store_true", help="do not bias the sensor first")
     parser.add_argument(
-        "--pose-log", help="robot pose log (CSV) to derive contacts.csv or probes.csv"
+        "--pose-log",
+        help="robot pose log (CSV) to derive contacts.csv or probes.csv; the run stops once"
+        " the log's end has passed",
     )
     parser.add_argument(
         "--per-contact",
