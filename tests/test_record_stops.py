@@ -155,3 +155,28 @@ def test_time_columns_of_two_clocks_are_refused(tmp_path):
     assert np.array_equal(
         read_pose_log(_log(tmp_path)).t_start[:2], [1_000_000, 1_000_000]
     )  # board logs read as before
+
+
+def test_force_raises_the_gate_for_the_tare_only(tmp_path):
+    """On one open port: the loaded TARE is refused, the forced one is taken, and INFO then
+    shows the gate as it was."""
+    import serial
+
+    from tactile.board_client import BoardClient, CommandRefused
+    from tactile_sim.urlhandler import register
+
+    register()
+    port = serial.serial_for_url(f"sim://{_scene(tmp_path, 'rest_s = 0.0')}", timeout=0.01)
+    client = BoardClient(port, "sim")
+    client.handshake()
+    before = client.get_info()
+    with pytest.raises(CommandRefused, match="sensor 0 is loaded"):
+        client.tare()
+    client.tare(force=True)
+    after = client.get_info()
+    fields = ("enter_threshold", "exit_threshold", "debounce", "rate_hz", "flags")
+    assert [getattr(after, f) for f in fields] == [getattr(before, f) for f in fields]
+    assert after.enter_threshold == 1_390_000
+    for cal in port.emulator.board.cals:  # each bias holds its finger's load, in N:
+        f = np.reshape(cal.scaled, (6, 6)) @ np.array(cal.bias) * 1e-6
+        assert np.hypot(f[0], f[1]) > 1.39  # above the gate the plain TARE refused
