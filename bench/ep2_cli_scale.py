@@ -1,18 +1,29 @@
-"""EP2 CLI at scale (issue 13): grouping of scattered rows, reading, and `ep2 analyze` wall.
+"""EP2 CLI at scale (issue 13): grouping, the streamed reader and `ep2 analyze`, wall and
+peak RSS, from 1,000 to 1,000,000 patches.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_cli_scale.py [--quick]
-(from a checkout: PYTHONPATH=protocol:firmware:host:sim first)
+[--cli-max N] [--long S]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim first;
+the files go to $TMPDIR, 2.7 GB for 1M patches; --quick stops at 10k patches).
+
 Files of 36-contact patches whose rows are scattered through the file (each patch's rows
-spread over a window of 100 patches).  Prints the grouping time for 1k/10k/100k patches and
-its 10k->100k ratio (10 is linear), the reading time of the CSV, and the CLI's wall and
-peak RSS for 1k and 10k patches with --jobs 1 and 2 (the CLI runs first: a child
-forked from a large bench would inherit its peak RSS).  The estimator is still called once
-per patch (the batched engine of issue 13 is not written), so the CLI's wall is that
-per-patch cost divided by the jobs.
+spread over a window of 100 patches).  Every figure but grouping comes from a child
+process, so it is what a user of the CLI sees: wall, and peak RSS as the largest VmHWM of
+the process and its workers (sampled from /proc; a forked worker counts the pages it
+shares with the parent, so this is the largest single process, not a sum).
+
+1. Grouping ids in one pass (``group_rows``): 1k/10k/100k patches, ratio 10k -> 100k.
+2. The reader alone (``ContactsFile``: the checking pass, then every patch read again and
+   given out): 10k, 100k and 1M patches, wall and peak RSS.
+3. ``tactile ep2 analyze --json``: 1k and 10k patches with --jobs 1 and 2, 100k with
+   --jobs 2 (the 10k -> 100k wall ratio), and the 1M-patch file for a bounded time
+   (``--long`` seconds after its first record: peak RSS while it runs; the whole run
+   would take hours at today's estimator cost).  Wall and CPU seconds both: on a shared
+   machine the CPU ratio is the steadier measure of linearity.
 """
 
 import os
 import resource
+import signal
 import subprocess
 import sys
 import tempfile
@@ -20,26 +31,110 @@ import time
 
 import numpy as np
 
-from tactile.ep2.contacts_csv import group_rows, read_contacts
+from tactile.ep2.contacts_csv import group_rows
 from tactile_sim.ep2 import make, sweep
 
 ROWS = 36
 WINDOW = 100  # patches whose rows are interleaved
+LONG_S = 120  # seconds of analysis of the 1M-patch file
+HERE = os.path.dirname(os.path.abspath(__file__))
+SOURCES = [os.path.join(HERE, "..", d) for d in ("protocol", "firmware", "host", "sim")]
+ENV = {
+    **os.environ,
+    "PYTHONPATH": os.pathsep.join(filter(None, [*SOURCES, os.environ.get("PYTHONPATH")])),
+    "OPENBLAS_NUM_THREADS": "1",
+}
+READER = (
+    "import sys; from tactile.ep2.contacts_csv import ContactsFile;"
+    " f = ContactsFile(sys.argv[1]); print(len(f), sum(len(g.lines) for g in f))"
+)
 
 
 def scattered_ids(n_patches, seed=0):
-    """Patch ids (text, as the CSV has them) of every row, rows of a patch scattered."""
+    """Patch ids (integers) of every row, each window of patches shuffled together."""
     rng = np.random.default_rng(seed)
     ids = np.repeat(np.arange(n_patches), ROWS)
     for start in range(0, ids.size, WINDOW * ROWS):
         block = ids[start : start + WINDOW * ROWS]
         block[:] = block[rng.permutation(block.size)]
-    return [str(v) for v in ids]
+    return ids
 
 
-def old_grouping(ids):
-    """What read_contacts did before issue 13: one scan of the file per patch."""
-    return [[i for i, p in enumerate(ids) if p == name] for name in dict.fromkeys(ids)]
+def write_csv(path, n_patches):
+    """Scattered 36-contact patches of 20 noisy sweeps, written a window at a time."""
+    bases = [
+        sweep(make(kind, 8.0), noise_pos=0.01, noise_normal=0.01, seed=s)
+        for s, kind in enumerate(("sphere", "cylinder", "saddle", "pit") * 5)
+    ]
+    text = [
+        [",".join(f"{v:.8g}" for v in (*p, *n)) + f",{int(f)}," for p, n, f in zip(*b)]
+        for b in ((d["points"], d["normals"], d["finger"]) for d in bases)
+    ]
+    with open(path, "w") as fh:
+        fh.write("x,y,z,nx,ny,nz,finger,patch\n")
+        for start in range(0, n_patches, WINDOW):
+            stop = min(start + WINDOW, n_patches)
+            ids = scattered_ids(stop - start, seed=start) + start
+            pos = np.zeros(stop - start, int)
+            lines = []
+            for i in ids.tolist():
+                lines.append(f"{text[i % len(text)][pos[i - start]]}{i}\n")
+                pos[i - start] += 1
+            fh.write("".join(lines))
+
+
+def peak_rss_mb(pid):
+    """Largest VmHWM (MB) of ``pid`` and its live descendants, 0 when gone."""
+    peak, todo = 0, [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            with open(f"/proc/{p}/status") as fh:
+                hwm = [ln for ln in fh if ln.startswith("VmHWM:")]
+            peak = max(peak, int(hwm[0].split()[1]) // 1024 if hwm else 0)
+            for task in os.listdir(f"/proc/{p}/task"):
+                with open(f"/proc/{p}/task/{task}/children") as fh:
+                    todo += [int(c) for c in fh.read().split()]
+        except (FileNotFoundError, ProcessLookupError, IndexError):
+            continue
+    return peak
+
+
+def cpu_s():
+    """CPU seconds of the children waited for so far (and of their workers)."""
+    use = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return use.ru_utime + use.ru_stime
+
+
+def measure(cmd, stop_after=None):
+    """(wall s, CPU s, peak RSS MB, stdout lines, exit code, s to the first line) of
+    ``cmd``; with ``stop_after``, Ctrl-C it that many seconds after its first line."""
+    cpu0, t0 = cpu_s(), time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=ENV)
+    os.set_blocking(proc.stdout.fileno(), False)
+    peak, lines, first = 0, 0, None
+    while True:
+        peak = max(peak, peak_rss_mb(proc.pid))
+        chunk = proc.stdout.read() or b""
+        lines += chunk.count(b"\n")
+        if lines and first is None:
+            first = time.perf_counter()
+        if proc.poll() is not None:
+            lines += (proc.stdout.read() or b"").count(b"\n")
+            break
+        if (
+            stop_after is not None
+            and first is not None
+            and time.perf_counter() - first > stop_after
+        ):
+            proc.send_signal(signal.SIGINT)
+            proc.wait()
+            break
+        time.sleep(0.2)
+    wall = time.perf_counter() - t0
+    proc.stderr.read()
+    start = None if first is None else first - t0
+    return wall, cpu_s() - cpu0, peak, lines, proc.returncode, start
 
 
 def best_of(fn, arg, n=3):
@@ -51,65 +146,75 @@ def best_of(fn, arg, n=3):
     return min(ts)
 
 
-def write_csv(path, n_patches):
-    bases = [
-        sweep(make(kind, 8.0), noise_pos=0.01, noise_normal=0.01, seed=s)
-        for s, kind in enumerate(("sphere", "cylinder", "saddle", "pit") * 5)
-    ]
-    text = [
-        [",".join(f"{v:.8g}" for v in (*p, *n)) + f",{int(f)}" for p, n, f in zip(*b)]
-        for b in ((d["points"], d["normals"], d["finger"]) for d in bases)
-    ]
-    pos = np.zeros(n_patches, int)
-    with open(path, "w") as fh:
-        fh.write("x,y,z,nx,ny,nz,finger,patch\n")
-        for pid in scattered_ids(n_patches):
-            i = int(pid)
-            fh.write(f"{text[i % len(text)][pos[i]]},{pid}\n")
-            pos[i] += 1
+def grouping(sizes):
+    print("\n| patches | rows | grouping (s) |")
+    print("|---|---|---|")
+    times = {}
+    for n in sizes:
+        ids = [str(v) for v in scattered_ids(n)]
+        times[n] = best_of(group_rows, ids)
+        print(f"| {n:,} | {len(ids):,} | {times[n]:.3f} |")
+    if 100_000 in times:
+        print(f"\ngrouping 10k -> 100k: x{times[100_000] / times[10_000]:.1f} (10 = linear)")
 
 
 def main():
-    quick = "--quick" in sys.argv
-    sizes = (1_000, 10_000) if quick else (1_000, 10_000, 100_000)
-    tactile = [sys.executable, "-m", "tactile.cli.main"]  # the sources on PYTHONPATH
-    print(
-        "\n| patches | read_contacts (s) | jobs | `ep2 analyze` wall (s) | patches/s"
-        " | peak RSS (MB) |"
-    )
-    print("|---|---|---|---|---|---|")
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="1k and 10k patches only")
+    ap.add_argument("--cli-max", type=int, default=100_000, help="largest file given to the CLI")
+    ap.add_argument("--long", type=int, default=LONG_S, help="s of analysis of the 1M file")
+    args = ap.parse_args()
+    quick = args.quick
+    py = sys.executable
+    cli = [py, "-m", "tactile.cli.main", "ep2", "analyze", "--json"]
+    sizes = (1_000, 10_000) if quick else (1_000, 10_000, 100_000, 1_000_000)
     with tempfile.TemporaryDirectory() as tmp:
-        for n in (1_000, 10_000):
-            path = os.path.join(tmp, f"p{n}.csv")
-            write_csv(path, n)
-            rows = []
-            for jobs in (1, 2):
-                t0 = time.perf_counter()
-                run = subprocess.run(
-                    [*tactile, "ep2", "analyze", path, "--json", "--jobs", str(jobs)],
-                    capture_output=True,
-                )
-                wall = time.perf_counter() - t0
-                assert run.returncode in (0, 3), run.stderr
-                assert run.stdout.count(b"\n") == n
-                rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-                rows.append(f"{jobs} | {wall:.1f} | {n / wall:.0f} | {rss:.0f} |")
-            read = best_of(read_contacts, path, 1)  # after the CLI: see the docstring
-            for row in rows:
-                print(f"| {n:,} | {read:.2f} | {row}")
-    print()
-    print("| patches | rows | grouping (s) | previous grouping (s) |")
-    print("|---|---|---|---|")
-    times = {}
-    for n in sizes:
-        ids = scattered_ids(n)
-        times[n] = best_of(group_rows, ids)
-        old = f"{best_of(old_grouping, ids, 1):.2f}" if n <= 1_000 else "(quadratic: skipped)"
-        print(f"| {n:,} | {len(ids):,} | {times[n]:.3f} | {old} |")
-    if 100_000 in times:
+        files = {}
+        for n in sizes:
+            files[n] = os.path.join(tmp, f"p{n}.csv")
+            t0 = time.perf_counter()
+            write_csv(files[n], n)
+            size = os.path.getsize(files[n]) / 2**20
+            print(f"wrote {n:,} patches: {size:,.0f} MiB in {time.perf_counter() - t0:.0f} s")
+        print(f"\nload average before: {os.getloadavg()[0]:.1f} (2 cores)")
         print(
-            f"\ngrouping 10k -> 100k patches: x{times[100_000] / times[10_000]:.1f} (10 = linear)"
+            "\n| patches | file (MiB) | reader wall (s) | CPU (s) | rows/s of CPU | peak RSS (MB) |"
         )
+        print("|---|---|---|---|---|---|")
+        for n in sizes[1:]:
+            wall, cpu, rss, _, code, _ = measure([py, "-c", READER, files[n]])
+            assert code == 0
+            mib = os.path.getsize(files[n]) / 2**20
+            print(
+                f"| {n:,} | {mib:,.0f} | {wall:.1f} | {cpu:.1f} | {n * ROWS / cpu:,.0f} | {rss} |"
+            )
+        print("\n| patches | jobs | `ep2 analyze` wall (s) | CPU (s) | patches/s | peak RSS (MB) |")
+        print("|---|---|---|---|---|---|")
+        walls = {}
+        runs = [(1_000, 1), (1_000, 2), (10_000, 1), (10_000, 2)]
+        runs += [] if quick or args.cli_max < 100_000 else [(100_000, 2)]
+        for n, jobs in runs:
+            wall, cpu, rss, lines, code, _ = measure([*cli, files[n], "--jobs", str(jobs)])
+            assert code in (0, 3) and lines == n, (code, lines)
+            walls[n, jobs] = wall, cpu
+            print(f"| {n:,} | {jobs} | {wall:.1f} | {cpu:.1f} | {n / wall:.0f} | {rss} |")
+        if (100_000, 2) in walls:
+            (w1, c1), (w2, c2) = walls[10_000, 2], walls[100_000, 2]
+            print(f"\n--jobs 2, 10k -> 100k patches: wall x{w2 / w1:.1f}, CPU x{c2 / c1:.1f}")
+        if not quick and args.long > 0:
+            n = 1_000_000
+            wall, cpu, rss, lines, code, start = measure(
+                [*cli, files[n], "--jobs", "2"], stop_after=args.long
+            )
+            print(
+                f"\n1,000,000 patches, --jobs 2: first record after {start:.0f} s (the checking"
+                f" pass), {lines:,} patches in the next {args.long} s, stopped (exit {code});"
+                f" peak RSS {rss} MB"
+            )
+        print(f"\nload average after: {os.getloadavg()[0]:.1f}")
+    grouping((1_000, 10_000) if quick else (1_000, 10_000, 100_000))
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from tactile import replica
+from tactile.cli import replica
 from tactile.localize import (
     rim_contact,
     scara_contacts,

@@ -291,7 +291,7 @@ def table(tmp):
          lambda: decode_counts(tmp)),
         ("`config`: the board answers NAK with reason 99", invalid,
          lambda: command_reply_lies(C.CMD_CONFIG, lambda m: (C.MSG_NAK, (m.type_code, m.seq, 99,
-                                    0xFF)), "invalid NAK: reason = 99 (protocol allows 1..7)")),
+                                    0xFF)), "invalid NAK: reason = 99 (protocol allows 1..8)")),
         ("`tare`: the board's ACK names a device-to-host type (0x06)", invalid,
          lambda: command_reply_lies(C.CMD_TARE, lambda m: (C.MSG_ACK, (0x06, m.seq)),
                                     "invalid ACK: cmd_type = 6 (protocol allows 64..127)")),

@@ -194,11 +194,16 @@ def _reads(tmp):
     big = tmp / "big.csv"
     with open(big, "wb") as fh:
         fh.write(b"x,y,z,nx,ny,nz\n")
-        fh.truncate(65 * 2**20)  # sparse: 65 MiB without writing them
+        fh.truncate(16 * 2**30 + 1)  # sparse: 16 GiB without writing them
     yield (
-        "a 65 MiB contacts CSV",
+        "a contacts CSV over 16 GiB",
+        "exit 2 before reading: over the 16 GiB limit of a streamed file",
+        verdict(run("ep2", "analyze", big), 2, "larger than 16 GiB"),
+    )
+    yield (
+        "the same file to `plot`, which reads a file whole",
         "exit 2 before reading: over the 64 MiB limit",
-        verdict(run("ep2", "analyze", big), 2, "larger than 64 MiB"),
+        verdict(run("plot", big, "-o", tmp / "plots"), 2, "larger than 64 MiB"),
     )
 
 

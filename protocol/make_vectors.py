@@ -140,6 +140,11 @@ def cal_checksum_cases():
     ]  # fmt: skip
 
 
+# Frames added within a protocol version (a new value of a field, no layout change), after
+# the frozen cases so that those keep their place: (group, type, seq, timestamp, values).
+ADDED = (("typical", "NAK", 514, 1000500, (C.CMD_TARE, 43, C.NAK_LOADED, 1)),)
+
+
 def _fields_json(name, values):
     fields = BY_NAME[name][4]
     return {f: (v.hex() if isinstance(v, bytes) else v) for f, v in zip(fields, values)}
@@ -155,6 +160,7 @@ def frame_cases():
                 ext = tuple(_extreme(c, high) for c in codes)
                 label = "maximum" if high else "minimum"
                 cases.append((label, name, 65535 if high else 0, 0xFFFFFFFF if high else 0, ext))
+    cases += ADDED
     out = []
     for group, name, seq, ts, values in cases:
         mtype = BY_NAME[name][0]

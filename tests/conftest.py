@@ -7,6 +7,8 @@ import pathlib
 import pytest
 from hypothesis import HealthCheck, settings
 
+from tactile_sim.urlhandler import register as register_sim_ports
+
 # Fuzzing campaigns (issue 12): fixed seed and a bounded budget in CI; a long, randomised
 # run locally with TACTILE_FUZZ=long (tests read FUZZ_EXAMPLES for their own budget).
 settings.register_profile(
@@ -28,6 +30,10 @@ settings.load_profile("long" if FUZZ == "long" else "ci")
 FUZZ_SCALE = 50 if FUZZ == "long" else 1  # multiply a campaign's CI example count by this
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+# The tests are the application layer here: they serve sim:// ports as the CLI does
+# (the library never imports the simulator itself, tests/test_layers.py).
+register_sim_ports()
 
 
 def load_bench(name):

@@ -138,8 +138,8 @@ def test_info_and_config_commands(cli):
     assert code == 0 and '"rate_hz":1000' in out and '"streams":["samples","contacts"]' in out
     code, out, _ = cli("config", "--port", "sim://press", "--rate", "250", "--gate", "3d")
     assert code == 0 and "rate          250 Hz" in out and "gate          3d" in out
-    code, _, err = cli("config", "--port", "sim://press", "--rate", "0")
-    assert code == 4 and "out of range (rate_hz)" in err
+    code, _, err = cli("config", "--port", "sim://press", "--rate", "0")  # checked before sending
+    assert code == 2 and "--rate: 0 Hz is out of range: 1.." in err
     code, _, err = cli("config", "--port", "sim://press", "--streams", "video")
     assert code == 2 and "--streams: unknown stream 'video'" in err
 
@@ -157,3 +157,21 @@ def test_ports_lists_or_says_none(mocker, cli):
     mocker.patch.object(list_ports, "comports", return_value=[])
     code, out, err = cli("ports")
     assert code == 1 and "no serial ports found" in err
+
+
+def test_ports_prints_a_header_and_marks_ports_without_a_usb_id(mocker, cli):
+    from serial.tools import list_ports
+
+    class Port:
+        def __init__(self, device, description, hwid):
+            self.device, self.description, self.hwid = device, description, hwid
+
+    ports = [
+        Port("/dev/ttyACM0", "Board in FS mode", "USB VID:PID=2E8A:0005 SER=E66 LOCATION=1-1:1.0"),
+        Port("/dev/ttyS0", "n/a", "n/a"),
+    ]
+    mocker.patch.object(list_ports, "comports", return_value=ports)
+    code, out, _ = cli("ports")
+    lines = out.splitlines()
+    assert code == 0 and lines[0].split() == ["device", "description", "hardware", "id"]
+    assert "unlikely" not in lines[1] and lines[2].endswith("(no USB id: unlikely to be a board)")

@@ -141,7 +141,7 @@ def test_config_names_a_lying_nak():
     with lying_ports(NakLiar):
         code, out, err = run("config", "--port", "lie", "--rate", "500")
     assert_one_line_error(code, out, err)
-    assert "device sent an invalid NAK: reason = 99 (protocol allows 1..7)" in err
+    assert "device sent an invalid NAK: reason = 99 (protocol allows 1..8)" in err
 
 
 @pytest.mark.parametrize("n", [5, 255])
@@ -171,7 +171,7 @@ def test_record_keeps_recording_through_lying_frames_and_counts_them(tmp_path):
     assert_terminal_safe(out)
     assert ", 3 invalid frames refused -> " in out
     rows = (out_dir / "frames.csv").read_text().splitlines()[1:]
-    assert [r.split(",")[7] for r in rows] == ["0.000001", "0.000003", "0.000004"]
+    assert [r.split(",")[9] for r in rows] == ["0.000001", "0.000003", "0.000004"]  # fx_N
     device = [json.loads(line) for line in (out_dir / "device.jsonl").read_text().splitlines()]
     errors = [d["error"] for d in device if d["type"] == "INVALID"]
     assert errors == [

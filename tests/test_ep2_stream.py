@@ -115,32 +115,113 @@ def test_jobs_give_the_sequential_output_byte_for_byte(mixed_csv, capsys, fmt):
         assert _run(capsys, str(mixed_csv), *fmt, "--jobs", jobs) == one
 
 
-def test_streamed_records_are_analyze_patch_results_in_file_order(mixed_csv, capsys):
-    from tactile.ep2 import analyze_patch
+def _close(got, want, path="record"):
+    """Records equal: text, labels and keys exactly, numbers to round-off (a batched fit
+    sums in another order than one patch alone: ``tests/test_ep2_batch.py``)."""
+    if isinstance(want, dict):
+        assert isinstance(got, dict) and list(got) == list(want), path
+        for k in want:
+            _close(got[k], want[k], f"{path}.{k}")
+    elif isinstance(want, list | tuple):
+        assert isinstance(got, list | tuple) and len(got) == len(want), path
+        for i, (a, b) in enumerate(zip(got, want)):
+            _close(a, b, f"{path}[{i}]")
+    elif isinstance(want, float) and not isinstance(got, bool):
+        assert got == pytest.approx(want, rel=1e-9, abs=1e-12), path
+    else:
+        assert got == want and type(got) is type(want), path
+
+
+OPTS = dict(method="jet", order=None, segments=1, weighting="auto", grid=8, noise_pos=None,
+            noise_normal=None, align=False, max_normal_angle=80.0, break_angle=30.0)  # fmt: skip
+
+
+def _per_patch(groups, split=False):
+    """The records of ``analyze_sweep`` patch by patch (the CLI before issue 13's batch)."""
+    from tactile.cli.cmd_ep2 import patch_id
+    from tactile.ep2.many import analyze_one
+
+    return [analyze_one(g, patch_id(g.patch), OPTS, split) for g in groups]
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_batched_records_are_the_per_patch_records_in_file_order(mixed_csv, capsys, jobs):
     from tactile.jsonout import dumps
 
-    code, out, _ = _run(capsys, str(mixed_csv), "--json", "--jobs", "2")
-    assert code == 3
-    recs = out.splitlines()
-    groups = read_contacts(str(mixed_csv))
-    assert len(recs) == len(groups)
-    for line, g in zip(recs, groups):
-        rec = json.loads(line)
-        assert "NaN" not in line and "Infinity" not in line
-        if g.patch in ("line", "9"):
-            assert rec["shape"] is None and "not determined" in rec["error"]
+    code, out, err = _run(capsys, str(mixed_csv), "--json", "--jobs", jobs)
+    assert code == 3 and "2 of 7 patch(es) not determined" in err
+    recs = [json.loads(line) for line in out.splitlines()]
+    assert "NaN" not in out and "Infinity" not in out
+    want = _per_patch(read_contacts(str(mixed_csv)))
+    assert len(recs) == len(want) == 7
+    for rec, w in zip(recs, want):
+        if w.data_error is not None:  # refused: that patch alone, its reason on one line
+            assert rec == {"patch": w.name, "n_points": 6, "shape": None, "error": w.data_error}
+            assert "not determined" in rec["error"] and "\n" not in rec["error"]
             continue
-        want = analyze_patch(g.points, g.normals, finger=g.finger, lines=g.lines)
-        pid = {"12": 12, "3": 3, "2.5": 2.5}.get(g.patch, g.patch)
-        assert line == dumps(want.to_dict(pid))
+        (one,) = w.records
+        _close(rec, json.loads(dumps(one)))
+    assert sum(r["shape"] is not None for r in recs) == 5
 
 
-def test_table_streams_header_rows_and_footnote_once(mixed_csv, capsys):
-    code, out, _ = _run(capsys, str(mixed_csv), "--jobs", "2")
-    lines = out.splitlines()
-    assert code == 3 and lines[0].startswith("patch") and lines[-1].startswith("u = ")
-    assert sum(x.startswith("patch ") for x in lines) == 1
-    assert sum("refused:" in x for x in lines) == 2
+def _many_patches(tmp_path, n, seed=0, split_some=False):
+    """``n`` scattered patches with numeric ids (some sweeps broken by a crease)."""
+    from tactile_sim.ep2 import make, sweep
+
+    rng = np.random.default_rng(seed)
+    kinds = ("sphere", "cylinder", "saddle", "pit")
+    rows = {}
+    for k in range(n):
+        d = sweep(make(kinds[k % 4], 7.0 + k % 5), noise_pos=0.01, noise_normal=0.01, seed=k)
+        pts, nrm = d["points"].copy(), d["normals"].copy()
+        if split_some and k % 3 == 0:  # a fold: every finger's second half turned 90 deg
+            turn = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])
+            for f in np.unique(d["finger"]):
+                half = np.flatnonzero(d["finger"] == f)[len(pts) // 6 :]
+                pts[half] = (pts[half] - pts.mean(axis=0)) @ turn.T + pts.mean(axis=0)
+                nrm[half] = nrm[half] @ turn.T
+        table = np.column_stack([pts, nrm])
+        pid = str(int(rng.integers(10**6)) * 10 + k % 10)
+        rows[pid] = [
+            ",".join(f"{v:.9g}" for v in r) + f",{int(f)},{pid}" for r, f in zip(table, d["finger"])
+        ]
+    path = tmp_path / f"many{n}.csv"
+    lines = _scattered(rows, seed)
+    path.write_text("x,y,z,nx,ny,nz,finger,patch\n" + "\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("split", [False, True])
+def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monkeypatch, split):
+    """Several chunks of a scattered file: --jobs 1 and 2, blocks of 1 KiB and of the
+    default, and the non-streaming run (the whole list first) print the same bytes; the
+    batch gives the per-patch records, split parts included."""
+    from tactile import tabular_blocks
+    from tactile.ep2 import many
+    from tactile.jsonout import dumps
+
+    monkeypatch.setattr(many, "CHUNK", 4)  # 14 patches: four chunks, the last short
+    path = _many_patches(tmp_path, 14, split_some=split)
+    flags = ["--json", *(["--split"] if split else [])]
+    one = _run(capsys, str(path), *flags)
+    assert one[0] == (3 if split else 0) and "Traceback" not in one[2]
+    assert _run(capsys, str(path), *flags, "--jobs", "2") == one
+    monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", 1024)
+    assert _run(capsys, str(path), *flags, "--jobs", "2") == one
+    from tactile.ep2 import contacts_csv  # every patch in memory first: not streamed
+
+    groups = read_contacts(str(path))
+    monkeypatch.setattr(contacts_csv, "ContactsFile", lambda _: groups)
+    assert _run(capsys, str(path), *flags) == one
+    want = []
+    for o in _per_patch(groups, split):
+        refused = {"patch": o.name, "n_points": o.n_points, "shape": None, "error": o.data_error}
+        want += o.records or [refused]
+    recs = [json.loads(line) for line in one[1].splitlines()]
+    assert len(recs) == len(want) and (len(recs) > 14) == split  # split parts are records
+    assert sum(r["shape"] is not None for r in recs) >= 14
+    for got, w in zip(recs, want):
+        _close(got, json.loads(dumps(w)))
 
 
 @pytest.mark.parametrize("jobs", ["0", "-1", "257"])
@@ -174,6 +255,33 @@ def test_progress_bar_only_on_a_terminal_for_long_files(monkeypatch):
     bar = _progress(PROGRESS_FROM + 1)
     assert bar is not None and bar.total == PROGRESS_FROM + 1
     bar.close()
+
+
+def test_a_large_file_shows_its_checking_pass_on_a_terminal(mixed_csv, monkeypatch):
+    import sys
+
+    from tactile.cli import cmd_ep2
+
+    class Tty:
+        text = ""
+
+        def isatty(self):
+            return True
+
+        def write(self, text):
+            Tty.text += text
+            return len(text)
+
+        def flush(self):
+            pass
+
+    monkeypatch.setattr(sys, "stderr", Tty())
+    assert len(cmd_ep2._checked(str(mixed_csv))) == 7  # small: no bar
+    assert Tty.text == ""
+    monkeypatch.setattr(cmd_ep2, "CHECK_BAR_FROM", 100)
+    assert len(cmd_ep2._checked(str(mixed_csv))) == 7
+    size = mixed_csv.stat().st_size
+    assert "ep2 check: 100%" in Tty.text and f"{size / 1000:.1f}k/{size / 1000:.1f}k" in Tty.text
 
 
 def test_a_part_ep2_cannot_represent_stops_both_runs_at_the_same_patch(tmp_path, capsys):

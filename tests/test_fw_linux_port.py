@@ -68,3 +68,19 @@ def test_monotonic_clock_wraps_like_micropython():
     a = c.ticks_us()
     c.sleep_us(2000)
     assert c.ticks_diff(c.ticks_us(), a) >= 2000
+
+
+def test_a_missing_i2c_bus_is_one_line_and_exit_4(tmp_path):
+    import subprocess
+    import sys
+
+    r = subprocess.run(
+        [sys.executable, "-m", "tactile_fw.host_only.port_linux", "--tty", "/dev/null"]
+        + ["--i2c", "250", "--storage", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 4 and r.stdout == "", (r.returncode, r.stderr)
+    assert r.stderr.count("\n") == 1 and "/dev/i2c-250" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr

@@ -10,7 +10,7 @@ import threading
 
 import pytest
 
-from tactile import replica
+from tactile.cli import replica
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.host_wait import serve_when_opened

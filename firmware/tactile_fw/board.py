@@ -57,6 +57,7 @@ from tactile_protocol.constants import (
     MSG_STATUS,
     NAK_DETAIL_NONE,
     NAK_HARDWARE,
+    NAK_LOADED,
     PROTOCOL_VERSION,
     SENSOR_ALL,
 )
@@ -129,10 +130,13 @@ class Board:
         self._status_due = 0
         # tare: sensor mask, samples left, sums, the command to answer
         self.tare_mask = 0
+        self.tare_all = 0
         self.tare_left = [0] * self.n
         self.tare_n = 0
         self.tare_sums = [[0] * frontend.N_GAUGES for _ in range(self.n)]
         self.tare_seq = -1
+        self.tare_loaded = [0] * self.n  # consecutive tare samples above the gate
+        self._tare_ft = [0] * 6
         # 32-bit device time from the wrapping tick counter
         now = clock.ticks_us()
         self._ticks_base = now
@@ -455,25 +459,60 @@ class Board:
         if not (self.streaming or self.tare_mask):
             self.sched.start(self.clock.ticks_us())
         self.tare_mask = mask
+        self.tare_all = mask
         self.tare_n = n_samples
         self.tare_seq = seq
         for i in range(self.n):
             self.tare_left[i] = n_samples if mask & (1 << i) else 0
+            self.tare_loaded[i] = 0
             sums = self.tare_sums[i]
             for k in range(frontend.N_GAUGES):
                 sums[k] = 0
 
+    def _checks_load(self, i):
+        """Whether TARE checks sensor i for load: calibrated (else its forces mean nothing
+        yet) and gated (an enter level of 0 gates nothing)."""
+        return self.cals[i].present and self.settings.enter > 0
+
+    def loaded_sensor(self, mask):
+        """The first sensor of ``mask`` that the gate has in contact now, else -1."""
+        if not self.streaming:
+            return -1  # no recent sample: the tare's own samples are checked
+        for i in range(self.n):
+            if mask & (1 << i) and self.gates[i].in_contact and self._checks_load(i):
+                return i
+        return -1
+
     def _tare_accumulate(self, i, counts):
+        if self._checks_load(i):
+            ft = self._tare_ft
+            self.cals[i].apply(counts, ft)  # under the bias in force
+            if self.gates[i].loaded(ft[0], ft[1], ft[2]):
+                self.tare_loaded[i] += 1
+                if self.tare_loaded[i] >= self.settings.debounce:
+                    self._tare_refuse(i)
+                    return
+            else:
+                self.tare_loaded[i] = 0
         sums = self.tare_sums[i]
         for k in range(frontend.N_GAUGES):
             sums[k] += counts[k]
         self.tare_left[i] -= 1
         if self.tare_left[i] == 0:
             self.tare_mask &= ~(1 << i)
-            self.cals[i].set_bias_sums(sums, self.tare_n)
-            if not self.tare_mask:
+            if not self.tare_mask:  # every sensor done: the new biases apply together
+                for j in range(self.n):
+                    if self.tare_all & (1 << j):
+                        self.cals[j].set_bias_sums(self.tare_sums[j], self.tare_n)
                 self.ack(CMD_TARE, self.tare_seq)
                 self.tare_seq = -1
+
+    def _tare_refuse(self, i):
+        """Sensor i is loaded: keep the old bias everywhere and NAK the TARE."""
+        self.tare_mask = 0
+        if self.tare_seq >= 0:
+            self.nak(CMD_TARE, self.tare_seq, NAK_LOADED, i)
+        self.tare_seq = -1
 
     def _tare_fail(self):
         self.tare_mask = 0

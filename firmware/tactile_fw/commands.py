@@ -4,7 +4,8 @@ A registry maps the command type to its handler.  A value out of range is
 refused with NAK_OUT_OF_RANGE and ``detail`` = the index of the offending
 field in the command's payload; nothing is applied.  A frame that parses
 but is not a command, or whose layout is wrong, gets NAK with the reason
-(unknown command, bad length, bad version).
+(unknown command, bad length, bad version).  TARE is refused with
+NAK_LOADED (detail: the sensor) while a sensor it names is loaded (PROTOCOL §4).
 """
 
 from tactile_fw import calibration, settings
@@ -24,6 +25,7 @@ from tactile_protocol.constants import (
     NAK_BAD_STATE,
     NAK_BAD_VERSION,
     NAK_HARDWARE,
+    NAK_LOADED,
     NAK_OUT_OF_RANGE,
     NAK_STORAGE,
     NAK_UNKNOWN_COMMAND,
@@ -85,7 +87,11 @@ def _tare(board, seq, values):
         if mask & (1 << i) and board.state[i] != 0:
             board.nak(CMD_TARE, seq, NAK_HARDWARE, _TARE_SENSOR)
             return
-    board.start_tare(mask, n_samples, seq)  # ACK when the bias is captured
+    loaded = board.loaded_sensor(mask)
+    if loaded >= 0:  # a bias taken under load would offset every later reading by it
+        board.nak(CMD_TARE, seq, NAK_LOADED, loaded)
+        return
+    board.start_tare(mask, n_samples, seq)  # ACK when the bias is captured (or NAK_LOADED)
 
 
 def _start(board, seq, values):

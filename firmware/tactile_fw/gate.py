@@ -70,6 +70,11 @@ class ContactGate:
             m2 += fz * fz
         return 1 if m2 > level2 else (-1 if m2 < level2 else 0)
 
+    def loaded(self, fx, fy, fz):
+        """True when |F| (as the gate measures it) is above the enter level: a sample the gate
+        would count toward a contact (TARE refuses such samples)."""
+        return self._cmp(fx, fy, fz, self.enter, self.enter2) > 0
+
     def update(self, fx, fy, fz):
         """Feed one sample; return BEGIN, IN, END or NONE (out of contact)."""
         if not self.in_contact:

@@ -22,8 +22,10 @@ ends ``command``, each with one line naming the field (``DeviceLied``, exit 4).
 Invalid frames in a stream are passed on, counted, never acted on.
 """
 
+import logging
 import time
 
+from tactile import board_settings
 from tactile.errors import (
     BoardError,
     BoardTimeout,
@@ -38,6 +40,8 @@ from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
 
+log = logging.getLogger(__name__)
+
 NAK_REASONS = {
     C.NAK_UNKNOWN_COMMAND: "unknown command",
     C.NAK_BAD_LENGTH: "bad length",
@@ -46,6 +50,7 @@ NAK_REASONS = {
     C.NAK_HARDWARE: "hardware fault",
     C.NAK_BAD_VERSION: "bad version",
     C.NAK_STORAGE: "storage error",
+    C.NAK_LOADED: "loaded",
 }
 COMMAND_NAMES = {
     C.CMD_PING: "PING",
@@ -62,6 +67,7 @@ COMMAND_FIELDS = {
     C.CMD_TARE: ("sensor", "n_samples"),
     C.CMD_SET_CAL: ("sensor", "cal_id") + tuple(f"c{r}{c}" for r in range(6) for c in range(6)),
 }
+GATE_CEILING = 2**31 - 1  # the largest enter threshold (uN): what 'tare --force' gates at
 MAX_READ = 65536  # bytes per read call: bounded whatever the device claims to have
 
 
@@ -73,8 +79,16 @@ class DeviceLied(BoardError):
     """The device sent a frame outside the protocol's field limits where an answer was due."""
 
 
-def nak_message(nak):
+def nak_message(nak, info=None):
+    """One line for a NAK; ``info`` (the board's HELLO/INFO) adds the gate to NAK_LOADED."""
     name = COMMAND_NAMES.get(nak.cmd_type, f"command 0x{nak.cmd_type:02x}")
+    if nak.reason == C.NAK_LOADED:
+        gate = "" if info is None else f" {info.enter_threshold * C.FORCE_LSB_N:g} N"
+        return (
+            f"board refused {name}: sensor {nak.detail} is loaded (force above the{gate} contact"
+            " gate); unload the fingers and retry (if nothing touches it, its own offset exceeds"
+            " the gate: 'tactile tare --force')"
+        )
     reason = NAK_REASONS.get(nak.reason, f"reason {nak.reason}")
     fields = COMMAND_FIELDS.get(nak.cmd_type, ())
     if nak.detail != C.NAK_DETAIL_NONE:
@@ -94,6 +108,8 @@ class BoardClient:
         self.decoder = StreamDecoder()
         self.encoder = FrameEncoder()
         self.backlog = []
+        self.backlog_times = []  # arrival (``clock``) of each backlog message
+        self.pulled_at = None  # ``clock`` when the latest bytes were read
         self.info = None  # the latest HELLO or INFO
         self.lie = None  # the latest invalid HELLO or INFO
 
@@ -108,6 +124,7 @@ class BoardClient:
         except OSError as exc:  # pyserial's SerialException is an OSError
             raise PortLost(describe_lost(self.name, exc, "reading")) from None
         if data:
+            self.pulled_at = self.clock()  # before anything else: the frames' arrival time
             if self.capture is not None:
                 self.capture(data)
             msgs = self.decoder.feed(data)
@@ -121,8 +138,24 @@ class BoardClient:
 
     def read(self):
         """Messages received since the last call (the backlog first)."""
-        out, self.backlog = self.backlog, []
-        return out + self._pull()
+        return self.read_timed()[0]
+
+    def read_timed(self):
+        """(messages, their arrival times) received since the last call, the backlog first.
+        A message's arrival is the ``clock`` reading taken as the read that completed it
+        returned: what ``tactile.timebase`` fits the board's clock to."""
+        out, times = self._take_backlog()
+        new = self._pull()
+        return out + new, times + [self.pulled_at] * len(new)
+
+    def _take_backlog(self):
+        out, times = self.backlog, self.backlog_times
+        self.backlog, self.backlog_times = [], []
+        return out, times
+
+    def _keep(self, msgs):
+        self.backlog += msgs
+        self.backlog_times += [self.pulled_at] * len(msgs)
 
     def send(self, mtype, values=()):
         """Send one command; return its sequence number."""
@@ -151,6 +184,8 @@ class BoardClient:
     def command(self, mtype, values=(), timeout=1.0):
         """Send a command and wait for its ACK; raise CommandRefused on NAK, BoardTimeout."""
         seq = self.send(mtype, values)
+        name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
+        log.info("%s: %s %s (seq %d)", self.name, name, values, seq)
         deadline = self.clock() + timeout
         while self.clock() < deadline:
             reply = None
@@ -158,16 +193,16 @@ class BoardClient:
                 if reply is None and m.type_code in (C.MSG_ACK, C.MSG_NAK) and m.cmd_seq == seq:
                     reply = m
                 else:
-                    self.backlog.append(m)
+                    self._keep([m])
                 if reply is None and m.type_code == INVALID and m.message in ("ACK", "NAK"):
                     reply = m  # the answer, but a lie: which command it answers is unknown
             if reply is not None and reply.type_code == INVALID:
                 raise self._lied(reply)
             if reply is not None and reply.type_code == C.MSG_NAK:
-                raise CommandRefused(f"{self.name}: {nak_message(reply)}")
+                raise CommandRefused(f"{self.name}: {nak_message(reply, self.info)}")
             if reply is not None:
+                log.debug("%s: ACK for %s (seq %d)", self.name, name, seq)
                 return reply
-        name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
         raise BoardTimeout(f"{self.name}: no answer to {name} within {timeout:g} s")
 
     def handshake(self, timeout=2.0):
@@ -176,8 +211,7 @@ class BoardClient:
         asked = False
         self.lie = None
         while self.clock() - start < timeout:
-            msgs = self._pull()
-            self.backlog += msgs
+            self._keep(self._pull())
             if self.info is not None:
                 return self.info
             if self.lie is not None:
@@ -214,16 +248,30 @@ class BoardClient:
             raise BoardTimeout(f"{self.name}: ACK to GET_INFO without INFO")
         return self.info
 
-    def tare(self, sensor=C.SENSOR_ALL, n_samples=64, timeout=5.0):
-        """Bias the F/T sensor(s); the ACK comes once the bias is captured."""
-        return self.command(C.CMD_TARE, (sensor, n_samples), timeout=timeout)
+    def tare(self, sensor=C.SENSOR_ALL, n_samples=64, timeout=5.0, force=False):
+        """Bias the F/T sensor(s); the ACK comes once the bias is captured.
+
+        The board refuses a loaded sensor (NAK_LOADED).  ``force`` raises the gate to its
+        ceiling for the TARE and restores it after, for a sensor whose own offset exceeds
+        the gate (the first TARE after power-up); needs the board's HELLO/INFO.
+        """
+        if not force:
+            return self.command(C.CMD_TARE, (sensor, n_samples), timeout=timeout)
+        info = self.info or self.get_info()
+        keep = (info.rate_hz, info.enter_threshold, info.exit_threshold, info.debounce)
+        flags = info.flags & C.CFG_WRITABLE & ~C.CFG_PERSIST
+        self.command(C.CMD_CONFIG, (keep[0], GATE_CEILING, *keep[2:], flags))
+        try:
+            return self.command(C.CMD_TARE, (sensor, n_samples), timeout=timeout)
+        finally:
+            self.command(C.CMD_CONFIG, (*keep, flags))
 
     def configure(self, rate_hz, enter, exit_, debounce, flags, timeout=1.0):
         """CONFIG (thresholds in N); values are checked by the board (NAK names the field)."""
         values = (
             int(rate_hz),
-            round(enter / C.FORCE_LSB_N),
-            round(exit_ / C.FORCE_LSB_N),
+            board_settings.to_counts(enter),
+            board_settings.to_counts(exit_),
             int(debounce),
             int(flags),
         )
@@ -246,13 +294,9 @@ class BoardClient:
 def info_dict(info):
     """HELLO/INFO as plain JSON-ready values (thresholds in N, flags named)."""
     d = info.to_dict()
-    d["enter_threshold_N"] = info.enter_threshold * C.FORCE_LSB_N
-    d["exit_threshold_N"] = info.exit_threshold * C.FORCE_LSB_N
-    d["streams"] = [
-        name
-        for name, bit in (("samples", C.CFG_STREAM_SAMPLES), ("contacts", C.CFG_STREAM_CONTACTS))
-        if info.flags & bit
-    ]
+    d["enter_threshold_N"] = board_settings.to_newtons(info.enter_threshold)
+    d["exit_threshold_N"] = board_settings.to_newtons(info.exit_threshold)
+    d["streams"] = board_settings.stream_names(info.flags)
     d["gate"] = "3d" if info.flags & C.CFG_GATE_3D else "xy"
     d["autostart"] = bool(info.flags & C.CFG_AUTOSTART)
     d["streaming"] = bool(info.flags & C.CFG_STREAMING)

@@ -10,7 +10,14 @@ log's header says what it is:
 - ``probe,t_start_us,t_end_us,dtheta_x,dtheta_y``: EP1 rolling probes
   (``tactile.ep1.from_ft``) -> ``probes.csv``.
 
-The CONTACT frames come from ``capture.bin`` (the recording's source of truth).
+The CONTACT frames come from ``capture.bin`` (the recording's source of truth).  A log
+stamped in a host clock (UTC or monotonic, ``tactile.log_clock``) is joined through the
+time base in ``meta.json``: each frame's board stamp becomes that clock's time
+(``tactile.timebase.recorded_times``).
+
+When fewer than half the readings are localised, a ``warning:`` line says so and counts
+where the rest went (outside every window, below the gate, off the probe, too noisy), with
+the likely cause of each.
 """
 
 import pathlib
@@ -23,18 +30,19 @@ from tactile_protocol import constants as C
 SCARA_PER_CONTACT = 2  # §5.1: two samples per probed point
 
 
-def contact_frames(messages, per_contact=None, above_N=None, gate="xy"):
+def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=None):
     """CONTACT readings (BEGIN and IN; END is already outside the gate).
 
     ``per_contact``: keep only the first N readings of each contact (per sensor);
     ``above_N``: only readings whose gated force (x-y or 3-D magnitude) exceeds it, as
     §5.1 takes a sample "when the x-y force exceeds 5 units" (inside a contact, the
     firmware's hysteresis lets the force dip to the exit threshold).
-    Returns (timestamps_us, sensor, wrench (n, 6) in N and N*m, contact ids).
+    ``times`` (one int64 us per message) replaces the board's stamps (a host clock's).
+    Returns (times_us int64, sensor, wrench (n, 6) in N and N*m, contact ids).
     """
     taken, rows = {}, []
     floor = None if above_N is None else above_N / C.FORCE_LSB_N
-    for m in messages:
+    for i, m in enumerate(messages):
         if m.type_code != C.MSG_CONTACT or m.phase == C.PHASE_END:
             continue
         if floor is not None:
@@ -48,10 +56,15 @@ def contact_frames(messages, per_contact=None, above_N=None, gate="xy"):
         if k is None or (per_contact is not None and k >= per_contact):
             continue
         taken[key] = k + 1
-        rows.append((m.timestamp_us, m.sensor, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
-    a = np.array(rows, dtype=float).reshape(-1, 9)
+        rows.append((i, m.sensor, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
+    a = np.array(rows, dtype=np.int64).reshape(-1, 9)
     wrench = a[:, 3:] * np.repeat([C.FORCE_LSB_N, C.TORQUE_LSB_NM], 3)
-    return a[:, 0], a[:, 1].astype(int), wrench, a[:, 2].astype(int)
+    index = a[:, 0]
+    if times is None:
+        t = np.array([messages[i].timestamp_us for i in index], dtype=np.int64)
+    else:
+        t = np.asarray(times, dtype=np.int64)[index]
+    return t, a[:, 1].astype(int), wrench, a[:, 2].astype(int)
 
 
 def check_log(pose_log):
@@ -85,11 +98,24 @@ def derive(outdir, pose_log, per_contact=None):
         meta = json.loads((outdir / "meta.json").read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise InputError(f"{outdir}: not a complete recording: {exc}") from None
-    messages, _ = decode_bytes(data)
+    clock = _log_clock(pose_log, columns)
+    if clock == "board":
+        messages, _ = decode_bytes(data)
+        times = None
+    else:
+        from tactile.timebase import recorded_times
+
+        messages, times = recorded_times(data, meta, clock, outdir)
     threshold, gate = _gate(meta)
     if "dtheta_x" in columns:
-        return _derive_probes(outdir, pose_log, messages, threshold)
-    return _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact)
+        return _derive_probes(outdir, pose_log, messages, threshold, times)
+    return _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times)
+
+
+def _log_clock(pose_log, columns):
+    from tactile.log_clock import clock_of
+
+    return clock_of(pose_log, None, columns) or "board"
 
 
 def _write(path, text):
@@ -98,7 +124,7 @@ def _write(path, text):
     tmp.replace(path)
 
 
-def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact):
+def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times=None):
     """SCARA joints (ch. 5, written in cm as tables 5-7) or sensor poses (m)."""
     from tactile.localize import format_contacts
     from tactile.localize.pose_log import posed_world_contacts, read_pose_log
@@ -107,24 +133,53 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact):
     scara = log.kind == "scara"
     if scara:
         n = SCARA_PER_CONTACT if per_contact is None else per_contact
-        t, sensor, wrench, _ = contact_frames(messages, n, above_N=threshold, gate=gate)
+        t, sensor, wrench, _ = contact_frames(
+            messages, n, above_N=threshold, gate=gate, times=times
+        )
     else:
-        t, sensor, wrench, _ = contact_frames(messages, per_contact)
+        t, sensor, wrench, _ = contact_frames(messages, per_contact, times=times)
     points, normals, finger, report = posed_world_contacts(log, t, sensor, wrench, threshold)
+    if len(t) == 0:
+        raise DataError(
+            f"{outdir}: no CONTACT readings in the recording (did a finger touch? a TARE taken"
+            " under load hides every contact)"
+        )
     if len(points) == 0:
-        raise DataError(f"{outdir}: no contact could be localised ({report})")
+        raise DataError(f"{outdir}: no contact could be localised: {_why(report, threshold)}")
     path = outdir / "contacts.csv"
     scale, unit = (100.0, "cm") if scara else (1.0, "m")
     _write(path, format_contacts(points, normals, finger=finger, scale=scale))
-    return [f"{len(points)} of {len(t)} contact readings localised ({unit}) -> {path}; {report}"]
+    lines = [f"{len(points)} of {len(t)} contact readings localised ({unit}) -> {path}; {report}"]
+    if 2 * len(points) < len(t):
+        lines.append(
+            f"warning: only {len(points):,} of {len(t):,} readings"
+            f" ({100 * len(points) / len(t):.0f}%) were localised: {_why(report, threshold)}"
+        )
+    return lines
 
 
-def _derive_probes(outdir, pose_log, messages, threshold):
+def _why(report, threshold):
+    """Where the readings that were not localised went, each with its likely cause."""
+    causes = (
+        (report.outside, "outside every pose window of their finger (a log of another run,"
+         " or in another clock? frames taken while the robot moves are outside by design)"),
+        (report.no_contact, f"at or below the {threshold:g} N gate (a TARE taken under load"
+         " shifts every reading; the board now refuses one)"),
+        (report.unusable, "with a line of action that misses the fingertip (a wrong"
+         " '# probe:' line, or a sensor biased under load)"),
+        (report.imprecise, "too noisy (normal error above 10 deg: a force too low for the"
+         " sensor's noise)"),
+    )  # fmt: skip
+    parts = [f"{n:,} {what}" for n, what in causes if n]
+    return "; ".join(parts) if parts else "no reading reached a pose window"
+
+
+def _derive_probes(outdir, pose_log, messages, threshold, times=None):
     from tactile.ep1.from_ft import probe_report, probes_from_frames, read_probe_log
     from tactile.ep1.probes_csv import format_probes
 
     log = read_probe_log(pose_log)
-    t, _, wrench, _ = contact_frames(messages)
+    t, _, wrench, _ = contact_frames(messages, times=times)
     rows, usable = probes_from_frames(log, t, wrench, threshold)
     if not np.any(usable):
         first = probe_report(log, t, wrench, threshold)[0]
@@ -133,5 +188,10 @@ def _derive_probes(outdir, pose_log, messages, threshold):
     _write(path, format_probes(rows[usable]))
     out = [f"{int(np.sum(usable))} of {len(usable)} probes usable -> {path}"]
     out += [ln for ln in probe_report(log, t, wrench, threshold) if ": ok" not in ln]
+    if 2 * np.sum(usable) < len(usable):
+        out.append(
+            f"warning: only {int(np.sum(usable))} of {len(usable)} probes are usable (the"
+            " lines above say why)"
+        )
     out.append(f"next: tactile ep1 estimate {path} --finger-radius {log.radius_m!r}")
     return out

@@ -8,6 +8,14 @@ lost in the gap are counted from the sequence numbers.  A board that
 rebooted (the decoder sees a new boot id) is counted in ``reboots``, not as
 lost frames, and TAREd again.  Ctrl-C ends the recording
 normally.  Port and clock are injectable for tests.
+
+Time: every frame's arrival (the ``clock`` reading as its read returned) feeds the board ->
+host fit of ``tactile.timebase.RecordingClock``; frames.csv gets each row's host time as the
+fit stands, and is rewritten with the final fit at the end; meta.json holds the mapping.
+
+A board silent for half a second is PINGed: its ACK's stamp is a point of the fit too.
+``until`` = (clock, us, how): stop once that time of the pose log's clock has passed (the
+board's as its frames say, or the host's own clocks).
 """
 
 import time
@@ -18,9 +26,17 @@ from tactile.board_client import BoardClient, info_dict
 from tactile.errors import BoardError, PortError, PortLost
 from tactile.recording import Recording
 from tactile.serial_port import open_port
+from tactile.timebase import RecordingClock
 from tactile_protocol import constants as C
 
 META_EVERY_S = 1.0
+PING_AFTER_S = 0.5  # silence after which the board is PINGed for its clock
+REFIT_EVERY_S = 1.0  # and at least 100 fit durations
+
+
+def _stop_meta(until):
+    clock, us, how = until
+    return {"clock": clock, "time_us": us, "from": f"the pose log: {how}"}
 
 
 def _span_s(first_us, last_us):
@@ -75,6 +91,8 @@ class Session:
         stop_when=None,
         append=False,
         argv=None,
+        utc=time.time,
+        until=None,
     ):
         self.port_name = port_name
         self.duration_s = duration_s
@@ -97,6 +115,12 @@ class Session:
         self.started_at = None
         self._meta_at = 0.0
         self._reboots_prepared = 0  # the decoder's reboot count when last TAREd
+        self.utc = utc
+        self.until = until
+        self.timing = RecordingClock(self.rec.rows_offset)
+        self._heard_at = None  # clock of the latest frame (or of the start)
+        self._pinged_at = None
+        self._fit_at = 0.0
 
     # -- connection ------------------------------------------------------------
     def _connect(self):
@@ -160,19 +184,46 @@ class Session:
             return "duration"
         if self.contacts is not None and self.stats.contacts_ended >= self.contacts:
             return "contacts"
+        if self.until is not None and self._now_us(self.until[0]) >= self.until[1]:
+            return "pose log end"
         return self.stop_when(self)
 
-    def _handle(self, msgs):
-        self.rec.messages(msgs)
+    def _now_us(self, clock):
+        """Now in ``clock`` (us): the board's latest stamp heard, or a host clock's reading."""
+        if clock == "board":
+            now = self.timing.board_us()
+            return -1 if now is None else now
+        return round((self.clock() if clock == "monotonic" else self.utc()) * 1e6)
+
+    def waiting_for(self):
+        """What the run waits for, in words (None: a duration, a count or Ctrl-C)."""
+        if self.until is None:
+            return None
+        from tactile.log_clock import show_time
+
+        clock, end, _ = self.until
+        now = self._now_us(clock)
+        seg = self.timing.board.segments[-1] if self.timing.board.segments else None
+        if clock == "board" and seg is not None and seg.usable():  # between frames: the fit
+            now = max(now, round(float(seg.fitted.to_board(self.clock())) * 1e6))
+        if now < 0:
+            return f"pose log end ({show_time(clock, end)}); no board time heard yet"
+        return f"pose log end in {max(0.0, (end - now) / 1e6):.1f} s ({show_time(clock, end)})"
+
+    def _handle(self, msgs, times=None):
+        self.rec.messages(msgs, self.timing.take(msgs, times))
         self.stats.add(msgs)
+        if msgs:
+            self._heard_at = self.clock()
         reboots = self.client.decoder.counters.reboots
         if reboots > self._reboots_prepared:  # rebooted behind an open port: TARE again
             self._reboots_prepared = reboots
             self._prepare()
 
     def run(self):
-        self.started = self.clock()
+        self.started = self._heard_at = self.clock()
         self.started_at = datetime.now(UTC).isoformat(timespec="seconds")
+        self.timing.utc_minus_mono = self.utc() - self.clock()
         try:
             self._connect()
             self._write_meta()
@@ -183,6 +234,7 @@ class Session:
             if self.ended == "running":
                 self.ended = "error"
             self._keep_backlog()
+            self._final_times()
             self._write_meta()
             if self.client is not None:
                 self._close_port()
@@ -193,14 +245,29 @@ class Session:
         """Frames decoded while a command waited (a TARE the port died during) into the files:
         they are in capture.bin already, and frames.csv must hold them too."""
         if self.client is not None and self.client.backlog:
-            msgs, self.client.backlog = self.client.backlog, []
-            self.rec.messages(msgs)
+            msgs, times = self.client._take_backlog()
+            self.rec.messages(msgs, self.timing.take(msgs, times))
             self.stats.add(msgs)
+
+    def _final_times(self):
+        """The final fit; this session's frames.csv rows rewritten with it.  A failed rewrite
+        (a full disk) keeps the rows as written, and meta.json says which they hold."""
+        self.timing.refit()
+        self.timing.utc_minus_mono_end = self.utc() - self.clock()
+        if not self.timing.rows:
+            self.timing.final = True  # nothing to rewrite
+            return
+        try:
+            self.rec.rewrite_host(self.timing.host_of)
+            self.timing.final = True
+        except OSError:
+            pass
 
     def _loop(self):
         while True:
             try:
-                self._handle(self.client.read())  # a reboot's TARE writes: it can fail too
+                self._handle(*self.client.read_timed())  # a reboot's TARE writes: can fail
+                self._keep_time()
             except PortLost as exc:
                 if not self._reconnect(str(exc)):
                     self.ended = "port lost"
@@ -216,6 +283,19 @@ class Session:
             if why:
                 self.ended = why
                 return
+
+    def _keep_time(self):
+        """Refit now and then; PING a silent board: its ACK carries the board's clock, for
+        the fit (a contacts-only stream is silent between contacts) and for a pose log that
+        waits on the board's time."""
+        now = self.clock()
+        if now - self._fit_at >= max(REFIT_EVERY_S, 100 * self.timing.fit_s):
+            self._fit_at = now
+            self.timing.refit()
+        silent = now - max(self._heard_at, self._pinged_at or self._heard_at)
+        if silent >= PING_AFTER_S:
+            self._pinged_at = now
+            self.client.send(C.CMD_PING)  # its ACK carries the board's clock
 
     # -- metadata -------------------------------------------------------------------
     def meta(self):
@@ -245,6 +325,8 @@ class Session:
             "capture_offset": self.rec.capture_offset,
             "rows_offset": self.rec.rows_offset,
             "decoder": client.decoder.counters.as_dict() if client is not None else None,
+            "stops_at": None if self.until is None else _stop_meta(self.until),
+            "time_base": self.timing.meta(),
         }
 
     def _write_meta(self):

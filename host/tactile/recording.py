@@ -4,7 +4,10 @@ Files (``tactile record -o DIR``):
 
 - ``capture.bin``: every byte read from the port, appended and flushed per read;
   the source of truth (``tactile decode DIR/capture.bin`` replays it).
-- ``frames.csv``: one row per SAMPLE or CONTACT frame, SI units, appended and flushed.
+- ``frames.csv``: one row per SAMPLE or CONTACT frame, SI units, appended and flushed; each
+  row has the board's stamp (``timestamp_us``) and the host's time of it, monotonic and UTC
+  (``host_monotonic_s``, ``host_utc_s``, from ``tactile.timebase``): written with the fit as
+  it stands, and rewritten with the final fit when the recording ends (``rewrite_host``).
 - ``device.jsonl``: the other frames (HELLO, INFO, STATUS, NAK) as JSON lines.
 - ``meta.json``: device INFO, configuration, calibration ids, counters, gaps;
   replaced atomically (write, fsync, rename) every second and at the end.
@@ -15,9 +18,12 @@ meta.json keeps one entry per session with totals over them
 (``tactile.recording_meta``).
 """
 
+import itertools
 import json
 import os
 import pathlib
+
+import numpy as np
 
 from tactile.errors import InputError
 from tactile.jsonout import clean, dumps
@@ -25,16 +31,27 @@ from tactile.recording_meta import count_rows, document, previous_sessions
 from tactile_protocol import constants as C
 
 FRAME_COLUMNS = (
-    "seq,timestamp_us,type,sensor,phase,contact_id,flags,fx_N,fy_N,fz_N,tx_Nm,ty_Nm,tz_Nm"
+    "seq,timestamp_us,host_monotonic_s,host_utc_s,type,sensor,phase,contact_id,flags,"
+    "fx_N,fy_N,fz_N,tx_Nm,ty_Nm,tz_Nm"
 )
+REWRITE_ROWS = 65536  # rows per chunk when the host times are rewritten
 CAPTURE, FRAMES, DEVICE, META = "capture.bin", "frames.csv", "device.jsonl", "meta.json"
 
 
-def _frame_row(m):
-    """Forces in N, torques in N*m: 1 uN / 1 uN*m counts, so six decimals are exact."""
+def _host_cells(host):
+    """``host_monotonic_s,host_utc_s`` to the microsecond, or empty cells when unknown."""
+    return ",".join("" if v is None else f"{v:.6f}" for v in host) if host else ","
+
+
+def _frame_row(m, host=None):
+    """Forces in N, torques in N*m: 1 uN / 1 uN*m counts, so six decimals are exact;
+    ``host`` = (monotonic s, UTC s) of the frame's stamp, or None."""
     phase, cid = ("", "") if m.type_code == C.MSG_SAMPLE else (m.phase, m.contact_id)
     w = ",".join(f"{v / 1e6:.6f}" for v in (m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
-    return f"{m.seq},{m.timestamp_us},{m.type_name},{m.sensor},{phase},{cid},{m.flags},{w}\n"
+    return (
+        f"{m.seq},{m.timestamp_us},{_host_cells(host)},{m.type_name},{m.sensor},{phase},{cid},"
+        f"{m.flags},{w}\n"
+    )
 
 
 class Recording:
@@ -51,6 +68,7 @@ class Recording:
         self.rows_offset = count_rows(self.dir / FRAMES)
         self.previous = []  # the sessions already in the directory (--append)
         if self.capture_offset or self.rows_offset:
+            _check_columns(self.dir / FRAMES)
             self.previous = previous_sessions(
                 self.dir / META, self.capture_offset, self.rows_offset
             )
@@ -64,6 +82,9 @@ class Recording:
             raise InputError(f"{outdir}: cannot write the recording: {exc.strerror}") from None
         if new:
             self._frames.write(FRAME_COLUMNS + "\n")
+            self._frames.flush()
+        self.frames_offset = (self.dir / FRAMES).stat().st_size  # where this session's rows go
+        self.rows = 0  # rows written by this session
         self.bytes = 0
 
     def raw(self, data):
@@ -72,20 +93,46 @@ class Recording:
         self._capture.flush()
         self.bytes += len(data)
 
-    def messages(self, msgs):
-        """Append decoded frames to frames.csv / device.jsonl and flush."""
+    def messages(self, msgs, host=None):
+        """Append decoded frames to frames.csv / device.jsonl and flush; ``host`` (one per
+        message: (monotonic s, UTC s) or None) fills the host-time columns."""
         rows, other = [], []
-        for m in msgs:
+        for k, m in enumerate(msgs):
             if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
-                rows.append(_frame_row(m))
+                rows.append(_frame_row(m, None if host is None else host[k]))
             elif m.type_code != C.MSG_ACK:
                 other.append(dumps(m.to_dict()) + "\n")
         if rows:
             self._frames.write("".join(rows))
             self._frames.flush()
+            self.rows += len(rows)
         if other:
             self._device.write("".join(other))
             self._device.flush()
+
+    def rewrite_host(self, host_of):
+        """Rewrite the host-time cells of this session's rows with ``host_of(rows,
+        timestamps_us)`` -> (monotonic s, UTC s) arrays (row numbers count from this
+        session's first; a NaN leaves its cell empty).  The copy replaces frames.csv
+        atomically, so a crash leaves the rows as they were."""
+        path = self.dir / FRAMES
+        tmp = path.with_suffix(".csv.tmp")
+        self._frames.close()
+        try:
+            with open(path, "rb") as src, open(tmp, "wb") as dst:
+                _copy_bytes(src, dst, self.frames_offset)
+                row = 0
+                while lines := list(itertools.islice(src, REWRITE_ROWS)):
+                    parts = [ln.split(b",", 4) for ln in lines]
+                    stamps = np.array([int(p[1]) for p in parts], dtype=np.int64)
+                    mono, utc = host_of(np.arange(row, row + len(parts)), stamps)
+                    dst.write(b"".join(_with_host(p, a, b) for p, a, b in zip(parts, mono, utc)))
+                    row += len(parts)
+                dst.flush()
+                os.fsync(dst.fileno())
+            os.replace(tmp, path)
+        finally:
+            self._frames = open(path, "a", encoding="utf-8")
 
     def write_meta(self, session):
         """Replace meta.json (the sessions before this one, then ``session``) atomically:
@@ -102,6 +149,37 @@ class Recording:
     def close(self):
         for fh in (self._capture, self._frames, self._device):
             fh.close()
+
+
+def _copy_bytes(src, dst, n):
+    while n > 0:
+        chunk = src.read(min(n, 1 << 20))
+        if not chunk:
+            return
+        dst.write(chunk)
+        n -= len(chunk)
+
+
+def _cell(v):
+    return b"" if v != v else b"%.6f" % v
+
+
+def _with_host(parts, mono, utc):
+    return b"%s,%s,%s,%s,%s" % (parts[0], parts[1], _cell(mono), _cell(utc), parts[4])
+
+
+def _check_columns(path):
+    """Rows are appended only under the header they match."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            header = fh.readline().strip()
+    except FileNotFoundError:
+        return
+    if header and header != FRAME_COLUMNS:
+        raise InputError(
+            f"{path}: cannot append: its columns are an older tactile's ({header[:40]}...);"
+            " record into a new directory"
+        )
 
 
 def remove_recording(outdir):

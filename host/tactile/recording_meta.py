@@ -7,7 +7,13 @@ The document keeps the keys one session always had, so a reader needs no second 
   ``device_time_s``, every ``decoder`` counter) are totals over the sessions, and ``gaps``
   lists every session's gaps in order: ``bytes`` is the size of ``capture.bin`` and
   ``samples`` the number of rows in ``frames.csv``;
-- the rest (``command``, ``port``, ``device``, ``ended``, ...) is the latest session's;
+- the rest (``command``, ``port``, ``device``, ``ended``, ``time_base``, ...) is the latest
+  session's;
+- ``time_base`` (``tactile.timebase``): the board -> host clock mapping, one entry per
+  segment of the board's clock (a boot), each with the frames.csv rows it covers
+  (``first_row``, ``rows``), the mapping ``host_*_ref_s + (board_us - board_ref_us) * 1e-6 *
+  (1 + drift_ppm * 1e-6)`` and its quality (``fit_floor_ms``, ``arrival_delay_*_ms``);
+  ``usable`` false when it is not a clock's (an emulator in fast mode);
 - ``sessions`` holds each run's own entry, with ``capture_offset`` and ``rows_offset``:
   where its bytes in ``capture.bin`` and its rows in ``frames.csv`` begin.
 
@@ -32,7 +38,16 @@ SUMMED = (
     "elapsed_s",
     "device_time_s",
 )
-LATEST = ("tactile_version", "protocol_version", "port", "command", "ended", "tared")
+LATEST = (
+    "tactile_version",
+    "protocol_version",
+    "port",
+    "command",
+    "ended",
+    "tared",
+    "stops_at",
+    "time_base",
+)
 
 
 def count_rows(path, header=True):

@@ -70,10 +70,14 @@ def open_port(port, timeout=READ_TIMEOUT_S):
 
     from tactile.errors import InputError, PortError
 
-    if port.startswith("sim://"):
-        from tactile_sim.urlhandler import register
-
-        register()
+    if (
+        port.startswith("sim://")
+        and "tactile_sim.urlhandler" not in serial.protocol_handler_packages
+    ):
+        raise InputError(
+            f"{port}: sim:// ports are served by the simulator: run through the tactile CLI, or"
+            " call tactile_sim.urlhandler.register() first"
+        )
     try:
         if "://" in port:
             return serial.serial_for_url(port, baudrate=BAUDRATE, timeout=timeout)

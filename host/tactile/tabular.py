@@ -201,8 +201,8 @@ def comment_lines(path):
 
 
 def _open(path, max_bytes=None):
-    """A binary handle on a regular file within ``max_bytes`` (``MAX_FILE_BYTES``), or
-    ``InputError``.
+    """A binary handle on a regular file within ``max_bytes`` (default ``MAX_FILE_BYTES``),
+    or ``InputError``.
 
     Opened non-blocking, so a FIFO is refused instead of waiting for a writer."""
     try:
@@ -222,39 +222,71 @@ def _open(path, max_bytes=None):
 
 
 def _too_big(path, max_bytes):
-    return f"{path}: larger than {max_bytes // 2**20:,} MiB (the limit for one file; split it)"
+    return f"{path}: larger than {_size(max_bytes)} (the limit for one file; split it)"
+
+
+def _size(n_bytes):
+    return f"{n_bytes // 2**30} GiB" if n_bytes >= 2**30 else f"{n_bytes // 2**20} MiB"
 
 
 def _text_lines(path, max_bytes=None):
     """Yield (line number, text with its line ending) of every physical line, decoded.
 
-    At most ``MAX_LINE_BYTES`` per line and ``max_bytes`` (``MAX_FILE_BYTES``) in all are
-    ever held or read.
+    At most ``MAX_LINE_BYTES`` per line and ``max_bytes`` in all are ever held or read.
     """
+    for first, block in _line_blocks(path, max_bytes):
+        for line_no, raw in enumerate(block.splitlines(keepends=True), first):
+            yield line_no, _line_text(path, line_no, raw)
+
+
+def _line_blocks(path, max_bytes=None, size=_CHUNK):
+    """Yield (number of its first line, bytes) of runs of whole lines, in file order: each
+    run ends at a line break (LF, CR LF or CR) or at the end of the file.
+
+    About ``size`` bytes a run; a line longer than ``MAX_LINE_BYTES`` is refused at its
+    line number before more of it is read."""
     max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
     with _open(path, max_bytes) as fh:
         carry, line_no, total = b"", 0, 0
         while True:
-            chunk = fh.read(_CHUNK)
+            if len(carry) > MAX_LINE_BYTES + 1:
+                raise InputError(_too_long(path, line_no + 1))
+            chunk = fh.read(size)
             total += len(chunk)
             if total > max_bytes:
                 raise InputError(_too_big(path, max_bytes))
             if total == len(chunk) and chunk.startswith((b"\xff\xfe", b"\xfe\xff")):
                 raise InputError(f"{where(path, 1)}: UTF-16 text; save it as 'CSV UTF-8'")
-            parts = (carry + chunk).splitlines(keepends=True)  # LF, CR LF or CR
-            # the last piece may be incomplete, or a CR whose LF is in the next chunk
-            carry = parts.pop() if chunk and parts else b""
-            for raw in parts:
-                line_no += 1
-                if len(raw) > MAX_LINE_BYTES and len(raw.rstrip(b"\r\n")) > MAX_LINE_BYTES:
-                    raise InputError(_too_long(path, line_no))
-                if line_no == 1 and raw.startswith(_BOM):
-                    raw = raw[len(_BOM) :]
-                yield line_no, _decode(path, line_no, raw)
-            if len(carry) > MAX_LINE_BYTES + 1:
-                raise InputError(_too_long(path, line_no + 1))
+            data = carry + chunk
+            # a CR at the very end may be the first half of a CR LF: it waits for the chunk
+            cut = (
+                max(data.rfind(b"\n"), data.rfind(b"\r", 0, len(data) - 1)) + 1
+                if chunk
+                else len(data)
+            )
+            block, carry = data[:cut], data[cut:]
+            if block:
+                yield line_no + 1, block
+                line_no += count_lines(block)
             if not chunk:
                 return
+
+
+def count_lines(block):
+    """Lines in ``block`` as ``bytes.splitlines`` counts them (LF, CR LF or CR)."""
+    n = block.count(b"\n")
+    if b"\r" in block:
+        n += block.count(b"\r") - block.count(b"\r\n")
+    return n + (not block.endswith((b"\n", b"\r")))
+
+
+def _line_text(path, line_no, raw):
+    """One physical line decoded (the BOM dropped from line 1), or ``InputError``."""
+    if len(raw) > MAX_LINE_BYTES and len(raw.rstrip(b"\r\n")) > MAX_LINE_BYTES:
+        raise InputError(_too_long(path, line_no))
+    if line_no == 1 and raw.startswith(_BOM):
+        raw = raw[len(_BOM) :]
+    return _decode(path, line_no, raw)
 
 
 def _too_long(path, line_no):

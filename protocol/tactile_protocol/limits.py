@@ -36,7 +36,7 @@ from tactile_protocol.constants import (
     FAULT_TX_DROPPED,
     MAX_SENSORS,
     MAX_TARE_SAMPLES,
-    NAK_STORAGE,
+    NAK_LOADED,
     NAK_UNKNOWN_COMMAND,
     PHASE_BEGIN,
     PHASE_END,
@@ -89,7 +89,7 @@ LIMITS = {
     "CONTACT": (("sensor", SENSOR, False, 0), ("phase", RANGE, PHASE_BEGIN, PHASE_END)),
     "STATUS": (("faults", BITS, FAULT_BITS, 0), ("sensor", SENSOR, True, 0)),
     "ACK": (("cmd_type", RANGE, HOST_TYPES[0], HOST_TYPES[1]),),
-    "NAK": (("reason", RANGE, NAK_UNKNOWN_COMMAND, NAK_STORAGE),),
+    "NAK": (("reason", RANGE, NAK_UNKNOWN_COMMAND, NAK_LOADED),),
     "CONFIG": _CONFIG + (("flags", BITS, CFG_WRITABLE, 0),),
     "TARE": (("sensor", SENSOR, True, 0), ("n_samples", RANGE, 0, MAX_TARE_SAMPLES)),
     "SET_CAL": (("sensor", SENSOR, False, 0),)

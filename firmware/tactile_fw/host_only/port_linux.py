@@ -103,14 +103,23 @@ def main(argv=None):
     p.add_argument("--bus-hz", type=int, default=1000000)
     p.add_argument("--storage", default=".", help="directory for settings and calibration")
     a = p.parse_args(argv)
-    buses = [SMBusI2C(n) for n in (a.i2c or [1])]
+    try:
+        buses = [SMBusI2C(n) for n in (a.i2c or [1])]
+        link = TtyLink(a.tty)
+    except OSError as exc:  # no /dev/i2c-N (i2c-dev not loaded, wrong bus), no tty, no access
+        where = exc.filename or a.tty
+        p.exit(
+            4,
+            f"{p.prog}: error: {where}: {exc.strerror} (is the i2c-dev module loaded?"
+            " is the bus number right? may this user open it?)\n",
+        )
     sensors = [
         make_sensor(buses[i % len(buses)], i // len(buses), i % len(buses), a.bus_hz)
         for i in range(a.sensors)
     ]
     clock = MonotonicClock()
     boot_id = boot_id_from(os.urandom(8))
-    board = Board(sensors, TtyLink(a.tty), clock, DirStorage(a.storage), boot_id=boot_id)
+    board = Board(sensors, link, clock, DirStorage(a.storage), boot_id=boot_id)
     board.boot()
     board.run(sleep_us=clock.sleep_us)
 

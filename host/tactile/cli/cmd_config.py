@@ -3,9 +3,8 @@ the board's current values.  ``--persist`` also stores them on the board (used a
 
 import argparse
 
+from tactile.board_settings import GATES, STREAMS
 from tactile.cli.board_args import add_port_argument, connect
-
-STREAMS = ("samples", "contacts")
 
 
 def add_arguments(parser):
@@ -14,8 +13,8 @@ def add_arguments(parser):
     parser.add_argument("--enter", type=float, help="gate enter threshold, N (thesis: 1.39 N)")
     parser.add_argument("--exit", type=float, help="gate exit threshold, N (<= --enter)")
     parser.add_argument("--debounce", type=int, help="consecutive readings to enter/leave contact")
-    parser.add_argument("--gate", choices=("xy", "3d"), help="gate on |F| in x-y (§5.1) or 3-D")
-    parser.add_argument("--streams", help="comma list of: samples, contacts ('' for none)")
+    parser.add_argument("--gate", choices=tuple(GATES), help="gate on |F| in x-y (§5.1) or 3-D")
+    parser.add_argument("--streams", help=f"comma list of: {', '.join(STREAMS)} ('' for none)")
     parser.add_argument(
         "--autostart", action=argparse.BooleanOptionalAction, help="stream from boot"
     )
@@ -30,7 +29,9 @@ def run(args):
     client = connect(args)
     try:
         cur = client.get_info()
-        client.configure(*_values(args, cur, flags_from))
+        values = _values(args, cur, flags_from)
+        _check(values, cur.max_rate_hz)
+        client.configure(*values)
         info = info_dict(client.get_info())
     finally:
         client.close()
@@ -39,27 +40,38 @@ def run(args):
 
 
 def _streams(text):
+    from tactile.board_settings import stream_flags
     from tactile.errors import InputError
 
     if text is None:
         return None
     names = [s.strip() for s in text.split(",") if s.strip()]
-    bad = [n for n in names if n not in STREAMS]
-    if bad:
-        raise InputError(f"--streams: unknown stream {bad[0]!r} (samples, contacts)")
+    try:
+        stream_flags(names)
+    except ValueError as exc:
+        raise InputError(f"--streams: {exc}") from None
     return names
 
 
+def _check(values, max_rate_hz):
+    """Refuse, before anything is sent, a value the board would NAK: one line with its range."""
+    from tactile.board_settings import problem
+    from tactile.errors import InputError
+
+    why = problem(*values[:4], max_rate_hz)
+    if why is not None:
+        raise InputError(why)
+
+
 def _values(args, cur, streams):
+    from tactile.board_settings import GATES, STREAMS, stream_flags, to_newtons
     from tactile_protocol import constants as C
 
     flags = cur.flags & (C.CFG_WRITABLE & ~C.CFG_PERSIST)
     if streams is not None:
-        flags &= ~(C.CFG_STREAM_SAMPLES | C.CFG_STREAM_CONTACTS)
-        flags |= C.CFG_STREAM_SAMPLES if "samples" in streams else 0
-        flags |= C.CFG_STREAM_CONTACTS if "contacts" in streams else 0
+        flags = flags & ~sum(STREAMS.values()) | stream_flags(streams)
     if args.gate is not None:
-        flags = flags | C.CFG_GATE_3D if args.gate == "3d" else flags & ~C.CFG_GATE_3D
+        flags = flags & ~sum(GATES.values()) | GATES[args.gate]
     if args.autostart is not None:
         flags = flags | C.CFG_AUTOSTART if args.autostart else flags & ~C.CFG_AUTOSTART
     if args.persist:
@@ -67,8 +79,8 @@ def _values(args, cur, streams):
     pick = lambda new, old: old if new is None else new  # noqa: E731
     return (
         pick(args.rate, cur.rate_hz),
-        pick(args.enter, cur.enter_threshold * C.FORCE_LSB_N),
-        pick(args.exit, cur.exit_threshold * C.FORCE_LSB_N),
+        pick(args.enter, to_newtons(cur.enter_threshold)),
+        pick(args.exit, to_newtons(cur.exit_threshold)),
         pick(args.debounce, cur.debounce),
         flags,
     )

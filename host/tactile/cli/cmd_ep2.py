@@ -53,7 +53,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.ep2.contacts_csv import read_contacts
     from tactile.ep2.many import MAX_JOBS, outcomes
     from tactile.errors import DataError, InputError
 
@@ -63,7 +62,7 @@ def run(args):
         raise InputError(f"--segments must be at least 1 (got {args.segments})")
     if not 1 <= args.jobs <= MAX_JOBS:
         raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
-    groups = read_contacts(args.file)
+    groups = _checked(args.file)  # read again, patch by patch, as they are analysed
     if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
         raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
     opts = dict(
@@ -78,12 +77,12 @@ def run(args):
         max_normal_angle=args.max_normal_angle,
         break_angle=args.break_angle,
     )
-    names = [patch_id(g.patch) for g in groups]
+    named = ((g, patch_id(g.patch)) for g in groups)
     out = _Printer(args.json)
     failed = []
     bar = _progress(len(groups))
     try:
-        for done in outcomes(groups, names, opts, split=args.split, jobs=args.jobs):
+        for done in outcomes(named, opts, split=args.split, jobs=args.jobs):
             if done.input_error is not None:
                 raise InputError(f"{args.file}: patch {done.name}: {done.input_error}")
             if done.data_error is not None:
@@ -109,20 +108,44 @@ def run(args):
 
 
 PROGRESS_FROM = 2000  # patches: a bar on stderr (a terminal only) for files larger than this
+CHECK_BAR_FROM = 64 * 2**20  # bytes: a bar for the checking pass of a file larger than this
+
+
+def _checked(path):
+    """``ContactsFile(path)``: the whole file checked, with a bar for a large one."""
+    import os
+
+    from tactile.ep2.contacts_csv import ContactsFile
+
+    try:
+        size = os.path.getsize(path)
+    except OSError:
+        size = 0  # ContactsFile says why
+    bar = _bar(size, CHECK_BAR_FROM, unit="B", unit_scale=True, desc="ep2 check")
+    if bar is None:
+        return ContactsFile(path)
+    try:
+        return ContactsFile(path, progress=lambda done: bar.update(done - bar.n))
+    finally:
+        bar.close()
 
 
 def _progress(n_patches):
     """A tqdm bar on stderr for a long file when stderr is a terminal; None otherwise (no
     tqdm installed, output piped or captured, few patches)."""
+    return _bar(n_patches, PROGRESS_FROM, unit="patch", desc="ep2 analyze")
+
+
+def _bar(total, start_above, **kw):
     import sys
 
-    if n_patches <= PROGRESS_FROM or not sys.stderr.isatty():
+    if total <= start_above or not sys.stderr.isatty():
         return None
     try:
         from tqdm import tqdm
     except ImportError:
         return None
-    return tqdm(total=n_patches, unit="patch", desc="ep2 analyze", file=sys.stderr)
+    return tqdm(total=total, file=sys.stderr, **kw)
 
 
 class _Printer:

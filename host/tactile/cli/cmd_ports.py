@@ -19,9 +19,14 @@ def run(args):
             file=sys.stderr,
         )
         return 1
+    if not args.json:
+        print(f"{'device':<20} {'description':<32} hardware id")
     for device, description, hwid in rows:
+        usb = "VID:PID" in (hwid or "")
         if args.json:
-            print(dumps({"device": device, "description": description, "hwid": hwid}))
+            rec = {"device": device, "description": description, "hwid": hwid, "usb": usb}
+            print(dumps(rec))
         else:
-            print(f"{device:<20} {description}  [{hwid}]")
+            note = "" if usb else "  (no USB id: unlikely to be a board)"
+            print(f"{device:<20} {description:<32} {hwid}{note}")
     return 0

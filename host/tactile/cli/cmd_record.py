@@ -4,6 +4,9 @@ Writes DIR/capture.bin, frames.csv, device.jsonl and meta.json as data arrive
 (see ``tactile.recording``); with ``--pose-log`` it then derives the contact
 points for EP2 (DIR/contacts.csv) or the rolling probes for EP1
 (DIR/probes.csv), ready for ``tactile ep2 analyze`` / ``tactile ep1 estimate``.
+With a pose log it stops on its own once the log's end has passed (its ``# end:`` line,
+or half a second after its last entry), and says so while it waits.  The summary names the
+board -> host time base (``tactile.timebase``); ``warning:`` lines go to stderr.
 """
 
 import sys
@@ -20,7 +23,9 @@ def add_arguments(parser):
     parser.add_argument("--append", action="store_true", help="add to a recording in --out")
     parser.add_argument("--no-tare", action="store_true", help="do not bias the sensor first")
     parser.add_argument(
-        "--pose-log", help="robot pose log (CSV) to derive contacts.csv or probes.csv"
+        "--pose-log",
+        help="robot pose log (CSV) to derive contacts.csv or probes.csv; the run stops once"
+        " the log's end has passed",
     )
     parser.add_argument(
         "--per-contact",
@@ -45,10 +50,14 @@ def run(args):
         from tactile.cli.board_args import connect
 
         connect(args)  # raises the 'no port given' message
+    until = None
     if args.pose_log:
         from tactile.derive import check_log
+        from tactile.log_clock import log_end
 
-        check_log(args.pose_log)  # a bad log is refused before recording, not after
+        log = check_log(args.pose_log)  # a bad log is refused before recording, not after
+        end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
+        until = (log.clock, end, how)
     session = Session(
         args.port,
         args.out,
@@ -59,7 +68,16 @@ def run(args):
         handshake_s=args.wait,
         append=args.append,
         argv=sys.argv,
+        until=until,
     )
+    if until is not None and not args.quiet:
+        from tactile.log_clock import show_time
+
+        print(
+            f"record: stops when the pose log is done ({show_time(until[0], until[1])}:"
+            f" {until[2]}), or on Ctrl-C",
+            file=sys.stderr,
+        )
     progress = None if args.quiet else Progress(args.duration, args.contacts)
     if progress:
         session.on_progress = progress.update
@@ -69,12 +87,29 @@ def run(args):
         if progress:
             progress.close()
     print(summary(meta, args.out))
+    print(time_summary(meta.get("time_base")))
     if args.pose_log:
         from tactile.derive import derive
 
         for line in derive(args.out, args.pose_log, per_contact=args.per_contact):
-            print(line)
+            print(line, file=sys.stderr if line.startswith("warning:") else sys.stdout)
     return 0
+
+
+def time_summary(time_base):
+    """One line: the board -> host mapping of the latest segment and its quality."""
+    segs = (time_base or {}).get("segments") or []
+    if not segs:
+        return "time base: none (no frame arrived)"
+    s = segs[-1]
+    more = f" (segment {len(segs)} of {len(segs)}, one per boot)" if len(segs) > 1 else ""
+    if not s.get("usable"):
+        return f"time base: not usable{more}: {s.get('why', 'no fit')}"
+    return (
+        f"time base{more}: board clock drift {s['drift_ppm']:+.1f} ppm, {s['bins']} bins;"
+        f" arrival delay mean {s['arrival_delay_mean_ms']:.2f} ms, max"
+        f" {s['arrival_delay_max_ms']:.2f} ms; fit floor {s['fit_floor_ms']:.3f} ms"
+    )
 
 
 def summary(meta, out):
@@ -130,6 +165,9 @@ class Progress:
             "bad": c.damaged,
             "gaps": len(session.gaps),
         }
+        waiting = session.waiting_for()
+        if waiting:
+            info["until"] = waiting
         if self.plain:
             print(" ".join(f"{k}={v}" for k, v in info.items()), file=sys.stderr)
             return

@@ -46,6 +46,29 @@ def _top_parser():
     return parser
 
 
+class _Help(argparse.HelpFormatter):
+    """Help that shows each option's default, where it has one worth showing."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        default = action.default
+        shown = default not in (None, False, argparse.SUPPRESS) and "%(default)" not in text
+        if shown and action.option_strings and not isinstance(default, bool | list):
+            said = {str(default)} | ({f"{default:g}"} if isinstance(default, float) else set())
+            if not any(f"({v}" in text or f"default {v}" in text for v in said):
+                text += " (default: %(default)s)"
+        return text
+
+
+def _logging(verbose):
+    """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr."""
+    import logging
+
+    level = {0: logging.WARNING, 1: logging.INFO}.get(verbose, logging.DEBUG)
+    fmt = "tactile %(name)s: %(message)s"
+    logging.basicConfig(level=level, format=fmt, stream=sys.stderr, force=True)
+
+
 def _load(name):
     module_name, help_ = COMMANDS[name]
     try:
@@ -56,8 +79,20 @@ def _load(name):
         raise
 
 
+def _simulator_ports(argv):
+    """The application layer serves sim:// ports: the library below never imports the
+    simulator (``tests/test_layers.py``)."""
+    import os
+
+    if any("sim://" in a for a in argv) or "sim://" in os.environ.get("TACTILE_PORT", ""):
+        from tactile_sim.urlhandler import register
+
+        register()
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
+    _simulator_ports(argv)
     top = _top_parser()
     if not argv or argv[0].startswith("-"):
         top.parse_args(argv or ["--help"])
@@ -66,9 +101,16 @@ def main(argv=None):
     name = argv[0]
     try:
         module, help_ = _load(name)
-        parser = argparse.ArgumentParser(prog=f"tactile {name}", description=help_)
+        parser = argparse.ArgumentParser(
+            prog=f"tactile {name}", description=help_, formatter_class=_Help
+        )
         module.add_arguments(parser)
+        parser.add_argument(
+            "-v", "--verbose", action="count", default=0, help="log progress (-vv: each frame)"
+        )
         args = parser.parse_args(argv[1:])
+        if args.verbose:
+            _logging(args.verbose)
         return int(module.run(args) or 0)
     except TactileError as exc:
         print(f"tactile {name}: error: {exc}", file=sys.stderr)

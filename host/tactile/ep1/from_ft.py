@@ -14,6 +14,10 @@ The probe log (written by the robot controller; ``tactile_sim``'s ``motion_roll`
     probe,t_start_us,t_end_us,dtheta_x,dtheta_y
     0,800000,1300000,0.5,0.0
 
+The times may be in the host's clocks instead (``t_start_utc_s,t_end_utc_s`` or
+``t_start_mono_s,t_end_mono_s``), and ``# end: t_us=N`` says when the robot is done
+(``tactile.log_clock``).
+
 Frames: the fingertip frame has the sensor's axes, its centre at ``centre_m`` in the sensor
 frame and its pole (u = v = 0 of eq. 20) along the sensor's +x.
 """
@@ -30,6 +34,7 @@ __all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "
 LOG_COLUMNS = ("probe", "t_start_us", "t_end_us", "dtheta_x", "dtheta_y")
 PROBE_TAG = "# probe:"
 HOLD_TAG = "# hold:"
+END_TAG = "# end:"
 MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_PROBE = 2**31 - 1
 LIMIT = 1e6  # |value| of a length (m) or an angle (rad)
@@ -48,6 +53,8 @@ class ProbeLog(NamedTuple):
     centre_m: np.ndarray  # (3,) fingertip centre in the sensor frame
     half_width_us: float | None  # readable time on each side of a logged time, if logged
     lines: list  # source line of each row
+    clock: str = "board"  # of t_start_us/t_end_us: "board", "utc" or "monotonic" (us each)
+    end_us: int | None = None  # the '# end:' line's time, in that clock
 
 
 def _fields(path, line_no, tokens, tag):
@@ -110,16 +117,16 @@ def _header(path):
 def read_probe_log(path):
     """Read a probe log (module docstring); errors are one-line InputErrors naming
     file:line and column."""
-    from tactile.tabular import read_csv
+    from tactile.log_clock import CLOCKS, clock_of, parse_end, read_times
+    from tactile.tabular import preamble, read_csv
 
     radius, centre, half = _header(path)
-    table = read_csv(path, LOG_COLUMNS)
+    _, header_line, header = preamble(path)
+    clock = clock_of(path, header_line, {h.strip() for h in header}) or "board"
+    table = read_csv(path, (LOG_COLUMNS[0],) + CLOCKS[clock][:2] + LOG_COLUMNS[3:])
     probe = table.whole("probe", 0, MAX_PROBE)
-    t_start, t_end = (table.whole(c, 0, MAX_TIME_US) for c in ("t_start_us", "t_end_us"))
-    late = t_end < t_start
-    if late.any():
-        line = table.lines[int(np.argmax(late))]
-        raise InputError(f"{where(path, line, 't_end_us')}: before t_start_us")
+    t_start, t_end = read_times(table, clock)
+    end = next(((i, t) for i, t in comment_lines(path) if t.startswith(END_TAG)), None)
     return ProbeLog(
         str(path),
         probe,
@@ -130,6 +137,8 @@ def read_probe_log(path):
         centre,
         half,
         list(table.lines),
+        clock,
+        None if end is None else parse_end(path, end[0], end[1][len(END_TAG) :], clock),
     )
 
 

@@ -1,19 +1,23 @@
 """Many patches in order, one result at a time: the engine behind ``tactile ep2 analyze``.
 
-``outcomes(groups, opts, split, jobs)`` yields one ``Outcome`` per patch, in the order of
-``groups``, as soon as that patch (and every patch before it) is done, so a caller can
-print while the rest is computed.  With ``jobs > 1`` chunks of patches go to that many
-worker processes; at most a few chunks per worker are in flight, so memory does not grow
-with the file, and the outcomes are the same objects in the same order as with one job.
+``outcomes(named, opts, split, jobs)`` takes an iterable of (``Contacts``, name) pairs
+(read lazily: ``contacts_csv.ContactsFile`` yields patches as the file is read) and yields
+one ``Outcome`` per patch, in input order, as soon as its chunk (and every chunk before
+it) is done.
 
-Each patch is still analysed by ``analyze_sweep`` one at a time (the batched estimator of
-issue 13 is not written yet): processes divide the wall time, they do not remove the
-per-patch cost.
+Patches go in chunks of ``CHUNK`` consecutive patches, each chunk fitted together by
+``analyze_patches`` (issue 13).  The chunks are the same whatever ``jobs`` is, so the output
+is too: with ``jobs > 1`` chunks go to that many worker processes, at most a few chunks per
+worker in flight, so memory does not grow with the file.  With ``split``, a patch whose
+normals break (§6.2.5) is cut and analysed part by part (``analyze_sweep``); the others of
+its chunk are still fitted together.
 """
 
 from collections import deque
 from dataclasses import dataclass
+from itertools import islice
 
+from tactile.ep2.batch import CHUNK
 from tactile.errors import DataError, InputError
 
 MAX_JOBS = 256
@@ -34,25 +38,66 @@ class Outcome:
 
 
 def analyze_one(group, name, opts, split):
-    """``Outcome`` of one ``Contacts`` group labelled ``name``."""
+    """``Outcome`` of one ``Contacts`` group labelled ``name``, by ``analyze_sweep``."""
     from tactile.ep2.api import analyze_sweep
 
-    n = len(group.points)
     try:
         results = analyze_sweep(
             group.points, group.normals, finger=group.finger, split=split, lines=group.lines, **opts
         )
-    except InputError as exc:  # a split part EP2 cannot represent (``ep2.extent``)
-        return Outcome(name, n, [], input_error=str(exc))
-    except DataError as exc:
-        return Outcome(name, n, [], data_error=str(exc))
+    except (DataError, InputError) as exc:
+        return _outcome(name, len(group.points), exc)
+    return _outcome(name, len(group.points), results)
+
+
+def _outcome(name, n, results):
+    """``Outcome`` from a list of results (split parts) or the exception that refused it."""
+    if isinstance(results, InputError):  # e.g. a split part EP2 cannot represent (``extent``)
+        return Outcome(name, n, [], input_error=str(results))
+    if isinstance(results, DataError):
+        return Outcome(name, n, [], data_error=str(results))
     if len(results) == 1:
         return Outcome(name, n, [results[0].to_dict(name)])
     return Outcome(name, n, [r.to_dict(f"{name}#{i + 1}") for i, r in enumerate(results)])
 
 
-def _chunk(work, opts, split):
-    return [analyze_one(g, name, opts, split) for g, name in work]
+def analyze_chunk(work, opts, split):
+    """[``Outcome``] of ``work``, a list of (``Contacts``, name): one ``analyze_patches``
+    call for every patch that is not split."""
+    from tactile.ep2.batch import analyze_patches
+
+    out = [None] * len(work)
+    batch = []
+    for i, (g, name) in enumerate(work):
+        if split and _breaks(g, opts):
+            out[i] = analyze_one(g, name, opts, split)
+        else:
+            batch.append(i)
+    patches = [
+        {"points": g.points, "normals": g.normals, "finger": g.finger, "lines": g.lines}
+        for g, _ in (work[i] for i in batch)
+    ]
+    results = analyze_patches(patches, chunk=max(1, len(patches)), **opts)
+    for i, res in zip(batch, results, strict=True):
+        g, name = work[i]
+        out[i] = _outcome(name, len(g.points), res if isinstance(res, Exception) else [res])
+    return out
+
+
+def _breaks(group, opts):
+    """True when ``analyze_sweep`` would cut this patch (its normals break, §6.2.5)."""
+    import numpy as np
+
+    from tactile.ep2 import discontinuity, patch_frame
+
+    if group.finger is None:
+        return False
+    try:
+        nrm = patch_frame.unit_normals(np.asarray(group.normals, float))
+        angle = opts.get("break_angle", discontinuity.BREAK_ANGLE_DEG)
+        return bool(discontinuity.find_breaks(nrm, group.finger, angle))
+    except (DataError, InputError):
+        return True  # ``analyze_one`` gives the refusal as ``analyze_sweep`` does
 
 
 def _quiet_worker():
@@ -62,27 +107,26 @@ def _quiet_worker():
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def chunk_size(n_patches, jobs):
-    """Patches per chunk: small enough that every worker gets several chunks (even load,
-    early first output), large enough that pickling a chunk costs little beside its fits."""
-    return max(1, min(64, n_patches // (jobs * 8)))
+def chunks(named):
+    """Lists of (group, name), ``CHUNK`` consecutive patches each (the last may be short)."""
+    named = iter(named)
+    while work := list(islice(named, CHUNK)):
+        yield work
 
 
-def outcomes(groups, names, opts, split=False, jobs=1):
-    """Yield the ``Outcome`` of each group (labelled by ``names``) in input order."""
-    if jobs <= 1 or len(groups) < 2:
-        for g, name in zip(groups, names):
-            yield analyze_one(g, name, opts, split)
+def outcomes(named, opts, split=False, jobs=1):
+    """Yield the ``Outcome`` of each (``Contacts``, name) pair of ``named`` in input order."""
+    if jobs <= 1:
+        for work in chunks(named):
+            yield from analyze_chunk(work, opts, split)
         return
-    yield from _parallel(groups, names, opts, split, jobs)
+    yield from _parallel(chunks(named), opts, split, jobs)
 
 
-def _parallel(groups, names, opts, split, jobs):
+def _parallel(work, opts, split, jobs):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    size = chunk_size(len(groups), jobs)
-    starts = iter(range(0, len(groups), size))
     # fork where the platform has it: workers start at once and inherit the imports
     methods = multiprocessing.get_all_start_methods()
     ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
@@ -90,10 +134,9 @@ def _parallel(groups, names, opts, split, jobs):
         pending = deque()
 
         def submit():
-            start = next(starts, None)
-            if start is not None:
-                work = list(zip(groups[start : start + size], names[start : start + size]))
-                pending.append(pool.submit(_chunk, work, opts, split))
+            chunk = next(work, None)
+            if chunk is not None:
+                pending.append(pool.submit(analyze_chunk, chunk, opts, split))
 
         for _ in range(jobs * _IN_FLIGHT):
             submit()

@@ -13,6 +13,12 @@ the pose of that finger's sensor is held.  Two formats (CSV, ``#`` comment lines
   is the pass.  Placing its frames needs the link lengths, from a comment line
   ``# rig: scara L1=.. L2=.. L3=.. L4=..`` (m) or given to ``posed_world_contacts``.
 
+Times: ``t_start_us,t_end_us`` are the board's clock; a log stamped by the robot's own clock
+names it instead with ``t_start_utc_s,t_end_utc_s`` (UTC) or ``t_start_mono_s,t_end_mono_s``
+(the recording host's monotonic clock), joined through the recording's time base
+(``tactile.log_clock``).  ``# end: t_us=N`` (or ``t_utc_s=``, ``t_mono_s=``) says when the
+robot is done; ``tactile record`` stops there.
+
 ``posed_world_contacts`` takes the decoded CONTACT frames (time, sensor, wrench), finds the
 window of each frame's finger that covers it, localises the contact on the probe from force
 and moment (``sphere_contact``, valid with friction) and maps it to the world (``to_world``).
@@ -49,7 +55,6 @@ __all__ = [
 
 GENERIC = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
 SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
-MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_FINGER = 2**31 - 1  # a sensor index (generic log) or a pass number (SCARA log)
 LIMIT = 1e6  # |value| of a position (m), angle (rad), length (m) or sensor noise (N, N*m)
 MIN_RADIUS_M = 1e-6  # a fingertip's radius
@@ -81,6 +86,8 @@ class PoseLog:
     probe: dict | None = None
     lengths: tuple | None = None
     noise: np.ndarray | None = None
+    clock: str = "board"  # of t_start/t_end (us): "board", "utc" or "monotonic"
+    end_us: int | None = None  # the '# end:' line's time, in that clock
 
     def __len__(self):
         return len(self.t_start)
@@ -129,28 +136,30 @@ def read_pose_log(path):
 
     Every error is one ``InputError`` line naming file:line and the column.
     """
+    from tactile.log_clock import CLOCKS, clock_of, parse_end, read_times
     from tactile.tabular import read_csv
 
     tags, header_line, header = _scan(path)
     names = {h.strip() for h in header}
     shown = ",".join(show(h.strip(), 20, False) for h in header[:20])
-    if set(GENERIC) <= names:
-        kind, cols = "pose", GENERIC
-    elif set(SCARA) <= names:
-        kind, cols = "scara", SCARA
+    clock = clock_of(path, header_line, names)
+    if clock is not None and set(GENERIC[2:]) <= names:
+        kind, rest = "pose", GENERIC[2:]
+    elif clock is not None and set(SCARA[2:]) <= names:
+        kind, rest = "scara", SCARA[2:]
     else:
         raise InputError(
             f"{where(path, header_line)}: expected columns {','.join(GENERIC)} (or the SCARA"
-            f" log's {','.join(SCARA)}); header has: {shown}"
+            f" log's {','.join(SCARA)}; or t_start_utc_s,t_end_utc_s or t_start_mono_s,"
+            f"t_end_mono_s for the times); header has: {shown}"
         )
-    table = read_csv(path, cols)
+    table = read_csv(path, CLOCKS[clock][:2] + rest)
     lines = list(table.lines)
-    t_start, t_end = (table.whole(c, 0, MAX_TIME_US) for c in ("t_start_us", "t_end_us"))
+    t_start, t_end = read_times(table, clock)
     finger = table.whole("finger", 0, MAX_FINGER)
-    bad = np.flatnonzero(t_end < t_start)
-    if bad.size:
-        raise InputError(f"{where(path, lines[bad[0]], 't_end_us')}: ends before t_start_us")
-    log = PoseLog(str(path), kind, t_start, t_end, finger, lines)
+    log = PoseLog(str(path), kind, t_start, t_end, finger, lines, clock=clock)
+    if "end" in tags:
+        log.end_us = parse_end(path, *tags["end"], clock)
     _check_overlap(log)
     if kind == "pose":
         from tactile.localize.kinematics import pose_from_quaternion
@@ -182,7 +191,7 @@ def log_columns(path):
 
 
 def _scan(path):
-    """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor) before the
+    """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor, end) before the
     header, the header's line number and the header row."""
     from tactile.tabular import preamble
 
@@ -190,7 +199,7 @@ def _scan(path):
     tags = {}
     for no, s in comments:
         tag, colon, body = s[1:].partition(":")
-        if colon and tag.strip() in ("probe", "rig", "sensor"):
+        if colon and tag.strip() in ("probe", "rig", "sensor", "end"):
             tags[tag.strip()] = (no, body.strip())
     return tags, header_line, header
 
@@ -276,6 +285,12 @@ def _parse_rig(path, line, text):
     return lengths
 
 
+def _start_column(log):
+    from tactile.log_clock import CLOCKS
+
+    return CLOCKS[log.clock][0]
+
+
 def _check_overlap(log):
     """Two windows of one finger that overlap make a frame's pose ambiguous."""
     for f in np.unique(log.finger):
@@ -285,8 +300,8 @@ def _check_overlap(log):
         if clash.size:
             i, j = rows[clash[0]], rows[clash[0] + 1]
             raise InputError(
-                f"{where(log.path, log.lines[j], 't_start_us')}: window of finger {f} overlaps"
-                f" the one on line {log.lines[i]}"
+                f"{where(log.path, log.lines[j], _start_column(log))}: window of finger {f}"
+                f" overlaps the one on line {log.lines[i]}"
             )
 
 
@@ -365,7 +380,7 @@ def posed_world_contacts(
 ):
     """World contacts from CONTACT frames through a pose log.
 
-    ``t_us`` (n,) frame times (the board's microsecond clock, as the log), ``sensor`` (n,)
+    ``t_us`` (n,) frame times (whole microseconds in the log's clock), ``sensor`` (n,)
     board sensor index, ``wrench`` (n, 6) = (F, M) in N and N*m in that sensor's frame (the
     load on the probe, moment about the sensor origin).  Frames with |F| <= ``threshold``
     are not contacts.  Generic logs: the spherical fingertip of the log's ``# probe:`` line

@@ -46,11 +46,13 @@ class RigMotion:
         return rows
 
     def write_pose_log(self, path):
-        """The robot controller's log: joints per touch, the rig's lengths (m) in a comment."""
+        """The robot controller's log: joints per touch, the rig's lengths (m) and the scene's
+        end (board us, where ``tactile record`` stops) in comments."""
         with open(path, "w") as fh:
             if self.lengths is not None:
                 L = " ".join(f"L{i + 1}={v!r}" for i, v in enumerate(self.lengths))
                 fh.write(f"# rig: scara {L}\n")
+            fh.write(f"# end: t_us={round(self.duration_s * 1e6)}\n")  # the scene's end
             fh.write(",".join(POSE_COLUMNS) + "\n")
             for row in self.poses():
                 fh.write(",".join(repr(v) for v in row) + "\n")

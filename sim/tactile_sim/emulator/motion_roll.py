@@ -84,6 +84,7 @@ class RollMotion:
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(f"# probe: sphere radius_m={g['radius_m']!r} centre_m={cx!r},{cy!r},{cz!r}\n")
             fh.write(f"# hold: half_width_us={self.half_width_us()}\n")
+            fh.write(f"# end: t_us={round(self.duration_s * 1e6)}\n")  # the scene's end
             fh.write(",".join(LOG_COLUMNS) + "\n")
             for row in self.probe_log():
                 fh.write(",".join(repr(v) for v in row) + "\n")

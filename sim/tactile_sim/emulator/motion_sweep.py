@@ -170,8 +170,9 @@ class SweepMotion:
 
     def write_pose_log(self, path):
         """The robot's pose log (host/tactile/localize/pose_log.py reads it), with the
-        fingertip (``# probe:``) and the F/T sensor's noise (``# sensor:``, its datasheet
-        accuracy, §5.1.3), by which the host drops frames whose normal is noise."""
+        fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
+        accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
+        scene's end (``# end:``), where ``tactile record`` stops."""
         centre, radius, axis = self.probe()
         force, torque = (",".join(repr(float(v)) for v in part) for part in np.split(self.noise, 2))
         with open(path, "w", encoding="utf-8") as fh:
@@ -180,6 +181,7 @@ class SweepMotion:
                 f" axis={','.join(map(str, axis))}\n"
             )
             fh.write(f"# sensor: noise_force_N={force} noise_torque_Nm={torque}\n")
+            fh.write(f"# end: t_us={round(self.duration_s * 1e6)}\n")  # the scene's end
             fh.write(",".join(POSE_COLUMNS) + "\n")
             for row in self.poses():
                 fh.write(",".join(repr(v) for v in row) + "\n")

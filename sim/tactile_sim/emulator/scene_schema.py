@@ -195,7 +195,7 @@ MOTION = {
         "normal_force_N": _n(5.0, "normal load"),
         "mu": _mu(0.3),
         "ramp_s": _s(0.02, "load ramp at the first and last station", hi=60.0),
-        "rest_s": _s(0.03, "unloaded before and after", hi=3600.0),
+        "rest_s": _s(1.0, "unloaded before and after (the host TAREs in it)", hi=3600.0),
         "roll_deg": List(
             Float(-360.0, 360.0),
             [0.0, 30.0, -30.0],

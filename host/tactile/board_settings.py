@@ -1,0 +1,57 @@
+"""The board-settings vocabulary, in one place: units, stream and gate names, limits.
+
+The board stores forces as integers of ``FORCE_LSB_N`` (1 uN) and settings as CONFIG's
+five fields (rate, enter, exit, debounce, flags).  What a user types is newtons, stream
+names and gate modes; the limits and defaults are the firmware's own (``tactile_fw.settings``,
+the board checks the same rule and NAKs the field).  No numpy: the CLI's parsing imports it.
+"""
+
+from tactile_fw import settings as fw
+from tactile_protocol import constants as C
+
+STREAMS = {"samples": C.CFG_STREAM_SAMPLES, "contacts": C.CFG_STREAM_CONTACTS}
+GATES = {"xy": 0, "3d": C.CFG_GATE_3D}  # |F| in the sensor's x-y plane (§5.1), or 3-D
+DEFAULTS = {
+    "rate_hz": fw.DEFAULT_RATE_HZ,
+    "enter_N": fw.DEFAULT_ENTER_UN * C.FORCE_LSB_N,
+    "exit_N": fw.DEFAULT_EXIT_UN * C.FORCE_LSB_N,
+    "debounce": fw.DEFAULT_DEBOUNCE,
+}
+
+
+def to_counts(newtons):
+    """A force in N as the board's integer counts (1 uN)."""
+    return round(newtons / C.FORCE_LSB_N)
+
+
+def to_newtons(counts):
+    return counts * C.FORCE_LSB_N
+
+
+def stream_flags(names):
+    """CONFIG stream bits of a list of stream names (``ValueError`` naming an unknown one)."""
+    flags = 0
+    for name in names:
+        if name not in STREAMS:
+            raise ValueError(f"unknown stream {name!r} ({', '.join(STREAMS)})")
+        flags |= STREAMS[name]
+    return flags
+
+
+def stream_names(flags):
+    return [name for name, bit in STREAMS.items() if flags & bit]
+
+
+def problem(rate_hz, enter_N, exit_N, debounce, max_rate_hz):
+    """None, or one line naming the first value out of range and the range allowed
+    (the firmware's ``settings.check``, in the units a user types)."""
+    if not fw.MIN_RATE_HZ <= rate_hz <= max_rate_hz:
+        allowed = f"{fw.MIN_RATE_HZ}..{max_rate_hz} Hz on this board"
+        return f"--rate: {rate_hz} Hz is out of range: {allowed}"
+    if not 0 <= to_counts(enter_N):
+        return f"--enter: {enter_N:g} N is out of range: 0 N or more"
+    if not 0 <= to_counts(exit_N) <= to_counts(enter_N):
+        return f"--exit: {exit_N:g} N is out of range: 0..{enter_N:g} N (at most --enter)"
+    if not 1 <= debounce <= fw.MAX_DEBOUNCE:
+        return f"--debounce: {debounce} is out of range: 1..{fw.MAX_DEBOUNCE} readings"
+    return None
