@@ -13,6 +13,8 @@ import struct
 
 import numpy as np
 from conftest import FUZZ_SCALE
+from fw_rig import decode_frames
+from fw_rig import name as frame_name
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -330,3 +332,130 @@ def test_gate_is_the_same_on_ties(ccore_lib, case):
     ccore_lib.tc_gate_configure(g, enter, exit_, debounce, three_d)
     for f in forces:
         assert ccore_lib.tc_gate_update(g, *f) == py.update(*f), (f, py.in_contact)
+
+
+# --- TARE refused under load (PROTOCOL.md §4): the same NAK, the same biases after --------
+LOADED = (2_000_000, 0, 0, 0, 0, 0)  # fx = 2 N through the identity: above the 1.39 N gate
+OFFSET = (300_000, -200_000, 100_000, 50, 60, 70)  # an unloaded sensor's own offset
+
+
+def _calibrated(lib, n, which=None):
+    """Twins with the identity (1 uN per count) stored for the sensors in ``which``."""
+    from ccore_twin import Twin
+
+    files = {
+        calibration.file_name(i): calibration.Calibration(calibration.identity(), 7).to_bytes(i)
+        for i in (range(n) if which is None else which)
+    }
+    twin = Twin(lib, n=n, files=files, boot_id=0xBEEF)
+    twin.boot()
+    return twin
+
+
+def _tare_replies(data, seq):
+    return [
+        (frame_name(f), f[3])
+        for f in decode_frames(data)
+        if frame_name(f) in ("ACK", "NAK") and f[3][0] == C.CMD_TARE and f[3][1] == seq
+    ]
+
+
+def _tare(twin, seq, sensor, n=20, us=100_000):
+    twin.put(framed(C.CMD_TARE, seq, _fmt(C.CMD_TARE), (sensor, n)))
+    return _tare_replies(twin.run(us), seq)
+
+
+def _stream_samples(twin, seq):
+    """Both boards stream SAMPLE frames for 20 ms: their values show the biases in force."""
+    twin.put(framed(C.CMD_CONFIG, seq, _fmt(C.CMD_CONFIG), (500, 1_390_000, 1_112_000, 3, 1)))
+    twin.put(framed(C.CMD_START, seq + 1, "<BBHI", ()))
+    return twin.run(20_000)
+
+
+def test_tare_of_a_loaded_idle_board_is_refused_the_same_and_keeps_every_bias(ccore_lib):
+    twin = _calibrated(ccore_lib, 3)
+    twin.each(lambda r: r.set_codes(0, OFFSET))
+    assert [k for k, _ in _tare(twin, 1, 0xFF)] == ["ACK"]  # sensor 0 tared to its offset
+    twin.each(lambda r: r.set_codes(0, [c + 1000 for c in OFFSET]))  # its offset drifts
+    twin.each(lambda r: r.set_codes(1, LOADED))  # and sensor 1 is pressed
+    assert _tare(twin, 2, 0xFF) == [("NAK", (C.CMD_TARE, 2, C.NAK_LOADED, 1))]
+    samples = [f[3] for f in decode_frames(_stream_samples(twin, 3)) if frame_name(f) == "SAMPLE"]
+    assert len(samples) > 20
+    assert {s[2:5] for s in samples if s[0] == 0} == {(1000, 1000, 1000)}  # the old bias
+
+
+def test_tare_while_a_contact_is_open_is_refused_at_once_the_same(ccore_lib):
+    twin = _calibrated(ccore_lib, 2)
+    _stream_samples(twin, 1)
+    twin.each(lambda r: r.set_codes(1, LOADED))
+    twin.run(10_000)
+    assert twin.py.board.gates[1].in_contact
+    twin.put(framed(C.CMD_TARE, 5, _fmt(C.CMD_TARE), (0xFF, 50)))
+    assert _tare_replies(twin.run(100), 5) == [("NAK", (C.CMD_TARE, 5, C.NAK_LOADED, 1))]
+    assert _tare(twin, 6, 0) == [("ACK", (C.CMD_TARE, 6))]  # sensor 0 alone is not loaded
+
+
+def test_an_uncalibrated_sensor_is_tared_under_load_the_same(ccore_lib):
+    twin = _calibrated(ccore_lib, 2, which=[1])
+    twin.each(lambda r: r.set_codes(0, LOADED))
+    assert [k for k, _ in _tare(twin, 1, 0xFF)] == ["ACK"]
+    _stream_samples(twin, 2)
+
+
+GATE_FX = st.sampled_from([0, 1_389_999, 1_390_000, 1_390_001, 2_000_000, -2_000_000, 900_000])
+
+
+@st.composite
+def gate_codes(draw):
+    """Codes of a force near the gate (1 uN per count), steady or noisy."""
+    fx, amp = draw(GATE_FX), draw(st.sampled_from([0, 1, 3_000, 800_000]))
+    base = (fx, draw(st.sampled_from([0, 600_000])), 0, 0, 0, 0)
+    return noisy(base, amp) if amp else lambda t: base
+
+
+@st.composite
+def tare_operation(draw, n):
+    kind = draw(st.sampled_from(["tare", "tare", "run", "run", "codes", "config", "start", "stop"]))
+    seq = draw(st.integers(0, 0xFFFF))
+    if kind == "tare":  # and time for it to finish (or not)
+        sensor = draw(st.sampled_from([0xFF, *range(n)]))
+        values = (sensor, draw(st.integers(0, 40)))
+        run = ("run", draw(st.integers(1, 60_000)), 100)
+        return [("put", framed(C.CMD_TARE, seq, _fmt(C.CMD_TARE), values)), run]
+    if kind == "run":
+        return ("run", draw(st.integers(1, 60_000)), draw(st.sampled_from([50, 100, 700])))
+    if kind == "codes":
+        return ("codes", draw(st.integers(0, n - 1)), draw(gate_codes()))
+    if kind == "config":
+        enter = draw(st.sampled_from([0, 1_390_000, 2_000_000]))
+        values = (1000, enter, enter // 2, draw(st.sampled_from([1, 2, 3, 5])), draw(GATE_FLAGS))
+        return ("put", framed(C.CMD_CONFIG, seq, _fmt(C.CMD_CONFIG), values))
+    mtype = C.CMD_START if kind == "start" else C.CMD_STOP
+    return ("put", framed(mtype, seq, "<BBHI", ()))
+
+
+GATE_FLAGS = st.sampled_from([0, 1, 2, 3, C.CFG_GATE_3D | 3])
+
+
+@settings(max_examples=50 * FUZZ_SCALE)
+@given(
+    st.integers(1, 3).flatmap(
+        lambda n: st.tuples(
+            st.just(n),
+            st.lists(st.sampled_from([True, True, False]), min_size=n, max_size=n),
+            st.lists(gate_codes(), min_size=n, max_size=n),
+            st.lists(tare_operation(n), min_size=4, max_size=20),
+        )
+    )
+)
+def test_tare_near_the_gate_is_the_same(ccore_lib, session):
+    """TAREs among loads around the gate level, noisy or steady, streaming or idle."""
+    n, calibrated, codes, ops = session
+    twin = _calibrated(ccore_lib, n, which=[i for i in range(n) if calibrated[i]])
+    for i, fn in enumerate(codes):
+        twin.each(lambda r, i=i, fn=fn: r.set_codes(i, fn))
+    for op in ops:
+        for step in op if isinstance(op, list) else [op]:
+            apply(twin, step)
+    twin.run(60_000)
+    _stream_samples(twin, 0xFFF0)  # the biases each board ended with, in its samples

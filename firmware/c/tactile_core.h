@@ -90,6 +90,8 @@ typedef struct {
 void tc_gate_configure(tc_gate_t *g, int32_t enter, int32_t exit_, uint8_t debounce, int three_d);
 void tc_gate_reset(tc_gate_t *g);
 int tc_gate_update(tc_gate_t *g, int32_t fx, int32_t fy, int32_t fz);
+/* |F| above the enter level: a sample the gate counts toward a contact (TARE refuses it) */
+int tc_gate_loaded(const tc_gate_t *g, int32_t fx, int32_t fy, int32_t fz);
 size_t tc_gate_size(void); /* sizeof(tc_gate_t), for foreign callers */
 
 /* --- hardware --- */
@@ -189,8 +191,9 @@ typedef struct {
     uint32_t i2c_errors, drdy_timeouts, saturations, samples, rx_errors;
     uint8_t last_error;
     uint32_t reported_overruns, reported_dropped, status_due;
-    /* TARE */
-    uint8_t tare_mask;
+    /* TARE: the sensors still averaging, those it began with, samples above the gate */
+    uint8_t tare_mask, tare_all;
+    uint8_t tare_loaded[TC_MAX_SENSORS];
     uint16_t tare_left[TC_MAX_SENSORS], tare_n;
     int32_t tare_seq; /* -1: none to answer */
     int64_t tare_sums[TC_MAX_SENSORS][TC_N_GAUGES];
@@ -222,6 +225,7 @@ void tc_board_apply_settings(tc_board_t *b);
 void tc_board_start_streaming(tc_board_t *b);
 void tc_board_stop_streaming(tc_board_t *b);
 void tc_board_start_tare(tc_board_t *b, uint8_t mask, uint16_t n, uint16_t seq);
+int tc_board_loaded_sensor(const tc_board_t *b, uint8_t mask); /* in contact now, or -1 */
 void tc_dispatch(tc_board_t *b); /* the frame the assembler just completed */
 int tc_sensor_init(tc_board_t *b, int i);               /* 0 or an errno */
 int tc_sensor_poll(tc_board_t *b, int i, int *done);    /* 0 or an errno */

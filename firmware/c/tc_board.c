@@ -399,17 +399,64 @@ void tc_board_boot(tc_board_t *b)
     }
 }
 
+/* --- TARE: refused while a sensor is loaded (PROTOCOL.md §4) ------------------------------ */
+/* Whether TARE checks sensor i for load: calibrated (else its forces mean nothing yet)
+ * and gated (an enter level of 0 gates nothing). */
+static int checks_load(const tc_board_t *b, int i)
+{
+    return b->cals[i].present && b->settings.enter > 0;
+}
+
+int tc_board_loaded_sensor(const tc_board_t *b, uint8_t mask)
+{
+    int i;
+    if (!b->streaming) {
+        return -1; /* no recent sample: the tare's own samples are checked */
+    }
+    for (i = 0; i < b->n; i++) {
+        if ((mask & (1u << i)) && b->gates[i].in_contact && checks_load(b, i)) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+static void tare_refuse(tc_board_t *b, int i) /* keep the old bias everywhere, NAK */
+{
+    b->tare_mask = 0;
+    if (b->tare_seq >= 0) {
+        tc_board_nak(b, TC_CMD_TARE, (uint16_t)b->tare_seq, TC_NAK_LOADED, (uint8_t)i);
+    }
+    b->tare_seq = -1;
+}
+
 /* --- sampling ------------------------------------------------------------------------------- */
 static void tare_accumulate(tc_board_t *b, int i)
 {
-    int k;
+    int j, k;
+    if (checks_load(b, i)) {
+        int32_t ft[TC_N_GAUGES];
+        tc_cal_apply(&b->cals[i], b->sensors[i].counts, ft); /* under the bias in force */
+        if (tc_gate_loaded(&b->gates[i], ft[0], ft[1], ft[2])) {
+            if (++b->tare_loaded[i] >= b->settings.debounce) {
+                tare_refuse(b, i);
+                return;
+            }
+        } else {
+            b->tare_loaded[i] = 0;
+        }
+    }
     for (k = 0; k < TC_N_GAUGES; k++) {
         b->tare_sums[i][k] += b->sensors[i].counts[k];
     }
     if (--b->tare_left[i] == 0) {
         b->tare_mask &= (uint8_t)~(1u << i);
-        tc_cal_set_bias_sums(&b->cals[i], b->tare_sums[i], b->tare_n);
-        if (!b->tare_mask) {
+        if (!b->tare_mask) { /* every sensor done: the new biases apply together */
+            for (j = 0; j < b->n; j++) {
+                if (b->tare_all & (1u << j)) {
+                    tc_cal_set_bias_sums(&b->cals[j], b->tare_sums[j], b->tare_n);
+                }
+            }
             tc_board_ack(b, TC_CMD_TARE, (uint16_t)b->tare_seq);
             b->tare_seq = -1;
         }
@@ -631,10 +678,12 @@ void tc_board_start_tare(tc_board_t *b, uint8_t mask, uint16_t n, uint16_t seq)
         b->due = tc_ticks_add(b, now_ticks(b), b->period_us);
     }
     b->tare_mask = mask;
+    b->tare_all = mask;
     b->tare_n = n;
     b->tare_seq = seq;
     for (i = 0; i < b->n; i++) {
         b->tare_left[i] = (mask & (1u << i)) ? n : 0;
+        b->tare_loaded[i] = 0;
         for (k = 0; k < TC_N_GAUGES; k++) {
             b->tare_sums[i][k] = 0;
         }

@@ -1,6 +1,7 @@
 /* Host commands: validate, then apply; every command gets ACK or NAK (tactile_fw/commands.py,
  * PROTOCOL.md §4). A value out of range is refused with NAK_OUT_OF_RANGE and detail = the
- * field's index; nothing is applied. A frame whose CRC is good but whose layout is not a
+ * field's index; nothing is applied. TARE is refused with NAK_LOADED (detail: the sensor)
+ * while a sensor it names is loaded. A frame whose CRC is good but whose layout is not a
  * command's gets NAK (unknown command, bad length, bad version) with detail 0xFF. */
 #include <string.h>
 
@@ -64,7 +65,12 @@ static void tare(tc_board_t *b, uint16_t seq, const tc_msg_tare_t *m)
             return;
         }
     }
-    tc_board_start_tare(b, mask, n, seq); /* ACK when the bias is captured */
+    i = tc_board_loaded_sensor(b, mask);
+    if (i >= 0) { /* a bias taken under load would offset every later reading by it */
+        tc_board_nak(b, TC_CMD_TARE, seq, TC_NAK_LOADED, (uint8_t)i);
+        return;
+    }
+    tc_board_start_tare(b, mask, n, seq); /* ACK when the bias is captured (or NAK_LOADED) */
 }
 
 static void set_cal(tc_board_t *b, uint16_t seq, const tc_msg_set_cal_t *m)

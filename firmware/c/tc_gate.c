@@ -56,6 +56,11 @@ static int cmp(const tc_gate_t *g, int32_t fx, int32_t fy, int32_t fz, int32_t l
     return m2 > l2 ? 1 : (m2 < l2 ? -1 : 0);
 }
 
+int tc_gate_loaded(const tc_gate_t *g, int32_t fx, int32_t fy, int32_t fz)
+{
+    return cmp(g, fx, fy, fz, g->enter) > 0;
+}
+
 int tc_gate_update(tc_gate_t *g, int32_t fx, int32_t fy, int32_t fz)
 {
     if (!g->in_contact) {
