@@ -208,6 +208,27 @@ def test_sensor_faults_give_status_and_recovery(board, tmp_path):
     assert len(late) > 400  # the board kept running
 
 
+@emulated
+def test_tare_under_load_is_refused_and_force_takes_it(board):
+    """In contact, TARE is NAK 8 naming the sensor; --force's raised gate lets it through."""
+    client = board.client("press")  # 4 N in x-y from 1.0 to 1.5 s: above the 1.39 N gate
+    try:
+        got = _samples(read_for(client, 10.0, until=lambda m: _held(_samples(m))))
+        assert _held(got)
+        with pytest.raises(CommandRefused, match=r"refused TARE: sensor 0 is loaded \(force"):
+            client.tare(n_samples=20)
+        ack = client.tare(n_samples=20, force=True)
+        after = _read_samples(client, 20, after=ack)
+    finally:
+        client.close()
+    assert all(np.hypot(m.fx, m.fy) < 0.3e6 for m in after)  # uN: the load went into the bias
+
+
+def _held(samples):
+    """In contact, and into the press scene's steady hold."""
+    return any(m.flags & C.FLAG_IN_CONTACT and m.timestamp_us > 1_050_000 for m in samples)
+
+
 def _read_through_unplugs(link, decoder, alive, seconds, drain):
     """Read the symlinked port while the server runs, reopening it after each unplug."""
     msgs, reopened = [], 0
