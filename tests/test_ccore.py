@@ -6,6 +6,7 @@ compiler these tests skip with the reason. The generated tables are checked with
 
 import ctypes
 import importlib.util
+import pathlib
 import shutil
 import struct
 import subprocess
@@ -17,7 +18,7 @@ from tactile_protocol import constants as C
 from tactile_protocol.framing import FRAME_OK, FrameAssembler
 from tactile_protocol.messages import BY_NAME, BY_TYPE, SPECS, field_codes, unpack
 
-GEN = ccore.SRC / "gen_tables.py"
+GEN = pathlib.Path(ccore.__file__).with_name("c_tables.py")
 _NATIVE = {0: "B", 1: "H", 2: "I", 3: "i", 4: "f"}  # tc_field_t.kind -> struct code
 _SIZE = {"B": 1, "H": 2, "I": 4, "i": 4, "f": 4}
 
