@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from tactile.plots import log_ticks
 from tactile_sim.ep1 import surfaces as S
 from tactile_sim.ep1.rolling import roll, sphere_on_sphere
 
@@ -92,8 +93,8 @@ def plot(results, path):
             ax.loglog(x, y, "o-", ms=3, label=method)
         ax.set_title(name, fontsize=9)
         ax.grid(True, which="major", alpha=0.3)
-        _log_ticks(ax.xaxis)
-        _log_ticks(ax.yaxis)
+        log_ticks(ax.xaxis)
+        log_ticks(ax.yaxis)
     axes[0].set_ylabel("max error at the roll's end (rad)")
     fig.supxlabel(f"run time per roll (ms, best of {REPEATS})", fontsize=10)
     axes[-1].legend(
@@ -106,18 +107,6 @@ def plot(results, path):
         fontsize=10,
     )
     fig.savefig(path, dpi=100)
-
-
-def _log_ticks(axis):
-    """Labels only at major ticks; an axis spanning under two decades gets 1, 2, 5 per
-    decade as plain numbers (matplotlib would label every minor tick, overprinting)."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-
-    lo, hi = sorted(axis.get_view_interval())
-    if lo > 0 and hi / lo < 100:
-        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    axis.set_minor_formatter(NullFormatter())
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import numpy as np
 from tactile.ep2 import analyze_patch, analyze_patches, centre_jet
 from tactile.ep2.batch import CHUNK
 from tactile.errors import DataError
+from tactile.plots import log_ticks
 from tactile_sim.ep2 import cases
 
 FAMILIES = ("sphere r=4 ", "sphere r=10 ", "cylinder r=3 ", "cylinder r=10 ", "saddle r=10 ")
@@ -123,8 +124,8 @@ def plot(rows, noise, path):
     ax.scatter([], [], marker="o", facecolors="none", edgecolors="k", label="(hollow: batched)")
     ax.set(xlabel="run time per patch (ms)", ylabel="RMS S error (dimensionless)")
     ax.set(xscale="log", yscale="log")
-    _log_ticks(ax.xaxis)
-    _log_ticks(ax.yaxis)
+    log_ticks(ax.xaxis)
+    log_ticks(ax.yaxis)
     ax.grid(True, which="major", alpha=0.3)
     ax.set_title(
         f"EP2 error against run time, noise {noise:g}\n(positions: base length unit; normals: rad)",
@@ -132,18 +133,6 @@ def plot(rows, noise, path):
     )
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     fig.savefig(path, dpi=100)
-
-
-def _log_ticks(axis):
-    """Labels only at major ticks; an axis spanning under two decades gets 1, 2, 5 per
-    decade as plain numbers (matplotlib would label every minor tick, overprinting)."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-
-    lo, hi = sorted(axis.get_view_interval())
-    if lo > 0 and hi / lo < 100:
-        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    axis.set_minor_formatter(NullFormatter())
 
 
 if __name__ == "__main__":

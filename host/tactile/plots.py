@@ -311,3 +311,15 @@ def plot_maps(result, path, points=None, title=None, unit=None):
     dots = "" if xy is None else "; dots: contacts"
     fig.suptitle(f"{first}\n({MAPS_REF}{dots})", fontsize=10)
     return _save(plt, fig, path)
+
+
+def log_ticks(axis):
+    """Labels only at major ticks; an axis spanning under two decades gets 1, 2, 5 per
+    decade as plain numbers (matplotlib would label every minor tick, overprinting)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    lo, hi = sorted(axis.get_view_interval())
+    if lo > 0 and hi / lo < 100:
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())

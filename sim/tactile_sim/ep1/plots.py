@@ -9,6 +9,8 @@ imported when one is called.
 
 import numpy as np
 
+from tactile.plots import log_ticks
+
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
 
 FLOOR = 1e-12  # % : smallest error drawn
@@ -37,18 +39,6 @@ def _save(plt, fig, path):
     return [str(path)]
 
 
-def _log_ticks(axis):
-    """Labels only at major ticks; an axis spanning under two decades gets 1, 2, 5 per
-    decade as plain numbers (matplotlib would label every minor tick, overprinting)."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-
-    lo, hi = sorted(axis.get_view_interval())
-    if lo > 0 and hi / lo < 100:
-        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    axis.set_minor_formatter(NullFormatter())
-
-
 def _percent(y):
     return 100 * np.maximum(np.asarray(y, float), FLOOR / 100)
 
@@ -75,8 +65,8 @@ def _panels(rows, line_key, x_key, y_key, xlabel, legend_title, fmt, title, extr
         ax.set(xscale="log", yscale="log")
         ax.set_title(f"\u0394\u03b8 = {_angle(dth)}", fontsize=9)
         ax.grid(True, which="major", alpha=0.3)
-        _log_ticks(ax.xaxis)
-        _log_ticks(ax.yaxis)
+        log_ticks(ax.xaxis)
+        log_ticks(ax.yaxis)
         if extra:
             extra(ax)
     axes[0].set_ylabel(ERROR_LABEL)
@@ -164,7 +154,7 @@ def plot_arclength(rows, path):
     for i, x in enumerate((0.008, 125)):
         ax.axvline(x, ls="--", color="k", lw=0.7, label="RCR 0.008 and 125 (\u00a73.3.3)" * (not i))
     ax.set_xscale("log")
-    _log_ticks(ax.xaxis)
+    log_ticks(ax.xaxis)
     ax.set(xlabel="RCR = R2/R1 (dimensionless)", ylabel=f"\u0394s on the finger ({LENGTH})")
     ax.grid(True, alpha=0.3)
     ax.legend(**LEGEND)
@@ -192,8 +182,8 @@ def plot_optimal(rows, path, setup=""):
         ax.plot(radii[order], _percent(err[order]), label=label, **style)
     _quarter_line(ax)
     ax.set(xscale="log", yscale="log", ylabel=ERROR_LABEL)
-    _log_ticks(ax.xaxis)
-    _log_ticks(ax.yaxis)
+    log_ticks(ax.xaxis)
+    log_ticks(ax.yaxis)
     ax.set_xlabel(f"sphere radius R2 ({LENGTH})")
     ax.grid(True, alpha=0.3)
     ax.legend(**LEGEND)
