@@ -42,11 +42,10 @@ def add_arguments(parser):
 
 
 def run(args):
+    from tactile import units
     from tactile.errors import InputError
     from tactile_sim.ep2 import make, sweep
     from tactile_sim.ep2.sweep import write_rows
-
-    from tactile import units
 
     try:
         unit = units.parse_length(args.units)
@@ -78,7 +77,13 @@ def run(args):
                     tilt_deg=args.tilt,
                     seed=args.seed + i,
                 )
-                write_rows(fh, data, patch=str(i + 1) if args.patches > 1 else None, header=i == 0, unit=unit)
+                write_rows(
+                    fh,
+                    data,
+                    patch=str(i + 1) if args.patches > 1 else None,
+                    header=i == 0,
+                    unit=unit,
+                )
     except ValueError as exc:
         raise InputError(str(exc)) from None
     except OSError as exc:
