@@ -39,7 +39,7 @@ LENGTH_M = {
     "in": 0.0254,
     "ft": 0.3048,
 }
-LENGTH_ALIASES = {"µm": "um", "μm": "um", "micron": "um", "inch": "in", "metre": "m", "meter": "m"}
+LENGTH_ALIASES = {"\u00b5m": "um", "\u03bcm": "um"}  # micro sign, Greek mu
 SI_LENGTH = "m"
 # What each file the project writes states (README, "Files"): its columns' units in order.
 FRAMES = "N, N*m, us, s"  # forces, torques, board stamps, host times
@@ -93,13 +93,16 @@ def stated_length(path, expected=None):
     if found is None:
         return None if expected is None else parse_length(expected)
     line_no, text = found
-    words = [w for w in _SPLIT.split(text) if w]
+    words = [w for w in _SPLIT.split(text) if w]  # the length, then "1" (normals) if any
     try:
-        if len(words) != 1:
-            raise ValueError(f"{show_unit(text)} is not one length unit (e.g. 'm')")
+        if not words or any(w != "1" for w in words[1:]):
+            raise ValueError
         unit = parse_length(words[0])
-    except ValueError as exc:
-        raise InputError(f"{path}:{line_no}: units: {exc}") from None
+    except ValueError:
+        raise InputError(
+            f"{path}:{line_no}: units {show_unit(text)}: not a length unit (one of"
+            f" {', '.join(LENGTH_M)}; normals may add '1': '# units: m, 1')"
+        ) from None
     if expected is not None and parse_length(expected) != unit:
         raise InputError(
             f"{path}:{line_no}: units: the file is in {unit}, not {parse_length(expected)} as"
