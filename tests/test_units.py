@@ -290,3 +290,15 @@ def test_length_vocabulary_is_shared_with_calibration_units():
     assert units.parse_length("\u00b5m") == "um" and units.length_factor("in") == 0.0254
     with pytest.raises(ValueError, match="unknown length unit"):
         units.parse_length("cubit")
+
+
+def test_plot_draws_in_the_display_unit_and_labels_an_unstated_file_as_told(tmp_path):
+    from tactile.cli.cmd_plot import _display
+
+    path = _sphere_csv(tmp_path / "s.csv", unit="cm")
+    assert _display(path, None) == ("cm", 1.0) and _display(path, "mm") == ("mm", 10.0)
+    old = _sphere_csv(tmp_path / "old.csv", line=False)
+    assert _display(old, "cm") == ("cm", 1.0) and _display(old, None) == (None, 1.0)
+    path.write_text(path.read_text().replace("# units: cm", "# units: furlong"))
+    with pytest.raises(InputError, match=r"s\.csv:1: units 'furlong': not a length unit"):
+        _display(path, None)
