@@ -50,7 +50,9 @@ def units_of(unit):
 
 def in_unit(record, unit, scale=1.0):
     """``record`` (a ``PatchResult.to_dict``) in ``unit``, ``scale`` lengths per file length,
-    with its ``units``.  A refusal (no ``shape``) gets the ``units`` field alone."""
+    with its ``units``.  A refusal (no ``shape``) has no number with a unit: as it is."""
+    if record.get("shape") is None:
+        return record
     out = dict(record)
     if scale != 1.0:
         for name, power in DIMENSIONS.items():
