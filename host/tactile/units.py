@@ -51,6 +51,7 @@ FRAME_WORDS = frozenset({"si", "n", "n*m", "nm", "n.m", "n\u00b7m", "m", "s", "u
 LOG_WORDS = frozenset({"us", "\u00b5s", "s", "m", "rad"})
 LOG_WHAT = "a pose log holds times in us or s, lengths in m and angles in rad"
 UNITS_KEY = "units"
+ANY_SIZE = 2**62  # bytes: the units line is read from the head of a file of any size
 _SPLIT = re.compile(r"[\s,;()]+")
 
 
@@ -78,10 +79,11 @@ def line(spec):
 
 
 def stated(path):
-    """(line, the text after ``units:``) of the file's ``# units:`` line, or None."""
+    """(line, the text after ``units:``) of the file's ``# units:`` line, or None.  Only the
+    head is read, so any size will do: the reader of the rows applies its own limit."""
     from tactile.tabular import units_line
 
-    return units_line(path)
+    return units_line(path, max_bytes=ANY_SIZE)
 
 
 def stated_length(path, expected=None):
