@@ -26,7 +26,7 @@ from tactile_sim.rig.schedule import probe_schedule
 from tactile_sim.rig.sensor import GATE_N, SIGMA_F, SIGMA_M
 
 LENGTHS = (FREDDY.L1, FREDDY.L2, FREDDY.L3, FREDDY.L4)
-THESIS = replica.THESIS  # tables 5-7, kept once in tactile.replica
+THESIS = replica.THESIS  # tables 5-7, kept once in tactile.cli.replica
 
 
 def _rms(x):

@@ -71,7 +71,7 @@ def recording_complete(out):
 
     meta = json.loads((out / "meta.json").read_text())
     capture = (out / "capture.bin").read_bytes()
-    rows = len((out / "frames.csv").read_text().splitlines()) - 1
+    rows = len((out / "frames.csv").read_text().splitlines()) - 2  # units line, header
     readings = sum(m.type_name in ("SAMPLE", "CONTACT") for m in decode_bytes(capture)[0])
     if meta["bytes"] != len(capture):
         return f"meta.json says {meta['bytes']} bytes, capture.bin holds {len(capture)}"

@@ -146,7 +146,8 @@ def test_record_writes_capture_frames_and_meta_that_agree(board, cli, tmp_path):
                             "-o", out, "--quiet")  # fmt: skip
     assert code == 0 and "Traceback" not in err, err
     capture = (out / "capture.bin").read_bytes()
-    rows = (out / "frames.csv").read_text().splitlines()
+    units, *rows = (out / "frames.csv").read_text().splitlines()
+    assert units.startswith("# units:")
     meta = json.loads((out / "meta.json").read_text())
     messages, counters = decode_bytes(capture)
     data = [m for m in messages if m.type_name in ("SAMPLE", "CONTACT")]

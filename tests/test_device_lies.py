@@ -170,7 +170,7 @@ def test_record_keeps_recording_through_lying_frames_and_counts_them(tmp_path):
     assert code == 0 and err == "", err
     assert_terminal_safe(out)
     assert ", 3 invalid frames refused -> " in out
-    rows = (out_dir / "frames.csv").read_text().splitlines()[1:]
+    rows = (out_dir / "frames.csv").read_text().splitlines()[2:]  # below units, header
     assert [r.split(",")[9] for r in rows] == ["0.000001", "0.000003", "0.000004"]  # fx_N
     device = [json.loads(line) for line in (out_dir / "device.jsonl").read_text().splitlines()]
     errors = [d["error"] for d in device if d["type"] == "INVALID"]

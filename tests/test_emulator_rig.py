@@ -63,9 +63,9 @@ def test_pose_log_matches_the_schedule(tmp_path):
     path = tmp_path / "poses.csv"
     motion.write_pose_log(path)
     text = path.read_text()
-    assert text.startswith("# rig: scara L1=0.35 L2=0.3 L3=0.12 L4=0.015\n")
+    assert text.startswith("# units: us, rad, m\n# rig: scara L1=0.35 L2=0.3 L3=0.12 L4=0.015\n")
     assert f"\n# end: t_us={round(motion.duration_s * 1e6)}\n" in text  # the scene's end
-    rows = np.loadtxt(path, delimiter=",", skiprows=3)
+    rows = np.loadtxt(path, delimiter=",", skiprows=4)
     assert rows.shape == (36, 7)
     assert np.all(np.diff(rows[:, 0]) > 0) and np.all(rows[:, 1] > rows[:, 0])
     assert sorted(set(rows[:, 2].astype(int))) == [0, 1, 2]

@@ -225,7 +225,7 @@ def test_a_probe_without_frames_is_reported_not_nan(noisy, tmp_path):
     assert np.all(rows[~ok] == 0.0) and np.all(np.isfinite(rows))
     report = probe_report(log, t[~gap], w[~gap], threshold=1.0)
     assert "no frames" in report[2] and "t_end_us" in report[2] and "t_start_us" in report[3]
-    assert report[0].startswith("probe 0 (line 5): ok")  # after # probe, # hold, # end
+    assert report[0].startswith("probe 0 (line 6): ok")  # after # units, probe, hold, end
     # a window averaged from fewer, nearest frames still localises
     rows8, ok8 = probes_from_frames(log, t, w, threshold=1.0, average=8)
     assert ok8.all() and "frames 8+8" in probe_report(log, t, w, 1.0, average=8)[0]

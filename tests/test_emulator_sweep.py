@@ -253,13 +253,13 @@ def test_recorded_sweep_normals_follow_the_noise_and_analyse_as_a_sphere(tmp_pat
     assert json.loads(capsys.readouterr().out.splitlines()[0])["shape"] == "sphere"
 
     frames = np.genfromtxt(out / "frames.csv", delimiter=",", names=True, dtype=None,
-                           encoding="utf-8")  # fmt: skip
+                           skip_header=1, encoding="utf-8")  # fmt: skip
     frames = frames[(frames["type"] == "CONTACT") & (frames["phase"] <= C.PHASE_IN)]
     t, sensor = frames["timestamp_us"].astype(np.int64), frames["sensor"].astype(int)
     wrench = np.column_stack([frames[c] for c in ("fx_N", "fy_N", "fz_N", "tx_Nm", "ty_Nm",
                                                   "tz_Nm")])  # fmt: skip
     res = posed_world_contacts(read_pose_log(poses), t, sensor, wrench, GATE_N)
-    written = np.genfromtxt(out / "contacts.csv", delimiter=",", names=True)
+    written = np.genfromtxt(out / "contacts.csv", delimiter=",", names=True, skip_header=1)
     written = np.column_stack([written[c] for c in ("nx", "ny", "nz")])
     np.testing.assert_allclose(written, res.normals, atol=1e-12)  # frames.csv: 1 uN text
     kept = res.report.kept

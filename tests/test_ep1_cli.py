@@ -158,7 +158,7 @@ def test_study_commands_write_csv_and_png(tmp_path, capsys):
         assert (tmp_path / f"{name}.png").stat().st_size > 1000
     text = (tmp_path / "ep1-noise.csv").read_text()
     assert "nan" not in text.lower() and "inf" not in text.lower()
-    assert text.count("\n") == 1 + 9 * 4 * 7
+    assert text.count("\n") == 2 + 9 * 4 * 7 and text.startswith("# units: lengths in fingertip")
 
 
 def test_cli_modules_import_no_numpy():

@@ -58,7 +58,8 @@ def test_table_prints_centre_values_with_units_and_the_thesis_spline_on_request(
     assert main(["ep2", "analyze", str(cyl_csv)]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0].split()[:5] == ["patch", "n", "shape", "conf", "S"]
-    assert "radius (u)" in out[0] and "u = the CSV's length unit" in out[-1]
+    assert "radius (cm)" in out[0] and "C (R in 1/cm)" in out[0]  # the sim writes cm
+    assert "lengths in cm" in out[-1]
     assert sum("cylinder" in line for line in out) == 3
     args = ["ep2", "analyze", str(cyl_csv), "--method", "spline", "--order", "3"]
     assert main([*args, "--weighting", "tangent", "--grid", "6"]) == 0

@@ -160,6 +160,7 @@ def test_batched_records_are_the_per_patch_records_in_file_order(mixed_csv, caps
             assert "not determined" in rec["error"] and "\n" not in rec["error"]
             continue
         (one,) = w.records
+        assert rec.pop("units")["radius"] == "u"  # the CLI's: mixed.csv states no unit
         _close(rec, json.loads(dumps(one)))
     assert sum(r["shape"] is not None for r in recs) == 5
 
@@ -221,6 +222,8 @@ def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monke
     assert len(recs) == len(want) and (len(recs) > 14) == split  # split parts are records
     assert sum(r["shape"] is not None for r in recs) >= 14
     for got, w in zip(recs, want):
+        if got["shape"] is not None:
+            assert got.pop("units")["k1"] == "1/u"  # the CLI names the (unstated) unit
         _close(got, json.loads(dumps(w)))
 
 

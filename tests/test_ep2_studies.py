@@ -17,6 +17,7 @@ def test_rotation_study_worst_at_45_and_zero_when_aligned(tmp_path):
     assert max(r6, key=r6.get) == 45
     assert r6[0] < 1e-6 and r6[90] < 1e-6
     with open(tmp_path / "ep2_fig32_rotation.csv") as fh:
+        assert fh.readline().startswith("# units: lengths cm")
         assert len(list(csv.DictReader(fh))) == len(rows) == 42
 
 
@@ -29,4 +30,5 @@ def test_tables_replica_has_thesis_columns_and_right_labels(tmp_path):
     assert abs(by[("concave_cylinder", "auto")]["S_mean"] + 0.5) < 0.05
     assert by[("cylinder", "auto")]["label_share"] == 1.0
     with open(tmp_path / "ep2_tables5_7.csv") as fh:
+        assert fh.readline().startswith("# units: lengths cm")
         assert len(list(csv.DictReader(fh))) == len(rows) == 9

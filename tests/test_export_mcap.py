@@ -105,7 +105,7 @@ def test_contacts_are_one_posearray_in_metres_pointing_along_the_normals(run, tm
 def test_contacts_written_in_cm_are_exported_in_metres(run, tmp_path, cli):
     metres = tactile.load_recording(run).contacts.points_m
     cm = variant(run, tmp_path / "cm")
-    lines = (run / "contacts.csv").read_text().splitlines()
+    lines = (run / "contacts.csv").read_text().splitlines()[1:]  # below "# units: m"
     scaled = [",".join(str(float(v) * 100) if i < 3 else v for i, v in enumerate(ln.split(",")))
               for ln in lines[1:]]  # fmt: skip
     (cm / "contacts.csv").write_text("\n".join(["# units: cm", lines[0], *scaled]) + "\n")

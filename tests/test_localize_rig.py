@@ -139,8 +139,9 @@ def test_contacts_csv_feeds_the_ep2_contract(tmp_path):
     c, _ = _localise(r, "force")
     path = tmp_path / "contacts.csv"
     path.write_text(
-        format_contacts(c.point, c.normal, finger=r["finger"], scale=100.0, mask=c.usable)
+        format_contacts(c.point, c.normal, finger=r["finger"], unit="cm", mask=c.usable)
     )
+    assert path.read_text().startswith("# units: cm\n")
     table = read_csv(path, ("x", "y", "z", "nx", "ny", "nz"), optional_float=("finger",))
     assert len(table) == int(c.usable.sum())
     xyz = table.array("x", "y", "z")

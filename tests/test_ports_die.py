@@ -69,7 +69,7 @@ def test_record_whose_board_dies_at_its_tare_is_one_line_and_keeps_the_bytes(cli
     assert meta["bytes"] == len(capture) > 0
     # the readings that came while the TARE waited are in frames.csv too, not only the capture
     readings = sum(m.type_name in ("SAMPLE", "CONTACT") for m in decode_bytes(capture)[0])
-    rows = (tmp_path / "frames.csv").read_text().splitlines()[1:]
+    rows = (tmp_path / "frames.csv").read_text().splitlines()[2:]  # below units, header
     assert len(rows) == meta["samples"] == readings > 0
 
 
@@ -87,7 +87,7 @@ def test_record_whose_board_dies_mid_stream_waits_then_keeps_everything(cli, tmp
     assert meta["ended"] == "port lost" and "port lost while reading" in gap["why"]
     capture = (tmp_path / "capture.bin").read_bytes()
     messages, _ = decode_bytes(capture)
-    rows = (tmp_path / "frames.csv").read_text().splitlines()[1:]
+    rows = (tmp_path / "frames.csv").read_text().splitlines()[2:]  # below units, header
     assert len(rows) == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages) > 300
 
 

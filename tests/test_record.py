@@ -15,6 +15,8 @@ from tactile.stream_decoder import decode_bytes
 def _files(out):
     capture = (out / "capture.bin").read_bytes()
     rows = (out / "frames.csv").read_text().splitlines()
+    assert rows[0] == "# units: N, N*m, us, s"
+    rows = rows[1:]  # the header and the data rows
     meta = json.loads((out / "meta.json").read_text())
     return capture, rows, meta
 
@@ -153,7 +155,7 @@ def test_a_bad_pose_log_is_refused_before_recording(cli, tmp_path):
 
 
 def _rows(out):
-    return len((out / "frames.csv").read_text().splitlines()) - 1
+    return len((out / "frames.csv").read_text().splitlines()) - 2  # units line, header
 
 
 def test_two_appended_sessions_keep_one_entry_each_and_totals_that_match_the_files(cli, tmp_path):

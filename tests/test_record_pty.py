@@ -32,9 +32,8 @@ def test_ch5_recorded_over_a_pty_is_classified_right(cli, tmp_path, kind):
     assert meta["ended"] == "scene end" and meta["decoder"]["lost_frames"] == 0
     assert meta["contacts_ended"] == 36 and meta["tared"]
     assert "72 of 72 contact readings localised" in lines[0]
-    result = _analyze(
-        cli, tmp_path / "contacts.csv", "--method", "spline", "--weighting", "tangent"
-    )
+    args = ("--method", "spline", "--weighting", "tangent", "--units", "cm")  # radii in cm
+    result = _analyze(cli, tmp_path / "contacts.csv", *args)  # from a file in m
     assert result["shape"] == EXPECTED[kind]
     true = replica.TRUE_RADIUS_CM[kind]
     if true is not None:

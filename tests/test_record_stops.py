@@ -135,7 +135,7 @@ def test_a_bad_end_line_is_one_line_naming_it(tmp_path, line, error):
 
     log = _log(tmp_path)
     log.write_text(log.read_text().replace("# end: t_us=2878000", line))
-    with pytest.raises(InputError, match=re.escape(f"sweep.csv:3: {error}")):
+    with pytest.raises(InputError, match=re.escape(f"sweep.csv:4: {error}")):  # under # units
         read_pose_log(log)
 
 

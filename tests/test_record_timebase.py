@@ -63,7 +63,7 @@ def _record(tmp_path, port, log, clock):
 
 def _frames(run):
     rows = np.genfromtxt(run / "frames.csv", delimiter=",", names=True, dtype=None,
-                         encoding="utf-8")  # fmt: skip
+                         skip_header=1, encoding="utf-8")  # fmt: skip
     return rows[rows["type"] == "CONTACT"]
 
 

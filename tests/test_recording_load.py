@@ -51,8 +51,9 @@ def test_arrays_equal_the_capture_decoded_independently(run, msgs):
 
 def test_contacts_are_the_csv_in_metres_with_unit_normals(run):
     rec = tactile.load_recording(run)
+    # skip_header: with names=True, genfromtxt takes names from a leading comment line
     written = np.genfromtxt(run / "contacts.csv", delimiter=",", names=True, dtype=None,
-                            encoding="utf-8", comments="#")  # fmt: skip
+                            skip_header=1, encoding="utf-8", comments="#")  # fmt: skip
     c = rec.contacts
     assert rec.contacts_why is None and c.file_unit == "m" and len(c.points_m) == len(written)
     np.testing.assert_array_equal(c.points_m, np.column_stack([written[k] for k in "xyz"]))
@@ -193,7 +194,7 @@ def test_a_units_line_is_read_and_a_wrong_one_refused(run, msgs, tmp_path):
 
 def _contacts_variant(run, dest, first_line, scale):
     out = variant(run, dest)
-    lines = (run / "contacts.csv").read_text().splitlines()
+    lines = (run / "contacts.csv").read_text().splitlines()[1:]  # below its "# units: m"
     rows = [",".join(str(float(v) * scale) if i < 3 else v for i, v in enumerate(ln.split(",")))
             for ln in lines[1:]]  # fmt: skip
     head = [first_line] if first_line else []

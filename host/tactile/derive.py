@@ -125,7 +125,8 @@ def _write(path, text):
 
 
 def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times=None):
-    """SCARA joints (ch. 5, written in cm as tables 5-7) or sensor poses (m)."""
+    """SCARA joints (ch. 5) or sensor poses: contacts.csv in metres either way (the thesis's
+    tables 5-7 are in cm; ``tactile ep2 analyze --units cm`` shows them so)."""
     from tactile.localize import format_contacts
     from tactile.localize.pose_log import posed_world_contacts, read_pose_log
 
@@ -147,9 +148,8 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, time
     if len(points) == 0:
         raise DataError(f"{outdir}: no contact could be localised: {_why(report, threshold)}")
     path = outdir / "contacts.csv"
-    scale, unit = (100.0, "cm") if scara else (1.0, "m")
-    _write(path, format_contacts(points, normals, finger=finger, scale=scale))
-    lines = [f"{len(points)} of {len(t)} contact readings localised ({unit}) -> {path}; {report}"]
+    _write(path, format_contacts(points, normals, finger=finger))  # metres, whatever the log
+    lines = [f"{len(points)} of {len(t)} contact readings localised (m) -> {path}; {report}"]
     if 2 * len(points) < len(t):
         lines.append(
             f"warning: only {len(points):,} of {len(t):,} readings"

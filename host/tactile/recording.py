@@ -4,10 +4,11 @@ Files (``tactile record -o DIR``):
 
 - ``capture.bin``: every byte read from the port, appended and flushed per read;
   the source of truth (``tactile decode DIR/capture.bin`` replays it).
-- ``frames.csv``: one row per SAMPLE or CONTACT frame, SI units, appended and flushed; each
-  row has the board's stamp (``timestamp_us``) and the host's time of it, monotonic and UTC
-  (``host_monotonic_s``, ``host_utc_s``, from ``tactile.timebase``): written with the fit as
-  it stands, and rewritten with the final fit when the recording ends (``rewrite_host``).
+- ``frames.csv``: ``# units: N, N*m, us, s``, then one row per SAMPLE or CONTACT frame, SI
+  units, appended and flushed; each row has the board's stamp (``timestamp_us``) and the
+  host's time of it, monotonic and UTC (``host_monotonic_s``, ``host_utc_s``, from
+  ``tactile.timebase``): written with the fit as it stands, and rewritten with the final fit
+  when the recording ends (``rewrite_host``).
 - ``device.jsonl``: the other frames (HELLO, INFO, STATUS, NAK) as JSON lines.
 - ``meta.json``: device INFO, configuration, calibration ids, counters, gaps;
   replaced atomically (write, fsync, rename) every second and at the end.
@@ -25,6 +26,7 @@ import pathlib
 
 import numpy as np
 
+from tactile import units
 from tactile.errors import InputError
 from tactile.jsonout import clean, dumps
 from tactile.recording_meta import count_rows, document, previous_sessions
@@ -81,7 +83,7 @@ class Recording:
         except OSError as exc:
             raise InputError(f"{outdir}: cannot write the recording: {exc.strerror}") from None
         if new:
-            self._frames.write(FRAME_COLUMNS + "\n")
+            self._frames.write(units.line(units.FRAMES) + FRAME_COLUMNS + "\n")
             self._frames.flush()
         self.frames_offset = (self.dir / FRAMES).stat().st_size  # where this session's rows go
         self.rows = 0  # rows written by this session
@@ -173,6 +175,8 @@ def _check_columns(path):
     try:
         with open(path, encoding="utf-8") as fh:
             header = fh.readline().strip()
+            while header.startswith("#"):  # the units line (none in an older recorder's)
+                header = fh.readline().strip()
     except FileNotFoundError:
         return
     if header and header != FRAME_COLUMNS:
@@ -200,8 +204,6 @@ FRAME_NUMBERS = (
 # Empty where not given: phase and contact id of a SAMPLE; the host time of a row whose
 # board -> host mapping is unusable (the columns themselves are a newer recorder's).
 FRAME_BLANKS = ("phase", "contact_id", "host_monotonic_s", "host_utc_s")
-# The units a '# units:' line of frames.csv may name: its columns are N, N*m, us and s.
-FRAME_UNITS = frozenset({"si", "n", "n*m", "nm", "n.m", "n·m", "m", "s", "us", "µs"})
 # A recording is the project's own file and may be long: 1 kHz x 3 sensors for 55 min.
 MAX_FRAMES_BYTES = 2 * 2**30
 MAX_FRAME_ROWS = 10_000_000
@@ -210,19 +212,9 @@ MAX_FRAME_ROWS = 10_000_000
 def read_frames(path):
     """frames.csv as a ``tabular.Table`` (``FRAME_NUMBERS``, ``FRAME_BLANKS`` as NaN where
     empty, ``type`` as text), after checking that a ``# units:`` line names SI units."""
-    import re
+    from tactile.tabular import read_csv
 
-    from tactile.tabular import read_csv, show, units_line
-
-    stated = units_line(path)
-    if stated is not None:
-        line_no, text = stated
-        wrong = [u for u in re.split(r"[\s,;()]+", text.lower()) if u and u not in FRAME_UNITS]
-        if wrong or not text:
-            raise InputError(
-                f"{path}:{line_no}: units {show(text)}: frames.csv holds N, N*m and s (SI);"
-                " this file says otherwise"
-            )
+    units.check_stated(path, units.FRAME_WORDS, "frames.csv holds N, N*m, us and s (SI)")
     return read_csv(
         path,
         FRAME_NUMBERS,

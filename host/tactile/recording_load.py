@@ -31,7 +31,6 @@ unwrapped from its first row (a step back of under half the wrap is a frame out 
 """
 
 import pathlib
-import re
 import shlex
 from dataclasses import dataclass
 
@@ -47,7 +46,6 @@ __all__ = ["Contacts", "RecordingData", "load_recording"]
 WRAP = C.TIMESTAMP_MODULO  # 2^32 us
 HALF = WRAP // 2
 REBOOT_BACK_US = 1_000_000  # a step back this large is a new boot, not a frame out of order
-LENGTH_UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 CONTACTS = "contacts.csv"
 
 
@@ -296,18 +294,11 @@ def _contacts_unit(csv_path, meta):
     The ``# units:`` line says it.  A file without one (written before that line existed)
     is in cm when it came from a SCARA joint log (ch. 5, as tables 5-7), else in m: the
     recording's command names the log, whose header says which, if it is still readable."""
-    from tactile.tabular import show, units_line
+    from tactile import units
 
-    stated = units_line(csv_path)
-    if stated is not None:
-        line_no, text = stated
-        unit = re.split(r"[\s,;()]+", text)[0]
-        if unit not in LENGTH_UNITS:
-            raise InputError(
-                f"{csv_path}:{line_no}: units {show(text)}: not a length unit"
-                f" (one of {', '.join(LENGTH_UNITS)})"
-            )
-        return LENGTH_UNITS[unit], unit, None
+    unit = units.stated_length(csv_path)
+    if unit is not None:
+        return units.LENGTH_M[unit], unit, None
     log = _pose_log(csv_path.parent, meta)
     if log is None:
         why = (
@@ -319,7 +310,7 @@ def _contacts_unit(csv_path, meta):
     from tactile.localize.pose_log import log_columns
 
     unit = "cm" if "q1" in log_columns(log) else "m"
-    return LENGTH_UNITS[unit], unit, None
+    return units.LENGTH_M[unit], unit, None
 
 
 def _pose_log(rec_dir, meta):

@@ -51,13 +51,19 @@ LATEST = (
 
 
 def count_rows(path, header=True):
-    """Lines in ``path`` (less its header), read in bounded chunks; 0 if it does not exist."""
+    """Lines in ``path`` (less its header and the ``#`` lines before it: the units line),
+    read in bounded chunks; 0 if it does not exist."""
     try:
         with open(path, "rb") as fh:
+            comments = 0
+            while header and fh.read(1) == b"#":
+                comments += 1
+                fh.readline()
+            fh.seek(0)
             lines = sum(chunk.count(b"\n") for chunk in iter(lambda: fh.read(1 << 20), b""))
     except FileNotFoundError:
         return 0
-    return max(0, lines - 1) if header else lines
+    return max(0, lines - 1 - comments) if header else lines
 
 
 def previous_sessions(path, capture_bytes, rows):

@@ -163,10 +163,11 @@ def rows(path):
         yield from found
 
 
-def preamble(path):
-    """(``#`` lines before the header as [(line, stripped text)], header line, header row)."""
+def preamble(path, max_bytes=None):
+    """(``#`` lines before the header as [(line, stripped text)], header line, header row).
+    Only the lines up to the header are read; ``max_bytes`` as for ``read_csv``."""
     comments = []
-    with contextlib.closing(_text_lines(path)) as lines:
+    with contextlib.closing(_text_lines(path, max_bytes)) as lines:
         for line_no, text in lines:
             s = text.strip()
             if s.startswith("#"):
@@ -180,10 +181,10 @@ def _no_header(path):
     return f"{where(path, 1)}: no header row (the file is empty or only comments)"
 
 
-def units_line(path):
+def units_line(path, max_bytes=None):
     """The ``# units: ...`` line among the ``#`` lines before the header, as (line, the text
     after the colon, stripped), or None when the file states no unit."""
-    comments, _, _ = preamble(path)
+    comments, _, _ = preamble(path, max_bytes)
     for line_no, text in comments:
         key, _, value = text[1:].partition(":")
         if key.strip().lower() == "units":

@@ -14,6 +14,8 @@ standard gravity 9.80665 m/s^2, the inch 0.0254 m; so 1 lbf = 4.4482216152605 N.
 import re
 from collections import namedtuple
 
+from tactile.units import LENGTH_M  # the one length vocabulary
+
 __all__ = ["Units", "SI", "parse", "force_factor", "torque_factor", "gauge_factor"]
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
@@ -32,7 +34,6 @@ FORCE_N = {
 }
 # ATI's DAQ F/T library spells the mass-named units without the f: "lb", "klb", "kg", "g".
 FORCE_ALIASES = {"lb": "lbf", "klb": "klbf", "oz": "ozf", "kg": "kgf", "g": "gf"}
-LENGTH_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254, "ft": 0.3048}
 GAUGE_V = {"count": None, "V": 1.0, "mV": 1e-3}  # None: the ADC code itself
 GAUGE_ALIASES = {"counts": "count"}
 

@@ -12,6 +12,12 @@ def add_arguments(parser):
     add_sensor_arguments(est)
     est.add_argument("--u0", type=float, default=0.0, help="fingertip u at the start (eq. 20)")
     est.add_argument("--v0", type=float, default=0.0, help="fingertip v at the start (eq. 20)")
+    est.add_argument(
+        "--units",
+        default="m",
+        metavar="U",
+        help="length unit of --finger-radius and --resolution (default m); curvatures in 1/U",
+    )
     est.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -46,20 +52,37 @@ def run(args):
 
     dtheta, dp = read_probes(args.file)
     result = estimate(dtheta, dp, args.finger_radius, args.u0, args.resolution, args.noise_theta)
-    print_result(result.as_dict(), args.json)
+    from tactile import units
+
+    try:
+        unit = units.parse_length(args.units)
+    except ValueError as exc:
+        raise InputError(f"--units: {exc}") from None
+    print_result(result.as_dict(), args.json, unit)
     if result.status not in EXIT_OK:
         raise DataError(f"{args.file}: {result.status}: {result.message}")
     return 0
 
 
-def print_result(result, as_json):
+CURVATURES = ("kx", "ky", "k1", "k2")
+
+
+def print_result(result, as_json, unit=None):
+    """The estimate as JSON or ``key: value`` lines; curvatures in 1/``unit`` (the unit of
+    --finger-radius) when it is given."""
     from tactile.jsonout import dumps
 
     if as_json:
+        if unit is not None:
+            named = {k: f"1/{unit}" for k in CURVATURES} | {"residual": unit}
+            result = {**result, "units": named}
         print(dumps(result))
         return
     for key in ("status", "kx", "ky", "k1", "k2", "direction1", "residual", "n_probes", "message"):
         value = result.get(key)
         if isinstance(value, float):
             value = f"{value:.6g}"
-        print(f"{key:>10}: {value if value is not None else '-'}")
+        label = key
+        if unit is not None and key in (*CURVATURES, "residual"):
+            label = f"{key} ({unit})" if key == "residual" else f"{key} (1/{unit})"
+        print(f"{label:>14}: {value if value is not None else '-'}")

@@ -31,7 +31,19 @@ def add_arguments(parser):
         help="spline row weights: auto (noise), or the thesis's tangent/position 100:1 (§4.9)",
     )
     p.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
-    p.add_argument("--noise-pos", type=float, help="position noise sigma (length unit)")
+    p.add_argument(
+        "--units",
+        metavar="U",
+        help="length unit shown (m, cm, mm, um, ...; default: the file's '# units:' line);"
+        " k in 1/U, C from R in 1/U",
+    )
+    p.add_argument(
+        "--file-units",
+        metavar="U",
+        help="the file's length unit, for a file without a '# units:' line; one that has"
+        " the line must agree (else exit 2)",
+    )
+    p.add_argument("--noise-pos", type=float, help="position noise sigma (in --units' unit)")
     p.add_argument("--noise-normal", type=float, help="normal direction noise sigma (rad)")
     p.add_argument("--align", action="store_true", help="refit in the principal frame (§4.10)")
     p.add_argument(
@@ -62,6 +74,15 @@ def run(args):
         raise InputError(f"--segments must be at least 1 (got {args.segments})")
     if not 1 <= args.jobs <= MAX_JOBS:
         raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
+    from tactile import units
+
+    if args.file_units is not None:
+        try:
+            units.parse_length(args.file_units)
+        except ValueError as exc:
+            raise InputError(f"--file-units: {exc}") from None
+    file_unit = units.stated_length(args.file, args.file_units)
+    shown, scale = units.display(file_unit, args.units)
     groups = _checked(args.file)  # read again, patch by patch, as they are analysed
     if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
         raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
@@ -71,14 +92,14 @@ def run(args):
         segments=args.segments,
         weighting=args.weighting,
         grid=args.grid,
-        noise_pos=args.noise_pos,
+        noise_pos=None if args.noise_pos is None else args.noise_pos / scale,
         noise_normal=args.noise_normal,
         align=args.align,
         max_normal_angle=args.max_normal_angle,
         break_angle=args.break_angle,
     )
     named = ((g, patch_id(g.patch)) for g in groups)
-    out = _Printer(args.json)
+    out = _Printer(args.json, shown, scale, file_unit is not None)
     failed = []
     bar = _progress(len(groups))
     try:
@@ -152,17 +173,20 @@ class _Printer:
     """Each patch's lines as soon as they are known, flushed: JSON lines, or the table
     (its header before the first row, its footnote at the end)."""
 
-    def __init__(self, as_json):
-        self.as_json = as_json
+    def __init__(self, as_json, unit="u", scale=1.0, stated=True):
+        self.as_json, self.unit, self.scale, self.stated = as_json, unit, scale, stated
         self.started = False
 
     def records(self, records):
+        from tactile.ep2.record_units import in_unit
+
+        records = [in_unit(r, self.unit, self.scale) for r in records]
         if self.as_json:
             from tactile.jsonout import dumps
 
             lines = [dumps(r) for r in records]
         else:
-            lines = [] if self.started else [_HEAD]
+            lines = [] if self.started else [_head(self.unit)]
             self.started = True
             for r in records:
                 lines.extend(_rows(r))
@@ -170,8 +194,8 @@ class _Printer:
 
     def close(self):
         if not self.as_json:
-            lines = [] if self.started else [_HEAD]
-            print("\n".join([*lines, _FOOT]), flush=True)
+            lines = [] if self.started else [_head(self.unit)]
+            print("\n".join([*lines, _foot(self.unit, self.stated)]), flush=True)
 
 
 def patch_id(text):
@@ -194,11 +218,24 @@ def _fmt(v, spec=".4g"):
     return "-" if v is None else format(v, spec)
 
 
-_HEAD = (
-    f"{'patch':<10} {'n':>4} {'shape':<16} {'conf':>5} {'S':>7} {'S 95%':>15} "
-    f"{'k1 (1/u)':>10} {'k2 (1/u)':>10} {'radius (u)':>10} {'C':>7}  model"
-)
-_FOOT = "u = the CSV's length unit; S, k1, k2, radius, C at the patch centre (--json: more)"
+def _head(unit):
+    k1, k2, radius, c = f"k1 (1/{unit})", f"k2 (1/{unit})", f"radius ({unit})", f"C (R in 1/{unit})"
+    return (
+        f"{'patch':<10} {'n':>4} {'shape':<16} {'conf':>5} {'S':>7} {'S 95%':>15} "
+        f"{k1:>11} {k2:>11} {radius:>11} {c:>14}  model"
+    )
+
+
+def _foot(unit, stated):
+    what = (
+        f"lengths in {unit}"
+        if stated
+        else "u = the CSV's length unit (the file states none: add '# units: m' or --file-units)"
+    )
+    return (
+        f"{what}; C = (2/pi) ln R with R = sqrt((k1^2 + k2^2)/2) in 1/{unit}: another unit"
+        " shifts C; S, k1, k2, radius, C at the patch centre (--json: more)"
+    )
 
 
 def _rows(r):
@@ -210,7 +247,7 @@ def _rows(r):
     s95 = "-" if si is None else f"[{si[0]:.3f},{si[1]:.3f}]"
     line = (
         f"{r['patch']:<10} {r['n_points']:>4} {r['shape']:<16} {r['confidence']:>5.2f} "
-        f"{_fmt(r['S'], '.3f'):>7} {s95:>15} {_fmt(r['k1']):>10} {_fmt(r['k2']):>10} "
-        f"{_fmt(r['radius']):>10} {_fmt(r['C'], '.3f'):>7}  {r['model'].split(':')[0]}"
+        f"{_fmt(r['S'], '.3f'):>7} {s95:>15} {_fmt(r['k1']):>11} {_fmt(r['k2']):>11} "
+        f"{_fmt(r['radius']):>11} {_fmt(r['C'], '.3f'):>14}  {r['model'].split(':')[0]}"
     )
     return [line, *(f"  warning: {w}" for w in r.get("warnings", []))]

@@ -1,8 +1,9 @@
 """``tactile plot CONTACTS.csv|DIR``: PNGs of the contacts, the fitted patch and the S/C maps.
 
-Axis labels carry the CSV's length unit (``--units``, else a ``# units: U`` comment line in
-the CSV).  The ``finger`` column of a recording from a one-sensor board counts passes (the
-ch. 5 rig moves one finger in passes), so its legend says "pass".
+Axis labels carry a length unit: ``--units U`` converts to U from the CSV's ``# units:``
+line; a CSV without the line is drawn as it is, labelled U (or "input unit").  The
+``finger`` column of a recording from a one-sensor board counts passes (the ch. 5 rig moves
+one finger in passes), so its legend says "pass".
 """
 
 WHAT = ("contacts", "patch", "maps")
@@ -35,8 +36,8 @@ def add_arguments(parser):
     parser.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
     parser.add_argument(
         "--units",
-        help="length unit of the CSV's x, y, z, for the axis labels"
-        " (default: the CSV's '# units: U' line, else 'input unit')",
+        help="length unit drawn (m, cm, mm, ...; default: the CSV's '# units: U' line); a CSV"
+        " without the line is drawn as it is, labelled U",
     )
     parser.add_argument(
         "--what",
@@ -68,13 +69,16 @@ def run(args):
     outdir = pathlib.Path(args.outdir) if args.outdir else default_out
     plots.require_matplotlib()  # the install hint before any work
     groups = read_contacts(csv_path)
-    unit = args.units or _declared_units(csv_path)
+    unit, scale = _display(csv_path, args.units)
     word = _group_word(pathlib.Path(args.source))
     try:
         outdir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"{outdir}: cannot create the output directory ({exc.strerror})") from None
 
+    if scale != 1.0:
+        for g in groups:
+            g.points = g.points * scale
     labels = _labels(groups)
     failed = []
     for g, label in zip(groups, labels, strict=True):
@@ -160,21 +164,15 @@ def _source(path):
     return path, path.stem, path.parent
 
 
-def _declared_units(csv_path):
-    """The unit of a leading '# units: U' (or '# unit: U') comment line, else None."""
-    import re
+def _display(csv_path, shown):
+    """(the unit drawn or None, the scale from the file's unit to it): ``units.display``,
+    except that a CSV stating no unit is drawn as it is, labelled ``shown``."""
+    from tactile import units
 
-    try:
-        with open(csv_path, encoding="utf-8", errors="replace") as fh:
-            for line in fh:
-                if not line.startswith("#"):
-                    return None
-                found = re.match(r"#\s*units?\s*[:=]\s*(\S+)", line)
-                if found:
-                    return found.group(1)
-    except OSError:
-        return None
-    return None
+    file_unit = units.stated_length(csv_path)
+    if file_unit is None:
+        return shown, 1.0
+    return units.display(file_unit, shown) if shown else (file_unit, 1.0)
 
 
 def _group_word(source):

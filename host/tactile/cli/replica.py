@@ -48,6 +48,7 @@ def replicate(kind, outdir, via="pty"):
     """
     import pathlib
 
+    from tactile import units
     from tactile.derive import derive
     from tactile.ep2.contacts_csv import read_contacts
     from tactile.record_session import Session
@@ -65,8 +66,10 @@ def replicate(kind, outdir, via="pty"):
         session = Session(port, outdir, stop_when=stop_when, on_progress=on_ready)
         meta = session.run()
     lines = derive(outdir, pose_log)
-    patch = read_contacts(outdir / "contacts.csv")[0]
-    return meta, lines, analyse(patch.points, patch.normals, patch.finger)
+    path = outdir / "contacts.csv"
+    patch = read_contacts(path)[0]
+    to_cm = units.LENGTH_M[units.stated_length(path)] / units.LENGTH_M["cm"]  # as tables 5-7
+    return meta, lines, analyse(patch.points * to_cm, patch.normals, patch.finger)
 
 
 @contextlib.contextmanager

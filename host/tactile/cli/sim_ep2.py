@@ -30,15 +30,27 @@ def add_arguments(parser):
         action="store_true",
         help="object apex at the sweep's corner (0, 0) as in §4.9, not its centre",
     )
+    parser.add_argument(
+        "--units",
+        default="cm",
+        metavar="U",
+        help="the length unit of every length option and of the file's '# units:' line"
+        " (default cm: the thesis's ch. 4 numbers carry none)",
+    )
     parser.add_argument("--patches", type=int, default=1, help="write N patches (seeds seed..)")
     parser.add_argument("-o", "--output", required=True, help="output CSV")
 
 
 def run(args):
+    from tactile import units
     from tactile.errors import InputError
     from tactile_sim.ep2 import make, sweep
     from tactile_sim.ep2.sweep import write_rows
 
+    try:
+        unit = units.parse_length(args.units)
+    except ValueError as exc:
+        raise InputError(f"--units: {exc}") from None
     if args.radius <= 0:
         raise InputError(f"--radius must be positive (got {args.radius})")
     if args.samples < 1 or args.repeats < 1 or args.patches < 1:
@@ -65,7 +77,13 @@ def run(args):
                     tilt_deg=args.tilt,
                     seed=args.seed + i,
                 )
-                write_rows(fh, data, patch=str(i + 1) if args.patches > 1 else None, header=i == 0)
+                write_rows(
+                    fh,
+                    data,
+                    patch=str(i + 1) if args.patches > 1 else None,
+                    header=i == 0,
+                    unit=unit,
+                )
     except ValueError as exc:
         raise InputError(str(exc)) from None
     except OSError as exc:

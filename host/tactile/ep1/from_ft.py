@@ -117,9 +117,11 @@ def _header(path):
 def read_probe_log(path):
     """Read a probe log (module docstring); errors are one-line InputErrors naming
     file:line and column."""
+    from tactile import units
     from tactile.log_clock import CLOCKS, clock_of, parse_end, read_times
     from tactile.tabular import preamble, read_csv
 
+    units.check_stated(path, units.LOG_WORDS, units.LOG_WHAT)
     radius, centre, half = _header(path)
     _, header_line, header = preamble(path)
     clock = clock_of(path, header_line, {h.strip() for h in header}) or "board"

@@ -1,8 +1,9 @@
 """The EP1 probes CSV contract.
 
-Header row; required columns ``dtheta_x,dtheta_y,du,dv``: the net rotation of the finger
-about the x and y axes of the contact frame (rad) and the change of the contact point in the
-fingertip parameters of eq. 20, with the signs of eq. 29: M1 dp = (K1 + K2~)^-1 [-dtheta_y,
+A ``# units: rad`` line (a file without it is read as before), a header row; required
+columns ``dtheta_x,dtheta_y,du,dv``: the net rotation of the finger about the x and y axes
+of the contact frame (rad) and the change of the contact point in the fingertip parameters
+of eq. 20 (rad), with the signs of eq. 29: M1 dp = (K1 + K2~)^-1 [-dtheta_y,
 dtheta_x]^T.  Other columns are ignored; ``#`` lines are comments.
 """
 
@@ -13,8 +14,10 @@ __all__ = ["COLUMNS", "read_probes", "format_probes"]
 
 def read_probes(path):
     """Return (dtheta (m, 2), dp (m, 2)) arrays; errors are InputError naming file:line:column."""
+    from tactile import units
     from tactile.tabular import read_csv
 
+    units.check_stated(path, {units.PROBES}, "a probes CSV holds angles in rad")
     table = read_csv(path, COLUMNS)
     data = table.array(*COLUMNS)
     return data[:, :2], data[:, 2:]
@@ -22,6 +25,8 @@ def read_probes(path):
 
 def format_probes(rows):
     """CSV text for an (m, 4) array of (dtheta_x, dtheta_y, du, dv) rows (repr precision)."""
-    lines = [",".join(COLUMNS)]
+    from tactile import units
+
+    lines = [units.line(units.PROBES).rstrip("\n"), ",".join(COLUMNS)]
     lines += [",".join(repr(float(x)) for x in row) for row in rows]
     return "\n".join(lines) + "\n"

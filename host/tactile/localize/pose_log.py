@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tactile import units
 from tactile.errors import InputError, where
 from tactile.localize.contact import NO_CONTACT
 from tactile.tabular import show
@@ -139,6 +140,7 @@ def read_pose_log(path):
     from tactile.log_clock import CLOCKS, clock_of, parse_end, read_times
     from tactile.tabular import read_csv
 
+    units.check_stated(path, units.LOG_WORDS, units.LOG_WHAT)
     tags, header_line, header = _scan(path)
     names = {h.strip() for h in header}
     shown = ",".join(show(h.strip(), 20, False) for h in header[:20])

@@ -49,6 +49,7 @@ class RigMotion:
         """The robot controller's log: joints per touch, the rig's lengths (m) and the scene's
         end (board us, where ``tactile record`` stops) in comments."""
         with open(path, "w") as fh:
+            fh.write("# units: us, rad, m\n")  # times, joint angles, lengths (eq. 62)
             if self.lengths is not None:
                 L = " ".join(f"L{i + 1}={v!r}" for i, v in enumerate(self.lengths))
                 fh.write(f"# rig: scara {L}\n")

@@ -82,6 +82,7 @@ class RollMotion:
         g = self.geometry
         cx, cy, cz = g["centre_m"]
         with open(path, "w", encoding="utf-8") as fh:
+            fh.write("# units: us, rad, m\n")  # times, rotations, the fingertip's lengths
             fh.write(f"# probe: sphere radius_m={g['radius_m']!r} centre_m={cx!r},{cy!r},{cz!r}\n")
             fh.write(f"# hold: half_width_us={self.half_width_us()}\n")
             fh.write(f"# end: t_us={round(self.duration_s * 1e6)}\n")  # the scene's end

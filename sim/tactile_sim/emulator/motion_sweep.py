@@ -176,6 +176,7 @@ class SweepMotion:
         centre, radius, axis = self.probe()
         force, torque = (",".join(repr(float(v)) for v in part) for part in np.split(self.noise, 2))
         with open(path, "w", encoding="utf-8") as fh:
+            fh.write("# units: us, m\n")  # times, positions (the quaternion has none)
             fh.write(
                 f"# probe: sphere radius_m={radius!r} centre_m={','.join(map(repr, centre))}"
                 f" axis={','.join(map(str, axis))}\n"

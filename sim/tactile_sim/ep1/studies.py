@@ -278,10 +278,15 @@ def widest_range(radii, err, tolerance=0.25):
     return best
 
 
-def write_csv(path, rows):
-    """Write dict rows (union of keys, in first-seen order) as CSV; never NaN/inf."""
+UNITS = "lengths in fingertip radii (R1 = 1), curvatures 1/R1, angles rad, errors relative"
+
+
+def write_csv(path, rows, units=UNITS):
+    """Write dict rows (union of keys, in first-seen order) as CSV under a ``# units:``
+    line; never NaN/inf."""
     keys = list(dict.fromkeys(k for row in rows for k in row))
     with open(path, "w", newline="", encoding="utf-8") as fh:
+        fh.write(f"# units: {units}\n")
         writer = csv.DictWriter(fh, fieldnames=keys)
         writer.writeheader()
         for row in rows:

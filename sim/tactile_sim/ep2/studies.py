@@ -21,6 +21,7 @@ from tactile_sim.ep2.sweep import sweep
 
 ROTATIONS = (0, 10, 30, 45, 60, 80, 90)
 RADII = (5.7, 6, 7, 8, 9, 10, 20, 40, 80, 150, 300, 500, 1000)
+UNITS = "lengths cm, R and curvatures 1/cm, angles deg (rotation), S dimensionless"
 THESIS_LAYOUT = {"centre": (0.0, 0.0)}
 
 
@@ -216,6 +217,7 @@ def _write(out, name, rows):
     path = os.path.join(out, name + ".csv")
     keys = list(dict.fromkeys(k for r in rows for k in r))
     with open(path, "w", newline="", encoding="utf-8") as fh:
+        fh.write(f"# units: {UNITS}\n")
         w = csv.DictWriter(fh, keys)
         w.writeheader()
         for r in rows:

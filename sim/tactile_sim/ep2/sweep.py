@@ -59,15 +59,19 @@ def _tilt_normals(n, sigma, rng):
     return out / np.linalg.norm(out, axis=1, keepdims=True)
 
 
-def write_csv(path, data, patch=None):
-    """Write the EP2 CSV contract: x,y,z,nx,ny,nz,finger[,patch]."""
+UNIT = "cm"  # the scene's lengths (§4.9's numbers carry none; cm makes them hand-sized)
+
+
+def write_csv(path, data, patch=None, unit=UNIT):
+    """Write the EP2 CSV contract: ``# units: UNIT``, x,y,z,nx,ny,nz,finger[,patch]."""
     with open(path, "w", encoding="utf-8") as fh:
-        write_rows(fh, data, patch)
+        write_rows(fh, data, patch, unit=unit)
 
 
-def write_rows(fh, data, patch=None, header=True):
-    """Append one sweep's rows to an open file (header first if asked)."""
+def write_rows(fh, data, patch=None, header=True, unit=UNIT):
+    """Append one sweep's rows to an open file (units line and header first if asked)."""
     if header:
+        fh.write(f"# units: {unit}\n")
         fh.write("x,y,z,nx,ny,nz,finger" + (",patch" if patch is not None else "") + "\n")
     rows = np.column_stack([data["points"], data["normals"]])
     tail = f",{patch}" if patch is not None else ""
