@@ -99,7 +99,7 @@ def test_not_checked_without_calibration_or_gate(why):
         rig.config(rate=1000, enter=0, exit_=0, debounce=1, flags=CFG_STREAM_CONTACTS)
     rig.set_codes(0, LOADED)
     kind, _ = _answer(rig, rig.send(CMD_TARE, (0, 20)))
-    assert kind == "ACK" and rig.board.cals[0].bias[0] == float(LOADED[0])
+    assert kind == "ACK" and rig.board.cals[0].bias_counts()[0] == float(LOADED[0])
 
 
 def test_after_a_refusal_the_next_tare_works_once_unloaded():

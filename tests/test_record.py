@@ -102,12 +102,17 @@ class Delivered:
 )
 def test_a_port_lost_mid_read_loses_nothing_and_the_gap_is_recorded(mocker, tmp_path, exc):
     ports = Delivered(mocker, fail_at=300, exc=exc, gone=3)  # missing for 3 tries, then back
-    session = Session("/dev/ttyACM0", tmp_path, duration_s=0.6, opener=ports.open,
-                      sleep=lambda s: None)  # fmt: skip
+
+    def back_and_reading(session):  # 100 reads after the port came back, however slow they are
+        gaps = session.gaps
+        return "recovered" if gaps and gaps[-1].get("back_at_s") and ports.reads > 400 else None
+
+    session = Session("/dev/ttyACM0", tmp_path, duration_s=60, opener=ports.open,
+                      sleep=lambda s: None, stop_when=back_and_reading)  # fmt: skip
     meta = session.run()
     capture, rows, meta_file = _files(tmp_path)
     assert capture == bytes(ports.bytes)  # every byte received is on disk, in order
-    assert meta["ended"] == "duration" and meta_file["gaps"] == meta["gaps"]
+    assert meta["ended"] == "recovered" and meta_file["gaps"] == meta["gaps"]
     (gap,) = meta["gaps"]
     assert gap["back_at_s"] is not None and gap["back_at_s"] >= gap["lost_at_s"]
     assert "disconnected" in gap["why"] or "Input/output" in gap["why"]

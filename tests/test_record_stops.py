@@ -178,5 +178,5 @@ def test_force_raises_the_gate_for_the_tare_only(tmp_path):
     assert [getattr(after, f) for f in fields] == [getattr(before, f) for f in fields]
     assert after.enter_threshold == 1_390_000
     for cal in port.emulator.board.cals:  # each bias holds its finger's load, in N:
-        f = np.reshape(cal.scaled, (6, 6)) @ np.array(cal.bias) * 1e-6
+        f = np.reshape(cal.coefficients(), (6, 6)) @ np.array(cal.bias_counts())
         assert np.hypot(f[0], f[1]) > 1.39  # above the gate the plain TARE refused

@@ -61,12 +61,22 @@ class _Help(argparse.HelpFormatter):
 
 
 def _logging(verbose):
-    """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr."""
+    """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr, for
+    this call only: returns the undo (``main`` may run many times in one process)."""
     import logging
 
-    level = {0: logging.WARNING, 1: logging.INFO}.get(verbose, logging.DEBUG)
-    fmt = "tactile %(name)s: %(message)s"
-    logging.basicConfig(level=level, format=fmt, stream=sys.stderr, force=True)
+    logger = logging.getLogger("tactile")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("tactile %(name)s: %(message)s"))
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO if verbose == 1 else logging.DEBUG)
+
+    def undo():
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+    return undo
 
 
 def _load(name):
@@ -109,9 +119,12 @@ def main(argv=None):
             "-v", "--verbose", action="count", default=0, help="log progress (-vv: each frame)"
         )
         args = parser.parse_args(argv[1:])
-        if args.verbose:
-            _logging(args.verbose)
-        return int(module.run(args) or 0)
+        undo = _logging(args.verbose) if args.verbose else None
+        try:
+            return int(module.run(args) or 0)
+        finally:
+            if undo is not None:
+                undo()
     except TactileError as exc:
         print(f"tactile {name}: error: {exc}", file=sys.stderr)
         return exc.exit_code
