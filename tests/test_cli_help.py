@@ -31,20 +31,7 @@ def test_help_shows_every_default(name, capsys):
                 assert any(v in text for v in shown), (name, action.option_strings, d)
 
 
-@pytest.fixture
-def restore_logging():
-    """-v configures the root logger on this test's captured stderr, which closes with the
-    test: later tests that log (BoardClient outside the CLI) would write to a closed file."""
-    import logging
-
-    root = logging.getLogger()
-    handlers, level = root.handlers[:], root.level
-    yield
-    root.handlers[:] = handlers
-    root.setLevel(level)
-
-
-def test_verbose_logs_commands_on_stderr(tmp_path, capsys, restore_logging):
+def test_verbose_logs_commands_on_stderr(tmp_path, capsys):
     assert cli_main.main(["info", "--port", "sim://press", "-v"]) == 0
     err = capsys.readouterr().err
     assert "tactile tactile.board_client: sim://press: GET_INFO" in err
