@@ -1,0 +1,54 @@
+"""Instructions per sample of the C core on ARMv6-M, counted in QEMU (issue 16, speed).
+
+Run: ``.venv/bin/python bench/fw_c_qemu.py``.  The C core's micro:bit image
+(``firmware/c/qemu``, ``arm-none-eabi-gcc -mcpu=cortex-m0plus -Os``) runs in
+``qemu-system-arm -M microbit`` (a Cortex-M0: ARMv6-M, as the RP2040's M0+) with
+``-icount shift=0``: one instruction is one nanosecond of virtual time, which the image
+reads from the nRF51's TIMER1 at 16 MHz (62.5 instructions per tick) around 2,000 calls of
+each stage and 400 whole polls (``bench.c``), on the press scene's sensor (1 kHz, SAMPLE and
+CONTACT streams).  A whole poll includes the HAL's own instructions (the device channel that
+stands in for the I2C peripheral: a semihosting call per transfer) but not the time an I2C
+transfer takes on a real bus (576 bit-times per sample, docs/firmware.md).
+"""
+
+import sys
+
+from tactile_sim.emulator import load_scene
+from tactile_sim.emulator.device import EmulatedBoard
+from tactile_sim.emulator.qemu_core import QemuUnavailable, bench
+
+NS_PER_TICK = 1e9 / 16e6  # TIMER1, prescaler 0
+CLOCK_HZ = 125e6  # an RP2040's M0+
+TARGET = 5000  # instructions per sample, whole poll, one sensor (issue 16)
+
+
+def main():
+    emu = EmulatedBoard(load_scene("press"), core="qemu", boot_id=1)
+    try:
+        report = bench(emu)
+    except QemuUnavailable as exc:
+        sys.exit(f"fw_c_qemu: {exc}")
+    loop, cal, gate, enc, reps, sampled, t_sampled, idle, t_idle, n = report
+    per = lambda ticks: (ticks - loop) * NS_PER_TICK / reps  # noqa: E731  instructions
+    rows = [
+        ("calibrate: 6x6 fixed point, one sensor (`tc_cal_apply`)", per(cal)),
+        ("gate: hysteresis + debounce (`tc_gate_update`)", per(gate)),
+        ("encode: SAMPLE frame, pack + CRC-16 + COBS (`tc_encode`)", per(enc)),
+        (f"whole `tc_board_poll` that takes a sample ({sampled} polls)",
+         t_sampled * NS_PER_TICK / sampled),
+    ]  # fmt: skip
+    if idle:
+        rows.append(
+            (f"`tc_board_poll` with nothing due ({idle} polls)", t_idle * NS_PER_TICK / idle)
+        )
+    print(f"| stage ({n} sensor, 1 kHz, SAMPLE + CONTACT) | instructions | at 125 MHz, 1 kHz |")
+    print("|---|---:|---:|")
+    for label, instr in rows:
+        print(f"| {label} | {instr:,.0f} | {instr * 1e3 / CLOCK_HZ:.2%} |")
+    whole = rows[3][1]
+    verdict = "met" if whole < TARGET else "missed"
+    print(f"\nTarget: under {TARGET:,} instructions for the whole poll of one sensor: {verdict}.")
+
+
+if __name__ == "__main__":
+    main()
