@@ -1,6 +1,6 @@
 """Instructions per sample of the C core on ARMv6-M, counted in QEMU (issue 16, speed).
 
-Run: ``.venv/bin/python bench/fw_c_qemu.py``.  The C core's micro:bit image
+Run: ``.venv/bin/python bench/fw_c_qemu.py [--seconds 3]``.  The C core's micro:bit image
 (``firmware/c/qemu``, ``arm-none-eabi-gcc -mcpu=cortex-m0plus -Os``) runs in
 ``qemu-system-arm -M microbit`` (a Cortex-M0: ARMv6-M, as the RP2040's M0+) with
 ``-icount shift=0``: one instruction is one nanosecond of virtual time, which the image
@@ -9,10 +9,21 @@ each stage and 400 whole polls (``bench.c``), on the press scene's sensor (1 kHz
 CONTACT streams).  A whole poll includes the HAL's own instructions (the device channel that
 stands in for the I2C peripheral: a semihosting call per transfer) but not the time an I2C
 transfer takes on a real bus (576 bit-times per sample, docs/firmware.md).
+
+Then the same image served on a pty as ``tactile emulate press --core qemu`` serves it, in
+real time and ``--fast``, read by a host in the same process: samples per wall second, and
+samples the board flagged late (its device channel to the Python ADC models is the cost).
 """
 
+import argparse
 import sys
+import threading
+import time
 
+import serial
+
+from tactile.stream_decoder import StreamDecoder
+from tactile_protocol import constants as C
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.qemu_core import QemuUnavailable, bench
@@ -22,7 +33,32 @@ CLOCK_HZ = 125e6  # an RP2040's M0+
 TARGET = 5000  # instructions per sample, whole poll, one sensor (issue 16)
 
 
+def served(seconds, fast):
+    """(samples, late samples, wall s) for ``seconds`` of the press scene's board time."""
+    from tactile_sim.emulator.qemu_server import QemuServer
+
+    server = QemuServer(EmulatedBoard(load_scene("press"), core="qemu"), realtime=not fast)
+    port = serial.Serial(server.open(), timeout=0.05)
+    thread = threading.Thread(target=server.serve, args=(seconds,), daemon=True)
+    t0 = time.monotonic()
+    thread.start()
+    decoder, n, late = StreamDecoder(), 0, 0
+    while thread.is_alive() or port.in_waiting:
+        data = port.read(1)
+        for m in decoder.feed(data + port.read(port.in_waiting)):
+            if m.type_name == "SAMPLE":
+                n += 1
+                late += bool(m.flags & C.FLAG_LATE)
+    wall = time.monotonic() - t0
+    port.close()
+    server.close()
+    return n, late, wall
+
+
 def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--seconds", type=float, default=3.0, help="board time served per run")
+    args = ap.parse_args()
     emu = EmulatedBoard(load_scene("press"), core="qemu", boot_id=1)
     try:
         report = bench(emu)
@@ -48,6 +84,12 @@ def main():
     whole = rows[3][1]
     verdict = "met" if whole < TARGET else "missed"
     print(f"\nTarget: under {TARGET:,} instructions for the whole poll of one sensor: {verdict}.")
+    print("\n| served on a pty (press, 1 kHz) | samples | late | wall s | samples/s |")
+    print("|---|---:|---:|---:|---:|")
+    for fast in (False, True):
+        n, late, wall = served(args.seconds, fast)
+        mode = f"{'--fast (-icount)' if fast else 'real time'}, {args.seconds:g} s of board time"
+        print(f"| {mode} | {n} | {late} | {wall:.2f} | {n / wall:,.0f} |")
 
 
 if __name__ == "__main__":
