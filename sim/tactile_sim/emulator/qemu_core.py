@@ -20,7 +20,6 @@ import pathlib
 import select
 import shutil
 import socket
-import struct
 import subprocess
 import time
 
@@ -255,51 +254,65 @@ class QemuDevice:
         return need if need is not None and len(b) >= need else 0
 
     def _answer(self, req):
-        op, hw = chr(req[0]), self.board
-        if op == "C":
-            head = struct.pack(
-                "<BBHIH", len(hw.layout), self.mode, hw.override, hw.boot_id, TX_RING
-            )
-            return head + bytes(v for entry in hw.layout for v in entry)
-        if op == "R":
-            bus, addr, cmd, n, ticks = struct.unpack_from("<BBBBI", req, 1)
-            self._clock(ticks)
-            buf = bytearray(n)
-            try:
-                hw.buses[bus].readfrom_mem_into(addr, cmd, buf)
-                err = 0
-            except OSError as exc:
-                err, buf = _errno(exc), bytearray(n)
-            return struct.pack("<H", err & 0xFFFF) + bytes(buf)
-        if op == "W":
-            bus, addr, n, ticks = struct.unpack_from("<BBBI", req, 1)
-            self._clock(ticks)
-            data = req[8 : 8 + n]
-            try:
-                if n >= 2:  # WREG: the driver's writeto_mem
-                    hw.buses[bus].writeto_mem(addr, data[0], data[1:])
-                else:
-                    hw.buses[bus].writeto(addr, data)
-                err = 0
-            except OSError as exc:
-                err = _errno(exc)
-            return struct.pack("<H", err & 0xFFFF)
-        if op == "B":
-            key, cap = struct.unpack_from("<BH", req, 1)
-            data = hw.storage.read(_blob(key))
-            if data is None:
-                return struct.pack("<h", -1)
-            return struct.pack("<h", len(data)) + bytes(data[:cap])
-        if op == "S":
-            key, n = struct.unpack_from("<BH", req, 1)
-            try:
-                hw.storage.write(_blob(key), bytes(req[4 : 4 + n]))
-                return struct.pack("<H", 0)
-            except OSError as exc:
-                return struct.pack("<H", _errno(exc) & 0xFFFF)
-        count = req[1]  # 'M'
-        self.reports.append(struct.unpack_from(f"<{count}I", req, 2))
-        return struct.pack("<H", 0)
+        """The reply to one complete request (layouts: ``firmware/c/qemu/port_microbit.c``)."""
+        return getattr(self, "_op_" + chr(req[0]))(req)
+
+    def _op_C(self, req):  # the board's configuration
+        hw = self.board
+        head = bytes((len(hw.layout), self.mode)) + _le(hw.override, 2) + _le(hw.boot_id, 4)
+        return head + _le(TX_RING, 2) + bytes(v for entry in hw.layout for v in entry)
+
+    def _op_R(self, req):  # I2C: command, repeated start, read n bytes
+        bus, addr, cmd, n = req[1:5]
+        self._clock(_int(req, 5, 4))
+        buf = bytearray(n)
+        try:
+            self.board.buses[bus].readfrom_mem_into(addr, cmd, buf)
+            err = 0
+        except OSError as exc:
+            err, buf = _errno(exc), bytearray(n)
+        return _le(err, 2) + bytes(buf)
+
+    def _op_W(self, req):  # I2C write
+        bus, addr, n = req[1:4]
+        self._clock(_int(req, 4, 4))
+        data = req[8 : 8 + n]
+        try:
+            if n >= 2:  # WREG: the driver's writeto_mem
+                self.board.buses[bus].writeto_mem(addr, data[0], data[1:])
+            else:
+                self.board.buses[bus].writeto(addr, data)
+            return _le(0, 2)
+        except OSError as exc:
+            return _le(_errno(exc), 2)
+
+    def _op_B(self, req):  # a blob from flash: its length (-1: none), then its bytes
+        cap = _int(req, 2, 2)
+        data = self.board.storage.read(_blob(req[1]))
+        if data is None:
+            return _le(-1, 2)
+        return _le(len(data), 2) + bytes(data[:cap])
+
+    def _op_S(self, req):  # a blob to flash
+        n = _int(req, 2, 2)
+        try:
+            self.board.storage.write(_blob(req[1]), bytes(req[4 : 4 + n]))
+            return _le(0, 2)
+        except OSError as exc:
+            return _le(_errno(exc), 2)
+
+    def _op_M(self, req):  # the bench's results
+        self.reports.append(tuple(_int(req, 2 + 4 * k, 4) for k in range(req[1])))
+        return _le(0, 2)
+
+
+def _le(value, n):
+    """``value`` as ``n`` little-endian bytes (two's complement, wrapped)."""
+    return (value & ((1 << (8 * n)) - 1)).to_bytes(n, "little")
+
+
+def _int(data, at, n):
+    return int.from_bytes(data[at : at + n], "little")
 
 
 def _blob(key):
