@@ -108,31 +108,28 @@ def cpu_s():
 
 def measure(cmd, stop_after=None):
     """(wall s, CPU s, peak RSS MB, stdout lines, exit code, s to the first line) of
-    ``cmd``; with ``stop_after``, Ctrl-C it that many seconds after its first line."""
+    ``cmd``; with ``stop_after``, Ctrl-C it that many seconds after its first line (the
+    lines counted up to then)."""
     cpu0, t0 = cpu_s(), time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=ENV)
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=ENV, start_new_session=True
+    )
     os.set_blocking(proc.stdout.fileno(), False)
-    peak, lines, first = 0, 0, None
-    while True:
+    peak, lines, first, stop = 0, 0, None, None
+    while proc.poll() is None:
         peak = max(peak, peak_rss_mb(proc.pid))
-        chunk = proc.stdout.read() or b""
-        lines += chunk.count(b"\n")
-        if lines and first is None:
-            first = time.perf_counter()
-        if proc.poll() is not None:
-            lines += (proc.stdout.read() or b"").count(b"\n")
-            break
-        if (
-            stop_after is not None
-            and first is not None
-            and time.perf_counter() - first > stop_after
-        ):
-            proc.send_signal(signal.SIGINT)
-            proc.wait()
-            break
+        got = (proc.stdout.read() or b"").count(b"\n")
+        lines += got if stop is None else 0
+        now = time.perf_counter()
+        first = now if first is None and lines else first
+        if stop is None and stop_after is not None and first and now - first > stop_after:
+            stop = now
+            os.killpg(proc.pid, signal.SIGINT)  # the CLI's own Ctrl-C (workers ignore it)
+        if stop is not None and now - stop > 60:
+            os.killpg(proc.pid, signal.SIGKILL)
         time.sleep(0.2)
+    lines += (proc.stdout.read() or b"").count(b"\n") if stop is None else 0
     wall = time.perf_counter() - t0
-    proc.stderr.read()
     start = None if first is None else first - t0
     return wall, cpu_s() - cpu0, peak, lines, proc.returncode, start
 
@@ -158,6 +155,43 @@ def grouping(sizes):
         print(f"\ngrouping 10k -> 100k: x{times[100_000] / times[10_000]:.1f} (10 = linear)")
 
 
+def reader(files):
+    print("\n| patches | file (MiB) | reader wall (s) | CPU (s) | rows/s of CPU | peak RSS (MB) |")
+    print("|---|---|---|---|---|---|")
+    for n, path in files.items():
+        wall, cpu, rss, _, code, _ = measure([sys.executable, "-c", READER, path])
+        assert code == 0
+        mib = os.path.getsize(path) / 2**20
+        print(f"| {n:,} | {mib:,.0f} | {wall:.1f} | {cpu:.1f} | {n * ROWS / cpu:,.0f} | {rss} |")
+
+
+def analyze(files, runs):
+    print("\n| patches | jobs | `ep2 analyze` wall (s) | CPU (s) | patches/s | peak RSS (MB) |")
+    print("|---|---|---|---|---|---|")
+    walls = {}
+    for n, jobs in runs:
+        wall, cpu, rss, lines, code, _ = measure([*CLI, files[n], "--jobs", str(jobs)])
+        assert code in (0, 3) and lines == n, (code, lines)
+        walls[n, jobs] = wall, cpu
+        print(f"| {n:,} | {jobs} | {wall:.1f} | {cpu:.1f} | {n / wall:.0f} | {rss} |")
+    if (100_000, 2) in walls and (10_000, 2) in walls:
+        (w1, c1), (w2, c2) = walls[10_000, 2], walls[100_000, 2]
+        print(f"\n--jobs 2, 10k -> 100k patches: wall x{w2 / w1:.1f}, CPU x{c2 / c1:.1f}")
+
+
+def long_run(path, seconds):
+    wall, cpu, rss, lines, code, start = measure([*CLI, path, "--jobs", "2"], seconds)
+    print(
+        f"\n1,000,000 patches, --jobs 2: first record after {start:.0f} s (the checking"
+        f" pass), {lines:,} patches in the next {seconds} s ({lines / seconds:.0f}/s), then"
+        f" Ctrl-C (exit {code}); peak RSS {rss} MB"
+    )
+
+
+CLI = [sys.executable, "-m", "tactile.cli.main", "ep2", "analyze", "--json"]
+SECTIONS = ("reader", "cli", "long", "grouping")
+
+
 def main():
     import argparse
 
@@ -165,56 +199,34 @@ def main():
     ap.add_argument("--quick", action="store_true", help="1k and 10k patches only")
     ap.add_argument("--cli-max", type=int, default=100_000, help="largest file given to the CLI")
     ap.add_argument("--long", type=int, default=LONG_S, help="s of analysis of the 1M file")
+    ap.add_argument("--only", default=",".join(SECTIONS), help="sections, of " + ",".join(SECTIONS))
     args = ap.parse_args()
-    quick = args.quick
-    py = sys.executable
-    cli = [py, "-m", "tactile.cli.main", "ep2", "analyze", "--json"]
-    sizes = (1_000, 10_000) if quick else (1_000, 10_000, 100_000, 1_000_000)
+    only = set(args.only.split(","))
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # children may be Ctrl-C'd
+    sizes = (1_000, 10_000) if args.quick else (1_000, 10_000, 100_000, 1_000_000)
+    runs = [(1_000, 1), (1_000, 2), (10_000, 1), (10_000, 2), (100_000, 2)]
+    runs = [(n, j) for n, j in runs if n in sizes and n <= args.cli_max] if "cli" in only else []
+    needed = {n for n, _ in runs}
+    needed |= set(sizes[1:]) if "reader" in only else set()
+    needed |= {1_000_000} if "long" in only and 1_000_000 in sizes and args.long > 0 else set()
     with tempfile.TemporaryDirectory() as tmp:
         files = {}
-        for n in sizes:
+        for n in sorted(needed):
             files[n] = os.path.join(tmp, f"p{n}.csv")
             t0 = time.perf_counter()
             write_csv(files[n], n)
             size = os.path.getsize(files[n]) / 2**20
             print(f"wrote {n:,} patches: {size:,.0f} MiB in {time.perf_counter() - t0:.0f} s")
         print(f"\nload average before: {os.getloadavg()[0]:.1f} (2 cores)")
-        print(
-            "\n| patches | file (MiB) | reader wall (s) | CPU (s) | rows/s of CPU | peak RSS (MB) |"
-        )
-        print("|---|---|---|---|---|---|")
-        for n in sizes[1:]:
-            wall, cpu, rss, _, code, _ = measure([py, "-c", READER, files[n]])
-            assert code == 0
-            mib = os.path.getsize(files[n]) / 2**20
-            print(
-                f"| {n:,} | {mib:,.0f} | {wall:.1f} | {cpu:.1f} | {n * ROWS / cpu:,.0f} | {rss} |"
-            )
-        print("\n| patches | jobs | `ep2 analyze` wall (s) | CPU (s) | patches/s | peak RSS (MB) |")
-        print("|---|---|---|---|---|---|")
-        walls = {}
-        runs = [(1_000, 1), (1_000, 2), (10_000, 1), (10_000, 2)]
-        runs += [] if quick or args.cli_max < 100_000 else [(100_000, 2)]
-        for n, jobs in runs:
-            wall, cpu, rss, lines, code, _ = measure([*cli, files[n], "--jobs", str(jobs)])
-            assert code in (0, 3) and lines == n, (code, lines)
-            walls[n, jobs] = wall, cpu
-            print(f"| {n:,} | {jobs} | {wall:.1f} | {cpu:.1f} | {n / wall:.0f} | {rss} |")
-        if (100_000, 2) in walls:
-            (w1, c1), (w2, c2) = walls[10_000, 2], walls[100_000, 2]
-            print(f"\n--jobs 2, 10k -> 100k patches: wall x{w2 / w1:.1f}, CPU x{c2 / c1:.1f}")
-        if not quick and args.long > 0:
-            n = 1_000_000
-            wall, cpu, rss, lines, code, start = measure(
-                [*cli, files[n], "--jobs", "2"], stop_after=args.long
-            )
-            print(
-                f"\n1,000,000 patches, --jobs 2: first record after {start:.0f} s (the checking"
-                f" pass), {lines:,} patches in the next {args.long} s, stopped (exit {code});"
-                f" peak RSS {rss} MB"
-            )
+        if "reader" in only:
+            reader({n: files[n] for n in sizes[1:]})
+        if runs:
+            analyze(files, runs)
+        if 1_000_000 in files and "long" in only:
+            long_run(files[1_000_000], args.long)
         print(f"\nload average after: {os.getloadavg()[0]:.1f}")
-    grouping((1_000, 10_000) if quick else (1_000, 10_000, 100_000))
+    if "grouping" in only:
+        grouping((1_000, 10_000) if args.quick else (1_000, 10_000, 100_000))
 
 
 if __name__ == "__main__":

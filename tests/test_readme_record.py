@@ -6,6 +6,7 @@ the lines after it.  Every other line must exit 0 without a traceback or a NaN, 
 
 import os
 import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -41,7 +42,8 @@ def test_the_block_runs_as_written(tmp_path, block):
     roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     emulator = subprocess.Popen(block[0], shell=True, cwd=tmp_path, env=env, text=True,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                start_new_session=True)  # fmt: skip
     try:
         pty = emulator.stdout.readline().strip()
         assert pty.startswith("/dev/"), emulator.stderr.read()
@@ -56,6 +58,6 @@ def test_the_block_runs_as_written(tmp_path, block):
                 assert "lost 0 frames" in r.stdout
             if " analyze " in line:
                 assert f" {SHAPE[scene]} " in r.stdout, r.stdout
-    finally:
-        emulator.terminate()
+    finally:  # the shell and the emulator it started: no emulator outlives its test
+        os.killpg(emulator.pid, signal.SIGTERM)
         emulator.wait(10)

@@ -63,7 +63,7 @@ class CsvBlocks:
     def __iter__(self):
         feed = self._feed = _Feed(self.path, _line_blocks(self.path, self.max_bytes, BLOCK_BYTES))
         reader = csv.reader(feed)
-        slow = None
+        slow = None  # rows parsed one at a time, from the header on
         while True:
             if feed.at_end_of_run():
                 if slow is not None and len(slow.lines):
@@ -71,9 +71,8 @@ class CsvBlocks:
                 run = feed.take()
                 if run is None:
                     break
-                fast = self._fast(*run) if self._index is not None else None
+                fast = self._fast(*run)
                 if fast is not None:
-                    self.rows += len(fast.lines)
                     yield fast
                     continue
                 feed.start(*run)
@@ -85,18 +84,12 @@ class CsvBlocks:
                 raise InputError(f"{where(self.path, feed.line)}: not valid CSV: {exc}") from None
             if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
                 continue
-            if self._index is None:
-                self._header(feed.line, row)
-                slow = _Rows(self)
-                rest = feed.rest()  # the lines after the header may be plain
-                fast = self._fast(*rest) if rest[1] else None
-                if fast is not None:
-                    self.rows += len(fast.lines)
-                    yield fast
-                else:
-                    feed.start(*rest)
+            if slow is not None:
+                slow.add(feed.line, row)
                 continue
-            slow.add(feed.line, row)
+            self._header(feed.line, row)
+            slow = _Rows(self)
+            feed.put_back_rest()  # the lines after the header may be plain
         if slow is not None and len(slow.lines):
             yield slow.block()
         if self._index is None:
@@ -114,7 +107,7 @@ class CsvBlocks:
     def _fast(self, first, run):
         """The run's rows parsed by ``numpy.loadtxt``, or None (the slow parser decides)."""
         n = count_lines(run)
-        if self.rows + n > self.max_rows or not _plain(run):
+        if self._index is None or self.rows + n > self.max_rows or not _plain(run):
             return None
         k = len(self.required)
         dtype = [(f"f{i}", "f8") for i in range(k)] + [(c, "O") for c in self.texts]
@@ -130,6 +123,7 @@ class CsvBlocks:
         if len(table) != n or not np.isfinite(numbers).all():
             return None
         texts = {c: table[c] for c in self.texts}
+        self.rows += n
         return Block(numbers, texts, np.arange(first, first + n, dtype=np.int64))
 
 
@@ -165,9 +159,13 @@ class _Feed:
         self.path, self.runs = path, runs
         self.first, self.raw, self.i, self.line = 1, [], 0, 0
         self.bytes = 0  # taken from the file so far
+        self.back = None  # a run put back, taken first
 
     def take(self):
         """The next run of lines, (first line, bytes), or None at the end of the file."""
+        if self.back is not None:
+            run, self.back = self.back, None
+            return run
         run = next(self.runs, None)
         self.bytes += 0 if run is None else len(run[1])
         return run
@@ -175,11 +173,11 @@ class _Feed:
     def start(self, first, run):
         self.first, self.raw, self.i = first, run.splitlines(keepends=True), 0
 
-    def rest(self):
-        """(first line, bytes) of the run's lines not yet read; they count as read."""
-        out = self.first + self.i, b"".join(self.raw[self.i :])
+    def put_back_rest(self):
+        """The lines of this run not yet read become a run of their own, taken next."""
+        if self.i < len(self.raw):
+            self.back = self.first + self.i, b"".join(self.raw[self.i :])
         self.raw, self.i = [], 0
-        return out
 
     def at_end_of_run(self):
         return self.i >= len(self.raw)
@@ -203,8 +201,11 @@ class _Rows:
 
     def __init__(self, owner):
         self.owner = owner
-        self.columns = [array("d") for _ in owner.required]
-        self.texts = {c: [] for c in owner.texts}
+        self._reset()
+
+    def _reset(self):
+        self.columns = [array("d") for _ in self.owner.required]
+        self.texts = {c: [] for c in self.owner.texts}
         self.lines = array("q")
 
     def add(self, line_no, row):
@@ -223,13 +224,7 @@ class _Rows:
 
     def block(self):
         numbers = np.column_stack([np.frombuffer(c, float) for c in self.columns])
-        texts = {c: _objects(v) for c, v in self.texts.items()}
+        texts = {c: np.array(v, dtype=object) for c, v in self.texts.items()}
         out = Block(numbers, texts, np.frombuffer(self.lines, np.int64).copy())
-        self.__init__(self.owner)
+        self._reset()
         return out
-
-
-def _objects(values):
-    out = np.empty(len(values), object)
-    out[:] = values
-    return out
