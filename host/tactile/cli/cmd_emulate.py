@@ -70,6 +70,7 @@ def run(args):
 
         image()  # built (or refused in one line) before the port is offered
         server = QemuServer(board, link_path=args.link, realtime=not args.fast, faults=faults)
+        _exit_on_sigterm()  # so that QEMU's work directory and the --link go too
     else:
         server = PtyServer(board, args.link, not args.fast, faults, disconnects)
     if args.pose_log:
@@ -90,6 +91,12 @@ def run(args):
     finally:
         server.close()
     return 0
+
+
+def _exit_on_sigterm():
+    import signal
+
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
 def _qemu_ended(server):

@@ -86,6 +86,7 @@ class QemuBoard:
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
+            preexec_fn=_die_with_parent,
         )
         return proc, QemuDevice(self, req_fd, pathlib.Path(workdir) / REP, proc, mode)
 
@@ -146,6 +147,17 @@ def bench(emulated, timeout_s=600.0):
             uart.close()
         dev.close()
         shutil.rmtree(workdir, ignore_errors=True)
+
+
+def _die_with_parent():
+    """In QEMU's process, before exec: SIGKILL when the emulator dies, however it dies."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG (Linux)
+    except (OSError, AttributeError):
+        pass
 
 
 def image():
