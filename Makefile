@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format bench clean
+.PHONY: demo test lint format bench clean firmware-c
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -24,6 +24,11 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check --fix .
 	$(BIN)/ruff format .
+
+# The C core cross-compiled for a Cortex-M0 (micro:bit, as QEMU runs it): needs
+# gcc-arm-none-eabi and libnewlib-arm-none-eabi (Debian).
+firmware-c: $(STAMP)
+	$(BIN)/python -m tactile_fw.host_only.cross build/firmware-c
 
 bench: $(STAMP)
 	for f in bench/*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done

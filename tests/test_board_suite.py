@@ -66,6 +66,8 @@ def _restore(client, info):
                                   info.debounce, flags))  # fmt: skip
     if info.flags & C.CFG_STREAMING:
         client.start()
+    else:
+        client.stop()
 
 
 # --- on every target ------------------------------------------------------------------------

@@ -7,7 +7,11 @@ emulator's own link (a symlink to a pty): a file, a directory or another
 symlink at PATH is refused with one line (exit 2) and left as it was.
 ``--core c`` serves the C firmware core (``firmware/c``, built with the host's C
 compiler on first use) instead of the MicroPython one, behind the same pty; without
-``--core`` the scene's ``[board] core`` decides (default ``python``).
+``--core`` the scene's ``[board] core`` decides (default ``python``).  ``--core qemu``
+runs the C core cross-compiled for a Cortex-M0 in QEMU (``-M microbit``), its UART
+bridged to the pty and the scene's sensors served over semihosting
+(``tactile_sim.emulator.qemu_server``); needs ``arm-none-eabi-gcc`` and
+``qemu-system-arm``, and a scene without ``[link] disconnect`` windows.
 """
 
 import sys
@@ -29,9 +33,9 @@ def add_arguments(parser):
     )
     parser.add_argument(
         "--core",
-        choices=("python", "c"),
-        help="firmware to run: the MicroPython one or the C core (default: the scene's "
-        "[board] core, else python)",
+        choices=("python", "c", "qemu"),
+        help="firmware to run: the MicroPython one, the C core, or the C core's Cortex-M0 "
+        "image in QEMU (default: the scene's [board] core, else python)",
     )
     parser.add_argument(
         "--now",
@@ -41,6 +45,7 @@ def add_arguments(parser):
 
 
 def run(args):
+    from tactile.errors import InputError
     from tactile_sim.emulator import load_scene
     from tactile_sim.emulator.device import EmulatedBoard
     from tactile_sim.emulator.host_wait import serve_when_opened
@@ -52,16 +57,22 @@ def run(args):
 
         pty_link.check(args.link)  # before the scene is built: refuse a file at once
     scene = load_scene(args.scene)
-    board = EmulatedBoard(scene, core=args.core)
     link = scene.link or {}
+    disconnects = () if args.no_faults else link.get("disconnect", ())
+    if args.core == "qemu" and disconnects:
+        raise InputError(f"{scene.path}: [link] disconnect: not served with --core qemu "
+                         "(QEMU owns the UART); use --no-faults or another core")  # fmt: skip
+    board = EmulatedBoard(scene, core=args.core)
     faults = None if args.no_faults else LinkFaults.from_scene(scene.link)
-    server = PtyServer(
-        board,
-        link_path=args.link,
-        realtime=not args.fast,
-        faults=faults,
-        disconnects=() if args.no_faults else link.get("disconnect", ()),
-    )
+    if args.core == "qemu":
+        from tactile_sim.emulator.qemu_core import image
+        from tactile_sim.emulator.qemu_server import QemuServer
+
+        image()  # built (or refused in one line) before the port is offered
+        server = QemuServer(board, link_path=args.link, realtime=not args.fast, faults=faults)
+        _exit_on_sigterm()  # so that QEMU's work directory and the --link go too
+    else:
+        server = PtyServer(board, args.link, not args.fast, faults, disconnects)
     if args.pose_log:
         _write_log(board.motion, args.pose_log)
     path = server.open()
@@ -70,13 +81,34 @@ def run(args):
     print(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
           f"starting {when}; Ctrl-C to stop", file=sys.stderr)  # fmt: skip
     try:
-        if args.now:
+        if args.core == "qemu":
+            server.serve(args.duration, when_opened=not args.now)
+            _qemu_ended(server)
+        elif args.now:
             server.serve(args.duration)
         else:
             serve_when_opened(server, args.duration)
     finally:
         server.close()
     return 0
+
+
+def _exit_on_sigterm():
+    import signal
+
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+
+
+def _qemu_ended(server):
+    """QEMU stops with status 0 only when told; the image's own exit is a fault (one line)."""
+    from tactile.errors import BoardError
+
+    if server.exit_status:
+        why = {1: "a CPU fault", 2: "no device channel", 3: "the device channel broke"}
+        raise BoardError(
+            f"the QEMU image stopped: {why.get(server.exit_status, 'exit status')} "
+            f"({server.exit_status})"
+        )
 
 
 def _write_log(motion, path):

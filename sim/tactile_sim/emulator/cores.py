@@ -1,4 +1,4 @@
-"""The firmware cores an emulated board can run, by name: ``python`` and ``c``.
+"""The firmware cores an emulated board can run, by name: ``python``, ``c`` and ``qemu``.
 
 - ``python``: ``tactile_fw.board.Board``, the MicroPython firmware, on the simulated buses;
 - ``c``: the C core (``firmware/c``) built by ``cc`` into ``$XDG_CACHE_HOME/tactile/ccore``
@@ -10,6 +10,8 @@
 Both take the same arguments and give an object with ``boot``, ``poll``, ``idle_us``,
 ``max_rate_hz`` and the STATUS counters, so nothing above this module knows which runs;
 for the same scene and boot id the two write the same bytes (tests/test_emulator_cores.py).
+``qemu`` (``qemu_core``) is the C core cross-compiled for a Cortex-M0 and run by QEMU on
+its own clock: served on a pty only (``qemu_server``), never stepped in process.
 """
 
 import functools
@@ -18,7 +20,8 @@ import pathlib
 
 from tactile.errors import BoardError
 
-CORES = ("python", "c")
+CORES = ("python", "c")  # a scene's [board] core, sim://?core=
+SERVED = (*CORES, "qemu")  # also: the C core's image in QEMU, on a pty (qemu_server)
 DEFAULT_CORE = "python"
 
 
@@ -61,7 +64,13 @@ def c_board(buses, layout, link, clock, storage, **kw):
     return CBoard(c_library(), buses, layout, link, clock, storage, **kw)
 
 
-BUILDERS = {"python": python_board, "c": c_board}
+def qemu_board(buses, layout, link, clock, storage, **kw):
+    from tactile_sim.emulator.qemu_core import QemuBoard
+
+    return QemuBoard(buses, layout, link, clock, storage, **kw)
+
+
+BUILDERS = {"python": python_board, "c": c_board, "qemu": qemu_board}
 
 
 def make_board(core, buses, layout, link, clock, storage, **kw):

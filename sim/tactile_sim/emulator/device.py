@@ -75,14 +75,15 @@ def board_settings(scene, max_rate_hz):
 class EmulatedBoard:
     """Firmware + simulated sensors on simulated time; see the module docstring.
 
-    ``core``: ``"python"`` or ``"c"`` (``cores.CORES``); None: the scene's ``[board] core``.
+    ``core``: ``"python"`` or ``"c"`` (``cores.CORES``); None: the scene's ``[board] core``;
+    ``"qemu"``: the hardware for ``qemu_server``, which runs the image (no ``step`` then).
     """
 
     def __init__(self, scene, motion=None, boot_id=None, core=None):
         self.scene = scene
         self.core = core or scene.board["core"]
-        if self.core not in cores.CORES:
-            raise ValueError(f"core must be one of {', '.join(cores.CORES)}, got {self.core!r}")
+        if self.core not in cores.SERVED:
+            raise ValueError(f"core must be one of {', '.join(cores.SERVED)}, got {self.core!r}")
         self.motion = motion if motion is not None else build_motion(scene)
         self.clock = ManualClock(0)
         self.link = PipeLink(LINK_CAPACITY)
@@ -111,6 +112,8 @@ class EmulatedBoard:
             cal = calibration.Calibration(model.calibration_coefficients(), scene.sensor["cal_id"])
             cal.save(storage, i)
         self.faults = FaultSchedule.from_scene(scene, self)
+        if self.core == "qemu":
+            self.board.faults = self.faults  # applied at the board's own time
         self.board.boot()
 
     def _sensor(self, i):

@@ -1,0 +1,185 @@
+"""The C core cross-compiled for a Cortex-M0, running in QEMU (issue 16, part 5).
+
+The image (``firmware/c/qemu``) runs in ``qemu-system-arm -M microbit`` behind a pty
+(``tactile emulate --core qemu``), its ADCs served by the emulator over semihosting.  The
+host reads it as it reads a board; on a steady load it reports the same integers as the
+MicroPython firmware (the fixed-point calibration on real ARMv6-M code, libgcc's 64-bit
+helpers included); a sensor fault reaches it at its own time.  Skipped, with the reason,
+without ``arm-none-eabi-gcc`` (and newlib) or ``qemu-system-arm``.
+"""
+
+import json
+import shutil
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+import serial
+
+from tactile.stream_decoder import StreamDecoder
+from tactile_protocol import constants as C
+from tactile_sim.emulator import load_scene
+from tactile_sim.emulator.device import EmulatedBoard
+
+STEADY = """
+[scene]
+name = "steady"
+seed = 3
+[board]
+rate_hz = 1000
+streams = ["samples", "contacts"]
+[sensor]
+bias_counts = 0.0
+[motion]
+kind = "press"
+keyframes = [[0.0, 3.2, 2.4, -1.0, 0.01, -0.02, 0.005], [1.0, 3.2, 2.4, -1.0, 0.01, -0.02, 0.005]]
+[[sensor_fault]]
+at_s = 0.15
+kind = "i2c_timeout"
+count = 3
+"""
+# At rest for 0.3 s (time for record's TARE), one contact, then rest.
+QUICK_PRESS = """
+[scene]
+name = "quick"
+[board]
+streams = ["samples", "contacts"]
+[sensor]
+bias_counts = 0.0
+[motion]
+kind = "press"
+keyframes = [[0.0, 0, 0, 0, 0, 0, 0], [0.3, 0, 0, 0, 0, 0, 0], [0.35, 3.2, 2.4, 0, 0, 0, 0],
+             [0.4, 3.2, 2.4, 0, 0, 0, 0], [0.45, 0, 0, 0, 0, 0, 0], [5.0, 0, 0, 0, 0, 0, 0]]
+"""
+
+
+@pytest.fixture(scope="module")
+def elf():
+    from tactile_sim.emulator.qemu_core import QEMU, QemuUnavailable, image
+
+    if shutil.which(QEMU) is None:
+        pytest.skip(f"no {QEMU}: apt-get install qemu-system-arm")
+    try:
+        return image()
+    except QemuUnavailable as exc:
+        pytest.skip(str(exc))
+
+
+def _scene(tmp_path, text, name="scene"):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    return load_scene(path)
+
+
+def _serve(scene, seconds, fast=True):
+    """Every message the QEMU board sent in ``seconds`` of its time, read through its pty."""
+    from tactile_sim.emulator.qemu_server import QemuServer
+
+    server = QemuServer(EmulatedBoard(scene, core="qemu", boot_id=5), realtime=not fast)
+    path = server.open()
+    failed = []
+
+    def run():
+        try:
+            server.serve(seconds)
+        except BaseException as exc:  # surfaced below
+            failed.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    port = serial.Serial(path, timeout=0.05)
+    decoder, msgs = StreamDecoder(), []
+    deadline = time.monotonic() + 120
+    try:
+        while (thread.is_alive() or port.in_waiting) and time.monotonic() < deadline:
+            data = port.read(1)
+            if data:
+                msgs += decoder.feed(data + port.read(port.in_waiting))
+    finally:
+        port.close()
+        server.stop = True
+        thread.join(10)
+        server.close()
+    assert not failed, failed
+    return msgs, decoder.counters, server
+
+
+def test_the_image_fits_a_micro_bit(elf):
+    from tactile_fw.host_only import cross
+
+    flash, ram = cross.size(elf)
+    assert 8_000 < flash < 256 * 1024 and ram < 16 * 1024
+    attrs = subprocess.run(
+        ["arm-none-eabi-readelf", "-A", str(elf)], capture_output=True, text=True, check=True
+    ).stdout
+    assert "Tag_CPU_arch: v6S-M" in attrs and "Tag_THUMB_ISA_use: Thumb-1" in attrs
+
+
+def test_on_a_steady_load_it_reports_the_python_firmwares_integers(elf, tmp_path):
+    """Same calibration and codes, same integers: fixed point on ARMv6-M equals Python's.
+    Then an I2C fault at 0.15 s of the board's own time: STATUS, and recovery."""
+    scene = _scene(tmp_path, STEADY)
+    msgs, counters, server = _serve(scene, 0.3)
+    samples = [m for m in msgs if m.type_name == "SAMPLE"]
+    assert msgs[0].type_name == "HELLO" and msgs[0].boot_id == 5
+    assert counters.lost_frames == 0 and len(samples) > 250
+    times = [m.timestamp_us for m in samples[10:101]]
+    steps = {b - a for a, b in zip(times, times[1:])}
+    assert steps <= {999, 1000, 1001}  # TIMER0's microseconds: the poll after the WFI wakes
+    assert abs(times[-1] - times[0] - 90_000) <= 2  # ... on fixed deadlines: 1 kHz exactly
+    py = EmulatedBoard(scene, core="python", boot_id=5)
+    py.run_until(300_000)
+    values = lambda m: (m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)  # noqa: E731
+    ref = {
+        values(m)
+        for m in StreamDecoder().feed(py.read_host())
+        if m.type_name == "SAMPLE" and 5_000 < m.timestamp_us < 100_000
+    }
+    assert len(ref) == 1 and {values(m) for m in samples[5:100]} == ref  # one reading, same
+    faults = [m.faults for m in msgs if m.type_name == "STATUS"]
+    assert any(f & C.FAULT_I2C and not f & C.FAULT_RECOVERED for f in faults)
+    assert any(f & C.FAULT_I2C and f & C.FAULT_RECOVERED for f in faults)
+    assert server.exit_status is None  # QEMU was stopped, the image never exited
+
+
+def test_record_reads_the_qemu_board_as_it_reads_a_board(elf, cli, tmp_path):
+    """'tactile emulate --core qemu' in one process, 'tactile record' in another."""
+    scene = tmp_path / "quick.toml"
+    scene.write_text(QUICK_PRESS)
+    emulate = subprocess.Popen(
+        [sys.executable, "-m", "tactile.cli.main", "emulate", str(scene), "--core", "qemu",
+         "--fast", "--duration", "5"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        path = emulate.stdout.readline().strip()
+        assert path.startswith("/dev/"), emulate.stderr.read()
+        code, _, err = cli("record", "--port", path, "--contacts", "1", "-o", tmp_path / "run",
+                           "--quiet")  # fmt: skip
+    finally:
+        emulate.terminate()
+        _, said = emulate.communicate(timeout=10)
+    assert code == 0, err
+    assert "on the qemu core" in said
+    meta = json.loads((tmp_path / "run" / "meta.json").read_text())
+    assert meta["contacts_ended"] == 1 and meta["decoder"]["lost_frames"] == 0
+    assert meta["tared"] and meta["device"]["sensor_model"] == "FT6/ADS122C04x6"
+
+
+def test_a_scene_with_disconnects_is_refused_for_qemu(cli, tmp_path):
+    scene = tmp_path / "unplug.toml"
+    scene.write_text(QUICK_PRESS + "[link]\ndisconnect = [[0.5, 0.7]]\n")
+    code, out, err = cli("emulate", scene, "--core", "qemu")
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert "[link] disconnect: not served with --core qemu" in err
+
+
+def test_without_the_cross_compiler_qemu_is_refused_in_one_line(cli, mocker):
+    from tactile_fw.host_only import cross
+
+    mocker.patch.object(cross.shutil, "which", return_value=None)
+    code, out, err = cli("emulate", "press", "--core", "qemu")
+    assert code == 4 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert "core 'qemu': no arm-none-eabi-gcc on PATH: apt-get install gcc-arm-none-eabi" in err
