@@ -1,6 +1,6 @@
 """docs/ep2.md's first command block (moved there from the README) runs exactly as written
-(issue 11's interface): each line in a fresh directory whose ``.venv`` is this interpreter's environment, exit 0, one
-table or JSON record, no traceback, no NaN."""
+(issue 11's interface): each line in a fresh directory whose ``.venv`` is this interpreter's
+environment, exit 0, one table or JSON record, no traceback, no NaN."""
 
 import json
 import os
