@@ -154,3 +154,26 @@ def _run(line, cwd, env, scene):
         assert Path(cwd, re.search(r" -o (\S+)", line).group(1)).stat().st_size > 0
     if " live " in line:
         assert "sensor 0" in r.stdout, r.stdout
+
+
+def _slug(heading):
+    """GitHub's anchor for a Markdown heading."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_every_link_of_the_readme_and_docs_resolves():
+    """Moving the reference into docs/ must leave no link pointing at nothing."""
+    pages = [README, *sorted((ROOT / "docs").glob("*.md"))]
+    strip = lambda p: re.sub(r"```.*?```", "", p.read_text(encoding="utf-8"), flags=re.S)  # noqa: E731
+    broken = []
+    for page in pages:
+        for target in re.findall(r"\]\(([^)\s]+)\)", strip(page)):
+            path, _, anchor = target.partition("#")
+            dest = (page.parent / path).resolve() if path else page
+            if target.startswith(("http:", "https:")) or not dest.exists():
+                broken.append((page.name, target))
+            elif anchor and dest.suffix == ".md":
+                headings = re.findall(r"^#+\s+(.*)$", strip(dest), re.M)
+                if anchor not in {_slug(h) for h in headings}:
+                    broken.append((page.name, target))
+    assert not broken

@@ -100,7 +100,7 @@ def test_record_cli_over_a_pty_gives_ep1_probes_for_a_rolling_fingertip(cli, tmp
     assert code == 0, err
     got = json.loads(est)
     true = motion.true_curvature()
-    # 25 %: the bench's p90 error at this noise is 16 % (kx) and 11 % (ky), README
+    # 25 %: the bench's p90 error at this noise is 16 % (kx) and 11 % (ky), docs/ep1.md
     assert abs(got["kx"] - true["kx"]) / true["kx"] < 0.25
     assert abs(got["ky"] - true["ky"]) / true["ky"] < 0.25
 

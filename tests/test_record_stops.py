@@ -1,4 +1,4 @@
-"""The EP2 sweep path of the README (issue 14, part 1): TARE under load is refused in one line,
+"""The EP2 sweep path of docs/cli.md (issue 14, part 1): TARE under load is refused in one line,
 ``record`` with a pose log ends when the log does and says what it waits for, and a
 recording that localises under half its readings says so and why."""
 

@@ -4,7 +4,7 @@ This is the one place a CSV is read: ``read_csv`` for the rows, ``preamble``,
 ``comment_lines`` and ``units_line`` for the ``#`` lines some formats carry.  Every error is
 an ``InputError`` (exit 2) whose one-line message names file, line and column.
 
-Limits (README, "Files the host reads"): a regular file (not a device, pipe or directory) of
+Limits (docs/cli.md, "Files the host reads"): a regular file (not a device, pipe or directory) of
 at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most ``MAX_ROWS`` data
 rows.  UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; lines end in
 LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.  A reader of the
