@@ -21,7 +21,9 @@ terminal, with ``.venv`` pointing at this interpreter's environment:
   its one line, which the test accepts.
 
 Every other line must exit 0 without a traceback, a NaN or a ``warning:``; ``record`` must
-end on its own with nothing lost, and ``ep2 analyze`` must name the scene's shape.
+end on its own with nothing lost, and ``ep2 analyze`` must name the scene's shape. The EP2
+sweep block of docs/cli.md runs the same way, and every link of the README and docs/ must
+resolve.
 """
 
 import os
@@ -40,7 +42,7 @@ from tactile_sim.emulator.ft_model import sensitivity_matrix
 
 README = ROOT / "README.md"
 MAKE = ["make demo", "make test"]
-SHAPE = {"ch5_convex": "cylinder"}
+SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere"}
 VOLTS_PER_COUNT = 3.07e-9  # the README's --volts-per-count: 3.3 V / (128 x 2^23)
 ASSIGN = re.compile(r"^([A-Z_][A-Z0-9_]*)=(\S+)\s*(#.*)?$")
 
@@ -90,32 +92,48 @@ def test_the_readme_is_a_front_door():
 @pytest.mark.slow
 def test_every_block_runs_as_written(tmp_path):
     blocks = _blocks()
-    os.symlink(Path(sys.executable).absolute().parents[1], tmp_path / ".venv")
+    ran = _run_blocks(blocks[1:], tmp_path)
+    assert ran == len(blocks) - 1 and ran >= 3  # every block but the two make commands
+
+
+@pytest.mark.slow
+def test_the_cli_reference_sweep_runs_as_written(tmp_path):
+    """docs/cli.md's EP2 sweep (the second block test_readme_record.py ran): its pty is the
+    ``/dev/pts/N`` of its lines, and every ``record`` stops with the sweep."""
+    text = (ROOT / "docs" / "cli.md").read_text(encoding="utf-8")
+    blocks = [b.strip().splitlines() for b in re.findall(r"```sh\n(.*?)```", text, re.S)]
+    sweeps = [b for b in blocks if "emulate ep2_sweep_sphere" in b[0]]
+    assert len(sweeps) == 1 and any("sim://ep2_sweep_sphere" in ln for ln in sweeps[0])
+    assert _run_blocks(sweeps, tmp_path) == 1
+
+
+def _run_blocks(blocks, cwd):
+    """Run ``blocks`` in order in ``cwd``, as one terminal session; returns how many ran."""
+    os.symlink(Path(sys.executable).absolute().parents[1], cwd / ".venv")
     roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     emulators, pty, ran, scene = [], None, 0, None
     try:
-        for block in blocks[1:]:
+        for block in blocks:
             for line in _commands(block):
                 if "# terminal 1" in line:
                     scene = re.search(r" emulate (\S+)", line).group(1)
-                    emulators.append(_background(line, tmp_path, env))
+                    emulators.append(_background(line, cwd, env))
                     pty = emulators[-1].stdout.readline().strip()
                     assert pty.startswith("/dev/"), emulators[-1].stderr.read()
                     continue
                 assign = ASSIGN.match(line)
                 if assign:
-                    name, value = assign.group(1, 2)
-                    assert name == "PORT" and pty, line  # the one definition the test changes
-                    env[name] = pty
+                    assert assign.group(1) == "PORT" and pty, line  # the one definition changed
+                    env["PORT"] = pty
                     continue
-                _run(line, tmp_path, env, scene)
+                _run(line.replace("--port /dev/pts/N", f"--port {pty}"), cwd, env, scene)
             ran += 1
     finally:  # the shell and the emulator it started: no emulator outlives its test
         for emulator in emulators:
             os.killpg(emulator.pid, signal.SIGTERM)
             emulator.wait(10)
-    assert ran == len(blocks) - 1 and ran >= 3  # every block but the two make commands
+    return ran
 
 
 def _background(line, cwd, env):
