@@ -193,5 +193,5 @@ def _derive_probes(outdir, pose_log, messages, threshold, times=None):
             f"warning: only {int(np.sum(usable))} of {len(usable)} probes are usable (the"
             " lines above say why)"
         )
-    out.append(f"next: tactile ep1 estimate {path} --finger-radius {log.radius_m!r}")
+    out.append(f"next: tactile ep1 estimate {path} --finger-radius {float(log.radius_m):.10g}")
     return out
