@@ -1,7 +1,8 @@
 """The state behind ``tactile live``: latest force/torque and contact state per sensor.
 
-``LiveState.update(messages)`` folds frames in; ``render()`` gives one text line
-per sensor.  Pure bookkeeping: the CLI reads the port and draws.
+``LiveState.update(messages)`` folds frames in; ``render()`` gives two text lines per
+sensor, each within 80 columns for any value the wire can carry (int32 uN, uN*m).  Pure
+bookkeeping: the CLI reads the port and draws.
 """
 
 import math
@@ -42,19 +43,23 @@ class LiveState:
                 self.status = m
 
     def render(self):
-        """One line per sensor: F (N), |F|, M (N*m), contact state, count, saturation."""
+        """Two lines per sensor: |F| (N), contact state, count and saturation; then F (N)
+        and M (N*m).  Every line fits 80 columns (``WIDTH``)."""
         lines = []
         for i in sorted(self.sensors):
             v = self.sensors[i]
             fx, fy, fz, tx, ty, tz = v.wrench
             state = "CONTACT" if v.in_contact else "free   "
             sat = f"  SATURATED 0x{v.saturated:02x}" if v.saturated else ""
+            norm = math.sqrt(fx * fx + fy * fy + fz * fz)
+            lines.append(f"sensor {i}  |F| {norm:9.3f} N  {state}  contacts {v.contacts}{sat}")
             lines.append(
-                f"sensor {i}  F [{fx:+8.3f} {fy:+8.3f} {fz:+8.3f}] N  "
-                f"|F| {math.sqrt(fx * fx + fy * fy + fz * fz):7.3f}  "
-                f"M [{tx:+7.4f} {ty:+7.4f} {tz:+7.4f}] N*m  {state} "
-                f"contacts {v.contacts}{sat}"
+                f"  F [{fx:+9.3f} {fy:+9.3f} {fz:+9.3f}] N  M [{tx:+10.4f} {ty:+10.4f}"
+                f" {tz:+10.4f}] N*m"
             )
         if not lines:
             lines.append("waiting for SAMPLE or CONTACT frames...")
         return lines
+
+
+WIDTH = 80
