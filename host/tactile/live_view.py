@@ -7,6 +7,7 @@ bookkeeping: the CLI reads the port and draws.
 
 import math
 
+from tactile.board_settings import wrench_si
 from tactile_protocol import constants as C
 
 
@@ -31,8 +32,7 @@ class LiveState:
             if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
                 v = self.sensors.setdefault(m.sensor, SensorView())
                 v.readings += 1
-                f, t = C.FORCE_LSB_N, C.TORQUE_LSB_NM
-                v.wrench = (m.fx * f, m.fy * f, m.fz * f, m.tx * t, m.ty * t, m.tz * t)
+                v.wrench = wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
                 v.saturated = m.flags & C.FLAG_SAT_MASK
                 if m.type_code == C.MSG_SAMPLE:
                     v.in_contact = bool(m.flags & C.FLAG_IN_CONTACT)

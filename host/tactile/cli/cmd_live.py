@@ -67,18 +67,19 @@ def _view(client, duration):
 
 def _samples_on(client):
     """Turn the SAMPLE stream on; return the CONFIG values that restore the board."""
+    from tactile.board_settings import STREAMS, to_newtons
     from tactile_protocol import constants as C
 
     i = client.get_info()
     values = (
         i.rate_hz,
-        i.enter_threshold * C.FORCE_LSB_N,
-        i.exit_threshold * C.FORCE_LSB_N,
+        to_newtons(i.enter_threshold),
+        to_newtons(i.exit_threshold),
         i.debounce,
         i.flags & C.CFG_WRITABLE & ~C.CFG_PERSIST,
     )
-    if not values[4] & C.CFG_STREAM_SAMPLES:
-        client.configure(*values[:4], values[4] | C.CFG_STREAM_SAMPLES)
+    if not values[4] & STREAMS["samples"]:
+        client.configure(*values[:4], values[4] | STREAMS["samples"])
     if not i.flags & C.CFG_STREAMING:
         client.start()
     return values
