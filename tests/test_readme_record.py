@@ -54,7 +54,7 @@ def test_the_block_runs_as_written(tmp_path, block):
             assert not re.search(r"\b(nan|inf|infinity)\b", r.stdout, re.I), r.stdout
             assert "warning:" not in r.stderr, (line, r.stderr)
             if " record " in line:
-                assert re.search(r"\((pose log end|contacts)\)", r.stdout), r.stdout
+                assert re.search(r"\(stopped by (the pose log's end|its --contacts)\)", r.stdout)
                 assert "lost 0 frames" in r.stdout
             if " analyze " in line:
                 assert f" {SHAPE[scene]} " in r.stdout, r.stdout
