@@ -23,9 +23,13 @@ def _mark_paths(parser, shtab):
 
 
 def run(args):
-    import shtab
-
     from tactile.cli.main import full_parser
+    from tactile.errors import InputError
+
+    try:
+        import shtab
+    except ImportError:  # a dependency since issue 15: an environment from before it
+        raise InputError("shell completion needs shtab: pip install 'shtab>=1.7'") from None
 
     parser = full_parser()
     _mark_paths(parser, shtab)
