@@ -47,3 +47,25 @@ def test_config_refuses_with_the_range_and_exit_2(args, text, capsys):
     assert main(["config", "--port", "sim://press", *args]) == 2
     err = capsys.readouterr().err.strip()
     assert text in err and len(err.splitlines()) == 1, err
+
+
+def test_one_vocabulary_shared_by_the_emulator_and_the_host():
+    """The scene schema's names and defaults are the module's; defaults read as typed."""
+    from tactile_sim.emulator import scene_schema
+
+    assert scene_schema.STREAMS is bs.STREAMS and scene_schema.GATES is bs.GATES
+    board = scene_schema.BOARD
+    assert board["enter_threshold_N"].default == bs.DEFAULTS["enter_N"] == 1.39
+    assert board["exit_threshold_N"].default == bs.DEFAULTS["exit_N"] == 1.112  # not 1.11199..
+    assert board["debounce"].default == bs.DEFAULTS["debounce"] == fw.DEFAULT_DEBOUNCE
+    assert board["rate_hz"].default == bs.DEFAULTS["rate_hz"] == fw.DEFAULT_RATE_HZ
+
+
+def test_gate_and_flags_round_trip():
+    for gate in bs.GATES:
+        for streams in ([], ["contacts"], ["samples", "contacts"]):
+            flags = bs.config_flags(gate, streams, autostart=True)
+            assert bs.gate_name(flags) == gate and bs.stream_names(flags) == streams
+    assert bs.wrench_si(1_390_000, -1, 0, 10_000, 0, -(2**31)) == (
+        1.39, -1e-06, 0.0, 0.01, 0.0, -2147.483648
+    )  # fmt: skip

@@ -156,7 +156,7 @@ def test_record_writes_capture_frames_and_meta_that_agree(board, cli, tmp_path):
     assert len(rows) - 1 == len(data) == meta["samples"] > 20
     assert meta["ended"] == "duration" and meta["tared"]
     assert meta["decoder"]["lost_frames"] == counters.lost_frames == 0
-    assert meta["bytes"] == len(capture) and f"recorded {meta['samples']} readings" in stdout
+    assert meta["bytes"] == len(capture) and f"recorded {meta['samples']:,} reading" in stdout
 
 
 # --- on the emulated cores: what only a simulation can script --------------------------------

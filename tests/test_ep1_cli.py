@@ -133,7 +133,7 @@ def test_sim_ep1_sphere_with_noise_and_probes_file(tmp_path, capsys):
         "0.0001",
         "--seed",
         "3",
-        "--probes-out",
+        "-o",
         str(probes),
     ]
     assert main(argv) == 0

@@ -44,7 +44,7 @@ def test_record_writes_capture_frames_and_meta_that_agree(cli, tmp_path):
     assert meta["ended"] == "duration" and meta["device"]["rate_hz"] == 1000
     assert meta["decoder"]["lost_frames"] == counters.lost_frames == 0
     assert meta["bytes"] == len(capture)
-    assert f"recorded {meta['samples']} readings" in stdout
+    assert f"recorded {meta['samples']:,} reading" in stdout
 
 
 def test_record_stops_after_n_contacts_and_refuses_to_overwrite(cli, tmp_path):

@@ -77,7 +77,7 @@ def test_a_host_clock_log_needs_a_time_base_that_fast_emulation_lacks(cli, tmp_p
                             "-o", tmp_path / "run", "--quiet")  # fmt: skip
     line = _one_line(code, stdout.split("\n", 2)[-1], err, 3)
     assert "stamped in monotonic time, but the recording cannot say when its frames" in line
-    assert "fast mode" in line and "(pose log end)" in stdout
+    assert "fast mode" in line and "(stopped by the pose log's end)" in stdout
 
 
 def test_tare_under_load_is_refused_in_one_line_and_force_tares_anyway(cli, tmp_path):

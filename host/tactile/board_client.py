@@ -83,7 +83,7 @@ def nak_message(nak, info=None):
     """One line for a NAK; ``info`` (the board's HELLO/INFO) adds the gate to NAK_LOADED."""
     name = COMMAND_NAMES.get(nak.cmd_type, f"command 0x{nak.cmd_type:02x}")
     if nak.reason == C.NAK_LOADED:
-        gate = "" if info is None else f" {info.enter_threshold * C.FORCE_LSB_N:g} N"
+        gate = "" if info is None else f" {board_settings.to_newtons(info.enter_threshold):g} N"
         return (
             f"board refused {name}: sensor {nak.detail} is loaded (force above the{gate} contact"
             " gate); unload the fingers and retry (if nothing touches it, its own offset exceeds"
@@ -297,7 +297,7 @@ def info_dict(info):
     d["enter_threshold_N"] = board_settings.to_newtons(info.enter_threshold)
     d["exit_threshold_N"] = board_settings.to_newtons(info.exit_threshold)
     d["streams"] = board_settings.stream_names(info.flags)
-    d["gate"] = "3d" if info.flags & C.CFG_GATE_3D else "xy"
+    d["gate"] = board_settings.gate_name(info.flags)
     d["autostart"] = bool(info.flags & C.CFG_AUTOSTART)
     d["streaming"] = bool(info.flags & C.CFG_STREAMING)
     d["cal_ids"] = [getattr(info, f"cal_id_{i}") for i in range(info.n_sensors)]

@@ -11,21 +11,42 @@ from tactile_protocol import constants as C
 
 STREAMS = {"samples": C.CFG_STREAM_SAMPLES, "contacts": C.CFG_STREAM_CONTACTS}
 GATES = {"xy": 0, "3d": C.CFG_GATE_3D}  # |F| in the sensor's x-y plane (§5.1), or 3-D
-DEFAULTS = {
-    "rate_hz": fw.DEFAULT_RATE_HZ,
-    "enter_N": fw.DEFAULT_ENTER_UN * C.FORCE_LSB_N,
-    "exit_N": fw.DEFAULT_EXIT_UN * C.FORCE_LSB_N,
-    "debounce": fw.DEFAULT_DEBOUNCE,
-}
+COUNTS_PER_N = round(1 / C.FORCE_LSB_N)  # 10^6: a force count is 1 uN
+COUNTS_PER_NM = round(1 / C.TORQUE_LSB_NM)  # 10^6: a torque count is 1 uN*m
+WRENCH_LSB = (C.FORCE_LSB_N,) * 3 + (C.TORQUE_LSB_NM,) * 3  # fx..tz counts -> N, N*m
 
 
 def to_counts(newtons):
     """A force in N as the board's integer counts (1 uN)."""
-    return round(newtons / C.FORCE_LSB_N)
+    return round(newtons * COUNTS_PER_N)
 
 
 def to_newtons(counts):
-    return counts * C.FORCE_LSB_N
+    """The board's force counts in N (1390000 -> 1.39 exactly as typed, not 1.3900...01)."""
+    return counts / COUNTS_PER_N
+
+
+def wrench_si(fx, fy, fz, tx, ty, tz):
+    """A frame's six counts as (N, N, N, N*m, N*m, N*m)."""
+    return (*(v / COUNTS_PER_N for v in (fx, fy, fz)), *(v / COUNTS_PER_NM for v in (tx, ty, tz)))
+
+
+DEFAULTS = {
+    "rate_hz": fw.DEFAULT_RATE_HZ,
+    "enter_N": to_newtons(fw.DEFAULT_ENTER_UN),
+    "exit_N": to_newtons(fw.DEFAULT_EXIT_UN),
+    "debounce": fw.DEFAULT_DEBOUNCE,
+}
+
+
+def gate_name(flags):
+    """The gate mode ('xy' or '3d') of CONFIG/INFO flags."""
+    return "3d" if flags & GATES["3d"] else "xy"
+
+
+def config_flags(gate, streams, autostart=False):
+    """CONFIG flags of a gate mode, stream names and autostart."""
+    return GATES[gate] | stream_flags(streams) | (C.CFG_AUTOSTART if autostart else 0)
 
 
 def stream_flags(names):

@@ -24,6 +24,7 @@ import pathlib
 
 import numpy as np
 
+from tactile import board_settings
 from tactile.errors import DataError, InputError
 from tactile_protocol import constants as C
 
@@ -41,7 +42,7 @@ def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=No
     Returns (times_us int64, sensor, wrench (n, 6) in N and N*m, contact ids).
     """
     taken, rows = {}, []
-    floor = None if above_N is None else above_N / C.FORCE_LSB_N
+    floor = None if above_N is None else above_N * board_settings.COUNTS_PER_N
     for i, m in enumerate(messages):
         if m.type_code != C.MSG_CONTACT or m.phase == C.PHASE_END:
             continue
@@ -58,7 +59,7 @@ def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=No
         taken[key] = k + 1
         rows.append((i, m.sensor, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
     a = np.array(rows, dtype=np.int64).reshape(-1, 9)
-    wrench = a[:, 3:] * np.repeat([C.FORCE_LSB_N, C.TORQUE_LSB_NM], 3)
+    wrench = a[:, 3:] * np.array(board_settings.WRENCH_LSB)
     index = a[:, 0]
     if times is None:
         t = np.array([messages[i].timestamp_us for i in index], dtype=np.int64)
@@ -193,5 +194,5 @@ def _derive_probes(outdir, pose_log, messages, threshold, times=None):
             f"warning: only {int(np.sum(usable))} of {len(usable)} probes are usable (the"
             " lines above say why)"
         )
-    out.append(f"next: tactile ep1 estimate {path} --finger-radius {log.radius_m!r}")
+    out.append(f"next: tactile ep1 estimate {path} --finger-radius {float(log.radius_m):.10g}")
     return out

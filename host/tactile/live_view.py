@@ -1,11 +1,13 @@
 """The state behind ``tactile live``: latest force/torque and contact state per sensor.
 
-``LiveState.update(messages)`` folds frames in; ``render()`` gives one text line
-per sensor.  Pure bookkeeping: the CLI reads the port and draws.
+``LiveState.update(messages)`` folds frames in; ``render()`` gives two text lines per
+sensor, each within 80 columns for any value the wire can carry (int32 uN, uN*m).  Pure
+bookkeeping: the CLI reads the port and draws.
 """
 
 import math
 
+from tactile.board_settings import wrench_si
 from tactile_protocol import constants as C
 
 
@@ -30,8 +32,7 @@ class LiveState:
             if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
                 v = self.sensors.setdefault(m.sensor, SensorView())
                 v.readings += 1
-                f, t = C.FORCE_LSB_N, C.TORQUE_LSB_NM
-                v.wrench = (m.fx * f, m.fy * f, m.fz * f, m.tx * t, m.ty * t, m.tz * t)
+                v.wrench = wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
                 v.saturated = m.flags & C.FLAG_SAT_MASK
                 if m.type_code == C.MSG_SAMPLE:
                     v.in_contact = bool(m.flags & C.FLAG_IN_CONTACT)
@@ -42,19 +43,23 @@ class LiveState:
                 self.status = m
 
     def render(self):
-        """One line per sensor: F (N), |F|, M (N*m), contact state, count, saturation."""
+        """Two lines per sensor: |F| (N), contact state, count and saturation; then F (N)
+        and M (N*m).  Every line fits 80 columns (``WIDTH``)."""
         lines = []
         for i in sorted(self.sensors):
             v = self.sensors[i]
             fx, fy, fz, tx, ty, tz = v.wrench
             state = "CONTACT" if v.in_contact else "free   "
             sat = f"  SATURATED 0x{v.saturated:02x}" if v.saturated else ""
+            norm = math.sqrt(fx * fx + fy * fy + fz * fz)
+            lines.append(f"sensor {i}  |F| {norm:9.3f} N  {state}  contacts {v.contacts}{sat}")
             lines.append(
-                f"sensor {i}  F [{fx:+8.3f} {fy:+8.3f} {fz:+8.3f}] N  "
-                f"|F| {math.sqrt(fx * fx + fy * fy + fz * fz):7.3f}  "
-                f"M [{tx:+7.4f} {ty:+7.4f} {tz:+7.4f}] N*m  {state} "
-                f"contacts {v.contacts}{sat}"
+                f"  F [{fx:+9.3f} {fy:+9.3f} {fz:+9.3f}] N  M [{tx:+10.4f} {ty:+10.4f}"
+                f" {tz:+10.4f}] N*m"
             )
         if not lines:
             lines.append("waiting for SAMPLE or CONTACT frames...")
         return lines
+
+
+WIDTH = 80

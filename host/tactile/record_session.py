@@ -202,13 +202,21 @@ class Session:
         from tactile.log_clock import show_time
 
         clock, end, _ = self.until
+        left = self.until_left_s()
+        if left is None:
+            return f"pose log end ({show_time(clock, end)}); no board time heard yet"
+        return f"pose log end in {left:.1f} s ({show_time(clock, end)})"
+
+    def until_left_s(self):
+        """Seconds until the pose log's end; None without a log or before any board time."""
+        if self.until is None:
+            return None
+        clock, end, _ = self.until
         now = self._now_us(clock)
         seg = self.timing.board.segments[-1] if self.timing.board.segments else None
         if clock == "board" and seg is not None and seg.usable():  # between frames: the fit
             now = max(now, round(float(seg.fitted.to_board(self.clock())) * 1e6))
-        if now < 0:
-            return f"pose log end ({show_time(clock, end)}); no board time heard yet"
-        return f"pose log end in {max(0.0, (end - now) / 1e6):.1f} s ({show_time(clock, end)})"
+        return None if now < 0 else max(0.0, (end - now) / 1e6)
 
     def _handle(self, msgs, times=None):
         self.rec.messages(msgs, self.timing.take(msgs, times))

@@ -27,6 +27,7 @@ import pathlib
 import numpy as np
 
 from tactile import units
+from tactile.board_settings import wrench_si
 from tactile.errors import InputError
 from tactile.jsonout import clean, dumps
 from tactile.recording_meta import count_rows, document, previous_sessions
@@ -49,7 +50,7 @@ def _frame_row(m, host=None):
     """Forces in N, torques in N*m: 1 uN / 1 uN*m counts, so six decimals are exact;
     ``host`` = (monotonic s, UTC s) of the frame's stamp, or None."""
     phase, cid = ("", "") if m.type_code == C.MSG_SAMPLE else (m.phase, m.contact_id)
-    w = ",".join(f"{v / 1e6:.6f}" for v in (m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
+    w = ",".join(f"{v:.6f}" for v in wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
     return (
         f"{m.seq},{m.timestamp_us},{_host_cells(host)},{m.type_name},{m.sensor},{phase},{cid},"
         f"{m.flags},{w}\n"

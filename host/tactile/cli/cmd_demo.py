@@ -9,11 +9,22 @@ biquadratic patches on an 8x8 grid, and this prints S, sd S, R, sd R and
 radius beside the thesis's tables 5-7.
 """
 
-KINDS = ("plane", "convex", "concave")
+from tactile.cli.words import renamed
+
+# The surfaces by the one name EP2 labels them with -> the ch. 5 scene's rig object.
+KINDS = {"plane": "plane", "cylinder": "convex", "concave_cylinder": "concave"}
+OLD_NAMES = {"convex": "cylinder", "concave": "concave_cylinder"}
+W = 9  # width of a number column: the table fits 80 columns
 
 
 def add_arguments(parser):
-    parser.add_argument("--object", choices=KINDS, action="append", help="default: all three")
+    parser.add_argument(
+        "--object",
+        choices=tuple(KINDS),
+        type=renamed(OLD_NAMES, "tactile demo"),
+        action="append",
+        help="default: all three",
+    )
     parser.add_argument("-o", "--out", default="demo-out", help="recordings go here (demo-out/)")
     parser.add_argument(
         "--via",
@@ -28,21 +39,24 @@ def run(args):
 
     from tactile.cli import replica
 
-    print("Chapter 5 replica on the board emulator (ch5_* scenes): biquadratic fits, 8x8 grid")
-    print(f"{'surface':<9}{'fit':<10}{'':>7}{'S':>9}{'sd S':>10}{'R':>10}{'sd R':>10}{'radius':>9}")
-    for kind in args.object or KINDS:
-        outdir = pathlib.Path(args.out) / kind
+    print("Chapter 5 replica on the board emulator (ch5_* scenes): biquadratic, 8x8 grid")
+    head = ("S", "sd S", "R 1/cm", "sd 1/cm", "r cm")
+    print(f"{'surface':<17}{'fit':<9}{'':>6}" + "".join(f"{h:>{W}}" for h in head))
+    for name in dict.fromkeys(args.object or KINDS):
+        kind = KINDS[name]
+        outdir = pathlib.Path(args.out) / name
         meta, _, results = replica.replicate(kind, outdir, args.via)
         for weighting, res in results.items():
-            _row(kind, weighting, "ours", _ours(res))
+            _row(name, weighting, "ours", _ours(res))
             _row("", "", "thesis", replica.THESIS[kind][weighting])
         true = replica.TRUE_RADIUS_CM[kind]
         print(
-            f"{'':<9}{meta['contacts_ended']} contacts, {results['tangent'].n_points} localised "
-            f"readings, {meta['decoder']['lost_frames']} frames lost; "
-            f"label '{results['tangent'].shape}'" + (f"; true radius {true} cm" if true else "")
+            f"{'':<17}{meta['contacts_ended']} contacts, {results['tangent'].n_points} localised"
+            f" readings, {meta['decoder']['lost_frames']} frames lost"
         )
-        print(f"{'':<9}recording: {outdir}")
+        true_r = f"; true radius {true} cm" if true else ""
+        print(f"{'':<17}label '{results['tangent'].shape}'{true_r}")
+        print(f"{'':<17}recording: {outdir}")
     return 0
 
 
@@ -50,6 +64,6 @@ def _ours(res):
     return (res.S_mean, res.S_std, res.R_mean, res.R_std, res.radius)
 
 
-def _row(kind, weighting, who, values):
-    cells = "".join(f"{'-' if v is None else f'{v:.4f}':>10}" for v in values)
-    print(f"{kind:<9}{weighting:<10}{who:>7}{cells}")
+def _row(name, weighting, who, values):
+    cells = "".join(f"{'-' if v is None else f'{v:.4f}':>{W}}" for v in values)
+    print(f"{name:<17}{weighting:<9}{who:>6}{cells}")

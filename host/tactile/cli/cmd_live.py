@@ -1,7 +1,9 @@
 """``tactile live --port P``: a terminal view of force/torque and contact state.
 
 By default the SAMPLE stream is switched on for the session (not persisted)
-and the board's configuration is restored on exit; ``--as-is`` leaves it.
+and the board's configuration is restored on exit; ``--as-is`` leaves it.  Every line
+fits 80 columns.  A ``sim://`` port runs as fast as the host reads unless its URL asks
+for ``?realtime=1``: live says so once, on stderr.
 """
 
 import sys
@@ -22,6 +24,12 @@ def run(args):
     from tactile.errors import PortLost
 
     client = connect(args)
+    if getattr(client.port, "realtime", True) is False:  # sim:// (tactile_sim.urlhandler)
+        print(
+            f"tactile live: note: {args.port} runs faster than real time;"
+            " add ?realtime=1 to the URL to pace it by the clock",
+            file=sys.stderr,
+        )
     restore = None
     try:
         restore = None if args.as_is else _samples_on(client)
@@ -59,27 +67,31 @@ def _view(client, duration):
 
 def _samples_on(client):
     """Turn the SAMPLE stream on; return the CONFIG values that restore the board."""
+    from tactile.board_settings import STREAMS, to_newtons
     from tactile_protocol import constants as C
 
     i = client.get_info()
     values = (
         i.rate_hz,
-        i.enter_threshold * C.FORCE_LSB_N,
-        i.exit_threshold * C.FORCE_LSB_N,
+        to_newtons(i.enter_threshold),
+        to_newtons(i.exit_threshold),
         i.debounce,
         i.flags & C.CFG_WRITABLE & ~C.CFG_PERSIST,
     )
-    if not values[4] & C.CFG_STREAM_SAMPLES:
-        client.configure(*values[:4], values[4] | C.CFG_STREAM_SAMPLES)
+    if not values[4] & STREAMS["samples"]:
+        client.configure(*values[:4], values[4] | STREAMS["samples"])
     if not i.flags & C.CFG_STREAMING:
         client.start()
     return values
 
 
 def _draw(state, client, elapsed, tty, drawn):
+    from tactile.live_view import WIDTH
+
     c = client.decoder.counters
     lines = state.render()
     lines.append(f"{elapsed:6.1f} s  frames {c.frames}  lost {c.lost_frames}  damaged {c.damaged}")
+    lines = [line[:WIDTH] for line in lines]  # a counter past 10^20 is cut, not wrapped
     if tty and drawn:
         sys.stdout.write(f"\x1b[{drawn}F")  # back to the first line drawn last time
     sys.stdout.write("".join(f"{line}\x1b[K\n" if tty else f"{line}\n" for line in lines))

@@ -6,6 +6,8 @@ line; a CSV without the line is drawn as it is, labelled U (or "input unit").  T
 one finger in passes), so its legend says "pass".
 """
 
+from tactile.cli.words import add_out
+
 WHAT = ("contacts", "patch", "maps")
 METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")
@@ -15,9 +17,7 @@ def add_arguments(parser):
     parser.add_argument(
         "source", help="EP2 contacts CSV, or a 'tactile record -o DIR' directory (DIR/contacts.csv)"
     )
-    parser.add_argument(
-        "-o", "--outdir", help="where the PNGs go (default: next to the CSV, or DIR)"
-    )
+    add_out(parser, "where the PNGs go (default: next to the CSV, or DIR)", old=("--outdir",))
     parser.add_argument(
         "--method",
         choices=METHODS,
@@ -66,7 +66,7 @@ def run(args):
     if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
         raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
     csv_path, stem, default_out = _source(pathlib.Path(args.source))
-    outdir = pathlib.Path(args.outdir) if args.outdir else default_out
+    outdir = pathlib.Path(args.out) if args.out else default_out
     plots.require_matplotlib()  # the install hint before any work
     groups = read_contacts(csv_path)
     unit, scale = _display(csv_path, args.units)

@@ -85,7 +85,7 @@ def run(args):
         meta = session.run()
     finally:
         if progress:
-            progress.close()
+            progress.close(session)
     print(summary(meta, args.out))
     print(time_summary(meta.get("time_base")))
     if args.pose_log:
@@ -112,20 +112,45 @@ def time_summary(time_base):
     )
 
 
+# Why a run ended (meta.json's "ended") in the summary's words; the first three are a
+# run that finished as asked, and its bar shows 100 %.
+ENDED = {
+    "duration": "its --duration",
+    "contacts": "its --contacts",
+    "pose log end": "the pose log's end",
+    "scene end": "the scene's end",
+    "interrupted": "Ctrl-C",
+    "port lost": "the port lost",
+    "error": "an error",
+}
+FINISHED = ("duration", "contacts", "pose log end", "scene end")
+
+
+def _count(n, what):
+    return f"{n:,} {what}{'s' * (n != 1)}"
+
+
 def summary(meta, out):
+    """One line in words: what was recorded, why it stopped, what was lost, where it is."""
     d = meta["decoder"] or {}
-    gaps = len(meta["gaps"])
     invalid = d.get("invalid", 0)  # frames outside the protocol's limits (device.jsonl names them)
+    ended = ENDED.get(meta["ended"], str(meta["ended"]))
+    lost = [
+        _count(d.get("lost_frames", 0), "frame"),
+        _count(d.get("crc_errors", 0), "CRC error"),
+        _count(len(meta["gaps"]), "gap"),
+    ]
+    refused = f", {_count(invalid, 'invalid frame')} refused" if invalid else ""
+    got = f"{_count(meta['samples'], 'reading')}, {_count(meta['contacts_ended'], 'contact')}"
     return (
-        f"recorded {meta['samples']} readings, {meta['contacts_ended']} contacts in "
-        f"{meta['elapsed_s']:.1f} s ({meta['ended']}); lost {d.get('lost_frames', 0)} frames, "
-        f"{d.get('crc_errors', 0)} CRC errors, {gaps} gap{'s' * (gaps != 1)}"
-        f"{f', {invalid} invalid frames refused' if invalid else ''} -> {out}"
+        f"recorded {got} in {meta['elapsed_s']:.1f} s (stopped by {ended});"
+        f" lost {', '.join(lost)}{refused} -> {out}"
     )
 
 
 class Progress:
-    """A tqdm bar (time or contacts) with rate, contacts and loss; plain lines without tqdm."""
+    """A tqdm bar (time, contacts, or time to the pose log's end) with rate, contacts and
+    loss; plain lines without tqdm.  A run that finishes as asked ends its bar at 100 %."""
 
     def __init__(self, duration, contacts):
         self.by_contacts = contacts is not None
@@ -142,10 +167,17 @@ class Progress:
             self.plain = True
             return
         unit = "contact" if self.by_contacts else "s"
-        fmt = "{l_bar}{bar}| {n:.0f}/{total_fmt} {unit} [{elapsed}{postfix}]"
-        if self.total is None:
-            fmt = "{desc}: {n:.0f} {unit} [{elapsed}{postfix}]"
-        self.bar = tqdm(total=self.total, unit=unit, bar_format=fmt, desc="record")
+        self.bar = tqdm(total=self.total, unit=unit, desc="record")
+        self._format()
+
+    def _format(self):
+        if self.bar.total is None:
+            self.bar.bar_format = "{desc}: {n:.0f} {unit} [{elapsed}{postfix}]"
+        else:
+            d = 0 if self.by_contacts else 1
+            self.bar.bar_format = (
+                f"{{l_bar}}{{bar}}| {{n:.{d}f}}/{{total:.{d}f}} {{unit}} [{{elapsed}}{{postfix}}]"
+            )
 
     def update(self, session):
         import time
@@ -171,10 +203,24 @@ class Progress:
         if self.plain:
             print(" ".join(f"{k}={v}" for k, v in info.items()), file=sys.stderr)
             return
-        self.bar.n = s.contacts_ended if self.by_contacts else now - session.started
+        elapsed = now - session.started
+        left = session.until_left_s() if self.total is None else None
+        if left is not None:  # no --duration or --contacts: the pose log's end is the total
+            self.bar.total = elapsed + left
+            self._format()
+        n = s.contacts_ended if self.by_contacts else elapsed
+        self.bar.n = n if self.bar.total is None else min(n, self.bar.total)
         self.bar.set_postfix(info, refresh=False)
         self.bar.refresh()
 
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
+    def close(self, session):
+        """The last counts; a run that finished as asked fills the bar."""
+        if self.bar is None:
+            return
+        if session.ended in FINISHED:
+            self.last = 0.0
+            self.update(session)
+            if self.bar.total:
+                self.bar.n = self.bar.total
+                self.bar.refresh()
+        self.bar.close()

@@ -30,10 +30,11 @@ COMMANDS = {
     "sim": ("tactile.cli.cmd_sim", "simulate EP1 probes or EP2 sweeps into files"),
     "study": ("tactile.cli.cmd_study", "reproduce the thesis's simulation studies"),
     "plot": ("tactile.cli.cmd_plot", "draw contacts, fitted patches and S/C maps as PNG"),
+    "completion": ("tactile.cli.cmd_completion", "print a bash/zsh/tcsh completion script"),
 }
 
 
-def _top_parser():
+def _top_parser(positional=True):
     lines = [f"  {name:<9} {help_}" for name, (_, help_) in COMMANDS.items()]
     parser = argparse.ArgumentParser(
         prog="tactile",
@@ -42,7 +43,8 @@ def _top_parser():
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"tactile {__version__}")
-    parser.add_argument("command", choices=list(COMMANDS), metavar="COMMAND")
+    if positional:
+        parser.add_argument("command", choices=list(COMMANDS), metavar="COMMAND")
     return parser
 
 
@@ -58,6 +60,34 @@ class _Help(argparse.HelpFormatter):
             if not any(f"({v}" in text or f"default {v}" in text for v in said):
                 text += " (default: %(default)s)"
         return text
+
+
+def _command_parser(name, module, help_, parser=None):
+    """``tactile NAME``'s parser: the module's options and -v/--verbose."""
+    if parser is None:
+        parser = argparse.ArgumentParser(
+            prog=f"tactile {name}", description=help_, formatter_class=_Help
+        )
+    module.add_arguments(parser)
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="log progress (-vv: each frame)"
+    )
+    return parser
+
+
+def full_parser():
+    """The whole tree in one parser (every command a subparser), for shell completion:
+    ``main`` itself builds only the parser of the command it runs."""
+    top = _top_parser(positional=False)
+    subs = top.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMANDS:
+        try:
+            module, help_ = _load(name)
+        except TactileError:
+            continue  # not in this build
+        sub = subs.add_parser(name, help=help_, description=help_, formatter_class=_Help)
+        _command_parser(name, module, help_, sub)
+    return top
 
 
 def _logging(verbose):
@@ -111,14 +141,7 @@ def main(argv=None):
     name = argv[0]
     try:
         module, help_ = _load(name)
-        parser = argparse.ArgumentParser(
-            prog=f"tactile {name}", description=help_, formatter_class=_Help
-        )
-        module.add_arguments(parser)
-        parser.add_argument(
-            "-v", "--verbose", action="count", default=0, help="log progress (-vv: each frame)"
-        )
-        args = parser.parse_args(argv[1:])
+        args = _command_parser(name, module, help_).parse_args(argv[1:])
         undo = _logging(args.verbose) if args.verbose else None
         try:
             return int(module.run(args) or 0)

@@ -76,7 +76,9 @@ def replicate(kind, outdir, via="pty"):
 def _on_sim(scene):
     """sim://: simulated time advances as the host reads; stop when the motion is over."""
     from tactile_sim.emulator.device import build_motion
+    from tactile_sim.urlhandler import register
 
+    register()  # 'tactile demo --via sim' names no sim:// port on its command line
     motion = build_motion(scene)
     end_us = motion.duration_s * 1e6
 

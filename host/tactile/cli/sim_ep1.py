@@ -3,13 +3,14 @@
 import math
 
 from tactile.cli.cmd_ep1 import add_sensor_arguments, check_sensor_arguments, print_result
+from tactile.cli.words import add_out, renamed
 from tactile.errors import DataError, InputError
 
 OBJECTS = (
     "plane",
     "sphere",
     "cylinder",
-    "concave-cylinder",
+    "concave_cylinder",
     "paraboloid",
     "ellipsoid",
     "saddle",
@@ -19,7 +20,7 @@ OBJECTS = (
 PARAMS = {
     "sphere": {"radius": "radius"},
     "cylinder": {"radius": "radius"},
-    "concave-cylinder": {"radius": "radius"},
+    "concave_cylinder": {"radius": "radius"},
     "paraboloid": {"C": "C"},
     "ellipsoid": {"a": "a", "b": "b", "c": "c"},
     "saddle": {"a": "a", "b": "b"},
@@ -29,7 +30,12 @@ PARAMS = {
 
 
 def add_arguments(parser):
-    parser.add_argument("--object", required=True, choices=OBJECTS)
+    parser.add_argument(
+        "--object",
+        required=True,
+        choices=OBJECTS,
+        type=renamed({"concave-cylinder": "concave_cylinder"}, "tactile sim ep1"),
+    )
     parser.add_argument("--radius", type=float, default=1.0, help="sphere/cylinder radius")
     parser.add_argument("--C", type=float, default=1.0, help="paraboloid z = -C (u^2 + v^2)")
     parser.add_argument("--a", type=float, default=1.0, help="ellipsoid/saddle parameter a")
@@ -54,7 +60,7 @@ def add_arguments(parser):
         help="contact sensor model for --resolution (§3.3.3)",
     )
     parser.add_argument("--seed", type=int, default=None)
-    parser.add_argument("--probes-out", help="also write the measured probes CSV here")
+    add_out(parser, "also write the measured probes CSV here", old=("--probes-out",))
     parser.add_argument("--json", action="store_true")
 
 
@@ -90,8 +96,8 @@ def run(args):
         sensor=args.sensor,
         seed=args.seed,
     )
-    if args.probes_out:
-        with open(args.probes_out, "w", encoding="utf-8") as fh:
+    if args.out:
+        with open(args.out, "w", encoding="utf-8") as fh:
             fh.write(format_probes(rows))
     out = est.as_dict()
     out["truth"] = {k: np.asarray(v).tolist() for k, v in truth.items()}

@@ -1,5 +1,7 @@
 """``tactile sim ep2``: simulate a three-finger EP2 sweep into a contacts CSV."""
 
+from tactile.cli.words import add_out
+
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")
 
 
@@ -38,7 +40,7 @@ def add_arguments(parser):
         " (default cm: the thesis's ch. 4 numbers carry none)",
     )
     parser.add_argument("--patches", type=int, default=1, help="write N patches (seeds seed..)")
-    parser.add_argument("-o", "--output", required=True, help="output CSV")
+    add_out(parser, "the contacts CSV to write", old=("--output",), required=True)
 
 
 def run(args):
@@ -64,7 +66,7 @@ def run(args):
     centre = (0.0, 0.0) if args.thesis_layout else (args.spacing, args.length / 2)
     obj = make(args.object, args.radius, args.rotation, centre=centre, k=k, slope=args.slope)
     try:
-        with open(args.output, "w", encoding="utf-8") as fh:
+        with open(args.out, "w", encoding="utf-8") as fh:
             for i in range(args.patches):
                 data = sweep(
                     obj,
@@ -87,8 +89,8 @@ def run(args):
     except ValueError as exc:
         raise InputError(str(exc)) from None
     except OSError as exc:
-        raise InputError(f"{args.output}: cannot write: {exc.strerror}") from None
-    print(f"wrote {args.output}: {args.patches} patch(es) of {len(data['points'])} contacts")
+        raise InputError(f"{args.out}: cannot write: {exc.strerror}") from None
+    print(f"wrote {args.out}: {args.patches} patch(es) of {len(data['points'])} contacts")
     return 0
 
 

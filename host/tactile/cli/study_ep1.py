@@ -6,11 +6,12 @@ Each writes NAME.csv and NAME.png (fig. 20: NAME_SENSOR.png, one per sensor mode
 
 import os
 
+from tactile.cli.words import add_out
 from tactile.errors import InputError
 
 
 def _common(parser):
-    parser.add_argument("--out", default=".", help="output directory (created if missing)")
+    add_out(parser, "output directory (created if missing)", default=".")
     parser.add_argument("--finger-radius", type=float, default=1.0)
     parser.add_argument("--trials", type=int, default=100, help="Monte-Carlo trials per cell")
     parser.add_argument("--seed", type=int, default=0)

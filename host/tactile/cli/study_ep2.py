@@ -3,9 +3,11 @@
 Each prints the path of every file it wrote (``tactile_sim.ep2.studies.run``).
 """
 
+from tactile.cli.words import add_out
+
 
 def _add(parser):
-    parser.add_argument("--out", default="study_out", help="output folder (CSV + PNG)")
+    add_out(parser, "output folder (CSV + PNG)", default="study_out")
     parser.add_argument("--no-png", action="store_true", help="write CSV only")
 
 

@@ -94,6 +94,17 @@ class PoseLog:
         return len(self.t_start)
 
 
+# Each localisation status (``contact.STATUS``, "imprecise") in a summary's words.
+STATUS_WORDS = {
+    "no_contact": "at or below the force gate",
+    "near_miss": "near misses (kept)",
+    "miss": "missing the fingertip",
+    "off_probe": "off the probe's surface",
+    "degenerate": "that cannot locate a point",
+    "imprecise": "too noisy",
+}
+
+
 @dataclass
 class PoseReport:
     """Where the frames went: ``frames`` in, ``outside`` (no window of their finger covers
@@ -110,6 +121,14 @@ class PoseReport:
     imprecise: int = 0
     status: dict = field(default_factory=dict)
     kept: np.ndarray = field(default_factory=lambda: np.zeros(0, int), repr=False)
+
+    def __str__(self):
+        """In words, for a summary line: where the readings that are not contacts went."""
+        parts = [f"{self.outside:,} outside every pose window"] if self.outside else []
+        for name, n in self.status.items():
+            if name != "ok" and n:
+                parts.append(f"{n:,} {STATUS_WORDS.get(name, name.replace('_', ' '))}")
+        return ", ".join(parts) if parts else "every reading in a pose window localised"
 
 
 @dataclass

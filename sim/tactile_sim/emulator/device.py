@@ -16,18 +16,17 @@ import importlib
 import math
 import os
 
+from tactile import board_settings as bs
 from tactile_fw import calibration, settings
 from tactile_fw.board import boot_id_from
 from tactile_fw.frontend import ADDRESS_PLAN
 from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
 from tactile_fw.timing import ManualClock
-from tactile_protocol import constants as C
 from tactile_sim.adc_model import FULL_SCALE_CODES, ADS122C04Model
 from tactile_sim.emulator import cores
 from tactile_sim.emulator.ft_model import FTModel
 from tactile_sim.emulator.scene import MOTIONS
-from tactile_sim.emulator.scene_schema import GATES, STREAMS
 from tactile_sim.emulator.sensor_faults import FaultSchedule
 from tactile_sim.i2c_bus import SimI2C
 
@@ -45,17 +44,12 @@ def board_settings(scene, max_rate_hz):
     what only the built board knows, the rate ceiling of its sensors on their buses.
     """
     b = scene.board
-    flags = GATES[b["gate"]]
-    for name in b["streams"]:
-        flags |= STREAMS[name]
-    if b["autostart"]:
-        flags |= C.CFG_AUTOSTART
     s = settings.Settings(
         b["rate_hz"],
-        round(b["enter_threshold_N"] / C.FORCE_LSB_N),
-        round(b["exit_threshold_N"] / C.FORCE_LSB_N),
+        bs.to_counts(b["enter_threshold_N"]),
+        bs.to_counts(b["exit_threshold_N"]),
         b["debounce"],
-        flags,
+        bs.config_flags(b["gate"], b["streams"], b["autostart"]),
     )
     bad = settings.check(*s.fields(), max_rate_hz)
     if bad == settings.F_RATE:

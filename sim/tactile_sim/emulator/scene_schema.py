@@ -16,6 +16,7 @@ the file.
 import math
 import struct
 
+from tactile.board_settings import DEFAULTS, GATES, STREAMS, to_newtons
 from tactile_fw import settings
 from tactile_protocol import constants as C
 from tactile_protocol.messages import BY_NAME
@@ -48,11 +49,9 @@ def wire_max(message, field):
     return (1 << bits) - 1 if code.isupper() else (1 << (bits - 1)) - 1
 
 
-FORCE_MAX_N = wire_max("CONFIG", "enter_threshold") * C.FORCE_LSB_N  # 2147.48 N
+FORCE_MAX_N = to_newtons(wire_max("CONFIG", "enter_threshold"))  # 2147.48 N
 TORQUE_MAX_NM = wire_max("SAMPLE", "tx") * C.TORQUE_LSB_NM
 MAX_TIME_S = 1e6  # any time or duration in a scene (11.6 days)
-STREAMS = {"samples": C.CFG_STREAM_SAMPLES, "contacts": C.CFG_STREAM_CONTACTS}
-GATES = {"xy": 0, "3d": C.CFG_GATE_3D}  # |F| in the x-y plane (thesis §5.1) or in 3-D
 
 
 def _s(default, doc, hi=MAX_TIME_S, positive=False):
@@ -90,7 +89,7 @@ BOARD = {
     "rate_hz": Int(
         settings.MIN_RATE_HZ,
         wire_max("CONFIG", "rate_hz"),
-        settings.DEFAULT_RATE_HZ,
+        DEFAULTS["rate_hz"],
         "Hz",
         "sample rate; at most the ceiling of the board's sensors",
     ),
@@ -104,9 +103,17 @@ BOARD = {
         unique=True,
     ),
     "gate": Choice(GATES, "xy", "contact gate on the force in the x-y plane or in 3-D"),
-    "enter_threshold_N": _n(1.39, "a contact begins above this (5 ozf)"),
-    "exit_threshold_N": _n(1.112, "... and ends below it (4 ozf); <= enter_threshold_N"),
-    "debounce": Int(1, settings.MAX_DEBOUNCE, 3, "samples", "past a threshold to change state"),
+    "enter_threshold_N": _n(DEFAULTS["enter_N"], "a contact begins above this (5 ozf)"),
+    "exit_threshold_N": _n(
+        DEFAULTS["exit_N"], "... and ends below it (4 ozf); <= enter_threshold_N"
+    ),
+    "debounce": Int(
+        1,
+        settings.MAX_DEBOUNCE,
+        DEFAULTS["debounce"],
+        "samples",
+        "past a threshold to change state",
+    ),
     "sensors": Int(1, C.MAX_SENSORS, 1, "", "F/T sensors on the board, two per I2C bus"),
     "max_rate_hz": Int(
         0,

@@ -205,7 +205,7 @@ def cylinder(radius=1.0, concave=False, half_length=1e6):
             np.array([zero, -r * sv, -s * r * cv]),
         )
 
-    name = "concave-cylinder" if concave else "cylinder"
+    name = "concave_cylinder" if concave else "cylinder"
     return Surface(name, {"radius": radius}, ((-half_length, half_length), (-vmax, vmax)), derivs)
 
 
@@ -231,7 +231,7 @@ KINDS = {
     "plane": plane,
     "sphere": sphere,
     "cylinder": cylinder,
-    "concave-cylinder": lambda radius=1.0: cylinder(radius, concave=True),
+    "concave_cylinder": lambda radius=1.0: cylinder(radius, concave=True),
     "paraboloid": paraboloid,
     "ellipsoid": ellipsoid,
     "saddle": saddle,

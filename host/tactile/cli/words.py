@@ -1,0 +1,58 @@
+"""The CLI's one vocabulary (issue 15): ``-o/--out`` for every output path, and old
+spellings kept working as hidden aliases that say once, on stderr, what replaced them.
+
+``add_out`` adds ``-o/--out`` (plus hidden old long options); ``renamed`` maps an old
+choice value (``concave-cylinder``) to its one spelling (``concave_cylinder``).
+"""
+
+import argparse
+import sys
+
+OUT = ("-o", "--out")
+
+
+def _note(prog, old, new):
+    print(f"{prog}: note: '{old}' is deprecated, use '{new}'", file=sys.stderr)
+
+
+class _OldSpelling(argparse.Action):
+    """A hidden option: stores into the new option's dest and notes the rename."""
+
+    def __init__(self, option_strings, dest, new="", **kwargs):
+        super().__init__(option_strings, dest, **kwargs)
+        self.new = new
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        _note(parser.prog, option_string, self.new)
+        setattr(namespace, self.dest, values)
+
+
+def add_out(parser, help, old=(), required=False, **kwargs):
+    """``-o/--out`` (dest ``out``) with ``help``; each of ``old`` still works, unlisted."""
+    if not old:
+        return parser.add_argument(*OUT, required=required, help=help, **kwargs)
+    target = parser.add_mutually_exclusive_group(required=required) if required else parser
+    action = target.add_argument(*OUT, help=help, **kwargs)
+    for spelling in old:
+        target.add_argument(
+            spelling,
+            dest="out",
+            action=_OldSpelling,
+            new="--out",
+            help=argparse.SUPPRESS,
+            metavar=action.metavar,
+        )
+    return action
+
+
+def renamed(old_to_new, prog=""):
+    """An argparse ``type`` that turns an old value into its one spelling, with a note."""
+
+    def convert(value):
+        new = old_to_new.get(value)
+        if new is None:
+            return value
+        _note(prog or "tactile", value, new)
+        return new
+
+    return convert
