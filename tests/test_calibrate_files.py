@@ -392,3 +392,28 @@ def test_files_that_are_not_files(tmp_path):
     big.write_bytes(b"<FTSensor>" + b" " * (files.MAX_BYTES + 1))
     _refused(str(big), r"larger than 1024 KiB")
     _refused(_write(tmp_path, "empty.csv", "\n\n"), r"empty file")
+
+
+def test_format_cal_reads_back_to_the_same_floats_and_agrees_with_etree(tmp_path):
+    from tactile.calib.ati import format_cal
+
+    rng = np.random.default_rng(7)
+    per_volt = rng.normal(size=(6, 6)) * 10.0 ** rng.integers(-3, 6, size=(6, 1))
+    path = _write(tmp_path, "FT4242.cal", format_cal(per_volt, "FT4242"))
+    mf = files.read(path)
+    assert mf.cal_id == 4242 and np.array_equal(np.array(mf.matrix), per_volt)
+    assert np.array_equal(np.array(_etree_user_axes(path)[0]), per_volt)  # a second reader
+
+
+def test_the_emulators_cal_file_holds_the_calibration_its_board_holds(tmp_path):
+    """``emulate --cal-file``'s matrix, read through the README's --volts-per-count, is the
+    emulated board's own calibration (counts -> N), as the right file is on a real sensor."""
+    from tactile.calib.ati import format_cal
+    from tactile_sim.emulator import load_scene
+    from tactile_sim.emulator.ft_model import VOLTS_PER_COUNT, per_volt_matrix, sensitivity_matrix
+
+    sensor = load_scene("ch5_convex").sensor
+    path = _write(tmp_path, "FT9999.cal", format_cal(per_volt_matrix(sensor), "FT9999"))
+    si = convert.si_per_count(files.read(path), VOLTS_PER_COUNT)
+    board = np.linalg.inv(sensitivity_matrix(sensor["force_range_N"], sensor["torque_range_Nm"]))
+    assert np.allclose(si, board, rtol=1e-12, atol=0)

@@ -10,10 +10,9 @@ terminal, with ``.venv`` pointing at this interpreter's environment:
 - ``NAME=value`` sets a variable for the lines after it, as the shell does. The board's port
   has one definition, ``PORT=/dev/ttyACM0``: the test puts the emulator's pty in that one
   definition, and changes nothing else.
-- ``FT9999.cal`` stands for the transducer's calibration file, which its maker ships: the
-  test writes the emulated transducer's own matrix in ATI's format (N and N-m per volt), so
-  that loading it leaves what the emulator measures unchanged, as the right file does on a
-  real sensor.
+- ``FT9999.cal`` is the transducer's calibration file, which its maker ships: the emulator
+  writes its own (``--cal-file``), and loading it must leave the board's calibration
+  checksum as it was, as the right file does on a real sensor.
 - ``tactile flash`` needs mpremote and a MicroPython board, which a pty is not: the test
   runs the line as written plus ``--dry-run``, which parses the same arguments and lists
   every file the flash would copy.
@@ -33,17 +32,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 from conftest import ROOT
-
-from tactile_sim.emulator import load_scene
-from tactile_sim.emulator.ft_model import sensitivity_matrix
 
 README = ROOT / "README.md"
 MAKE = ["make demo", "make test"]
 SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere"}
-VOLTS_PER_COUNT = 3.07e-9  # the README's --volts-per-count: 3.3 V / (128 x 2^23)
 ASSIGN = re.compile(r"^([A-Z_][A-Z0-9_]*)=(\S+)\s*(#.*)?$")
 
 
@@ -54,23 +48,6 @@ def _blocks():
 
 def _commands(block):
     return [ln.strip() for ln in block if ln.strip() and not ln.strip().startswith("#")]
-
-
-def _write_cal(path, scene_name):
-    """The emulated transducer's calibration as its maker would ship it: ATI's XML, per volt."""
-    sensor = load_scene(scene_name).sensor
-    per_volt = np.linalg.inv(sensitivity_matrix(sensor["force_range_N"], sensor["torque_range_Nm"]))
-    axes = "\n".join(
-        f'    <UserAxis Name="{name}" values="{" ".join(repr(float(v)) for v in row)}"/>'
-        for name, row in zip(["Fx", "Fy", "Fz", "Tx", "Ty", "Tz"], per_volt / VOLTS_PER_COUNT)
-    )
-    path.write_text(
-        '<?xml version="1.0" encoding="utf-8"?>\n'
-        '<FTSensor Serial="FT9999" BodyStyle="emulated" Family="DAQ" NumGages="6">\n'
-        '  <Calibration PartNumber="emulated" CalDate="1/1/2026" ForceUnits="N"'
-        ' TorqueUnits="N-m" GainMultiplier="1">\n'
-        f"{axes}\n  </Calibration>\n</FTSensor>\n"
-    )
 
 
 def test_the_readme_is_a_front_door():
@@ -112,7 +89,7 @@ def _run_blocks(blocks, cwd):
     os.symlink(Path(sys.executable).absolute().parents[1], cwd / ".venv")
     roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
-    emulators, pty, ran, scene = [], None, 0, None
+    emulators, pty, ran, scene, seen = [], None, 0, None, {}
     try:
         for block in blocks:
             for line in _commands(block):
@@ -127,7 +104,7 @@ def _run_blocks(blocks, cwd):
                     assert assign.group(1) == "PORT" and pty, line  # the one definition changed
                     env["PORT"] = pty
                     continue
-                _run(line.replace("--port /dev/pts/N", f"--port {pty}"), cwd, env, scene)
+                _run(line.replace("--port /dev/pts/N", f"--port {pty}"), cwd, env, scene, seen)
             ran += 1
     finally:  # the shell and the emulator it started: no emulator outlives its test
         for emulator in emulators:
@@ -142,12 +119,10 @@ def _background(line, cwd, env):
                             stderr=pipe, start_new_session=True)  # fmt: skip
 
 
-def _run(line, cwd, env, scene):
+def _run(line, cwd, env, scene, seen):
     command = line
     if " flash " in line:  # no MicroPython board behind a pty: the same arguments, dry
         command = re.sub(r"\s+#\s.*$", "", line) + " --dry-run"
-    if " calibrate " in line:
-        _write_cal(cwd / "FT9999.cal", scene)
     r = subprocess.run(["bash", "-c", command], cwd=cwd, env=env, capture_output=True,
                        text=True, timeout=300)  # fmt: skip
     if " ports" in line and r.returncode == 1:
@@ -158,10 +133,13 @@ def _run(line, cwd, env, scene):
     assert "warning:" not in r.stderr, (line, r.stderr)
     if " flash " in line:
         assert "main(n_sensors=1" in r.stdout and "tactile_fw/board.py" in r.stdout, r.stdout
-    if " calibrate " in line:
+    if " info " in line:
+        seen.setdefault("checksums", re.search(r"checksums (\S+)\)", r.stdout).group(1))
+    if " calibrate " in line:  # the emulator's own file: the board's calibration unchanged
         assert "loaded and verified" in r.stdout, r.stdout
+        assert f"checksum {seen['checksums']})" in r.stdout, (seen, r.stdout)
     if " record " in line:
-        assert re.search(r"\((pose log end|contacts)\)", r.stdout), r.stdout
+        assert re.search(r"\(stopped by (the pose log's end|its --contacts)\)", r.stdout), r.stdout
         assert "lost 0 frames" in r.stdout, r.stdout
     if " analyze " in line:
         assert f" {SHAPE[scene]} " in r.stdout, r.stdout

@@ -33,7 +33,7 @@ from tactile.calib import units as U
 from tactile.calib.files import MAX_ID, MatrixFile
 from tactile.errors import InputError, where
 
-__all__ = ["parse", "AXES"]
+__all__ = ["parse", "format_cal", "AXES"]
 
 AXES = ("Fx", "Fy", "Fz", "Tx", "Ty", "Tz")
 MAX_ELEMENTS = 10_000
@@ -209,3 +209,19 @@ def _serial_id(serial):
     if digits and len(digits) <= 10 and 1 <= int(digits) <= MAX_ID:
         return int(digits), f"Serial {serial}"
     return None, None
+
+
+def format_cal(per_volt, serial, part="emulated", date="1/1/2026"):
+    """ATI calibration XML for a 6x6 ``per_volt`` matrix (N and N-m per gauge volt): the
+    writer beside ``parse``, which reads its output back to the same floats (repr)."""
+    rows = "\n".join(
+        f'    <UserAxis Name="{name}" values="{" ".join(repr(float(v)) for v in row)}"/>'
+        for name, row in zip(AXES, per_volt)
+    )
+    return (
+        '<?xml version="1.0" encoding="utf-8"?>\n'
+        f'<FTSensor Serial="{serial}" BodyStyle="{part}" Family="DAQ" NumGages="6">\n'
+        f'  <Calibration PartNumber="{part}" CalDate="{date}" ForceUnits="N"'
+        ' TorqueUnits="N-m" GainMultiplier="1">\n'
+        f"{rows}\n  </Calibration>\n</FTSensor>\n"
+    )

@@ -28,6 +28,12 @@ def add_arguments(parser):
     parser.add_argument("--duration", type=float, help="stop after this many simulated seconds")
     parser.add_argument("--no-faults", action="store_true", help="ignore the scene's [link] faults")
     parser.add_argument(
+        "--cal-file",
+        metavar="FILE",
+        help="write the emulated transducer's calibration here, in ATI's .cal format, as its"
+        " maker ships it (for tactile calibrate ... --volts-per-count 3.07e-9)",
+    )
+    parser.add_argument(
         "--pose-log",
         help="write the robot's log for the scene here (for tactile record --pose-log)",
     )
@@ -75,6 +81,8 @@ def run(args):
         server = PtyServer(board, args.link, not args.fast, faults, disconnects)
     if args.pose_log:
         _write_log(board.motion, args.pose_log)
+    if args.cal_file:
+        _write_cal(scene, args.cal_file)
     path = server.open()
     print(path, flush=True)
     when = "now" if args.now else "when a host opens the port"
@@ -122,3 +130,19 @@ def _write_log(motion, path):
         write(path)
     except OSError as exc:
         raise InputError(f"--pose-log: cannot write {path}: {exc.strerror}") from None
+
+
+def _write_cal(scene, path):
+    """The scene's transducer calibration (sensor 0's; every sensor of a scene is alike)."""
+    import pathlib
+
+    from tactile.calib.ati import format_cal
+    from tactile.errors import InputError
+    from tactile_sim.emulator.ft_model import per_volt_matrix
+
+    digits = "".join(c for c in pathlib.Path(path).stem if c.isdigit())[:6]
+    serial = f"FT{digits or 1}"  # the calibration id tactile calibrate takes from it
+    try:
+        pathlib.Path(path).write_text(format_cal(per_volt_matrix(scene.sensor), serial))
+    except OSError as exc:
+        raise InputError(f"--cal-file: cannot write {path}: {exc.strerror}") from None

@@ -12,6 +12,7 @@ through ``A``; a noiseless model draws no random numbers.
 import numpy as np
 
 FULL_SCALE_CODE = 0.6 * (1 << 23)
+VOLTS_PER_COUNT = 3.07e-9  # the gauge volts of one count: 3.3 V / (128 x 2^23), docs/calibration.md
 NOISE_BLOCK = 256  # instants of noise drawn at once: the same stream as one draw per instant
 
 
@@ -31,6 +32,14 @@ def sensitivity_matrix(force_range_n, torque_range_nm):
     q, _ = np.linalg.qr(h + 0.3 * np.eye(6))  # well conditioned, every gauge sees every axis
     per_axis = np.array([force_range_n] * 3 + [torque_range_nm] * 3)
     return q * (FULL_SCALE_CODE / per_axis)
+
+
+def per_volt_matrix(sensor):
+    """The transducer's calibration as its maker ships it: N and N*m per gauge volt
+    (``VOLTS_PER_COUNT`` volts a count), the matrix the emulated board holds."""
+    return np.linalg.inv(sensitivity_matrix(sensor["force_range_N"], sensor["torque_range_Nm"])) / (
+        VOLTS_PER_COUNT
+    )
 
 
 class FTModel:
