@@ -134,3 +134,4 @@ def test_sim_rejects_object_smaller_than_the_sweep(tmp_path, capsys):
     )
     assert code == 2
     assert "sweep reaches beyond the object" in capsys.readouterr().err
+    assert not (tmp_path / "s.csv").exists()  # a refused run leaves no empty file behind

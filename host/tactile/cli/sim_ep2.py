@@ -7,10 +7,10 @@ KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "qu
 
 def add_arguments(parser):
     parser.add_argument("--object", required=True, choices=KINDS, help="object kind")
-    parser.add_argument("--radius", type=float, default=10.0, help="radius (length unit)")
+    parser.add_argument("--radius", type=float, default=10.0, help="radius (in --units)")
     parser.add_argument("--rotation", type=float, default=0.0, help="rotation about z (deg)")
-    parser.add_argument("--k1", type=float, help="quadric: first principal curvature")
-    parser.add_argument("--k2", type=float, help="quadric: second principal curvature")
+    parser.add_argument("--k1", type=float, help="quadric: first principal curvature (1/--units)")
+    parser.add_argument("--k2", type=float, help="quadric: second principal curvature (1/--units)")
     parser.add_argument(
         "--slope",
         type=float,
@@ -19,11 +19,11 @@ def add_arguments(parser):
         metavar=("SX", "SY"),
         help="add a plane slope (z += SX x + SY y), e.g. 3 2",
     )
-    parser.add_argument("--noise-pos", type=float, default=0.0, help="position noise sigma")
+    parser.add_argument("--noise-pos", type=float, default=0.0, help="position noise sigma (in --units)")
     parser.add_argument("--noise-normal", type=float, default=0.0, help="normal noise sigma (rad)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--spacing", type=float, default=2.0, help="finger spacing")
-    parser.add_argument("--length", type=float, default=4.0, help="sweep length")
+    parser.add_argument("--spacing", type=float, default=2.0, help="finger spacing (in --units)")
+    parser.add_argument("--length", type=float, default=4.0, help="sweep length (in --units)")
     parser.add_argument("--samples", type=int, default=6, help="stops per finger")
     parser.add_argument("--repeats", type=int, default=2, help="readings per stop")
     parser.add_argument("--tilt", type=float, default=0.0, help="tilt of the scene about x (deg)")
@@ -44,6 +44,8 @@ def add_arguments(parser):
 
 
 def run(args):
+    import io
+
     from tactile import units
     from tactile.errors import InputError
     from tactile_sim.ep2 import make, sweep
@@ -66,26 +68,28 @@ def run(args):
     centre = (0.0, 0.0) if args.thesis_layout else (args.spacing, args.length / 2)
     obj = make(args.object, args.radius, args.rotation, centre=centre, k=k, slope=args.slope)
     try:
-        with open(args.out, "w", encoding="utf-8") as fh:
-            for i in range(args.patches):
-                data = sweep(
-                    obj,
-                    spacing=args.spacing,
-                    length=args.length,
-                    samples=args.samples,
-                    repeats=args.repeats,
-                    noise_pos=args.noise_pos,
-                    noise_normal=args.noise_normal,
-                    tilt_deg=args.tilt,
-                    seed=args.seed + i,
-                )
-                write_rows(
-                    fh,
-                    data,
-                    patch=str(i + 1) if args.patches > 1 else None,
-                    header=i == 0,
-                    unit=unit,
-                )
+        fh = io.StringIO()  # the whole file, written once: a refused run leaves no file
+        for i in range(args.patches):
+            data = sweep(
+                obj,
+                spacing=args.spacing,
+                length=args.length,
+                samples=args.samples,
+                repeats=args.repeats,
+                noise_pos=args.noise_pos,
+                noise_normal=args.noise_normal,
+                tilt_deg=args.tilt,
+                seed=args.seed + i,
+            )
+            write_rows(
+                fh,
+                data,
+                patch=str(i + 1) if args.patches > 1 else None,
+                header=i == 0,
+                unit=unit,
+            )
+        with open(args.out, "w", encoding="utf-8") as out:
+            out.write(fh.getvalue())
     except ValueError as exc:
         raise InputError(str(exc)) from None
     except OSError as exc:
