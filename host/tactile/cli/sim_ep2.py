@@ -19,7 +19,9 @@ def add_arguments(parser):
         metavar=("SX", "SY"),
         help="add a plane slope (z += SX x + SY y), e.g. 3 2",
     )
-    parser.add_argument("--noise-pos", type=float, default=0.0, help="position noise sigma (in --units)")
+    parser.add_argument(
+        "--noise-pos", type=float, default=0.0, help="position noise sigma (in --units)"
+    )
     parser.add_argument("--noise-normal", type=float, default=0.0, help="normal noise sigma (rad)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--spacing", type=float, default=2.0, help="finger spacing (in --units)")
