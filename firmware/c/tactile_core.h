@@ -51,6 +51,8 @@ typedef struct {
 } tc_encoder_t;
 /* One frame (COBS + delimiter) in e->out; returns its length; seq advances. */
 size_t tc_encode(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg);
+/* The same frame into dst (TC_MAX_FRAME bytes free) instead of e->out. */
+size_t tc_encode_into(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg, uint8_t *dst);
 
 enum { TC_FRAME_NONE = 0, TC_FRAME_OK, TC_FRAME_BAD, TC_FRAME_OVERSIZE };
 typedef struct {

@@ -16,25 +16,35 @@ uint16_t tc_crc16(const uint8_t *data, size_t n, uint16_t crc)
 
 size_t tc_cobs_encode(const uint8_t *src, size_t n, uint8_t *dst)
 {
-    size_t code_pos = 0, out = 1, i;
-    uint8_t code = 1;
-    for (i = 0; i < n; i++) {
-        if (src[i] == 0) {
-            dst[code_pos] = code;
-            code_pos = out++;
-            code = 1;
-            continue;
+    const uint8_t *end = src + n;
+    uint8_t *code = dst, *out = dst + 1; /* code: where the current block's length goes */
+    if (n < 254) { /* a frame (at most TC_MAX_BODY + 2 bytes): no block can fill up */
+        while (src != end) {
+            uint8_t byte = *src++;
+            if (byte) {
+                *out++ = byte;
+            } else {
+                *code = (uint8_t)(out - code);
+                code = out++;
+            }
         }
-        dst[out++] = src[i];
-        code++;
-        if (code == 0xFF && i + 1 < n) { /* full block, more data follows */
-            dst[code_pos] = code;
-            code_pos = out++;
-            code = 1;
+    } else {
+        while (src != end) {
+            uint8_t byte = *src++;
+            if (byte) {
+                *out++ = byte;
+                if (out - code == 0xFF && src != end) { /* full block, more data follows */
+                    *code = 0xFF;
+                    code = out++;
+                }
+            } else {
+                *code = (uint8_t)(out - code);
+                code = out++;
+            }
         }
     }
-    dst[code_pos] = code;
-    return out;
+    *code = (uint8_t)(out - code);
+    return (size_t)(out - dst);
 }
 
 int tc_cobs_decode_in_place(uint8_t *buf, size_t n)
@@ -87,6 +97,22 @@ static uint32_t get_le(const uint8_t *p, int size)
 
 static const uint8_t kind_size[] = {1, 2, 4, 4, 4, 1}; /* TC_U8 .. TC_BYTES */
 
+/* Message structs hold native integers; on a little-endian CPU (ARM, x86) their bytes are
+ * already the wire's, so a field is a byte copy; elsewhere values are moved one by one. */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define NATIVE_LE 1
+#else
+#define NATIVE_LE 0
+#endif
+
+static void copy_bytes(uint8_t *dst, const uint8_t *src, size_t n)
+{
+    size_t k;
+    for (k = 0; k < n; k++) { /* a few bytes: cheaper than a call to memcpy */
+        dst[k] = src[k];
+    }
+}
+
 size_t tc_pack(uint8_t *body, uint8_t type, uint16_t seq, uint32_t ts, const void *msg)
 {
     const tc_msg_desc_t *d = tc_msg_desc(type);
@@ -99,16 +125,14 @@ size_t tc_pack(uint8_t *body, uint8_t type, uint16_t seq, uint32_t ts, const voi
     for (f = 0; f < d->n_fields; f++) {
         const tc_field_t *fd = &d->fields[f];
         int size = kind_size[fd->kind];
-        if (fd->kind == TC_BYTES) {
-            memcpy(body + fd->wire, m + fd->mem, fd->count);
+        if (NATIVE_LE || size == 1) {
+            copy_bytes(body + fd->wire, m + fd->mem, (size_t)size * fd->count);
             continue;
         }
         for (k = 0; k < fd->count; k++) {
             const uint8_t *src = m + fd->mem + (size_t)k * (size_t)size;
             uint32_t v;
-            if (fd->kind == TC_U8) {
-                v = *src;
-            } else if (fd->kind == TC_U16) {
+            if (fd->kind == TC_U16) {
                 uint16_t h;
                 memcpy(&h, src, 2);
                 v = h;
@@ -172,17 +196,45 @@ size_t tc_msg_size(void)
     return sizeof(tc_msg_t);
 }
 
+/* One byte of tc_encode's single pass: into the CRC, then COBS-encoded. */
+#define CRC_COBS(byte)                                                        \
+    do {                                                                      \
+        crc = (crc << 8) ^ tc_crc_table[((crc >> 8) ^ (byte)) & 0xFFu];       \
+        if (byte) {                                                           \
+            *out++ = (byte);                                                  \
+        } else {                                                              \
+            *code = (uint8_t)(out - code);                                    \
+            code = out++;                                                     \
+        }                                                                     \
+    } while (0)
+
 size_t tc_encode(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg)
 {
+    return tc_encode_into(e, type, ts, msg, e->out);
+}
+
+size_t tc_encode_into(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg, uint8_t *dst)
+{
     size_t n = tc_pack(e->body, type, e->seq, ts, msg);
-    uint16_t crc = tc_crc16(e->body, n, 0xFFFF);
-    size_t end;
-    e->body[n] = (uint8_t)(crc & 0xFF);
-    e->body[n + 1] = (uint8_t)(crc >> 8);
-    end = tc_cobs_encode(e->body, n + TC_CRC_SIZE, e->out);
-    e->out[end] = 0;
+    const uint8_t *src = e->body, *end = src + n;
+    uint8_t *code = dst, *out = dst + 1, lo, hi; /* code: the COBS block's length byte */
+    uint32_t crc = 0xFFFF; /* bits above 16 are stale; the table index takes bits 8-15 */
+    /* tc_crc16 and tc_cobs_encode in one pass: a body and its CRC (at most TC_MAX_BODY + 2
+     * < 254 bytes) never fill a COBS block, so no byte needs the long form */
+    while (src != end) {
+        uint8_t byte = *src++;
+        CRC_COBS(byte);
+    }
+    lo = (uint8_t)crc;
+    hi = (uint8_t)(crc >> 8);
+    e->body[n] = lo;
+    e->body[n + 1] = hi;
+    CRC_COBS(lo);
+    CRC_COBS(hi);
+    *code = (uint8_t)(out - code);
+    *out++ = 0;
     e->seq = (uint16_t)(e->seq + 1);
-    return end + 1;
+    return (size_t)(out - dst);
 }
 
 void tc_assembler_init(tc_assembler_t *a)
