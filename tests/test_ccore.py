@@ -12,9 +12,13 @@ import struct
 import subprocess
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tactile_fw.host_only import ccore
 from tactile_protocol import constants as C
+from tactile_protocol.cobs_codec import encode as cobs_encode
+from tactile_protocol.crc16 import crc16
 from tactile_protocol.framing import FRAME_OK, FrameAssembler
 from tactile_protocol.messages import BY_NAME, BY_TYPE, SPECS, field_codes, unpack
 
@@ -119,6 +123,22 @@ def test_cobs_vectors(ccore_lib, vectors):
         buf = (ctypes.c_uint8 * max(1, len(enc)))(*enc)
         assert ccore_lib.tc_cobs_decode_in_place(buf, len(enc)) == len(raw), case["name"]
         assert bytes(buf[: len(raw)]) == raw, case["name"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=600), st.integers(0, 0xFFFF))
+def test_crc_and_cobs_on_any_bytes(ccore_lib, data, seed):
+    """The unrolled CRC (odd and even lengths, any start value) and COBS's frame-sized and
+    long forms (runs of 254+ non-zero bytes) against the Python codecs."""
+    assert ccore_lib.tc_crc16(data, len(data), seed) == crc16(data, 0, len(data), seed)
+    out = (ctypes.c_uint8 * (len(data) + len(data) // 254 + 1))()
+    n = ccore_lib.tc_cobs_encode(data, len(data), out)
+    assert bytes(out[:n]) == cobs_encode(data)
+    for size in (253, 254, 255, 400, 508, 509):  # no zeros: blocks fill up
+        run = bytes((b or 1) for b in data[:size]).ljust(size, bytes([seed % 255 + 1]))
+        out = (ctypes.c_uint8 * (size + size // 254 + 1))()
+        n = ccore_lib.tc_cobs_encode(run, size, out)
+        assert bytes(out[:n]) == cobs_encode(run)
 
 
 def encode(lib, mtype, seq, ts, values):

@@ -5,13 +5,22 @@
 
 #include "tactile_core.h"
 
+/* One table step with the CRC in bits 16-31 of c: c >> 24 is its high byte, unmasked. */
+#define CRC_STEP(c, byte) ((c) << 8 ^ (uint32_t)tc_crc_table[(c) >> 24 ^ (byte)] << 16)
+
 uint16_t tc_crc16(const uint8_t *data, size_t n, uint16_t crc)
 {
-    size_t i;
-    for (i = 0; i < n; i++) {
-        crc = (uint16_t)((crc << 8) ^ tc_crc_table[(crc >> 8) ^ data[i]]);
+    const uint8_t *end = data + n;
+    uint32_t c = (uint32_t)crc << 16;
+    if (n & 1) {
+        c = CRC_STEP(c, *data++);
     }
-    return crc;
+    while (data != end) { /* two bytes a turn: half the loop's own instructions */
+        c = CRC_STEP(c, data[0]);
+        c = CRC_STEP(c, data[1]);
+        data += 2;
+    }
+    return (uint16_t)(c >> 16);
 }
 
 size_t tc_cobs_encode(const uint8_t *src, size_t n, uint8_t *dst)
@@ -19,13 +28,13 @@ size_t tc_cobs_encode(const uint8_t *src, size_t n, uint8_t *dst)
     const uint8_t *end = src + n;
     uint8_t *code = dst, *out = dst + 1; /* code: where the current block's length goes */
     if (n < 254) { /* a frame (at most TC_MAX_BODY + 2 bytes): no block can fill up */
-        while (src != end) {
+        for (; src != end; out++) {
             uint8_t byte = *src++;
             if (byte) {
-                *out++ = byte;
-            } else {
+                *out = byte;
+            } else { /* this byte's place holds the next block's length */
                 *code = (uint8_t)(out - code);
-                code = out++;
+                code = out;
             }
         }
     } else {
@@ -97,49 +106,45 @@ static uint32_t get_le(const uint8_t *p, int size)
 
 static const uint8_t kind_size[] = {1, 2, 4, 4, 4, 1}; /* TC_U8 .. TC_BYTES */
 
-/* Message structs hold native integers; on a little-endian CPU (ARM, x86) their bytes are
- * already the wire's, so a field is a byte copy; elsewhere values are moved one by one. */
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-#define NATIVE_LE 1
-#else
-#define NATIVE_LE 0
-#endif
-
-static void copy_bytes(uint8_t *dst, const uint8_t *src, size_t n)
-{
-    size_t k;
-    for (k = 0; k < n; k++) { /* a few bytes: cheaper than a call to memcpy */
-        dst[k] = src[k];
-    }
-}
-
 size_t tc_pack(uint8_t *body, uint8_t type, uint16_t seq, uint32_t ts, const void *msg)
 {
     const tc_msg_desc_t *d = tc_msg_desc(type);
     const uint8_t *m = (const uint8_t *)msg;
-    int f, k;
+    const tc_field_t *fd = d->fields, *last = fd + d->n_fields;
     body[0] = TC_PROTOCOL_VERSION;
     body[1] = type;
     put_le(body + 2, seq, 2);
     put_le(body + 4, ts, 4);
-    for (f = 0; f < d->n_fields; f++) {
-        const tc_field_t *fd = &d->fields[f];
-        int size = kind_size[fd->kind];
-        if (NATIVE_LE || size == 1) {
-            copy_bytes(body + fd->wire, m + fd->mem, (size_t)size * fd->count);
-            continue;
-        }
-        for (k = 0; k < fd->count; k++) {
-            const uint8_t *src = m + fd->mem + (size_t)k * (size_t)size;
-            uint32_t v;
-            if (fd->kind == TC_U16) {
-                uint16_t h;
-                memcpy(&h, src, 2);
-                v = h;
-            } else {
-                memcpy(&v, src, 4); /* u32, i32 (two's complement) and float32 bits */
+    for (; fd != last; fd++) {
+        uint8_t *dst = body + fd->wire;
+        const void *src = m + fd->mem; /* a struct member: aligned for its type */
+        int k, count = fd->count;
+        if (fd->kind == TC_U32 || fd->kind == TC_I32) { /* (int32_t read as its unsigned twin) */
+            const uint32_t *w = (const uint32_t *)src;
+            for (k = 0; k < count; k++, dst += 4) {
+                uint32_t v = w[k];
+                dst[0] = (uint8_t)v;
+                dst[1] = (uint8_t)(v >> 8);
+                dst[2] = (uint8_t)(v >> 16);
+                dst[3] = (uint8_t)(v >> 24);
             }
-            put_le(body + fd->wire + k * size, v, size);
+        } else if (fd->kind == TC_U16) {
+            const uint16_t *h = (const uint16_t *)src;
+            for (k = 0; k < count; k++, dst += 2) {
+                dst[0] = (uint8_t)h[k];
+                dst[1] = (uint8_t)(h[k] >> 8);
+            }
+        } else if (fd->kind == TC_F32) {
+            for (k = 0; k < count; k++) {
+                uint32_t v;
+                memcpy(&v, (const uint8_t *)src + 4 * k, 4); /* float32 bits */
+                put_le(dst + 4 * k, v, 4);
+            }
+        } else { /* TC_U8, TC_BYTES */
+            const uint8_t *b = (const uint8_t *)src;
+            for (k = 0; k < count; k++) { /* a few bytes: cheaper than a call to memcpy */
+                dst[k] = b[k];
+            }
         }
     }
     return d->body_len;
@@ -196,18 +201,6 @@ size_t tc_msg_size(void)
     return sizeof(tc_msg_t);
 }
 
-/* One byte of tc_encode's single pass: into the CRC, then COBS-encoded. */
-#define CRC_COBS(byte)                                                        \
-    do {                                                                      \
-        crc = (crc << 8) ^ tc_crc_table[((crc >> 8) ^ (byte)) & 0xFFu];       \
-        if (byte) {                                                           \
-            *out++ = (byte);                                                  \
-        } else {                                                              \
-            *code = (uint8_t)(out - code);                                    \
-            code = out++;                                                     \
-        }                                                                     \
-    } while (0)
-
 size_t tc_encode(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg)
 {
     return tc_encode_into(e, type, ts, msg, e->out);
@@ -216,25 +209,14 @@ size_t tc_encode(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg)
 size_t tc_encode_into(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg, uint8_t *dst)
 {
     size_t n = tc_pack(e->body, type, e->seq, ts, msg);
-    const uint8_t *src = e->body, *end = src + n;
-    uint8_t *code = dst, *out = dst + 1, lo, hi; /* code: the COBS block's length byte */
-    uint32_t crc = 0xFFFF; /* bits above 16 are stale; the table index takes bits 8-15 */
-    /* tc_crc16 and tc_cobs_encode in one pass: a body and its CRC (at most TC_MAX_BODY + 2
-     * < 254 bytes) never fill a COBS block, so no byte needs the long form */
-    while (src != end) {
-        uint8_t byte = *src++;
-        CRC_COBS(byte);
-    }
-    lo = (uint8_t)crc;
-    hi = (uint8_t)(crc >> 8);
-    e->body[n] = lo;
-    e->body[n + 1] = hi;
-    CRC_COBS(lo);
-    CRC_COBS(hi);
-    *code = (uint8_t)(out - code);
-    *out++ = 0;
+    uint16_t crc = tc_crc16(e->body, n, 0xFFFF);
+    size_t end;
+    e->body[n] = (uint8_t)(crc & 0xFF);
+    e->body[n + 1] = (uint8_t)(crc >> 8);
+    end = tc_cobs_encode(e->body, n + TC_CRC_SIZE, dst);
+    dst[end] = 0;
     e->seq = (uint16_t)(e->seq + 1);
-    return (size_t)(out - dst);
+    return end + 1;
 }
 
 void tc_assembler_init(tc_assembler_t *a)
