@@ -67,8 +67,8 @@ int tc_assembler_feed(tc_assembler_t *a, uint8_t byte);
 /* --- calibration in fixed point (tactile_fw/calibration.py's docstring) --- */
 typedef struct {
     /* A = round(1e6 C 2^S), |A| <= 2^26, kept as A = a_hi 2^12 + a_lo, a_lo in 0..4095 */
-    int32_t a_hi[TC_N_GAUGES * TC_N_GAUGES];
-    int32_t a_lo[TC_N_GAUGES * TC_N_GAUGES];
+    int16_t a_hi[TC_N_GAUGES * TC_N_GAUGES];
+    uint16_t a_lo[TC_N_GAUGES * TC_N_GAUGES];
     int16_t shift[TC_N_GAUGES];           /* S per row */
     int32_t bias_q8[TC_N_GAUGES];         /* TARE bias in 1/256 counts */
     int64_t offset[TC_N_GAUGES];          /* O = sum A bias_q8 - 2^(S+7) */

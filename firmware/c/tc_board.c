@@ -571,7 +571,8 @@ static int32_t sched_check(tc_board_t *b, uint32_t now)
     if (late < 0) {
         return -1;
     }
-    missed = (uint32_t)late / b->period_us;
+    /* (on time is the rule: no division, which ARMv6-M does in software) */
+    missed = (uint32_t)late < b->period_us ? 0 : (uint32_t)late / b->period_us;
     b->due = tc_ticks_add(b, b->due, (missed + 1) * b->period_us);
     b->overruns += missed;
     return (int32_t)missed;

@@ -87,8 +87,8 @@ static void set_row(tc_cal_t *c, int r, const uint32_t *bits)
         int64_t a = round_shift(p[j], e[j] + s);
         int32_t v = (int32_t)((bits[j] >> 31) ? -a : a), lo;
         lo = (int32_t)(((uint32_t)v + ((uint32_t)1 << 27)) & 0xFFFu); /* |v| <= 2^26 */
-        c->a_lo[N * r + j] = lo;
-        c->a_hi[N * r + j] = (v - lo) / 4096;
+        c->a_lo[N * r + j] = (uint16_t)lo;
+        c->a_hi[N * r + j] = (int16_t)((v - lo) / 4096);
     }
 }
 
@@ -218,7 +218,8 @@ void tc_cal_apply(const tc_cal_t *c, const int32_t counts[6], int32_t out[6])
         g[2 * j + 1] = (int32_t)(u & 0xFFFu);
     }
     for (r = 0; r < N; r++) {
-        const int32_t *ah = c->a_hi + N * r, *al = c->a_lo + N * r;
+        const int16_t *ah = c->a_hi + N * r;
+        const uint16_t *al = c->a_lo + N * r;
         int32_t hh = 0, mid = 0, ll = 0; /* each below 2^30 */
 #pragma GCC unroll 6
         for (j = 0; j < N; j++) {
