@@ -50,7 +50,7 @@
 #define NVIC_ISER REG(0xE000E100u)
 #define NVIC_ICPR REG(0xE000E280u)
 
-enum { MODE_RUN = 0, MODE_BENCH = 1 };
+enum { MODE_RUN = 0, MODE_BENCH = 1, MODE_PROFILE = 2 };
 enum { TX_RING = 4096, POLL_NAP_US = 20 };
 
 static tc_board_t board;
@@ -251,7 +251,7 @@ static int hal_blob_write(void *ctx, uint8_t key, const uint8_t *data, size_t n)
 }
 
 /* --- bench: instructions per stage, counted by QEMU's -icount ------------------------- */
-void tc_qemu_bench(tc_board_t *b, void (*report)(const uint32_t *, uint8_t));
+void tc_qemu_bench(tc_board_t *b, void (*report)(const uint32_t *, uint8_t), int reps);
 
 static void report(const uint32_t *values, uint8_t count)
 {
@@ -311,8 +311,8 @@ int main(void)
     if (r != TC_INIT_OK) {
         sh_exit(10u + (uint32_t)r);
     }
-    if (head[1] == MODE_BENCH) {
-        tc_qemu_bench(&board, report);
+    if (head[1] == MODE_BENCH || head[1] == MODE_PROFILE) {
+        tc_qemu_bench(&board, report, head[1] == MODE_BENCH ? 2000 : 1);
         sh_exit(0);
     }
     tc_board_boot(&board);
