@@ -282,3 +282,28 @@ def test_the_core_compiles_for_a_cortex_m0plus(tmp_path):
     flags += ["-Wpedantic", "-Wconversion", "-Werror", "-I", str(ccore.SRC)]
     for src in ccore.sources():
         subprocess.run([cc, *flags, "-c", str(src), "-o", str(tmp_path / "x.o")], check=True)
+
+
+def test_the_core_compiles_as_a_micropython_native_module_would(tmp_path):
+    """With MicroPython's natmod flags for ARCH=armv6m (py/dynruntime.mk: position-independent
+    Thumb-1), the core needs from outside only libgcc's helpers and memcpy/memset/memcmp; it
+    has no BSS, and its one initialised object in a writable section is the message table,
+    whose pointers the loader relocates (docs/firmware.md, "Flashing a Pico")."""
+    cc, ld, nm = (shutil.which("arm-none-eabi-" + t) for t in ("gcc", "ld", "nm"))
+    if None in (cc, ld, nm):
+        pytest.skip("arm-none-eabi binutils not installed (apt-get install gcc-arm-none-eabi)")
+    flags = ["-std=c99", "-mthumb", "-mcpu=cortex-m0", "-Os", "-fpic", "-fno-common"]
+    flags += ["-Wall", "-Werror", "-I", str(ccore.SRC)]
+    objs = []
+    for src in ccore.sources():
+        objs.append(tmp_path / (src.stem + ".o"))
+        subprocess.run([cc, *flags, "-c", str(src), "-o", str(objs[-1])], check=True)
+    subprocess.run([ld, "-r", "-o", str(tmp_path / "core.o"), *map(str, objs)], check=True)
+    out = subprocess.run([nm, "-u", str(tmp_path / "core.o")], capture_output=True, text=True)
+    undefined = {line.split()[-1] for line in out.stdout.splitlines() if line.strip()}
+    libc = {"memcpy", "memset", "memcmp", "_GLOBAL_OFFSET_TABLE_"}
+    assert undefined and all(s in libc or s.startswith("__") for s in undefined), undefined
+    out = subprocess.run([nm, str(tmp_path / "core.o")], capture_output=True, text=True)
+    syms = [line.split()[1:] for line in out.stdout.splitlines() if len(line.split()) == 3]
+    assert not [n for k, n in syms if k in "BbC"], "no state outside the caller's structs"
+    assert [n for k, n in syms if k in "Dd"] == ["tc_messages"]
