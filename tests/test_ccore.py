@@ -12,9 +12,13 @@ import struct
 import subprocess
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tactile_fw.host_only import ccore
 from tactile_protocol import constants as C
+from tactile_protocol.cobs_codec import encode as cobs_encode
+from tactile_protocol.crc16 import crc16
 from tactile_protocol.framing import FRAME_OK, FrameAssembler
 from tactile_protocol.messages import BY_NAME, BY_TYPE, SPECS, field_codes, unpack
 
@@ -119,6 +123,22 @@ def test_cobs_vectors(ccore_lib, vectors):
         buf = (ctypes.c_uint8 * max(1, len(enc)))(*enc)
         assert ccore_lib.tc_cobs_decode_in_place(buf, len(enc)) == len(raw), case["name"]
         assert bytes(buf[: len(raw)]) == raw, case["name"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=600), st.integers(0, 0xFFFF))
+def test_crc_and_cobs_on_any_bytes(ccore_lib, data, seed):
+    """The unrolled CRC (odd and even lengths, any start value) and COBS's frame-sized and
+    long forms (runs of 254+ non-zero bytes) against the Python codecs."""
+    assert ccore_lib.tc_crc16(data, len(data), seed) == crc16(data, 0, len(data), seed)
+    out = (ctypes.c_uint8 * (len(data) + len(data) // 254 + 1))()
+    n = ccore_lib.tc_cobs_encode(data, len(data), out)
+    assert bytes(out[:n]) == cobs_encode(data)
+    for size in (253, 254, 255, 400, 508, 509):  # no zeros: blocks fill up
+        run = bytes((b or 1) for b in data[:size]).ljust(size, bytes([seed % 255 + 1]))
+        out = (ctypes.c_uint8 * (size + size // 254 + 1))()
+        n = ccore_lib.tc_cobs_encode(run, size, out)
+        assert bytes(out[:n]) == cobs_encode(run)
 
 
 def encode(lib, mtype, seq, ts, values):
@@ -262,3 +282,28 @@ def test_the_core_compiles_for_a_cortex_m0plus(tmp_path):
     flags += ["-Wpedantic", "-Wconversion", "-Werror", "-I", str(ccore.SRC)]
     for src in ccore.sources():
         subprocess.run([cc, *flags, "-c", str(src), "-o", str(tmp_path / "x.o")], check=True)
+
+
+def test_the_core_compiles_as_a_micropython_native_module_would(tmp_path):
+    """With MicroPython's natmod flags for ARCH=armv6m (py/dynruntime.mk: position-independent
+    Thumb-1), the core needs from outside only libgcc's helpers and memcpy/memset/memcmp; it
+    has no BSS, and its one initialised object in a writable section is the message table,
+    whose pointers the loader relocates (docs/firmware.md, "Flashing a Pico")."""
+    cc, ld, nm = (shutil.which("arm-none-eabi-" + t) for t in ("gcc", "ld", "nm"))
+    if None in (cc, ld, nm):
+        pytest.skip("arm-none-eabi binutils not installed (apt-get install gcc-arm-none-eabi)")
+    flags = ["-std=c99", "-mthumb", "-mcpu=cortex-m0", "-Os", "-fpic", "-fno-common"]
+    flags += ["-Wall", "-Werror", "-I", str(ccore.SRC)]
+    objs = []
+    for src in ccore.sources():
+        objs.append(tmp_path / (src.stem + ".o"))
+        subprocess.run([cc, *flags, "-c", str(src), "-o", str(objs[-1])], check=True)
+    subprocess.run([ld, "-r", "-o", str(tmp_path / "core.o"), *map(str, objs)], check=True)
+    out = subprocess.run([nm, "-u", str(tmp_path / "core.o")], capture_output=True, text=True)
+    undefined = {line.split()[-1] for line in out.stdout.splitlines() if line.strip()}
+    libc = {"memcpy", "memset", "memcmp", "_GLOBAL_OFFSET_TABLE_"}
+    assert undefined and all(s in libc or s.startswith("__") for s in undefined), undefined
+    out = subprocess.run([nm, str(tmp_path / "core.o")], capture_output=True, text=True)
+    syms = [line.split()[1:] for line in out.stdout.splitlines() if len(line.split()) == 3]
+    assert not [n for k, n in syms if k in "BbC"], "no state outside the caller's structs"
+    assert [n for k, n in syms if k in "Dd"] == ["tc_messages"]

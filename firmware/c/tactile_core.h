@@ -51,6 +51,8 @@ typedef struct {
 } tc_encoder_t;
 /* One frame (COBS + delimiter) in e->out; returns its length; seq advances. */
 size_t tc_encode(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg);
+/* The same frame into dst (TC_MAX_FRAME bytes free) instead of e->out. */
+size_t tc_encode_into(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg, uint8_t *dst);
 
 enum { TC_FRAME_NONE = 0, TC_FRAME_OK, TC_FRAME_BAD, TC_FRAME_OVERSIZE };
 typedef struct {
@@ -64,10 +66,13 @@ int tc_assembler_feed(tc_assembler_t *a, uint8_t byte);
 
 /* --- calibration in fixed point (tactile_fw/calibration.py's docstring) --- */
 typedef struct {
-    int32_t a[TC_N_GAUGES * TC_N_GAUGES]; /* round(1e6 C 2^S), |a| <= 2^26 */
+    /* A = round(1e6 C 2^S), |A| <= 2^26, kept as A = a_hi 2^12 + a_lo, a_lo in 0..4095 */
+    int16_t a_hi[TC_N_GAUGES * TC_N_GAUGES];
+    uint16_t a_lo[TC_N_GAUGES * TC_N_GAUGES];
     int16_t shift[TC_N_GAUGES];           /* S per row */
     int32_t bias_q8[TC_N_GAUGES];         /* TARE bias in 1/256 counts */
-    int64_t offset[TC_N_GAUGES];          /* sum a bias_q8 - 2^(S+7) */
+    int64_t offset[TC_N_GAUGES];          /* O = sum A bias_q8 - 2^(S+7) */
+    int32_t o_hi[TC_N_GAUGES], o_mid[TC_N_GAUGES], o_lo[TC_N_GAUGES]; /* -O in limbs */
     uint32_t cal_id;
     uint16_t crc; /* CRC-16 of the 36 float32 as SET_CAL carried them (HELLO/INFO cal_crc) */
     uint8_t present;
@@ -77,6 +82,7 @@ int tc_cal_bad_coefficient(const uint32_t *bits, size_t n);
 void tc_cal_set(tc_cal_t *c, const uint32_t bits[36], uint32_t cal_id); /* keeps the bias */
 void tc_cal_identity(tc_cal_t *c); /* 1 uN per count, id 0, not present, bias 0 */
 void tc_cal_set_bias_sums(tc_cal_t *c, const int64_t sums[6], uint32_t n);
+/* counts: 24-bit codes (|g| <= 2^23), as the ADS122C04 gives them */
 void tc_cal_apply(const tc_cal_t *c, const int32_t counts[6], int32_t out[6]);
 size_t tc_cal_size(void); /* sizeof(tc_cal_t), for foreign callers */
 

@@ -66,7 +66,9 @@ int tc_sensor_init(tc_board_t *b, int i)
 int tc_sensor_poll(tc_board_t *b, int i, int *done)
 {
     tc_sensor_t *s = &b->sensors[i];
-    uint8_t fresh = s->fresh, sat = 0, buf[3];
+    int (*i2c_read)(void *, uint8_t, uint8_t, uint8_t, uint8_t *, size_t) = b->hal.i2c_read;
+    void *ctx = b->hal.ctx;
+    uint8_t fresh = s->fresh, sat = 0, bus = s->bus, buf[3];
     int j, err;
     *done = 0;
     for (j = 0; j < TC_N_GAUGES; j++) {
@@ -74,13 +76,14 @@ int tc_sensor_poll(tc_board_t *b, int i, int *done)
         if (fresh & bit) {
             continue;
         }
-        err = read_reg(b, s, j, TC_ADS_REG_CONFIG2, buf);
+        /* RREG CONFIG2 for DRDY, then RDATA */
+        err = i2c_read(ctx, bus, s->addr[j], TC_ADS_CMD_RREG | (TC_ADS_REG_CONFIG2 << 2), buf, 1);
         if (err) {
             return err;
         }
         if (buf[0] & TC_ADS_DRDY) {
             uint32_t u;
-            err = b->hal.i2c_read(b->hal.ctx, s->bus, s->addr[j], TC_ADS_CMD_RDATA, buf, 3);
+            err = i2c_read(ctx, bus, s->addr[j], TC_ADS_CMD_RDATA, buf, 3);
             if (err) {
                 return err;
             }

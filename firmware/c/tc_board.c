@@ -66,7 +66,10 @@ static void tx_flush(tc_board_t *b)
         if (w > chunk) {
             w = chunk;
         }
-        b->tx_tail = (b->tx_tail + w) % b->tx_size;
+        b->tx_tail += w; /* (no %: ARMv6-M has no divide instruction) */
+        if (b->tx_tail == b->tx_size) {
+            b->tx_tail = 0;
+        }
         b->tx_used -= w;
         if (w < chunk) {
             return;
@@ -89,7 +92,10 @@ static void tx_send(tc_board_t *b, const uint8_t *frame, size_t n)
         memcpy(b->tx + b->tx_head, frame, first);
         memcpy(b->tx, frame + first, n - first);
     }
-    b->tx_head = (b->tx_head + n) % b->tx_size;
+    b->tx_head += n;
+    if (b->tx_head >= b->tx_size) {
+        b->tx_head -= b->tx_size;
+    }
     b->tx_used += n;
     b->tx_sent++;
     tx_flush(b);
@@ -106,9 +112,33 @@ static void tx_clear(tc_board_t *b) /* a new host session: queued frames count a
     b->tx_head = b->tx_tail = b->tx_used = 0;
 }
 
+/* Free bytes from the ring's head on without wrapping (an empty ring starts over at 0). */
+static size_t tx_room(tc_board_t *b)
+{
+    if (b->tx_used == b->tx_size) {
+        return 0;
+    }
+    if (b->tx_used == 0) {
+        b->tx_head = b->tx_tail = 0;
+    }
+    return b->tx_head < b->tx_tail ? b->tx_tail - b->tx_head : b->tx_size - b->tx_head;
+}
+
 void tc_board_send(tc_board_t *b, uint8_t type, const void *msg)
 {
-    size_t n = tc_encode(&b->enc, type, b->time_us, msg);
+    size_t n;
+    if (tx_room(b) >= TC_MAX_FRAME) { /* encode in place: the same bytes, without a copy */
+        n = tc_encode_into(&b->enc, type, b->time_us, msg, b->tx + b->tx_head);
+        b->tx_head += n;
+        if (b->tx_head == b->tx_size) {
+            b->tx_head = 0;
+        }
+        b->tx_used += n;
+        b->tx_sent++;
+        tx_flush(b);
+        return;
+    }
+    n = tc_encode(&b->enc, type, b->time_us, msg);
     tx_send(b, b->enc.out, n);
 }
 
@@ -541,7 +571,8 @@ static int32_t sched_check(tc_board_t *b, uint32_t now)
     if (late < 0) {
         return -1;
     }
-    missed = (uint32_t)late / b->period_us;
+    /* (on time is the rule: no division, which ARMv6-M does in software) */
+    missed = (uint32_t)late < b->period_us ? 0 : (uint32_t)late / b->period_us;
     b->due = tc_ticks_add(b, b->due, (missed + 1) * b->period_us);
     b->overruns += missed;
     return (int32_t)missed;

@@ -5,36 +5,55 @@
 
 #include "tactile_core.h"
 
+/* One table step with the CRC in bits 16-31 of c: c >> 24 is its high byte, unmasked. */
+#define CRC_STEP(c, byte) ((c) << 8 ^ (uint32_t)tc_crc_table[(c) >> 24 ^ (byte)] << 16)
+
 uint16_t tc_crc16(const uint8_t *data, size_t n, uint16_t crc)
 {
-    size_t i;
-    for (i = 0; i < n; i++) {
-        crc = (uint16_t)((crc << 8) ^ tc_crc_table[(crc >> 8) ^ data[i]]);
+    const uint8_t *end = data + n;
+    uint32_t c = (uint32_t)crc << 16;
+    if (n & 1) {
+        c = CRC_STEP(c, *data++);
     }
-    return crc;
+    while (data != end) { /* two bytes a turn: half the loop's own instructions */
+        c = CRC_STEP(c, data[0]);
+        c = CRC_STEP(c, data[1]);
+        data += 2;
+    }
+    return (uint16_t)(c >> 16);
 }
 
 size_t tc_cobs_encode(const uint8_t *src, size_t n, uint8_t *dst)
 {
-    size_t code_pos = 0, out = 1, i;
-    uint8_t code = 1;
-    for (i = 0; i < n; i++) {
-        if (src[i] == 0) {
-            dst[code_pos] = code;
-            code_pos = out++;
-            code = 1;
-            continue;
+    const uint8_t *end = src + n;
+    uint8_t *code = dst, *out = dst + 1; /* code: where the current block's length goes */
+    if (n < 254) { /* a frame (at most TC_MAX_BODY + 2 bytes): no block can fill up */
+        for (; src != end; out++) {
+            uint8_t byte = *src++;
+            if (byte) {
+                *out = byte;
+            } else { /* this byte's place holds the next block's length */
+                *code = (uint8_t)(out - code);
+                code = out;
+            }
         }
-        dst[out++] = src[i];
-        code++;
-        if (code == 0xFF && i + 1 < n) { /* full block, more data follows */
-            dst[code_pos] = code;
-            code_pos = out++;
-            code = 1;
+    } else {
+        while (src != end) {
+            uint8_t byte = *src++;
+            if (byte) {
+                *out++ = byte;
+                if (out - code == 0xFF && src != end) { /* full block, more data follows */
+                    *code = 0xFF;
+                    code = out++;
+                }
+            } else {
+                *code = (uint8_t)(out - code);
+                code = out++;
+            }
         }
     }
-    dst[code_pos] = code;
-    return out;
+    *code = (uint8_t)(out - code);
+    return (size_t)(out - dst);
 }
 
 int tc_cobs_decode_in_place(uint8_t *buf, size_t n)
@@ -91,31 +110,41 @@ size_t tc_pack(uint8_t *body, uint8_t type, uint16_t seq, uint32_t ts, const voi
 {
     const tc_msg_desc_t *d = tc_msg_desc(type);
     const uint8_t *m = (const uint8_t *)msg;
-    int f, k;
+    const tc_field_t *fd = d->fields, *last = fd + d->n_fields;
     body[0] = TC_PROTOCOL_VERSION;
     body[1] = type;
     put_le(body + 2, seq, 2);
     put_le(body + 4, ts, 4);
-    for (f = 0; f < d->n_fields; f++) {
-        const tc_field_t *fd = &d->fields[f];
-        int size = kind_size[fd->kind];
-        if (fd->kind == TC_BYTES) {
-            memcpy(body + fd->wire, m + fd->mem, fd->count);
-            continue;
-        }
-        for (k = 0; k < fd->count; k++) {
-            const uint8_t *src = m + fd->mem + (size_t)k * (size_t)size;
-            uint32_t v;
-            if (fd->kind == TC_U8) {
-                v = *src;
-            } else if (fd->kind == TC_U16) {
-                uint16_t h;
-                memcpy(&h, src, 2);
-                v = h;
-            } else {
-                memcpy(&v, src, 4); /* u32, i32 (two's complement) and float32 bits */
+    for (; fd != last; fd++) {
+        uint8_t *dst = body + fd->wire;
+        const void *src = m + fd->mem; /* a struct member: aligned for its type */
+        int k, count = fd->count;
+        if (fd->kind == TC_U32 || fd->kind == TC_I32) { /* (int32_t read as its unsigned twin) */
+            const uint32_t *w = (const uint32_t *)src;
+            for (k = 0; k < count; k++, dst += 4) {
+                uint32_t v = w[k];
+                dst[0] = (uint8_t)v;
+                dst[1] = (uint8_t)(v >> 8);
+                dst[2] = (uint8_t)(v >> 16);
+                dst[3] = (uint8_t)(v >> 24);
             }
-            put_le(body + fd->wire + k * size, v, size);
+        } else if (fd->kind == TC_U16) {
+            const uint16_t *h = (const uint16_t *)src;
+            for (k = 0; k < count; k++, dst += 2) {
+                dst[0] = (uint8_t)h[k];
+                dst[1] = (uint8_t)(h[k] >> 8);
+            }
+        } else if (fd->kind == TC_F32) {
+            for (k = 0; k < count; k++) {
+                uint32_t v;
+                memcpy(&v, (const uint8_t *)src + 4 * k, 4); /* float32 bits */
+                put_le(dst + 4 * k, v, 4);
+            }
+        } else { /* TC_U8, TC_BYTES */
+            const uint8_t *b = (const uint8_t *)src;
+            for (k = 0; k < count; k++) { /* a few bytes: cheaper than a call to memcpy */
+                dst[k] = b[k];
+            }
         }
     }
     return d->body_len;
@@ -174,13 +203,18 @@ size_t tc_msg_size(void)
 
 size_t tc_encode(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg)
 {
+    return tc_encode_into(e, type, ts, msg, e->out);
+}
+
+size_t tc_encode_into(tc_encoder_t *e, uint8_t type, uint32_t ts, const void *msg, uint8_t *dst)
+{
     size_t n = tc_pack(e->body, type, e->seq, ts, msg);
     uint16_t crc = tc_crc16(e->body, n, 0xFFFF);
     size_t end;
     e->body[n] = (uint8_t)(crc & 0xFF);
     e->body[n + 1] = (uint8_t)(crc >> 8);
-    end = tc_cobs_encode(e->body, n + TC_CRC_SIZE, e->out);
-    e->out[end] = 0;
+    end = tc_cobs_encode(e->body, n + TC_CRC_SIZE, dst);
+    dst[end] = 0;
     e->seq = (uint16_t)(e->seq + 1);
     return end + 1;
 }

@@ -28,12 +28,12 @@ from tactile.errors import BoardError
 QEMU = "qemu-system-arm"
 INSTALL = "apt-get install qemu-system-arm"
 REQ, REP, UART = "dev.req", "dev.rep", "uart.sock"
-MODE_RUN, MODE_BENCH = 0, 1
+MODE_RUN, MODE_BENCH, MODE_PROFILE = 0, 1, 2
 OPEN_TIMEOUT_S = 10.0
 TX_RING = 4096
 
 
-def qemu_command(elf, workdir, fast, icount_shift=3):
+def qemu_command(elf, workdir, fast, icount_shift=3, extra=()):
     """QEMU's arguments: the image, the UART on a socket, semihosting files in ``workdir``.
 
     Real time: the virtual clock is the host's.  ``fast``: ``-icount`` (one instruction =
@@ -50,7 +50,7 @@ def qemu_command(elf, workdir, fast, icount_shift=3):
     ]  # fmt: skip
     if fast:
         cmd += ["-icount", f"shift={icount_shift},sleep=off"]
-    return cmd
+    return cmd + list(extra)
 
 
 class QemuUnavailable(BoardError):
@@ -73,15 +73,16 @@ class QemuBoard:
     def boot(self):
         """Nothing yet: the image boots when QEMU starts (``launch``)."""
 
-    def launch(self, workdir, fast, mode=MODE_RUN, icount_shift=3):
-        """Start QEMU on the image in ``workdir``; returns (process, QemuDevice)."""
+    def launch(self, workdir, fast, mode=MODE_RUN, icount_shift=3, extra=()):
+        """Start QEMU on the image in ``workdir`` (``extra``: more QEMU arguments); returns
+        (process, QemuDevice)."""
         elf = image()
         req = pathlib.Path(workdir) / REQ
         for fifo in (req, pathlib.Path(workdir) / REP):
             os.mkfifo(fifo)
         req_fd = os.open(req, os.O_RDONLY | os.O_NONBLOCK)  # before QEMU opens it to write
         proc = subprocess.Popen(
-            qemu_command(elf, workdir, fast, icount_shift),
+            qemu_command(elf, workdir, fast, icount_shift, extra),
             cwd=workdir,
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
@@ -116,13 +117,15 @@ def said(proc):
     return lines[-1] if lines else f"exit status {proc.returncode}"
 
 
-def bench(emulated, timeout_s=600.0):
+def bench(emulated, timeout_s=600.0, profile=()):
     """Run the image's bench mode on ``emulated``'s hardware under ``-icount shift=0`` (one
-    instruction per virtual nanosecond); the values it reports (``bench.c``)."""
+    instruction per virtual nanosecond); the values it reports (``bench.c``).  ``profile``:
+    QEMU arguments that log what it runs (bench/fw_c_profile.py); the stages run once."""
     import tempfile
 
     workdir = tempfile.mkdtemp(prefix="tactile-qemu-")
-    proc, dev = emulated.board.launch(workdir, fast=True, mode=MODE_BENCH, icount_shift=0)
+    mode = MODE_PROFILE if profile else MODE_BENCH
+    proc, dev = emulated.board.launch(workdir, True, mode, icount_shift=0, extra=profile)
     uart = None
     try:
         uart = connect_uart(workdir, proc)
