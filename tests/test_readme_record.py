@@ -39,7 +39,7 @@ def test_the_block_runs_as_written(tmp_path, block):
     assert "# terminal 1" in block[0] and all(ln.startswith(".venv/bin/tactile ") for ln in block)
     scene = re.search(r"emulate (\S+)", block[0]).group(1)
     os.symlink(Path(sys.executable).absolute().parents[1], tmp_path / ".venv")
-    roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim")]
+    roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim", "studies")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     emulator = subprocess.Popen(block[0], shell=True, cwd=tmp_path, env=env, text=True,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE,

@@ -14,7 +14,7 @@ rotation done, not its timing.
 
 The robot's log (``probe_log``/``write_probe_log``): per probe, a time during the hold at its
 start and at its end, and the commanded rotation (eq. 29's signs, contact frame at the
-probe's start).  ``truth`` is K2~ at the start contact (``experiment.true_curvature``).
+probe's start).  ``truth`` is K2~ at the start contact (``rolling.true_curvature``).
 
 Keys (SI; types, ranges and defaults in ``scene_schema.MOTION["roll"]``): ``surface`` (a
 ``tactile_sim.ep1.surfaces.KINDS`` name) and ``surface_params`` (its parameters, in m),
@@ -165,8 +165,8 @@ def _starts_inside(scene, finger, obj, o):
 
 
 def _build(scene, o):
-    from tactile_sim.ep1.experiment import true_curvature
     from tactile_sim.ep1.probes import simulate_probes
+    from tactile_sim.ep1.rolling import true_curvature
     from tactile_sim.ep1.surfaces import fingertip, make
     from tactile_sim.rig.fingertip import fingertip_wrench
 

@@ -34,9 +34,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
-from tactile_sim.ep2 import layouts, truth
+from tactile_sim.ep2 import layouts
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import _tilt_normals
+from tactile_studies.ep2 import truth
 
 FAMILIES = ("plane", "sphere", "pit", "cylinder", "concave_cylinder", "saddle", "quadric")
 MAX_ANGLE_DEG = 85.0  # noise-free normals beyond this from their mean: not generated
