@@ -21,11 +21,11 @@ Families (the issue's targets): planes (sloped, tilted), spheres and pits
 r 4-1000, cylinders and concave cylinders r 3-200 at 0-90 deg, saddles and
 general quadrics (k1 != -k2, both signs); 27 or 36 contacts; noise 0-0.03, the
 same sigma on each position coordinate (base unit) and per tangent axis of each
-normal (rad), as ``sweep.py``.  Curvatures follow ``objects.py``: positive where
-convex toward the finger.  Cases whose noise-free normals stray more than
-``tactile.ep2.patch_frame.MAX_NORMAL_ANGLE_DEG`` from their mean are kept but
-flagged ``steep`` (the library's default refuses them); cases the sweep cannot
-reach (off the sphere, normals beyond ``MAX_ANGLE_DEG``) are shrunk or skipped.
+normal (rad), as ``tactile_sim.ep2.sweep``.  Curvatures follow
+``tactile_sim.ep2.objects``: positive where convex toward the finger.  Cases whose noise-free
+normals stray more than ``tactile.ep2.patch_frame.MAX_NORMAL_ANGLE_DEG`` from their mean are
+kept but flagged ``steep`` (the library's default refuses them); cases the sweep cannot reach
+(off the sphere, normals beyond ``MAX_ANGLE_DEG``) are shrunk or skipped.
 """
 
 import hashlib
