@@ -38,7 +38,7 @@ ROWS = 36
 WINDOW = 100  # patches whose rows are interleaved
 LONG_S = 120  # seconds of analysis of the 1M-patch file
 HERE = os.path.dirname(os.path.abspath(__file__))
-SOURCES = [os.path.join(HERE, "..", d) for d in ("protocol", "firmware", "host", "sim")]
+SOURCES = [os.path.join(HERE, "..", d) for d in ("protocol", "firmware", "host", "sim", "studies")]
 ENV = {
     **os.environ,
     "PYTHONPATH": os.pathsep.join(filter(None, [*SOURCES, os.environ.get("PYTHONPATH")])),
