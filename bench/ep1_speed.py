@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 
 from tactile.ep1.estimator import STATUSES, estimate, estimate_batch  # noqa: E402
 from tactile_sim.ep1.probes import measure, sphere_plus_probes  # noqa: E402
-from tactile_sim.ep1.studies import study_noise  # noqa: E402
+from tactile_studies.ep1.studies import study_noise  # noqa: E402
 
 R1, SIGMA = 1.0, 0.001
 REPEATS = 7

@@ -2,7 +2,7 @@
 peak RSS, from 1,000 to 1,000,000 patches.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_cli_scale.py [--quick]
-[--cli-max N] [--long S]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim first;
+[--cli-max N] [--long S]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim:studies first;
 the files go to $TMPDIR, 2.7 GB for 1M patches; --quick stops at 10k patches).
 
 Files of 36-contact patches whose rows are scattered through the file (each patch's rows
@@ -38,7 +38,7 @@ ROWS = 36
 WINDOW = 100  # patches whose rows are interleaved
 LONG_S = 120  # seconds of analysis of the 1M-patch file
 HERE = os.path.dirname(os.path.abspath(__file__))
-SOURCES = [os.path.join(HERE, "..", d) for d in ("protocol", "firmware", "host", "sim")]
+SOURCES = [os.path.join(HERE, "..", d) for d in ("protocol", "firmware", "host", "sim", "studies")]
 ENV = {
     **os.environ,
     "PYTHONPATH": os.pathsep.join(filter(None, [*SOURCES, os.environ.get("PYTHONPATH")])),

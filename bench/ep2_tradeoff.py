@@ -1,7 +1,7 @@
 """EP2 error against run time: the default jet, its parts, and the thesis's spline variants.
 
 Run: .venv/bin/python bench/ep2_tradeoff.py [--trials 60] [--noise 0.01] [--png FILE]
-Data: tune-split cases of bench/ep2_trust.py (``tactile_sim.ep2.cases``): spheres r 4 and
+Data: tune-split cases of bench/ep2_trust.py (``tactile_studies.ep2.cases``): spheres r 4 and
 10, cylinders r 3 and 10 (rotations 0-90 deg), saddles and quadrics r 10, 27 and 36
 contacts, one noise level.  Error = RMS of S at the patch centre minus the truth there
 (S from k1, k2 when a plane label leaves S null).  The defaults (``centre_jet``) are the
@@ -19,7 +19,7 @@ from tactile.ep2 import analyze_patch, analyze_patches, centre_jet
 from tactile.ep2.batch import CHUNK
 from tactile.errors import DataError
 from tactile.plots import log_ticks
-from tactile_sim.ep2 import cases
+from tactile_studies.ep2 import cases
 
 FAMILIES = ("sphere r=4 ", "sphere r=10 ", "cylinder r=3 ", "cylinder r=10 ", "saddle r=10 ")
 VARIANTS = (

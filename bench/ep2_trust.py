@@ -4,14 +4,14 @@ Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_trust.py --split tune [--
      [--estimator default|stated|jet|module:function] [--families sphere cylinder] [--match TEXT]
      [--jobs 2] [--json out.json] [--quick]
 
-Cases come from ``tactile_sim.ep2.cases`` (tune / holdout / degenerate; the holdout
+Cases come from ``tactile_studies.ep2.cases`` (tune / holdout / degenerate; the holdout
 split is for final evaluation only).  Per case, on the SAME draws: RMS S error of the
 estimator and of the peer ``tactile.ep2.peers.jet(..., with_normals=True)`` (given the
 true noise, floored at 1e-6 of the base unit; curvature at the patch centre) and their
 paired ratio with a bootstrap 95 % interval (``ep2_peers.paired_ratio``); max |S error|
 on noise-free cases; coverage of the S, k1, k2 intervals; confidently wrong labels;
 null S and refusals with their reasons; us per patch of both.  Truth is the true
-surface's curvature at the patch centre (``tactile_sim.ep2.truth``).
+surface's curvature at the patch centre (``tactile_studies.ep2.truth``).
 
 An estimator is ``f(points, normals, finger)`` returning a dict with ``S`` (a float even
 when not reported), ``S_reported``, ``S_interval``, ``k1``, ``k2``, ``k1_interval``,
@@ -51,7 +51,7 @@ from ep2_peers import paired_ratio, rms  # noqa: E402
 
 from tactile.ep2 import analyze_patch, peers  # noqa: E402
 from tactile.errors import DataError  # noqa: E402
-from tactile_sim.ep2 import cases as casegen  # noqa: E402
+from tactile_studies.ep2 import cases as casegen  # noqa: E402
 
 BANDS = {  # shape_index.S_REGIONS: sphere > 0.75 > cylinder > 0.25 > saddle > -0.25 > ...
     "sphere": (0.75, 1.0),

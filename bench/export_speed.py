@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-for sub in ("protocol", "firmware", "host", "sim"):
+for sub in ("protocol", "firmware", "host", "sim", "studies"):
     sys.path.insert(0, str(ROOT / sub))
 
 HEADER = (

@@ -12,7 +12,6 @@ import time
 
 import numpy as np
 
-from tactile.cli import replica
 from tactile.localize import (
     rim_contact,
     scara_contacts,
@@ -24,9 +23,10 @@ from tactile_sim.rig.geometry import FREDDY
 from tactile_sim.rig.objects import ch5_object
 from tactile_sim.rig.schedule import probe_schedule
 from tactile_sim.rig.sensor import GATE_N, SIGMA_F, SIGMA_M
+from tactile_studies import replica
 
 LENGTHS = (FREDDY.L1, FREDDY.L2, FREDDY.L3, FREDDY.L4)
-THESIS = replica.THESIS  # tables 5-7, kept once in tactile.cli.replica
+THESIS = replica.THESIS  # tables 5-7, kept once in tactile_studies.replica
 
 
 def _rms(x):
@@ -173,7 +173,7 @@ def _timed(fn):
 def ep1_table(trials):
     from tactile.ep1.estimator import estimate
     from tactile_sim.ep1.probes import sphere_plus_probes
-    from tactile_sim.rig.fingertip import measure_ft
+    from tactile_studies.ep1.ft_measure import measure_ft
 
     print(
         "\n### EP1 through the F/T path: sphere R2 = 2 R1, dtheta = pi/3, thesis noise, "

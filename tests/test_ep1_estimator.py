@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 from tactile.ep1.estimator import STATUSES, estimate, estimate_batch, euler_principal
 from tactile_sim.ep1 import surfaces as S
-from tactile_sim.ep1.experiment import run_ep1
 from tactile_sim.ep1.probes import measure, sphere_plus_probes
+from tactile_studies.ep1.experiment import run_ep1
 
 
 def synthetic(K2, R1=1.0, phis=(0.0, 1.0, 2.0, 4.0), dtheta=0.01, u0=0.0):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tactile_sim.ep1 import studies as st
+from tactile_studies.ep1 import studies as st
 
 
 def test_noise_study_trends():

@@ -7,7 +7,7 @@ import pytest
 
 from tactile.ep2 import analyze_patch, analyze_patches
 from tactile.errors import DataError, InputError
-from tactile_sim.ep2 import cases
+from tactile_studies.ep2 import cases
 
 FIELDS = ("S", "k1", "k2", "radius", "C", "S_mean", "R_mean", "noise_pos", "noise_normal")
 INTERVALS = ("S_interval", "k1_interval", "k2_interval", "radius_interval")

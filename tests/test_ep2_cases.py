@@ -1,4 +1,4 @@
-"""EP2 case generator (sim/tactile_sim/ep2/cases.py) and the trust bench (bench/ep2_trust.py).
+"""EP2 case generator (``tactile_studies.ep2.cases``) and the trust bench (bench/ep2_trust.py).
 
 The truth at the patch centre is checked against closed forms (spheres, pits,
 cylinders at any rotation) and against a route it shares nothing with: finite
@@ -17,9 +17,10 @@ import pytest
 from conftest import load_bench
 
 from tactile.ep2.patch_frame import frame_from_contacts
-from tactile_sim.ep2 import cases, layouts, truth
+from tactile_sim.ep2 import layouts
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import sweep
+from tactile_studies.ep2 import cases, truth
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -151,7 +152,7 @@ def test_draw_is_deterministic_and_trials_differ():
 
 def test_seed_does_not_depend_on_the_hash_salt():
     code = (
-        "from tactile_sim.ep2 import cases;"
+        "from tactile_studies.ep2 import cases;"
         "print(cases.seed(cases.new('sphere', radius=10.0, noise=0.01), 7))"
     )
     env = dict(os.environ, PYTHONHASHSEED="12345", PYTHONPATH=os.pathsep.join(sys.path))

@@ -30,9 +30,10 @@ from tactile.ep2 import analyze_patch, centre_jet
 from tactile.ep2.patch_frame import unit_normals
 from tactile.errors import DataError, InputError
 from tactile.jsonout import dumps
-from tactile_sim.ep2 import layouts, truth
+from tactile_sim.ep2 import layouts
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import _tilt_normals, sweep
+from tactile_studies.ep2 import truth
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 KINDS = ("sphere", "pit", "cylinder", "concave_cylinder", "quadric", "saddle", "plane")

@@ -2,7 +2,7 @@
 
 import csv
 
-from tactile_sim.ep2 import studies
+from tactile_studies.ep2 import studies
 
 
 def test_rotation_study_worst_at_45_and_zero_when_aligned(tmp_path):

@@ -25,7 +25,7 @@ patch centre and lost to a 2-jet on strongly curved shapes.  Guarded here:
 
 Library bugs are pinned as strict xfails (their ``reason`` says what is wrong).
 
-Truth comes from ``tactile_sim.ep2.truth`` (at the patch centre) or closed forms.
+Truth comes from ``tactile_studies.ep2.truth`` (at the patch centre) or closed forms.
 """
 
 import json
@@ -39,8 +39,9 @@ from conftest import load_bench
 from tactile.ep2 import analyze_patch, peers
 from tactile.errors import DataError
 from tactile.jsonout import dumps
-from tactile_sim.ep2 import cases, make, sweep, truth
+from tactile_sim.ep2 import make, sweep
 from tactile_sim.ep2.sweep import write_csv
+from tactile_studies.ep2 import cases, truth
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 

@@ -1,7 +1,10 @@
 """Layers run one way (issue 15): protocol -> firmware -> host library -> simulator ->
 application.  The host library (``tactile`` outside ``tactile.cli``) never imports the
-simulator, neither at module level nor inside a function; the application layer
-(``tactile.cli``: the CLI, the chapter 5 replica, the demo, sim:// ports) may."""
+simulator, neither at module level nor inside a function; the simulator never imports the
+host's estimators (``tactile.ep1``, ``tactile.ep2``, ``tactile.localize``), only its
+vocabulary (errors, units, board settings, the robot-log format); the application layer
+(``tactile.cli`` and the studies ``tactile_studies``: the CLI, the thesis's studies, the
+chapter 5 replica, the demo, sim:// ports) may import both, and nothing below imports it."""
 
 import ast
 import subprocess
@@ -10,6 +13,8 @@ import sys
 from conftest import ROOT
 
 LIBRARY = ROOT / "host" / "tactile"
+SIMULATOR = ROOT / "sim" / "tactile_sim"
+ESTIMATORS = ("tactile.ep1", "tactile.ep2", "tactile.localize")
 
 
 def _imports(path):
@@ -19,6 +24,8 @@ def _imports(path):
             yield from ((node.lineno, a.name) for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             yield node.lineno, node.module
+            # ``from tactile import ep2`` imports the package tactile.ep2
+            yield from ((node.lineno, f"{node.module}.{a.name}") for a in node.names)
 
 
 def _library_files():
@@ -53,6 +60,54 @@ def test_every_library_module_imports_with_the_simulator_absent():
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+def _is(name, package):
+    return name == package or name.startswith(package + ".")
+
+
+def test_the_simulator_never_imports_the_hosts_estimators():
+    files = list(SIMULATOR.rglob("*.py"))
+    assert len(files) > 30
+    bad = [
+        f"{p.relative_to(ROOT)}:{line}: {name}"
+        for p in files
+        for line, name in _imports(p)
+        if any(_is(name, e) for e in ESTIMATORS)
+    ]
+    assert not bad, bad
+
+
+def test_every_simulator_module_imports_with_the_estimators_absent():
+    modules = sorted(
+        ".".join(("tactile_sim", *p.relative_to(SIMULATOR).with_suffix("").parts)).removesuffix(
+            ".__init__"
+        )
+        for p in SIMULATOR.rglob("*.py")
+        if p.name != "__main__.py"
+    )
+    code = (
+        "import importlib, sys\n"
+        f"for gone in {ESTIMATORS + ('tactile_studies',)!r}:\n"
+        "    sys.modules[gone] = None  # any import of it fails\n"
+        f"for m in {modules!r}:\n"
+        "    importlib.import_module(m)\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
+def test_nothing_below_the_application_imports_the_studies():
+    below = [ROOT / "protocol", ROOT / "firmware", SIMULATOR, *_library_files()]
+    files = [f for b in below for f in (b.rglob("*.py") if b.is_dir() else [b])]
+    assert len(files) > 100
+    bad = [
+        f"{p.relative_to(ROOT)}:{line}: {name}"
+        for p in files
+        for line, name in _imports(p)
+        if _is(name, "tactile_studies")
+    ]
+    assert not bad, bad
 
 
 def test_a_sim_port_without_the_simulator_registered_says_how_in_one_line():

@@ -8,11 +8,12 @@ from tactile.localize import STATUS, format_contacts, scara_contacts, sphere_con
 from tactile.tabular import read_csv
 from tactile_sim.ep1.probes import measure, sphere_plus_probes
 from tactile_sim.rig.contact import contact_wrench, wheel_touch
-from tactile_sim.rig.fingertip import fingertip_point, fingertip_uv, fingertip_wrench, measure_ft
+from tactile_sim.rig.fingertip import fingertip_point, fingertip_uv, fingertip_wrench
 from tactile_sim.rig.geometry import FREDDY, fk, ik
 from tactile_sim.rig.objects import CH5_OBJECTS, Sphere, VerticalCylinder, ch5_object
 from tactile_sim.rig.schedule import probe_schedule
 from tactile_sim.rig.sensor import GATE_N, OZF, SIGMA_F
+from tactile_studies.ep1.ft_measure import measure_ft
 
 LENGTHS = (FREDDY.L1, FREDDY.L2, FREDDY.L3, FREDDY.L4)
 

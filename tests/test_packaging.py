@@ -21,7 +21,8 @@ def test_distribution_name_and_install_hints_agree():
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     assert meta["name"] == "tactile-shape"
     extras = set(meta["optional-dependencies"])
-    files = [*ROOT.glob("host/**/*.py"), *ROOT.glob("docs/*.md"), ROOT / "README.md"]
+    files = [*ROOT.glob("host/**/*.py"), *ROOT.glob("studies/**/*.py"), *ROOT.glob("docs/*.md")]
+    files.append(ROOT / "README.md")
     hints = [
         m for f in files for m in re.findall(r"pip install '([\w-]+)\[(\w+)\]'", f.read_text())
     ]

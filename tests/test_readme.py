@@ -87,7 +87,7 @@ def test_the_cli_reference_sweep_runs_as_written(tmp_path):
 def _run_blocks(blocks, cwd):
     """Run ``blocks`` in order in ``cwd``, as one terminal session; returns how many ran."""
     os.symlink(Path(sys.executable).absolute().parents[1], cwd / ".venv")
-    roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim")]
+    roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim", "studies")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     emulators, pty, ran, scene, seen = [], None, 0, None, {}
     try:

@@ -10,11 +10,11 @@ import threading
 
 import pytest
 
-from tactile.cli import replica
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.host_wait import serve_when_opened
 from tactile_sim.emulator.pty_server import PtyServer
+from tactile_studies import replica
 
 EXPECTED = {"plane": "plane", "convex": "cylinder", "concave": "concave_cylinder"}
 

@@ -11,10 +11,10 @@ import pytest
 from conftest import load_bench
 from figure_checks import caught, paper_problems, titles
 
-from tactile_sim.ep1 import plots as ep1_plots
-from tactile_sim.ep1 import studies as ep1
-from tactile_sim.ep2 import plots as ep2_plots
-from tactile_sim.ep2 import studies as ep2
+from tactile_studies.ep1 import plots as ep1_plots
+from tactile_studies.ep1 import studies as ep1
+from tactile_studies.ep2 import plots as ep2_plots
+from tactile_studies.ep2 import studies as ep2
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 

@@ -12,8 +12,8 @@ import pytest
 from tactile import units
 from tactile.cli.main import main
 from tactile.errors import InputError
-from tactile_sim.ep1.studies import UNITS as EP1_STUDY_UNITS
-from tactile_sim.ep2.studies import UNITS as EP2_STUDY_UNITS
+from tactile_studies.ep1.studies import UNITS as EP1_STUDY_UNITS
+from tactile_studies.ep2.studies import UNITS as EP2_STUDY_UNITS
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -52,9 +52,9 @@ def test_every_csv_writer_starts_with_its_units_line(tmp_path):
     from tactile.ep1.probes_csv import format_probes
     from tactile.localize import format_contacts
     from tactile.recording import Recording
-    from tactile_sim.ep1.studies import write_csv as ep1_study_csv
     from tactile_sim.ep2 import make, sweep, write_csv
-    from tactile_sim.ep2.studies import _write as ep2_study_csv
+    from tactile_studies.ep1.studies import write_csv as ep1_study_csv
+    from tactile_studies.ep2.studies import _write as ep2_study_csv
 
     rec = Recording(tmp_path / "rec")
     rec.close()
@@ -181,7 +181,7 @@ def test_a_pose_log_in_other_units_is_refused(tmp_path):
 
 @pytest.fixture(scope="module")
 def scara_run(tmp_path_factory):
-    from tactile.cli import replica
+    from tactile_studies import replica
 
     out = tmp_path_factory.mktemp("scara") / "run"
     meta, lines, results = replica.replicate("convex", out, via="sim")

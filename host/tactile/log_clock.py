@@ -20,6 +20,7 @@ frames.  The emulator writes the line with its scene's end.
 
 import numpy as np
 
+from tactile import robot_log
 from tactile.errors import InputError, where
 from tactile.tabular import show
 
@@ -27,13 +28,9 @@ MAX_BOARD_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (P
 MAX_HOST_S = 1e10  # s: UTC until the year 2286, or a monotonic clock up for 317 years
 END_GRACE_S = 0.5
 
-# clock -> (start column, end column, the '# end:' line's key)
-CLOCKS = {
-    "board": ("t_start_us", "t_end_us", "t_us"),
-    "utc": ("t_start_utc_s", "t_end_utc_s", "t_utc_s"),
-    "monotonic": ("t_start_mono_s", "t_end_mono_s", "t_mono_s"),
-}
-TIME_COLUMNS = {c for cols in CLOCKS.values() for c in cols[:2]}
+# clock -> (start column, end column, the '# end:' line's key): the format's (robot_log)
+CLOCKS = robot_log.CLOCKS
+TIME_COLUMNS = robot_log.TIME_COLUMNS
 
 
 def clock_of(path, line, names):

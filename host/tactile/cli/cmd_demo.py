@@ -2,7 +2,7 @@
 
 For each of the thesis's three surfaces: the emulated board (the real
 firmware, simulated transducer) streams CONTACT frames over a serial port;
-``tactile.cli.replica.replicate`` records them as ``tactile record`` does (TARE,
+``tactile_studies.replica.replicate`` records them as ``tactile record`` does (TARE,
 capture, frames, meta), localises each contact on the wheel probe with the
 robot's pose log (eqs. 60-62), fits tangent- and position-weighted
 biquadratic patches on an 8x8 grid, and this prints S, sd S, R, sd R and
@@ -37,7 +37,7 @@ def add_arguments(parser):
 def run(args):
     import pathlib
 
-    from tactile.cli import replica
+    from tactile_studies import replica
 
     print("Chapter 5 replica on the board emulator (ch5_* scenes): biquadratic, 8x8 grid")
     head = ("S", "sd S", "R 1/cm", "sd 1/cm", "r cm")

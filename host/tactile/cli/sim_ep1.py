@@ -76,8 +76,8 @@ def run(args):
 
     from tactile.ep1.estimator import EXIT_OK
     from tactile.ep1.probes_csv import format_probes
-    from tactile_sim.ep1.experiment import run_ep1
     from tactile_sim.ep1.surfaces import make
+    from tactile_studies.ep1.experiment import run_ep1
 
     try:
         obj = make(args.object, **params)

@@ -36,7 +36,7 @@ def _setup(args):
 
 
 def _finish(args, name, rows, plot, **plot_kw):
-    from tactile_sim.ep1.studies import write_csv
+    from tactile_studies.ep1.studies import write_csv
 
     csv_path = os.path.join(args.out, f"{name}.csv")
     write_csv(csv_path, rows)
@@ -49,8 +49,8 @@ def _finish(args, name, rows, plot, **plot_kw):
 
 def run_noise(args):
     progress = _setup(args)
-    from tactile_sim.ep1.plots import plot_noise
-    from tactile_sim.ep1.studies import study_noise
+    from tactile_studies.ep1.plots import plot_noise
+    from tactile_studies.ep1.studies import study_noise
 
     rows = study_noise(args.finger_radius, args.trials, args.seed, progress=progress)
     return _finish(args, "ep1-noise", rows, plot_noise)
@@ -58,8 +58,8 @@ def run_noise(args):
 
 def run_paraboloid(args):
     progress = _setup(args)
-    from tactile_sim.ep1.plots import plot_paraboloid
-    from tactile_sim.ep1.studies import study_paraboloid
+    from tactile_studies.ep1.plots import plot_paraboloid
+    from tactile_studies.ep1.studies import study_paraboloid
 
     rows = study_paraboloid(args.finger_radius, args.trials, args.seed, progress=progress)
     return _finish(args, "ep1-paraboloid", rows, plot_paraboloid)
@@ -67,8 +67,8 @@ def run_paraboloid(args):
 
 def run_resolution(args):
     progress = _setup(args)
-    from tactile_sim.ep1.plots import plot_resolution
-    from tactile_sim.ep1.studies import study_resolution
+    from tactile_studies.ep1.plots import plot_resolution
+    from tactile_studies.ep1.studies import study_resolution
 
     rows = study_resolution(args.finger_radius, args.trials, args.seed, progress=progress)
     return _finish(args, "ep1-resolution", rows, plot_resolution)
@@ -76,8 +76,8 @@ def run_resolution(args):
 
 def run_arclength(args):
     _setup(args)
-    from tactile_sim.ep1.plots import plot_arclength
-    from tactile_sim.ep1.studies import study_arclength
+    from tactile_studies.ep1.plots import plot_arclength
+    from tactile_studies.ep1.studies import study_arclength
 
     return _finish(args, "ep1-arclength", study_arclength(args.finger_radius), plot_arclength)
 
@@ -92,8 +92,8 @@ def add_dtheta(parser):
 def run_dtheta(args):
     _setup(args)
     from tactile.jsonout import dumps
-    from tactile_sim.ep1.plots import plot_optimal
-    from tactile_sim.ep1.studies import study_optimal_dtheta
+    from tactile_studies.ep1.plots import plot_optimal
+    from tactile_studies.ep1.studies import study_optimal_dtheta
 
     rows, summary = study_optimal_dtheta(
         args.finger_radius,

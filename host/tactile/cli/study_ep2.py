@@ -1,6 +1,6 @@
 """``tactile study ep2-*``: replicas of figs. 30-34 and tables 5-7 as CSV + PNG.
 
-Each prints the path of every file it wrote (``tactile_sim.ep2.studies.run``).
+Each prints the path of every file it wrote (``tactile_studies.ep2.studies.run``).
 """
 
 from tactile.cli.words import add_out
@@ -13,7 +13,7 @@ def _add(parser):
 
 def _run_with(name):
     def run(args):
-        from tactile_sim.ep2 import studies
+        from tactile_studies.ep2 import studies
 
         _, paths = studies.run(name, args.out, png=not args.no_png)
         print("\n".join(paths))
@@ -29,7 +29,7 @@ def _add_tables(parser):
 
 def _run_tables(args):
     from tactile.errors import InputError
-    from tactile_sim.ep2 import studies
+    from tactile_studies.ep2 import studies
 
     if args.trials < 1:
         raise InputError(f"--trials: must be at least 1, got {args.trials}")

@@ -27,14 +27,13 @@ from typing import NamedTuple
 import numpy as np
 
 from tactile.errors import InputError, where
+from tactile.robot_log import COLUMNS, tag
 from tactile.tabular import comment_lines, show
 
 __all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
 
-LOG_COLUMNS = ("probe", "t_start_us", "t_end_us", "dtheta_x", "dtheta_y")
-PROBE_TAG = "# probe:"
-HOLD_TAG = "# hold:"
-END_TAG = "# end:"
+LOG_COLUMNS = COLUMNS["probe"]  # the format's (tactile.robot_log, which writes it too)
+PROBE_TAG, HOLD_TAG, END_TAG = tag("probe"), tag("hold"), tag("end")
 MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_PROBE = 2**31 - 1
 LIMIT = 1e6  # |value| of a length (m) or an angle (rad)

@@ -1,7 +1,8 @@
 """A robot's pose log, and CONTACT frames placed in the world through it (§5.1.1, §5.1.2).
 
 The F/T wire carries no pose: the robot controller logs, per finger, time windows in which
-the pose of that finger's sensor is held.  Two formats (CSV, ``#`` comment lines allowed):
+the pose of that finger's sensor is held.  Two formats (CSV, ``#`` comment lines allowed; the
+columns, comment lines and time columns are ``tactile.robot_log``'s, which writes them too):
 
 - generic (any robot): ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: the sensor
   frame's pose in the world during the window (position in metres, unit quaternion scalar
@@ -40,7 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile import units
+from tactile import robot_log, units
 from tactile.errors import InputError, where
 from tactile.localize.contact import NO_CONTACT
 from tactile.tabular import show
@@ -54,8 +55,8 @@ __all__ = [
     "MAX_NORMAL_SD_DEG",
 ]
 
-GENERIC = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
-SCARA = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
+GENERIC = robot_log.COLUMNS["pose"]  # the format's columns (tactile.robot_log)
+SCARA = robot_log.COLUMNS["scara"]
 MAX_FINGER = 2**31 - 1  # a sensor index (generic log) or a pass number (SCARA log)
 LIMIT = 1e6  # |value| of a position (m), angle (rad), length (m) or sensor noise (N, N*m)
 MIN_RADIUS_M = 1e-6  # a fingertip's radius
@@ -220,7 +221,7 @@ def _scan(path):
     tags = {}
     for no, s in comments:
         tag, colon, body = s[1:].partition(":")
-        if colon and tag.strip() in ("probe", "rig", "sensor", "end"):
+        if colon and tag.strip() in robot_log.TAGS:
             tags[tag.strip()] = (no, body.strip())
     return tags, header_line, header
 

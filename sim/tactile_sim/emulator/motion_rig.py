@@ -14,8 +14,9 @@ Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
 
 import numpy as np
 
+from tactile.robot_log import write_log
+
 MAX_TIMELINE = 1_000_000  # load rows (one per board sample): ~17 min of probing at 1 kHz
-POSE_COLUMNS = ("t_start_us", "t_end_us", "finger", "q1", "q2", "q3", "z")
 
 
 class RigMotion:
@@ -47,16 +48,9 @@ class RigMotion:
 
     def write_pose_log(self, path):
         """The robot controller's log: joints per touch, the rig's lengths (m) and the scene's
-        end (board us, where ``tactile record`` stops) in comments."""
-        with open(path, "w") as fh:
-            fh.write("# units: us, rad, m\n")  # times, joint angles, lengths (eq. 62)
-            if self.lengths is not None:
-                L = " ".join(f"L{i + 1}={v!r}" for i, v in enumerate(self.lengths))
-                fh.write(f"# rig: scara {L}\n")
-            fh.write(f"# end: t_us={round(self.duration_s * 1e6)}\n")  # the scene's end
-            fh.write(",".join(POSE_COLUMNS) + "\n")
-            for row in self.poses():
-                fh.write(",".join(repr(v) for v in row) + "\n")
+        end (board us, where ``tactile record`` stops) in comments (``tactile.robot_log``)."""
+        end_us = round(self.duration_s * 1e6)
+        write_log(path, "scara", self.poses(), rig=self.lengths, end_us=end_us)
 
 
 def build(scene):

@@ -14,7 +14,7 @@ rotation done, not its timing.
 
 The robot's log (``probe_log``/``write_probe_log``): per probe, a time during the hold at its
 start and at its end, and the commanded rotation (eq. 29's signs, contact frame at the
-probe's start).  ``truth`` is K2~ at the start contact (``experiment.true_curvature``).
+probe's start).  ``truth`` is K2~ at the start contact (``rolling.true_curvature``).
 
 Keys (SI; types, ranges and defaults in ``scene_schema.MOTION["roll"]``): ``surface`` (a
 ``tactile_sim.ep1.surfaces.KINDS`` name) and ``surface_params`` (its parameters, in m),
@@ -29,7 +29,8 @@ import math
 
 import numpy as np
 
-LOG_COLUMNS = ("probe", "t_start_us", "t_end_us", "dtheta_x", "dtheta_y")
+from tactile.robot_log import write_log
+
 HOLD_FRACTION = 0.8  # the central part of each hold that the log offers for reading
 ROLL_KNOTS = 65  # path samples per roll (wrench linearly interpolated in between)
 
@@ -79,16 +80,13 @@ class RollMotion:
         return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
 
     def write_probe_log(self, path):
+        """The robot's probe log (``tactile.robot_log``; ``tactile.ep1.from_ft`` reads it): the
+        fingertip, the readable half width of a hold and the scene's end in comments."""
         g = self.geometry
-        cx, cy, cz = g["centre_m"]
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write("# units: us, rad, m\n")  # times, rotations, the fingertip's lengths
-            fh.write(f"# probe: sphere radius_m={g['radius_m']!r} centre_m={cx!r},{cy!r},{cz!r}\n")
-            fh.write(f"# hold: half_width_us={self.half_width_us()}\n")
-            fh.write(f"# end: t_us={round(self.duration_s * 1e6)}\n")  # the scene's end
-            fh.write(",".join(LOG_COLUMNS) + "\n")
-            for row in self.probe_log():
-                fh.write(",".join(repr(v) for v in row) + "\n")
+        probe = (g["radius_m"], g["centre_m"])
+        end_us = round(self.duration_s * 1e6)
+        write_log(path, "probe", self.probe_log(), probe=probe, hold_us=self.half_width_us(),
+                  end_us=end_us)  # fmt: skip
 
 
 def _options(scene):
@@ -165,8 +163,8 @@ def _starts_inside(scene, finger, obj, o):
 
 
 def _build(scene, o):
-    from tactile_sim.ep1.experiment import true_curvature
     from tactile_sim.ep1.probes import simulate_probes
+    from tactile_sim.ep1.rolling import true_curvature
     from tactile_sim.ep1.surfaces import fingertip, make
     from tactile_sim.rig.fingertip import fingertip_wrench
 

@@ -39,7 +39,7 @@ Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``):
 
 import numpy as np
 
-POSE_COLUMNS = ("t_start_us", "t_end_us", "finger", "px", "py", "pz", "qw", "qx", "qy", "qz")
+from tactile.robot_log import write_log
 
 # Sensor axes in the object frame for an untwisted finger: pole +x_S = -z, y_S = +y, z_S = +x.
 _R0 = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
@@ -172,20 +172,11 @@ class SweepMotion:
         """The robot's pose log (host/tactile/localize/pose_log.py reads it), with the
         fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
         accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
-        scene's end (``# end:``), where ``tactile record`` stops."""
+        scene's end (``# end:``), where ``tactile record`` stops (``tactile.robot_log``)."""
         centre, radius, axis = self.probe()
-        force, torque = (",".join(repr(float(v)) for v in part) for part in np.split(self.noise, 2))
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write("# units: us, m\n")  # times, positions (the quaternion has none)
-            fh.write(
-                f"# probe: sphere radius_m={radius!r} centre_m={','.join(map(repr, centre))}"
-                f" axis={','.join(map(str, axis))}\n"
-            )
-            fh.write(f"# sensor: noise_force_N={force} noise_torque_Nm={torque}\n")
-            fh.write(f"# end: t_us={round(self.duration_s * 1e6)}\n")  # the scene's end
-            fh.write(",".join(POSE_COLUMNS) + "\n")
-            for row in self.poses():
-                fh.write(",".join(repr(v) for v in row) + "\n")
+        end_us = round(self.duration_s * 1e6)
+        write_log(path, "pose", self.poses(), probe=(radius, centre, axis), sensor=self.noise,
+                  end_us=end_us)  # fmt: skip
 
 
 def build(scene):

@@ -30,6 +30,7 @@ __all__ = [
     "roll",
     "finger_pose",
     "r_psi",
+    "true_curvature",
     "sphere_on_sphere",
     "DEFAULT_METHOD",
     "DEFAULT_RTOL",
@@ -58,6 +59,15 @@ def r_psi(psi):
     """R_psi of eq. 26 (symmetric, its own inverse)."""
     c, s = np.cos(psi), np.sin(psi)
     return np.array([[c, -s], [-s, -c]])
+
+
+def true_curvature(obj, p2, psi=0.0):
+    """K2~ = R_psi K2 R_psi at object point p2 (eq. 24's object curvature in the finger frame)
+    and its principal curvatures (k1 >= k2): the truth an EP1 estimate is compared with."""
+    R = r_psi(psi)
+    K = R @ local(obj, p2[0], p2[1]).K @ R
+    k2, k1 = np.linalg.eigvalsh(K)
+    return {"kx": K[0, 0], "ky": K[1, 1], "K": K, "k1": k1, "k2": k2}
 
 
 def _solve2(A, b):

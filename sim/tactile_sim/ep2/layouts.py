@@ -1,4 +1,4 @@
-"""Contact layouts for the EP2 case generator (``cases.py``): where the fingers touch.
+"""Contact layouts for the EP2 test cases (``tactile_studies.ep2.cases``): where fingers touch.
 
 Each layout gives in-plane positions ``xy`` (n, 2), a ``finger`` label per row
 (rows in sweep order within each finger, as ``sweep.py`` and the thesis's

@@ -4,7 +4,7 @@ Layout as in §4.9: the patch spans [0, 4] x [0, 4] with the object's apex at
 the corner (0, 0) (radius 5.7, the thesis's smallest, just clears the far
 corner at 4 sqrt 2 = 5.66); three fingers 2 apart, 6 stops x 2 readings.
 Each study returns rows (dicts); ``run(name, out)`` runs one of ``STUDIES`` and
-writes its CSV and (unless ``png`` is False) its PNG (``tactile_sim.ep2.plots``),
+writes its CSV and (unless ``png`` is False) its PNG (``tactile_studies.ep2.plots``),
 returning the rows and the paths written.  Columns hold the thesis's statistic
 (grid mean and std of S) and this implementation's ``S`` (at the patch centre)
 and label.
@@ -179,7 +179,7 @@ def _expected(kind):
     return {"plane": "plane", "cylinder": "cylinder", "concave_cylinder": "concave_cylinder"}[kind]
 
 
-# study -> (function, its keywords, file stem, plot function in tactile_sim.ep2.plots)
+# study -> (function, its keywords, file stem, plot function in tactile_studies.ep2.plots)
 STUDIES = {
     "cylinders": (cylinders, {}, "ep2_fig30_cylinders", "plot_cylinders"),
     "rotation": (rotation, {}, "ep2_fig32_rotation", "plot_rotation"),
@@ -206,7 +206,7 @@ def run(name, out, png=True, **kw):
     rows = fn(**fixed, **kw)
     paths = [_write(out, stem, rows)]
     if png:
-        from tactile_sim.ep2 import plots
+        from tactile_studies.ep2 import plots
 
         paths.append(getattr(plots, plot)(rows, os.path.join(out, stem + ".png")))
     return rows, paths

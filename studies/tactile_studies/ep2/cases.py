@@ -21,11 +21,11 @@ Families (the issue's targets): planes (sloped, tilted), spheres and pits
 r 4-1000, cylinders and concave cylinders r 3-200 at 0-90 deg, saddles and
 general quadrics (k1 != -k2, both signs); 27 or 36 contacts; noise 0-0.03, the
 same sigma on each position coordinate (base unit) and per tangent axis of each
-normal (rad), as ``sweep.py``.  Curvatures follow ``objects.py``: positive where
-convex toward the finger.  Cases whose noise-free normals stray more than
-``tactile.ep2.patch_frame.MAX_NORMAL_ANGLE_DEG`` from their mean are kept but
-flagged ``steep`` (the library's default refuses them); cases the sweep cannot
-reach (off the sphere, normals beyond ``MAX_ANGLE_DEG``) are shrunk or skipped.
+normal (rad), as ``tactile_sim.ep2.sweep``.  Curvatures follow
+``tactile_sim.ep2.objects``: positive where convex toward the finger.  Cases whose noise-free
+normals stray more than ``tactile.ep2.patch_frame.MAX_NORMAL_ANGLE_DEG`` from their mean are
+kept but flagged ``steep`` (the library's default refuses them); cases the sweep cannot reach
+(off the sphere, normals beyond ``MAX_ANGLE_DEG``) are shrunk or skipped.
 """
 
 import hashlib
@@ -34,9 +34,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
-from tactile_sim.ep2 import layouts, truth
+from tactile_sim.ep2 import layouts
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import _tilt_normals
+from tactile_studies.ep2 import truth
 
 FAMILIES = ("plane", "sphere", "pit", "cylinder", "concave_cylinder", "saddle", "quadric")
 MAX_ANGLE_DEG = 85.0  # noise-free normals beyond this from their mean: not generated

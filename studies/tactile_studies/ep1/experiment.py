@@ -1,24 +1,16 @@
 """One EP1 run end to end: simulate the '+' probes, measure, estimate, compare with the truth.
 
-Functional and arrays-in/arrays-out so the board emulator can drive the same pieces.
+The simulator (``tactile_sim.ep1``) makes the probes and the truth; the host's estimator
+(``tactile.ep1``) reads them: an application-layer study (``tactile sim ep1``).
 """
 
 import numpy as np
 
 from tactile_sim.ep1.probes import PLUS, measure, simulate_probes
-from tactile_sim.ep1.rolling import r_psi
-from tactile_sim.ep1.surfaces import fingertip, local
+from tactile_sim.ep1.rolling import true_curvature
+from tactile_sim.ep1.surfaces import fingertip
 
-__all__ = ["true_curvature", "run_ep1"]
-
-
-def true_curvature(obj, p2, psi=0.0):
-    """K2~ = R_psi K2 R_psi at object point p2 (eq. 24's object curvature in the finger frame)
-    and its principal curvatures (k1 >= k2)."""
-    R = r_psi(psi)
-    K = R @ local(obj, p2[0], p2[1]).K @ R
-    k2, k1 = np.linalg.eigvalsh(K)
-    return {"kx": K[0, 0], "ky": K[1, 1], "K": K, "k1": k1, "k2": k2}
+__all__ = ["run_ep1"]
 
 
 def run_ep1(

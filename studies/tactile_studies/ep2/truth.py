@@ -13,7 +13,9 @@ first and second fundamental forms (§2.2): with p, q = h_x, h_y and W^2 = 1 + p
 
 signed positive where the surface is convex toward +z, the finger's side (a cap
 z = -(x^2 + y^2)/(2R) has k1 = k2 = +1/R).  This route shares nothing with
-``tactile.ep2.surface_geometry`` (Cholesky of I) on purpose: it checks it.
+``tactile.ep2.surface_geometry`` (Cholesky of I) on purpose: it checks it.  It does share
+the estimator's patch frame, which defines where the estimand is: so it is a study
+(application layer), not part of the simulator.
 """
 
 import numpy as np
@@ -22,7 +24,7 @@ from tactile.ep2.patch_frame import frame_from_contacts
 
 
 def hessian(obj, x, y):
-    """(h_xx, h_xy, h_yy) of an ``objects.HeightField`` in the world frame, analytically."""
+    """(h_xx, h_xy, h_yy) of a ``tactile_sim.ep2.objects.HeightField``, world frame, exactly."""
     c, s = np.cos(obj.rotation), np.sin(obj.rotation)
     dx, dy = x - obj.centre[0], y - obj.centre[1]
     u, v = c * dx + s * dy, -s * dx + c * dy
@@ -35,7 +37,7 @@ def hessian(obj, x, y):
 
 
 def _local_hessian(obj, u, v):
-    """Second derivatives along the object's own axes (see ``objects._profile``)."""
+    """Second derivatives along the object's own axes (see ``tactile_sim.ep2.objects._profile``)."""
     ku, kv = obj.k
     if obj.kind == "plane":
         return 0.0, 0.0, 0.0

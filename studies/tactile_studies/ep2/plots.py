@@ -1,4 +1,4 @@
-"""PNG figures for the EP2 studies (``tactile_sim.ep2.studies``): thesis figs. 30, 32, 33,
+"""PNG figures for the EP2 studies (``tactile_studies.ep2.studies``): thesis figs. 30, 32, 33,
 34 and tables 5-7.
 
 As in §4.9, each point is the mean of S over the analysis grid and its bar the standard
