@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.ep2 import (
+    agreement,
     centre_jet,
     centre_result,
     discontinuity,
@@ -228,12 +229,15 @@ def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
     noise = (opts["noise_pos"], opts["noise_normal"])
     fits = centre_jet.fit(pts[None], nrm[None], mask, *noise, opts["max_normal_angle"])
-    return jet_outcome(fits, 0, opts, outcome_inputs(fits, opts["grid"]))
+    (out,) = jet_outcomes(fits, opts, outcome_inputs(fits, opts["grid"]), [opts["lines"]])
+    if isinstance(out, DataError):
+        raise out
+    return out
 
 
 @dataclass
 class OutcomeInputs:
-    """What ``jet_outcome`` needs of a whole ``centre_jet.fit`` stack, computed for the
+    """What ``jet_outcomes`` needs of a whole ``centre_jet.fit`` stack, computed for the
     stack at once (``outcome_inputs``): Cov widening, the contacts' spread, the grid."""
 
     widen: np.ndarray
@@ -257,30 +261,63 @@ def outcome_inputs(fits, n_grid):
     )
 
 
-def jet_outcome(fits, i, opts, pre):
-    """The analysis of patch ``i`` of a ``centre_jet.fit`` stack (``DataError`` if refused);
-    ``pre`` = ``outcome_inputs`` of the stack."""
-    why = fits.reason[i]
-    if why is not None and opts["lines"] is not None and "contact " in why:
-        k = int(why.split("contact ")[1].split()[0])
-        why = why.replace(f"contact {k} ", f"line {opts['lines'][k]} ")
-    if why is not None:
-        raise DataError(why)
-    L, axes = float(fits.scale[i]), fits.axes[i]
-    t, bias, nu = fits.t[i], fits.bias[i], float(fits.dof[i])
-    cov = fits.cov[i] * float(pre.widen[i])
-    split = tuple((d[i], c[i], (z[0][i], z[1][i])) for d, c, z in fits.split)
-    refusal, warning, gap = centre_result.consistency(split, nu, L, axes)
-    spread = tuple(v[i] for v in pre.spread), fits.mean_axes[i]
-    refusal = refusal or centre_result.determination(cov, axes, L, spread, fits.noise[i, 0])
-    if refusal is not None:
-        raise DataError(refusal)
+def jet_outcomes(fits, opts, pre, lines=None):
+    """The analysis of every patch of a ``centre_jet.fit`` stack: a list of field dicts, or
+    the ``DataError`` that refuses a patch in its place.  ``pre`` = ``outcome_inputs`` of the
+    stack; ``lines`` per patch (its CSV line per row, or None) name rows in messages.  The
+    tests, intervals and labels run on the whole stack at once; only the assembly of each
+    patch's fields is per patch."""
+    lines = [None] * len(fits.reason) if lines is None else lines
+    out = [None] * len(fits.reason)
+    live = []
+    for i, why in enumerate(fits.reason):
+        if why is None:
+            live.append(i)
+        else:
+            out[i] = DataError(_name_rows(why, lines[i]))
+    idx = np.array(live, int)
+    if not live:
+        return out
+    split = tuple((d[idx], c[idx], (z[0][idx], z[1][idx])) for d, c, z in fits.split)
+    checks = agreement.consistency(split, fits.dof[idx], fits.scale[idx], fits.axes[idx])
+    cov = fits.cov[idx] * pre.widen[idx][:, None, None]
+    spread = tuple(v[idx] for v in pre.spread), fits.mean_axes[idx]
+    undetermined = centre_result.determination_many(
+        cov, fits.axes[idx], fits.scale[idx], spread, fits.noise[idx, 0]
+    )
+    ok = []
+    for k, i in enumerate(live):
+        refusal = checks[k][0] or undetermined[k]
+        if refusal is not None:
+            out[i] = DataError(refusal)
+        else:
+            ok.append(k)
+    ok = np.array(ok, int)
     # a mild disagreement: intervals about the joint estimate that reach both sides' (gap/2
     # as one more sd in its direction: with the 95 % radius, about the whole gap)
-    out = centre_result.summary(
-        t, cov + np.outer(gap, gap) / 4, bias, L, opts["intervals"], fits.cov_noise[i]
-    )
-    out["warnings"] = [] if warning is None else [warning]
+    gap = np.array([checks[k][2] for k in ok]).reshape(-1, 3)
+    j = idx[ok]
+    heads = centre_result.summary_many(
+        fits.t[j], cov[ok] + gap[:, :, None] * gap[:, None, :] / 4, fits.bias[j],
+        fits.scale[j], opts["intervals"], fits.cov_noise[j],
+    )  # fmt: skip
+    for k, i, head in zip(ok, j, heads, strict=True):
+        head["warnings"] = [] if checks[k][1] is None else [checks[k][1]]
+        out[i] = _jet_fields(fits, i, head, pre)
+    return out
+
+
+def _name_rows(why, lines):
+    """A refusal naming 'contact k' names its CSV line instead, where lines are known."""
+    if lines is not None and "contact " in why:
+        k = int(why.split("contact ")[1].split()[0])
+        why = why.replace(f"contact {k} ", f"line {lines[k]} ")
+    return why
+
+
+def _jet_fields(fits, i, out, pre):
+    """Patch ``i``'s result fields: ``out`` (its ``summary``) and what the fit holds."""
+    L, axes = float(fits.scale[i]), fits.axes[i]
     coef, model, xy = fits.coef[i], int(fits.model[i]), fits.xy[i][fits.mask[i]]
     out.update(grid_batch.at(pre.stats, i, L, out["shape"] == "plane"))
     ch, gx, gy = pre.grid

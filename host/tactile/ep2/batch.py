@@ -2,14 +2,14 @@
 
 Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring),
 then a chunk of patches is fitted by one ``centre_jet.fit`` call on a padded stack with a
-row mask (the fit is batch-first: the stack equals each patch alone, tested), and each
-patch's analysis (refusals, intervals, label) is taken from its slice.  The result per
-patch equals ``analyze_patch``'s to round-off; a patch that is refused or malformed gives
-its exception in its place and the others still come out.
+row mask (the fit is batch-first: the stack equals each patch alone, tested), and the
+analysis after the fit (positions-versus-normals test, determination, intervals, label, grid
+statistics: ``api.jet_outcomes``) runs on the whole stack too; only the assembly of each
+patch's result is per patch.  The result per patch equals ``analyze_patch``'s to
+round-off; a patch that is refused or malformed gives its exception in its place and the
+others still come out.
 
 Only the default method is batched; ``method="spline"`` falls back to one patch at a time.
-The per-patch analysis after the fit (refusal tests, intervals, label, grid statistics)
-is still Python per patch, about a quarter of the batched cost (``bench/ep2_speed.py``).
 """
 
 import numpy as np
@@ -66,14 +66,13 @@ def _chunk(patches, kw):
         noise = (opts["noise_pos"], opts["noise_normal"])
         fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"])
         pre = api.outcome_inputs(fits, opts["grid"])
-        for b, (j, prep) in enumerate(prepared):
-            try:
-                res = api.jet_outcome(fits, b, prep.opts, pre)
-                results[j] = api._result(
+        lines = [prep.opts["lines"] for _, prep in prepared]
+        for (j, prep), res in zip(prepared, api.jet_outcomes(fits, opts, pre, lines), strict=True):
+            if not isinstance(res, DataError):
+                res = api._result(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
-            except DataError as exc:
-                results[j] = exc
+            results[j] = res
     return results
 
 
