@@ -19,7 +19,7 @@ import math
 import numpy as np
 from scipy.special import fdtri
 
-from tactile.ep2.centre_result import MAX_HALF_WIDTH
+from tactile.ep2.centre_result import MAX_HALF_WIDTH, direction_text
 from tactile.ep2.surface_geometry import eigen, shape_entries
 
 AGREE = 0.99999  # positions vs normals: test level (false alarms 1e-5 per patch)
@@ -55,15 +55,16 @@ def _disagreement(dp, dn, d2, scale, axes):
     """(refusal, None, gap) or (None, warning, curvature gap) of one patch that disagrees."""
     gap = dp - dn
     tp, tn = (np.array(shape_entries(*d)) for d in (dp, dn))
-    kp, kn = (np.array(eigen(*t)) / scale for t in (tp, tn))
-    # round-off zeros print as 0 (a batch and a single patch differ there, nowhere else)
-    top = max(float(np.abs(kp).max()), float(np.abs(kn).max()))
-    kp, kn = (np.where(np.abs(k) <= 1e-12 * top, 0.0, k) for k in (kp, kn))
+    # round-off zeros print as 0 (a batch and a single patch differ there, nowhere else):
+    # under 1e-12 of the largest curvature, or of 1/L where every curvature is round-off
+    top = max(float(np.abs(np.array([tp, tn])).max()), 1.0)
+    kp, kn = (_clean(np.array(eigen(*t)), top) / scale for t in (tp, tn))
     tilt = math.degrees(math.atan(math.hypot(gap[0], gap[1])))
+    most = _where_most(tp, tn, axes, scale, top) if np.any(_clean(tp - tn, top)) else ""
     text = (
         "positions and normals disagree: the positions give curvatures"
         f" ({kp[0]:.3g}, {kp[1]:.3g}) per unit length, the normals ({kn[0]:.3g}, {kn[1]:.3g})"
-        f"{_where_most(tp, tn, axes, scale)}, tilts {tilt:.1f} deg apart ({math.sqrt(d2):.1f} sd)"
+        f"{most}, tilts {tilt:.1f} deg apart ({math.sqrt(d2):.1f} sd)"
     )
     big = _norm(tp - tn) > AGREE_REL * max(_norm(tp), _norm(tn))
     if big or math.radians(tilt) > AGREE_TILT:
@@ -71,15 +72,21 @@ def _disagreement(dp, dn, d2, scale, axes):
     return None, text + "; intervals widened to hold both", tp - tn
 
 
-def _where_most(tp, tn, axes, scale):
+def _clean(k, top):
+    """``k`` with the entries under 1e-12 ``top`` (round-off) set to 0."""
+    return np.where(np.abs(k) <= 1e-12 * top, 0.0, k)
+
+
+def _where_most(tp, tn, axes, scale, top):
     """Text: the normal curvatures of both estimates along the tangent direction where
     they differ most (tells a mirrored saddle, whose principal curvatures agree, apart)."""
     a, b, c = tp - tn
     w, v = np.linalg.eigh(np.array([[a, b], [b, c]]))
     u = v[:, int(np.argmax(np.abs(w)))]
-    kp, kn = (float(u @ np.array([[t[0], t[1]], [t[1], t[2]]]) @ u) / scale for t in (tp, tn))
+    kp, kn = (float(_clean(u @ np.array([[t[0], t[1]], [t[1], t[2]]]) @ u, top)) for t in (tp, tn))
+    kp, kn = kp / scale, kn / scale
     d = u[0] * axes[0] + u[1] * axes[1]
-    return f", along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) {kp:.3g} vs {kn:.3g}"
+    return f", along {direction_text(d)} {kp:.3g} vs {kn:.3g}"
 
 
 def _determined(blind, scale, cov):

@@ -12,7 +12,8 @@ batched matmuls, where LAPACK's SVD is one call per tiny matrix (``bench/ep2_spe
 A problem whose first Cholesky factor fails or gives cond(X) over ``FAST_MAX_COND``
 (Frobenius estimate, within a factor p of the 2-norm one) goes to the SVD: singular
 values below ``RCOND`` times the largest are dropped, so a rank-deficient problem gets
-the minimum-norm solution in the scaled columns and its rank says so; nothing raises.
+the minimum-norm solution in the scaled columns and its rank says so; a problem with
+non-finite numbers has rank 0 and NaN coefficients; nothing raises.
 Never the normal equations' solution itself: the Gram matrix only yields R, and the
 second pass removes the loss of orthogonality that its squared condition brings.
 """
@@ -43,6 +44,26 @@ class Solution:
     scale: np.ndarray = None
 
 
+FIELDS = ("coef", "pinv", "leverage", "rss", "rank", "residual", "blind", "scale")
+
+
+def take(sol, keep):
+    """The problems ``keep`` (index or mask of the leading axis) of a ``Solution``."""
+    return Solution(**{k: getattr(sol, k)[keep] for k in FIELDS})
+
+
+def merge(parts, n):
+    """One ``Solution`` of ``n`` problems from (indices, ``Solution`` of those) parts that
+    cover each problem once."""
+    out = {}
+    for k in FIELDS:
+        first = getattr(parts[0][1], k)
+        out[k] = np.empty((n,) + first.shape[1:], first.dtype)
+        for idx, sol in parts:
+            out[k][idx] = getattr(sol, k)
+    return Solution(**out)
+
+
 def solve(A, b, w):
     """Solve every problem of the stack: A (..., m, p), b (..., m), w (..., m)."""
     lead, (m, p) = A.shape[:-2], A.shape[-2:]
@@ -53,6 +74,11 @@ def solve(A, b, w):
     live = scale > 0
     scale = np.where(live, scale, 1.0)
     X = Aw / scale[:, None, :]
+    # a problem whose numbers overflowed (a degenerate patch's fit diverging) determines
+    # nothing: every column blind, its coefficients NaN; the others of the stack go on
+    bad = ~(np.all(np.isfinite(X), axis=(1, 2)) & np.all(np.isfinite(bw), axis=1))
+    if bad.any():
+        X[bad], bw[bad], live[bad], scale[bad] = 0.0, 0.0, False, 1.0
     Q, P, fast = _cholesky_qr2(X, live)
     blind = np.zeros((len(X), p, p))
     blind[:, np.arange(p), np.arange(p)] = ~live
@@ -62,6 +88,7 @@ def solve(A, b, w):
     pinv = (P @ np.swapaxes(Q, -1, -2)) / scale[:, :, None]  # pinv(X) = P Q^T
     coef = (pinv @ bw[..., None])[..., 0]
     residual = bw - (Aw @ coef[..., None])[..., 0]
+    coef[bad], residual[bad] = np.nan, np.nan
     out = Solution(
         coef=coef,
         pinv=pinv,
@@ -72,7 +99,7 @@ def solve(A, b, w):
         blind=blind,
         scale=scale,
     )
-    for name in ("coef", "pinv", "leverage", "rss", "rank", "residual", "blind", "scale"):
+    for name in FIELDS:
         v = getattr(out, name)
         setattr(out, name, v.reshape(lead + v.shape[1:]))
     return out
@@ -106,26 +133,17 @@ def _cholesky(G):
     (R is then the identity, a placeholder the SVD replaces)."""
     B, p, _ = G.shape
     try:  # LAPACK for the whole stack; it refuses the stack if one problem fails
-        R = np.swapaxes(np.linalg.cholesky(G), -1, -2)
-        d = np.diagonal(R, axis1=-2, axis2=-1)
-        ok = np.all(d * d > 1e-14 * np.diagonal(G, axis1=-2, axis2=-1), axis=-1)
-        R[~ok] = np.eye(p)
-        return R, ok
-    except np.linalg.LinAlgError:
-        pass
-    R = np.zeros_like(G)
-    ok = np.ones(B, bool)
-    for k in range(p):
-        col = R[:, :k, k]
-        d = G[:, k, k] - np.einsum("bi,bi->b", col, col)
-        good = d > 1e-14 * G[:, k, k]
-        ok &= good
-        rkk = np.sqrt(np.where(good, d, 1.0))
-        R[:, k, k] = rkk
-        if k + 1 < p:
-            R[:, k, k + 1 :] = (
-                G[:, k, k + 1 :] - (col[:, None, :] @ R[:, :k, k + 1 :])[:, 0]
-            ) / rkk[:, None]
+        L = np.linalg.cholesky(G)
+    except np.linalg.LinAlgError:  # then one problem at a time: the same as each alone
+        L = np.full_like(G, np.nan)
+        for b in range(B):
+            try:
+                L[b] = np.linalg.cholesky(G[b])
+            except np.linalg.LinAlgError:
+                pass
+    R = np.swapaxes(L, -1, -2)
+    d = np.diagonal(R, axis1=-2, axis2=-1)
+    ok = np.all(d * d > 1e-14 * np.diagonal(G, axis1=-2, axis2=-1), axis=-1)
     R[~ok] = np.eye(p)
     return R, ok
 

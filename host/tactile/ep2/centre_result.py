@@ -43,6 +43,12 @@ def widen(nu, q=3, p=0.95):
     return float(out) if out.ndim == 0 else out
 
 
+def direction_text(d):
+    """ "(x, y, z)" of a unit direction to two decimals; a component that rounds to zero is
+    printed "0.00" whatever its sign (round-off differs between a batch and one patch)."""
+    return "(" + ", ".join(f"{0.0 if abs(v) < 0.005 else v:.2f}" for v in d) + ")"
+
+
 def determination(cov, axes, scale, spread, noise_pos):
     """None, or why the curvature is not determined (worst direction in world coordinates).
 
@@ -74,7 +80,7 @@ def determination(cov, axes, scale, spread, noise_pos):
     worst = th[int(np.argmax(np.einsum("in,ij,jn->n", u, cov, u)))]
     d = np.cos(worst) * axes[0] + np.sin(worst) * axes[1]
     return (
-        f"curvature along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: its 95 %"
+        f"curvature along {direction_text(d)} is not determined: its 95 %"
         f" interval is +/- {half / scale:.3g} per unit length, over {MAX_HALF_WIDTH:g}/L"
         f" (L = {scale:.4g}); the contacts do not span that direction well (near one line,"
         " lines too close, or bunched): sweep across it"
@@ -122,7 +128,7 @@ def _thin_line(spread_w, spread_v, mean_axes, scale, sigma):
         return None
     d = spread_v[0, 0] * mean_axes[0] + spread_v[1, 0] * mean_axes[1]
     return (
-        f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
+        f"curvature across {direction_text(d)} is not determined: the"
         f" contacts lie near one line, spread only {thin * scale:.3g} across it, under"
         f" {MIN_SPREAD:g} times their position noise ({sigma * scale:.3g}): sweep across it"
     )
@@ -136,7 +142,7 @@ def _one_path_plane(w, v, mean_axes, scale, sigma):
     d = d / np.linalg.norm(d)
     tilt = math.degrees(math.acos(min(abs(float(p[2])), 1.0)))
     return (
-        f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
+        f"curvature across {direction_text(d)} is not determined: the"
         f" contacts lie in one plane standing {tilt:.0f} deg from the surface (one path), within"
         f" {thick * scale:.3g} of it, under {MIN_SPREAD:g} times their position noise"
         f" ({sigma * scale:.3g}): sweep across it"
