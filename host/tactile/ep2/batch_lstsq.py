@@ -18,7 +18,7 @@ Never the normal equations' solution itself: the Gram matrix only yields R, and 
 second pass removes the loss of orthogonality that its squared condition brings.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,19 +32,33 @@ class Solution:
     diag(noise^2 in weighted units) pinv^T; leverage (..., m) hat-matrix diagonal; rss
     (...,) weighted residual sum of squares; rank (...,); ``blind`` (..., p, p) the projector
     onto the design's null space in the scaled columns (columns / ``scale``): a linear
-    functional f of coef is determined by the data iff blind @ (f / scale) = 0."""
+    functional f of coef is determined by the data iff blind @ (f / scale) = 0.  ``pinv``
+    and ``leverage`` are formed from Q (..., m, p) and P (..., p, p) (pinv of the scaled
+    columns = P Q^T) when asked for: most solves (Gauss-Newton steps, the noise estimate)
+    never need them."""
 
     coef: np.ndarray
-    pinv: np.ndarray
-    leverage: np.ndarray
     rss: np.ndarray
     rank: np.ndarray
     residual: np.ndarray
-    blind: np.ndarray = None
-    scale: np.ndarray = None
+    blind: np.ndarray
+    scale: np.ndarray
+    Q: np.ndarray
+    P: np.ndarray
+    _pinv: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def pinv(self):
+        if self._pinv is None:
+            self._pinv = (self.P @ np.swapaxes(self.Q, -1, -2)) / self.scale[..., :, None]
+        return self._pinv
+
+    @property
+    def leverage(self):
+        return np.einsum("...mk,...mk->...m", self.Q, self.Q)
 
 
-FIELDS = ("coef", "pinv", "leverage", "rss", "rank", "residual", "blind", "scale")
+FIELDS = ("coef", "rss", "rank", "residual", "blind", "scale", "Q", "P")
 
 
 def take(sol, keep):
@@ -85,19 +99,18 @@ def solve(A, b, w):
     slow = np.flatnonzero(~fast)
     if slow.size:  # near-singular or rank-deficient: the SVD decides the rank
         Q[slow], P[slow], blind[slow] = _svd(X[slow])
-    pinv = (P @ np.swapaxes(Q, -1, -2)) / scale[:, :, None]  # pinv(X) = P Q^T
-    coef = (pinv @ bw[..., None])[..., 0]
+    coef = np.einsum("bij,bj->bi", P, np.einsum("bmk,bm->bk", Q, bw)) / scale  # P Q^T bw
     residual = bw - (Aw @ coef[..., None])[..., 0]
     coef[bad], residual[bad] = np.nan, np.nan
     out = Solution(
         coef=coef,
-        pinv=pinv,
-        leverage=np.einsum("bmk,bmk->bm", Q, Q),
         rss=np.einsum("bm,bm->b", residual, residual),
         rank=p - np.rint(np.trace(blind, axis1=-2, axis2=-1)).astype(int),
         residual=residual,
         blind=blind,
         scale=scale,
+        Q=Q,
+        P=P,
     )
     for name in FIELDS:
         v = getattr(out, name)
@@ -110,14 +123,26 @@ def _cholesky_qr2(X, live):
     P = R^-1, where ok; a zero column (``~live``) stays zero in Q, its coefficient 0."""
     dead = ~live
     R1, ok = _cholesky(_gram(X, dead))
-    R1i = np.linalg.inv(R1)
+    R1i = _upper_inverse(R1)
     cond = np.sqrt(np.einsum("bij,bij->b", R1, R1) * np.einsum("bij,bij->b", R1i, R1i))
     ok &= cond <= FAST_MAX_COND
     Q1 = X @ R1i
     R2, ok2 = _cholesky(_gram(Q1, dead))
-    R2i = np.linalg.inv(R2)
+    R2i = _upper_inverse(R2)
     Q = Q1 @ R2i
     return Q, R1i @ R2i, ok & ok2
+
+
+def _upper_inverse(R):
+    """R^-1 of every upper-triangular R (B, p, p) by back substitution, vectorised over the
+    stack (LAPACK's general inverse is one LU per small matrix)."""
+    p = R.shape[-1]
+    out = np.zeros_like(R)
+    for i in range(p - 1, -1, -1):
+        row = -np.einsum("bk,bkj->bj", R[:, i, i + 1 :], out[:, i + 1 :, :])
+        row[:, i] += 1.0
+        out[:, i, :] = row / R[:, i, i, None]
+    return out
 
 
 def _gram(X, dead):
