@@ -26,6 +26,7 @@ Nothing here raises for one bad patch: ``reason`` holds why a patch is refused.
 """
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -99,13 +100,13 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     quad, rnd = _both(_refit_rows(p, nrm, mask, sig), mask, rnd.sol.coef)
     better = np.where(rnd.ok & (rnd.sol.rss < quad.sol.rss), 1, 0)
     coef = np.where(better[:, None] == 1, rnd.sol.coef, quad.sol.coef)
-    geo = _geometry(_rows(p, nrm, mask, sig), coef, better)
+    geo = _geometry(_positions(p, mask), coef, better)
     rows = _rows(p, nrm, mask, sig, geo)
     quad, rnd = _both(rows, mask, rnd.sol.coef)
     models = [quad, rnd]  # + quadric 2- and 4-jets by AIC: tried, see _finish
     frame = (L, O, M)
     out = _finish(models, rows, mask, sig, dof, frame, (noise_pos, noise_normal), reason)
-    out.bias = _truncation(out, _quadric(_rows(p, nrm, mask, sig, geo, ORDER + 1)), rows, sig, dof)
+    out.bias = _truncation(out, _quadric(_with_order(rows, ORDER + 1)), rows, sig, dof)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
     return out
@@ -301,9 +302,22 @@ def _inverse_cholesky(c):
     return T
 
 
+def _positions(p, mask):
+    """The contacts' x, y as ``_Rows`` hold them (padding at 0), for ``_geometry``."""
+    x, y = (np.where(mask, p[..., k], 0.0) for k in (0, 1))
+    return SimpleNamespace(x=x, y=y)
+
+
+def _with_order(rows, order):
+    """``rows`` with the jet design of another order (same data, weights and whitening)."""
+    A = _whiten(jet_basis.design(rows.x, rows.y, order), rows.T)
+    return _Rows(rows.x, rows.y, rows.b, rows.w, A, rows.T, rows.P, rows.N)
+
+
 def _geometry(rows, coef, model=None):
-    """(g (B, n, 2), h (B, n, 3)): slopes and second derivatives of a fit at the contacts;
-    ``model`` (B,) 1 where ``coef`` is the round model (its closed-form part added)."""
+    """(g (B, n, 2), h (B, n, 3)): slopes and second derivatives of a fit at the contacts
+    (``rows`` or ``_positions``: their x, y); ``model`` (B,) 1 where ``coef`` is the round
+    model (its closed-form part added)."""
     x, y = rows.x, rows.y
     order = jet_basis.order_of(coef.shape[-1])
     d = jet_basis.design(x, y, order, ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
@@ -341,7 +355,8 @@ def _noise(p, nrm, mask, noise_pos, noise_normal, L):
     sig = np.maximum(sig, WEIGHT_FLOOR)
     if noise_pos is not None and noise_normal is not None:
         return sig, dof
-    geo = _geometry(_rows(p, nrm, mask, sig), _quadric(_rows(p, nrm, mask, sig)).sol.coef)
+    rows = _rows(p, nrm, mask, sig)
+    geo = _geometry(rows, _quadric(rows).sol.coef)
     n = mask.sum(axis=1)
     if noise_pos is None:
         sig[:, 0], dof[:, 0] = _reml(p, nrm, mask, sig, geo, "pos", n)
@@ -617,7 +632,7 @@ def _split_fits(p, nrm, mask, sig, dof, fits):
     (blind (B, p, 5), scale (B, 5)) of ``batch_lstsq`` for the five derivatives: what that
     row type does not determine (positions on two lines do not give z_xx; nothing on one
     line gives the curvature across it)."""
-    geo = _geometry(_rows(p, nrm, mask, sig), fits.coef, fits.model)
+    geo = _geometry(_positions(p, mask), fits.coef, fits.model)
     out = []
     for part in ("pos", "slopes"):
         first = _rows(p, nrm, mask, sig, geo, ORDER, part)
