@@ -146,8 +146,9 @@ def _upper_inverse(R):
 
 
 def _gram(X, dead):
-    """X^T X with a unit diagonal on zero columns (their R row is e_k: coefficient 0)."""
-    G = np.swapaxes(X, -1, -2) @ X
+    """X^T X with a unit diagonal on zero columns (their R row is e_k: coefficient 0).
+    X^T is copied first: the product of two C-ordered stacks is twice as fast."""
+    G = np.ascontiguousarray(np.swapaxes(X, -1, -2)) @ X
     k = np.arange(G.shape[-1])
     G[:, k, k] = np.where(dead, 1.0, G[:, k, k])
     return G
