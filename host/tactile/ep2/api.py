@@ -204,25 +204,21 @@ def _prepare(points, normals, finger, lines, kw):
     pts, nrm, finger, lines, dropped = _drop_duplicates(pts, nrm, finger, lines)
     pts, middle = extent.centred(pts)  # the frame's origin moves back in ``_result``
     breaks = discontinuity.find_breaks(nrm, finger, kw["break_angle"])
+    _check_order(method, order)
+    return Prepared(pts, nrm, _opts(kw, lines), breaks, dropped, middle)
+
+
+def _check_order(method, order):
     if method != "spline" and order not in (None, centre_jet.ORDER):
         raise InputError(f"the jet order is {centre_jet.ORDER}; --order is for method spline")
-    grid, segments, align, solver = kw["grid"], kw["segments"], kw["align"], kw["solver"]
-    max_normal_angle, shrink, intervals = kw["max_normal_angle"], kw["shrink"], kw["intervals"]
-    opts = dict(
-        order=2 if order is None else order,
-        segments=segments,
-        weighting=weighting,
-        noise_pos=noise_pos,
-        noise_normal=noise_normal,
-        grid=grid,
-        align=align,
-        solver=solver,
-        max_normal_angle=max_normal_angle,
-        shrink=shrink,
-        intervals=intervals,
-        lines=lines,
-    )
-    return Prepared(pts, nrm, opts, breaks, dropped, middle)
+
+
+def _opts(kw, lines):
+    """The options the methods read, from ``analyze_patch``'s keywords and a patch's lines."""
+    keys = "segments weighting noise_pos noise_normal grid align solver max_normal_angle shrink"
+    out = {"order": 2 if kw["order"] is None else kw["order"]}
+    out.update({k: kw[k] for k in keys.split()}, intervals=kw["intervals"], lines=lines)
+    return out
 
 
 def _analyze_jet(pts, nrm, opts):
