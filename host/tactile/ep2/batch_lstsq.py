@@ -133,9 +133,16 @@ def _cholesky_qr2(X, live):
     return Q, R1i @ R2i, ok & ok2
 
 
+SMALL_STACK = 32  # fewer problems than this: LAPACK's inverse, one call each
+
+
 def _upper_inverse(R):
-    """R^-1 of every upper-triangular R (B, p, p) by back substitution, vectorised over the
-    stack (LAPACK's general inverse is one LU per small matrix)."""
+    """R^-1 of every upper-triangular R (B, p, p): by back substitution vectorised over the
+    stack (LAPACK's general inverse is one LU per small matrix), or for a stack of fewer
+    than ``SMALL_STACK`` by LAPACK (the p steps' Python overhead dominates there).  Both
+    are backward stable; they differ at round-off."""
+    if len(R) < SMALL_STACK:
+        return np.linalg.inv(R)
     p = R.shape[-1]
     out = np.zeros_like(R)
     for i in range(p - 1, -1, -1):
