@@ -1,13 +1,14 @@
-"""Many patches at once: ``analyze_patches`` (issue 13, first step).
+"""Many patches at once: ``analyze_patches`` (issue 13).
 
-Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring),
-then a chunk of patches is fitted by one ``centre_jet.fit`` call on a padded stack with a
-row mask (the fit is batch-first: the stack equals each patch alone, tested), and the
-analysis after the fit (positions-versus-normals test, determination, intervals, label, grid
-statistics: ``api.jet_outcomes``) runs on the whole stack too; only the assembly of each
-patch's result is per patch.  The result per patch equals ``analyze_patch``'s to
-round-off; a patch that is refused or malformed gives its exception in its place and the
-others still come out.
+Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring;
+patches of one size together, ``_prepare_stacked``), then a chunk of patches is fitted by
+one ``centre_jet.fit`` call on a padded stack with a row mask (the fit is batch-first: the
+stack equals each patch alone, tested), and the analysis after the fit
+(positions-versus-normals test, determination, intervals, label, grid statistics:
+``api.jet_outcomes``) runs on the whole stack too; only the assembly of each patch's
+result is per patch.  The result per patch equals ``analyze_patch``'s to round-off; a
+patch that is refused or malformed gives its exception in its place and the others still
+come out.
 
 Only the default method is batched; ``method="spline"`` falls back to one patch at a time.
 """
