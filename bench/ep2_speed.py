@@ -1,10 +1,17 @@
-"""EP2 speed: one 36-contact patch on an 8 x 8 grid in process, and the CLI on 1000 patches.
+"""EP2 speed: one 36-contact patch on an 8 x 8 grid in process, the batched engine against
+the per-patch loop, and the CLI on 1000 patches.
 
-Run: .venv/bin/python bench/ep2_speed.py
-Per-patch times of each configuration; the batched engine and its targets are a later
-issue (the jet's per-patch Python costs most of these milliseconds).
+Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_speed.py [--n 512] [--against REV]
+[--batch-only]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim first).
+``--against REV`` also times git revision REV's ``analyze_patch`` loop and
+``analyze_patches`` on the same patches, in a child process that imports REV's host
+library (``git archive``), alternating with this tree's runs: before and after side by
+side in one run (best of ``REPEATS``; compare the ratios, the machine is shared).
+``--batch-only`` skips the one-patch configurations and the CLI.
 """
 
+import argparse
+import json
 import os
 import subprocess
 import sys
@@ -37,42 +44,118 @@ def median_ms(d, kw, n=400):
     return 1e3 * float(np.median(ts))
 
 
-def batched(n=512):
+REPEATS = 3  # best of, each configuration, alternating this tree and --against
+CHUNKS = (16, 64, 256, 512)
+_CHILD = """
+import json, sys, time
+import numpy as np
+from tactile.ep2 import analyze_patch, analyze_patches
+z = np.load(sys.argv[1])
+pairs = list(zip(z["points"], z["normals"]))
+what = sys.argv[2]
+t0 = time.perf_counter()
+if what == "loop":
+    for p, q in pairs:
+        analyze_patch(p, q)
+else:
+    analyze_patches(pairs, chunk=int(what))
+print(json.dumps(1e3 * (time.perf_counter() - t0) / len(pairs)))
+"""
+
+
+def _this(pairs, what):
+    """ms per patch of this tree: the analyze_patch loop or analyze_patches at a chunk."""
+    t0 = time.perf_counter()
+    if what == "loop":
+        for p, q in pairs:
+            analyze_patch(p, q)
+    else:
+        analyze_patches(pairs, chunk=int(what))
+    return 1e3 * (time.perf_counter() - t0) / len(pairs)
+
+
+def _export(rev, into):
+    """REV's host library, as ``git archive`` gives it, under ``into``/host."""
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    tar = subprocess.run(
+        ["git", "-C", here, "archive", rev, "host"], check=True, capture_output=True
+    ).stdout
+    subprocess.run(["tar", "-x", "-C", into], input=tar, check=True)
+    return os.path.join(into, "host")
+
+
+def _theirs(host, data, what):
+    """ms per patch of the exported revision (a child process; its import time excluded)."""
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    paths = [host] + [os.path.join(here, d) for d in ("protocol", "firmware")]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, data, what], env=env, check=True, capture_output=True
+    )
+    return json.loads(out.stdout)
+
+
+def batched(n=512, against=None):
     """ms per patch: a loop of analyze_patch against analyze_patches at several chunk
-    sizes, on the same n noisy patches, side by side in one run."""
+    sizes, on the same n noisy patches, side by side in one run; with ``against`` (a git
+    revision) the same for that revision, alternating with this tree's runs."""
     ds = [
         sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=s)
         for s in range(n)
     ]
     pairs = [(d["points"], d["normals"]) for d in ds]
-    t0 = time.perf_counter()
-    for p, q in pairs:
-        analyze_patch(p, q)
-    loop = 1e3 * (time.perf_counter() - t0) / n
-    print(f"\n| {n} patches | ms / patch | speed-up |\n|---|---|---|")
-    print(f"| analyze_patch loop | {loop:.2f} | 1.0 |")
-    for chunk in (16, 64, 256, 512):
-        t0 = time.perf_counter()
-        analyze_patches(pairs, chunk=chunk)
-        ms = 1e3 * (time.perf_counter() - t0) / n
-        print(f"| analyze_patches, chunk {chunk} | {ms:.2f} | {loop / ms:.1f} |")
+    configs = ["loop", *map(str, CHUNKS)]
+    best = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        data = os.path.join(tmp, "patches.npz")
+        np.savez(data, points=np.array([p for p, _ in pairs]), normals=[q for _, q in pairs])
+        host = _export(against, tmp) if against else None
+        analyze_patches(pairs[:16])  # warm: imports, caches
+        for _ in range(REPEATS):
+            for what in configs:
+                best[what] = min(best.get(what, np.inf), _this(pairs, what))
+                if host and what in ("loop", "256"):
+                    key = (against, what)
+                    best[key] = min(best.get(key, np.inf), _theirs(host, data, what))
+    loop = best["loop"]
+    print(f"\n| {n} patches | ms / patch | patches / s | vs this loop |")
+    print("|---|---|---|---|")
+    rows = [("analyze_patch loop", loop)]
+    rows += [(f"analyze_patches, chunk {c}", best[str(c)]) for c in CHUNKS]
+    if against:
+        rows += [
+            (f"{against}: analyze_patch loop", best[(against, "loop")]),
+            (f"{against}: analyze_patches, chunk 256", best[(against, "256")]),
+        ]
+    for name, ms in rows:
+        print(f"| {name} | {ms:.2f} | {1e3 / ms:.0f} | {loop / ms:.1f} |")
+    if against:
+        old_loop = best[(against, "loop")]
+        print(
+            f"\nanalyze_patches chunk 256: {old_loop / best['256']:.1f} x {against}'s loop,"
+            f" {best[(against, '256')] / best['256']:.2f} x {against}'s analyze_patches"
+        )
     fast, batch_lstsq.FAST_MAX_COND = batch_lstsq.FAST_MAX_COND, 0.0  # the SVD for every fit
-    t0 = time.perf_counter()
-    analyze_patches(pairs, chunk=256)
-    ms = 1e3 * (time.perf_counter() - t0) / n
+    ms = _this(pairs, "256")
     batch_lstsq.FAST_MAX_COND = fast
-    print(
-        f"| analyze_patches, chunk 256, SVD for every solve (before) | {ms:.2f} | {loop / ms:.1f} |"
-    )
+    print(f"\nanalyze_patches, chunk 256, the SVD for every solve: {ms:.2f} ms / patch")
 
 
 def main():
-    d = sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=1)
-    print("| configuration | median ms / patch (36 contacts, 8x8 grid) |")
-    print("|---|---|")
-    for name, kw in CASES:
-        print(f"| {name} | {median_ms(d, kw):.3f} |")
-    batched()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=512, help="patches for the batched comparison")
+    ap.add_argument("--against", help="a git revision to time side by side (e.g. main)")
+    ap.add_argument("--batch-only", action="store_true", help="only the batched comparison")
+    args = ap.parse_args()
+    if not args.batch_only:
+        d = sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=1)
+        print("| configuration | median ms / patch (36 contacts, 8x8 grid) |")
+        print("|---|---|")
+        for name, kw in CASES:
+            print(f"| {name} | {median_ms(d, kw):.3f} |")
+    batched(args.n, args.against)
+    if args.batch_only:
+        return
     tactile = os.path.join(os.path.dirname(sys.executable), "tactile")
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "p1000.csv")

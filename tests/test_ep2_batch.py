@@ -47,13 +47,15 @@ def test_batch_equals_one_at_a_time(chunk):
             kinds.add(type(exc).__name__)
             continue
         kinds.add("answer")
-        assert (got.shape, got.model, got.warnings) == (want.shape, want.model, want.warnings)
-        assert got.confidence == pytest.approx(want.confidence, abs=1e-9)
-        for f in FIELDS:
-            assert _same(getattr(got, f), getattr(want, f)), f
-        for f in INTERVALS:
-            assert _same(getattr(got, f), getattr(want, f)), f
+        _assert_same(got, want)
     assert kinds == {"answer", "DataError", "InputError"}
+
+
+def _assert_same(got, want):
+    assert (got.shape, got.model, got.warnings) == (want.shape, want.model, want.warnings)
+    assert got.confidence == pytest.approx(want.confidence, abs=1e-9)
+    for f in FIELDS + INTERVALS:
+        assert _same(getattr(got, f), getattr(want, f)), f
 
 
 def test_spline_falls_back_to_one_at_a_time():
@@ -61,3 +63,37 @@ def test_spline_falls_back_to_one_at_a_time():
     (got,) = analyze_patches([(p["points"], p["normals"])], method="spline", order=3)
     want = analyze_patch(p["points"], p["normals"], method="spline", order=3)
     assert got.S == want.S and got.model == want.model
+
+
+def test_stacked_preparation_equals_one_patch_at_a_time():
+    """Patches of one size are checked and centred together (``batch._prepare_stacked``):
+    a duplicated row, a wild coordinate, a zero normal or a stated noise beyond the spread
+    in one patch leaves it to the one-patch path, with its own message naming its CSV
+    line, and the others of its size come out as alone."""
+    base = [cases.draw(c, k) for k, c in enumerate(cases.split("holdout2")[:4])]
+    patches = []
+    for k, d in enumerate(base):
+        pts, nrm = d["points"].copy(), d["normals"].copy()
+        if k == 1:
+            pts[5], nrm[5] = pts[4], nrm[4]  # a duplicated row: counted once, with a warning
+        if k == 2:
+            pts[7, 1] = 1e305  # beyond what EP2 represents: InputError naming the line
+        if k == 3:
+            nrm[2] = 0.0  # DataError naming the contact
+        lines = list(range(10 + 100 * k, 10 + 100 * k + len(pts)))
+        patches.append({"points": pts, "normals": nrm, "finger": d["finger"], "lines": lines})
+    for noise_pos in (1e-3, None):
+        batch = analyze_patches(patches, noise_pos=noise_pos)
+        for p, got in zip(patches, batch, strict=True):
+            try:
+                want = analyze_patch(
+                    p["points"], p["normals"], finger=p["finger"], lines=p["lines"],
+                    noise_pos=noise_pos,
+                )  # fmt: skip
+            except (DataError, InputError) as exc:
+                assert type(got) is type(exc) and str(got) == str(exc)
+                continue
+            _assert_same(got, want)
+    assert "duplicated" in batch[1].warnings[0]
+    assert isinstance(batch[2], InputError) and "line 217" in str(batch[2])
+    assert isinstance(batch[3], DataError) and "contact 2" in str(batch[3])

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.ep2 import (
+    agreement,
     centre_jet,
     centre_result,
     discontinuity,
@@ -203,37 +204,36 @@ def _prepare(points, normals, finger, lines, kw):
     pts, nrm, finger, lines, dropped = _drop_duplicates(pts, nrm, finger, lines)
     pts, middle = extent.centred(pts)  # the frame's origin moves back in ``_result``
     breaks = discontinuity.find_breaks(nrm, finger, kw["break_angle"])
+    _check_order(method, order)
+    return Prepared(pts, nrm, _opts(kw, lines), breaks, dropped, middle)
+
+
+def _check_order(method, order):
     if method != "spline" and order not in (None, centre_jet.ORDER):
         raise InputError(f"the jet order is {centre_jet.ORDER}; --order is for method spline")
-    grid, segments, align, solver = kw["grid"], kw["segments"], kw["align"], kw["solver"]
-    max_normal_angle, shrink, intervals = kw["max_normal_angle"], kw["shrink"], kw["intervals"]
-    opts = dict(
-        order=2 if order is None else order,
-        segments=segments,
-        weighting=weighting,
-        noise_pos=noise_pos,
-        noise_normal=noise_normal,
-        grid=grid,
-        align=align,
-        solver=solver,
-        max_normal_angle=max_normal_angle,
-        shrink=shrink,
-        intervals=intervals,
-        lines=lines,
-    )
-    return Prepared(pts, nrm, opts, breaks, dropped, middle)
+
+
+def _opts(kw, lines):
+    """The options the methods read, from ``analyze_patch``'s keywords and a patch's lines."""
+    keys = "segments weighting noise_pos noise_normal grid align solver max_normal_angle shrink"
+    out = {"order": 2 if kw["order"] is None else kw["order"]}
+    out.update({k: kw[k] for k in keys.split()}, intervals=kw["intervals"], lines=lines)
+    return out
 
 
 def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
     noise = (opts["noise_pos"], opts["noise_normal"])
     fits = centre_jet.fit(pts[None], nrm[None], mask, *noise, opts["max_normal_angle"])
-    return jet_outcome(fits, 0, opts, outcome_inputs(fits, opts["grid"]))
+    (out,) = jet_outcomes(fits, opts, outcome_inputs(fits, opts["grid"]), [opts["lines"]])
+    if isinstance(out, DataError):
+        raise out
+    return out
 
 
 @dataclass
 class OutcomeInputs:
-    """What ``jet_outcome`` needs of a whole ``centre_jet.fit`` stack, computed for the
+    """What ``jet_outcomes`` needs of a whole ``centre_jet.fit`` stack, computed for the
     stack at once (``outcome_inputs``): Cov widening, the contacts' spread, the grid."""
 
     widen: np.ndarray
@@ -257,30 +257,63 @@ def outcome_inputs(fits, n_grid):
     )
 
 
-def jet_outcome(fits, i, opts, pre):
-    """The analysis of patch ``i`` of a ``centre_jet.fit`` stack (``DataError`` if refused);
-    ``pre`` = ``outcome_inputs`` of the stack."""
-    why = fits.reason[i]
-    if why is not None and opts["lines"] is not None and "contact " in why:
-        k = int(why.split("contact ")[1].split()[0])
-        why = why.replace(f"contact {k} ", f"line {opts['lines'][k]} ")
-    if why is not None:
-        raise DataError(why)
-    L, axes = float(fits.scale[i]), fits.axes[i]
-    t, bias, nu = fits.t[i], fits.bias[i], float(fits.dof[i])
-    cov = fits.cov[i] * float(pre.widen[i])
-    split = tuple((d[i], c[i], (z[0][i], z[1][i])) for d, c, z in fits.split)
-    refusal, warning, gap = centre_result.consistency(split, nu, L, axes)
-    spread = tuple(v[i] for v in pre.spread), fits.mean_axes[i]
-    refusal = refusal or centre_result.determination(cov, axes, L, spread, fits.noise[i, 0])
-    if refusal is not None:
-        raise DataError(refusal)
+def jet_outcomes(fits, opts, pre, lines=None):
+    """The analysis of every patch of a ``centre_jet.fit`` stack: a list of field dicts, or
+    the ``DataError`` that refuses a patch in its place.  ``pre`` = ``outcome_inputs`` of the
+    stack; ``lines`` per patch (its CSV line per row, or None) name rows in messages.  The
+    tests, intervals and labels run on the whole stack at once; only the assembly of each
+    patch's fields is per patch."""
+    lines = [None] * len(fits.reason) if lines is None else lines
+    out = [None] * len(fits.reason)
+    live = []
+    for i, why in enumerate(fits.reason):
+        if why is None:
+            live.append(i)
+        else:
+            out[i] = DataError(_name_rows(why, lines[i]))
+    idx = np.array(live, int)
+    if not live:
+        return out
+    split = tuple((d[idx], c[idx], (z[0][idx], z[1][idx])) for d, c, z in fits.split)
+    checks = agreement.consistency(split, fits.dof[idx], fits.scale[idx], fits.axes[idx])
+    cov = fits.cov[idx] * pre.widen[idx][:, None, None]
+    spread = tuple(v[idx] for v in pre.spread), fits.mean_axes[idx]
+    undetermined = centre_result.determination_many(
+        cov, fits.axes[idx], fits.scale[idx], spread, fits.noise[idx, 0]
+    )
+    ok = []
+    for k, i in enumerate(live):
+        refusal = checks[k][0] or undetermined[k]
+        if refusal is not None:
+            out[i] = DataError(refusal)
+        else:
+            ok.append(k)
+    ok = np.array(ok, int)
     # a mild disagreement: intervals about the joint estimate that reach both sides' (gap/2
     # as one more sd in its direction: with the 95 % radius, about the whole gap)
-    out = centre_result.summary(
-        t, cov + np.outer(gap, gap) / 4, bias, L, opts["intervals"], fits.cov_noise[i]
-    )
-    out["warnings"] = [] if warning is None else [warning]
+    gap = np.array([checks[k][2] for k in ok]).reshape(-1, 3)
+    j = idx[ok]
+    heads = centre_result.summary_many(
+        fits.t[j], cov[ok] + gap[:, :, None] * gap[:, None, :] / 4, fits.bias[j],
+        fits.scale[j], opts["intervals"], fits.cov_noise[j],
+    )  # fmt: skip
+    for k, i, head in zip(ok, j, heads, strict=True):
+        head["warnings"] = [] if checks[k][1] is None else [checks[k][1]]
+        out[i] = _jet_fields(fits, i, head, pre)
+    return out
+
+
+def _name_rows(why, lines):
+    """A refusal naming 'contact k' names its CSV line instead, where lines are known."""
+    if lines is not None and "contact " in why:
+        k = int(why.split("contact ")[1].split()[0])
+        why = why.replace(f"contact {k} ", f"line {lines[k]} ")
+    return why
+
+
+def _jet_fields(fits, i, out, pre):
+    """Patch ``i``'s result fields: ``out`` (its ``summary``) and what the fit holds."""
+    L, axes = float(fits.scale[i]), fits.axes[i]
     coef, model, xy = fits.coef[i], int(fits.model[i]), fits.xy[i][fits.mask[i]]
     out.update(grid_batch.at(pre.stats, i, L, out["shape"] == "plane"))
     ch, gx, gy = pre.grid

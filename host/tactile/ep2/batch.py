@@ -1,20 +1,21 @@
-"""Many patches at once: ``analyze_patches`` (issue 13, first step).
+"""Many patches at once: ``analyze_patches`` (issue 13).
 
-Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring),
-then a chunk of patches is fitted by one ``centre_jet.fit`` call on a padded stack with a
-row mask (the fit is batch-first: the stack equals each patch alone, tested), and each
-patch's analysis (refusals, intervals, label) is taken from its slice.  The result per
-patch equals ``analyze_patch``'s to round-off; a patch that is refused or malformed gives
-its exception in its place and the others still come out.
+Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring;
+patches of one size together, ``_prepare_stacked``), then a chunk of patches is fitted by
+one ``centre_jet.fit`` call on a padded stack with a row mask (the fit is batch-first: the
+stack equals each patch alone, tested), and the analysis after the fit
+(positions-versus-normals test, determination, intervals, label, grid statistics:
+``api.jet_outcomes``) runs on the whole stack too; only the assembly of each patch's
+result is per patch.  The result per patch equals ``analyze_patch``'s to round-off; a
+patch that is refused or malformed gives its exception in its place and the others still
+come out.
 
 Only the default method is batched; ``method="spline"`` falls back to one patch at a time.
-The per-patch analysis after the fit (refusal tests, intervals, label, grid statistics)
-is still Python per patch, about a quarter of the batched cost (``bench/ep2_speed.py``).
 """
 
 import numpy as np
 
-from tactile.ep2 import api, centre_jet
+from tactile.ep2 import api, centre_jet, discontinuity, extent
 from tactile.errors import DataError, InputError
 
 CHUNK = 256  # patches per fit call (bench/ep2_speed.py, ep2_tradeoff.py: best of 16-1024)
@@ -47,10 +48,10 @@ def _chunk(patches, kw):
     if kw["method"] == "spline":
         return [_one(p, dict(kw, maps=maps)) for p in patches]
     prepared, results = [], [None] * len(patches)
-    for j, p in enumerate(patches):
-        points, normals, finger, lines = _unpack(p)
+    unpacked = [_unpack(p) for p in patches]
+    for j, (quick, item) in enumerate(zip(_prepare_stacked(unpacked, kw), unpacked, strict=True)):
         try:
-            prepared.append((j, api._prepare(points, normals, finger, lines, kw)))
+            prepared.append((j, quick or api._prepare(*item, kw)))
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:
@@ -66,15 +67,81 @@ def _chunk(patches, kw):
         noise = (opts["noise_pos"], opts["noise_normal"])
         fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"])
         pre = api.outcome_inputs(fits, opts["grid"])
-        for b, (j, prep) in enumerate(prepared):
-            try:
-                res = api.jet_outcome(fits, b, prep.opts, pre)
-                results[j] = api._result(
+        lines = [prep.opts["lines"] for _, prep in prepared]
+        for (j, prep), res in zip(prepared, api.jet_outcomes(fits, opts, pre, lines), strict=True):
+            if not isinstance(res, DataError):
+                res = api._result(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
-            except DataError as exc:
-                results[j] = exc
+            results[j] = res
     return results
+
+
+def _prepare_stacked(unpacked, kw):
+    """``api._prepare`` of every patch that passes its checks as it stands (valid options,
+    finite, representable spread, non-zero normals, no duplicated rows), for each group of
+    patches of one size at once; None for the others, which ``api._prepare`` takes one at a
+    time (it refuses them, or drops their duplicates).  The same numbers either way."""
+    out = [None] * len(unpacked)
+    try:  # what holds for every patch or none: the one-patch path says why not
+        api._validate(np.zeros((1, 3)), np.ones((1, 3)), kw["method"], kw["weighting"])
+        api._check_options(np.zeros((1, 3)), None, *(kw[k] for k in _CONSTANT_OPTIONS))
+        api._check_order(kw["method"], kw["order"])
+    except (DataError, InputError):
+        return out
+    groups = {}
+    for j, (points, normals, _, _) in enumerate(unpacked):
+        pts, nrm = np.asarray(points, float), np.asarray(normals, float)
+        if pts.ndim == 2 and pts.shape[1] == 3 and nrm.shape == pts.shape and len(pts):
+            groups.setdefault(len(pts), []).append((j, pts, nrm))
+    for group in groups.values():
+        idx = [j for j, _, _ in group]
+        for k, prep in zip(idx, _prepare_group(group, unpacked, kw), strict=True):
+            out[k] = prep
+    return out
+
+
+_CONSTANT_OPTIONS = ("noise_normal", "grid", "segments", "max_normal_angle", "break_angle")
+
+
+def _prepare_group(group, unpacked, kw):
+    """``_prepare_stacked`` for patches of one size: [Prepared or None]."""
+    P = np.stack([pts for _, pts, _ in group])
+    N = np.stack([nrm for _, _, nrm in group])
+    good = np.all(np.isfinite(P), axis=(1, 2)) & np.all(np.isfinite(N), axis=(1, 2))
+    lo, hi = P.min(axis=1), P.max(axis=1)  # ``extent.box``
+    h = (0.5 * hi - 0.5 * lo).max(axis=-1)
+    good &= (h == 0.0) | ((extent.MIN_SPREAD <= 2.0 * h) & (2.0 * h <= extent.MAX_SPREAD))
+    if kw["noise_pos"] is not None:
+        top = api.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
+        good &= (kw["noise_pos"] >= 0.0) & (kw["noise_pos"] <= top)
+    big = np.max(np.abs(N), axis=-1)  # ``patch_frame.unit_normals``
+    good &= np.all(big > 0, axis=-1)
+    big = np.where(good[:, None], big, 1.0)
+    N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
+    N = N / np.where(good[:, None], np.linalg.norm(N, axis=-1), 1.0)[..., None]
+    good &= ~_has_duplicates(P, N)
+    middle = 0.5 * lo + 0.5 * hi  # ``extent.centred``
+    P = P - middle[:, None, :]
+    out = []
+    for b, (j, _, _) in enumerate(group):
+        if not good[b]:
+            out.append(None)
+            continue
+        _, _, finger, lines = unpacked[j]
+        breaks = discontinuity.find_breaks(N[b], finger, kw["break_angle"])
+        out.append(api.Prepared(P[b], N[b], api._opts(kw, lines), breaks, 0, middle[b]))
+    return out
+
+
+def _has_duplicates(P, N):
+    """(G,) whether a patch repeats a row exactly (``api._drop_duplicates`` drops them)."""
+    G, n, _ = P.shape
+    patch = np.repeat(np.arange(G, dtype=float), n)[:, None]
+    rows = np.concatenate([patch, P.reshape(-1, 3), N.reshape(-1, 3)], axis=1)
+    rows = rows[np.all(np.isfinite(rows), axis=1)]
+    distinct = np.unique(rows, axis=0)[:, 0].astype(int)
+    return np.bincount(distinct, minlength=G) < n
 
 
 def _one(p, kw):

@@ -12,12 +12,13 @@ batched matmuls, where LAPACK's SVD is one call per tiny matrix (``bench/ep2_spe
 A problem whose first Cholesky factor fails or gives cond(X) over ``FAST_MAX_COND``
 (Frobenius estimate, within a factor p of the 2-norm one) goes to the SVD: singular
 values below ``RCOND`` times the largest are dropped, so a rank-deficient problem gets
-the minimum-norm solution in the scaled columns and its rank says so; nothing raises.
+the minimum-norm solution in the scaled columns and its rank says so; a problem with
+non-finite numbers has rank 0 and NaN coefficients; nothing raises.
 Never the normal equations' solution itself: the Gram matrix only yields R, and the
 second pass removes the loss of orthogonality that its squared condition brings.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -31,16 +32,50 @@ class Solution:
     diag(noise^2 in weighted units) pinv^T; leverage (..., m) hat-matrix diagonal; rss
     (...,) weighted residual sum of squares; rank (...,); ``blind`` (..., p, p) the projector
     onto the design's null space in the scaled columns (columns / ``scale``): a linear
-    functional f of coef is determined by the data iff blind @ (f / scale) = 0."""
+    functional f of coef is determined by the data iff blind @ (f / scale) = 0.  ``pinv``
+    and ``leverage`` are formed from Q (..., m, p) and P (..., p, p) (pinv of the scaled
+    columns = P Q^T) when asked for: most solves (Gauss-Newton steps, the noise estimate)
+    never need them."""
 
     coef: np.ndarray
-    pinv: np.ndarray
-    leverage: np.ndarray
     rss: np.ndarray
     rank: np.ndarray
     residual: np.ndarray
-    blind: np.ndarray = None
-    scale: np.ndarray = None
+    blind: np.ndarray
+    scale: np.ndarray
+    Q: np.ndarray
+    P: np.ndarray
+    _pinv: np.ndarray = field(default=None, repr=False)
+
+    @property
+    def pinv(self):
+        if self._pinv is None:
+            self._pinv = (self.P @ np.swapaxes(self.Q, -1, -2)) / self.scale[..., :, None]
+        return self._pinv
+
+    @property
+    def leverage(self):
+        return np.einsum("...mk,...mk->...m", self.Q, self.Q)
+
+
+FIELDS = ("coef", "rss", "rank", "residual", "blind", "scale", "Q", "P")
+
+
+def take(sol, keep):
+    """The problems ``keep`` (index or mask of the leading axis) of a ``Solution``."""
+    return Solution(**{k: getattr(sol, k)[keep] for k in FIELDS})
+
+
+def merge(parts, n):
+    """One ``Solution`` of ``n`` problems from (indices, ``Solution`` of those) parts that
+    cover each problem once."""
+    out = {}
+    for k in FIELDS:
+        first = getattr(parts[0][1], k)
+        out[k] = np.empty((n,) + first.shape[1:], first.dtype)
+        for idx, sol in parts:
+            out[k][idx] = getattr(sol, k)
+    return Solution(**out)
 
 
 def solve(A, b, w):
@@ -53,26 +88,31 @@ def solve(A, b, w):
     live = scale > 0
     scale = np.where(live, scale, 1.0)
     X = Aw / scale[:, None, :]
+    # a problem whose numbers overflowed (a degenerate patch's fit diverging) determines
+    # nothing: every column blind, its coefficients NaN; the others of the stack go on
+    bad = ~(np.all(np.isfinite(X), axis=(1, 2)) & np.all(np.isfinite(bw), axis=1))
+    if bad.any():
+        X[bad], bw[bad], live[bad], scale[bad] = 0.0, 0.0, False, 1.0
     Q, P, fast = _cholesky_qr2(X, live)
     blind = np.zeros((len(X), p, p))
     blind[:, np.arange(p), np.arange(p)] = ~live
     slow = np.flatnonzero(~fast)
     if slow.size:  # near-singular or rank-deficient: the SVD decides the rank
         Q[slow], P[slow], blind[slow] = _svd(X[slow])
-    pinv = (P @ np.swapaxes(Q, -1, -2)) / scale[:, :, None]  # pinv(X) = P Q^T
-    coef = (pinv @ bw[..., None])[..., 0]
+    coef = np.einsum("bij,bj->bi", P, np.einsum("bmk,bm->bk", Q, bw)) / scale  # P Q^T bw
     residual = bw - (Aw @ coef[..., None])[..., 0]
+    coef[bad], residual[bad] = np.nan, np.nan
     out = Solution(
         coef=coef,
-        pinv=pinv,
-        leverage=np.einsum("bmk,bmk->bm", Q, Q),
         rss=np.einsum("bm,bm->b", residual, residual),
         rank=p - np.rint(np.trace(blind, axis1=-2, axis2=-1)).astype(int),
         residual=residual,
         blind=blind,
         scale=scale,
+        Q=Q,
+        P=P,
     )
-    for name in ("coef", "pinv", "leverage", "rss", "rank", "residual", "blind", "scale"):
+    for name in FIELDS:
         v = getattr(out, name)
         setattr(out, name, v.reshape(lead + v.shape[1:]))
     return out
@@ -83,19 +123,39 @@ def _cholesky_qr2(X, live):
     P = R^-1, where ok; a zero column (``~live``) stays zero in Q, its coefficient 0."""
     dead = ~live
     R1, ok = _cholesky(_gram(X, dead))
-    R1i = np.linalg.inv(R1)
+    R1i = _upper_inverse(R1)
     cond = np.sqrt(np.einsum("bij,bij->b", R1, R1) * np.einsum("bij,bij->b", R1i, R1i))
     ok &= cond <= FAST_MAX_COND
     Q1 = X @ R1i
     R2, ok2 = _cholesky(_gram(Q1, dead))
-    R2i = np.linalg.inv(R2)
+    R2i = _upper_inverse(R2)
     Q = Q1 @ R2i
     return Q, R1i @ R2i, ok & ok2
 
 
+SMALL_STACK = 32  # fewer problems than this: LAPACK's inverse, one call each
+
+
+def _upper_inverse(R):
+    """R^-1 of every upper-triangular R (B, p, p): by back substitution vectorised over the
+    stack (LAPACK's general inverse is one LU per small matrix), or for a stack of fewer
+    than ``SMALL_STACK`` by LAPACK (the p steps' Python overhead dominates there).  Both
+    are backward stable; they differ at round-off."""
+    if len(R) < SMALL_STACK:
+        return np.linalg.inv(R)
+    p = R.shape[-1]
+    out = np.zeros_like(R)
+    for i in range(p - 1, -1, -1):
+        row = -np.einsum("bk,bkj->bj", R[:, i, i + 1 :], out[:, i + 1 :, :])
+        row[:, i] += 1.0
+        out[:, i, :] = row / R[:, i, i, None]
+    return out
+
+
 def _gram(X, dead):
-    """X^T X with a unit diagonal on zero columns (their R row is e_k: coefficient 0)."""
-    G = np.swapaxes(X, -1, -2) @ X
+    """X^T X with a unit diagonal on zero columns (their R row is e_k: coefficient 0).
+    X^T is copied first: the product of two C-ordered stacks is twice as fast."""
+    G = np.ascontiguousarray(np.swapaxes(X, -1, -2)) @ X
     k = np.arange(G.shape[-1])
     G[:, k, k] = np.where(dead, 1.0, G[:, k, k])
     return G
@@ -106,26 +166,17 @@ def _cholesky(G):
     (R is then the identity, a placeholder the SVD replaces)."""
     B, p, _ = G.shape
     try:  # LAPACK for the whole stack; it refuses the stack if one problem fails
-        R = np.swapaxes(np.linalg.cholesky(G), -1, -2)
-        d = np.diagonal(R, axis1=-2, axis2=-1)
-        ok = np.all(d * d > 1e-14 * np.diagonal(G, axis1=-2, axis2=-1), axis=-1)
-        R[~ok] = np.eye(p)
-        return R, ok
-    except np.linalg.LinAlgError:
-        pass
-    R = np.zeros_like(G)
-    ok = np.ones(B, bool)
-    for k in range(p):
-        col = R[:, :k, k]
-        d = G[:, k, k] - np.einsum("bi,bi->b", col, col)
-        good = d > 1e-14 * G[:, k, k]
-        ok &= good
-        rkk = np.sqrt(np.where(good, d, 1.0))
-        R[:, k, k] = rkk
-        if k + 1 < p:
-            R[:, k, k + 1 :] = (
-                G[:, k, k + 1 :] - (col[:, None, :] @ R[:, :k, k + 1 :])[:, 0]
-            ) / rkk[:, None]
+        L = np.linalg.cholesky(G)
+    except np.linalg.LinAlgError:  # then one problem at a time: the same as each alone
+        L = np.full_like(G, np.nan)
+        for b in range(B):
+            try:
+                L[b] = np.linalg.cholesky(G[b])
+            except np.linalg.LinAlgError:
+                pass
+    R = np.swapaxes(L, -1, -2)
+    d = np.diagonal(R, axis1=-2, axis2=-1)
+    ok = np.all(d * d > 1e-14 * np.diagonal(G, axis1=-2, axis2=-1), axis=-1)
     R[~ok] = np.eye(p)
     return R, ok
 

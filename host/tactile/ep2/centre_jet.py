@@ -26,6 +26,7 @@ Nothing here raises for one bad patch: ``reason`` holds why a patch is refused.
 """
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -99,13 +100,13 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     quad, rnd = _both(_refit_rows(p, nrm, mask, sig), mask, rnd.sol.coef)
     better = np.where(rnd.ok & (rnd.sol.rss < quad.sol.rss), 1, 0)
     coef = np.where(better[:, None] == 1, rnd.sol.coef, quad.sol.coef)
-    geo = _geometry(_rows(p, nrm, mask, sig), coef, better)
+    geo = _geometry(_positions(p, mask), coef, better)
     rows = _rows(p, nrm, mask, sig, geo)
     quad, rnd = _both(rows, mask, rnd.sol.coef)
     models = [quad, rnd]  # + quadric 2- and 4-jets by AIC: tried, see _finish
     frame = (L, O, M)
     out = _finish(models, rows, mask, sig, dof, frame, (noise_pos, noise_normal), reason)
-    out.bias = _truncation(out, _quadric(_rows(p, nrm, mask, sig, geo, ORDER + 1)), rows, sig, dof)
+    out.bias = _truncation(out, _quadric(_with_order(rows, ORDER + 1)), rows, sig, dof)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
     return out
@@ -196,7 +197,7 @@ class _Rows:
     b: np.ndarray  # (B, 3n) whitened data
     w: np.ndarray  # (B, 3n) 1 for a used row, 0 for padding or a row type left out
     A: np.ndarray  # (B, 3n, p) whitened jet design
-    T: np.ndarray  # (B, n, 3, 3) each contact's whitening of (z, z_x, z_y)
+    T: np.ndarray  # (B, n, 3, 3) each contact's whitening of (z, z_x, z_y) (lower triangular)
     P: np.ndarray  # (B, n, 3, 3) its covariance per unit sigma_p^2 (J J^T)
     N: np.ndarray  # (B, n, 3, 3) ... per unit sigma_n^2
 
@@ -206,15 +207,17 @@ class _Rows:
 
 
 def _whiten(v, T):
-    """Each contact's 3 rows times its 3 x 3 whitening (three multiply-adds per row: a
-    batched 3 x 3 product is slower through einsum or matmul at this size)."""
+    """Each contact's 3 rows times its lower-triangular 3 x 3 whitening (``_inverse_cholesky``;
+    six multiply-adds per row: a batched 3 x 3 product is slower through einsum or matmul
+    at this size)."""
     B, n = T.shape[:2]
     blocks = v.reshape(B, 3, n, -1)
     Tt = T[..., None]  # (B, n, 3, 3, 1)
     out = np.empty_like(blocks)
-    for i in range(3):
-        out[:, i] = Tt[:, :, i, 0] * blocks[:, 0] + Tt[:, :, i, 1] * blocks[:, 1]
-        out[:, i] += Tt[:, :, i, 2] * blocks[:, 2]
+    out[:, 0] = Tt[:, :, 0, 0] * blocks[:, 0]
+    out[:, 1] = Tt[:, :, 1, 0] * blocks[:, 0] + Tt[:, :, 1, 1] * blocks[:, 1]
+    out[:, 2] = Tt[:, :, 2, 0] * blocks[:, 0] + Tt[:, :, 2, 1] * blocks[:, 1]
+    out[:, 2] += Tt[:, :, 2, 2] * blocks[:, 2]
     return out.reshape(v.shape)
 
 
@@ -227,7 +230,7 @@ def _rows(p, nrm, mask, sig, geo=None, order=None, part="all"):
     -h e_xy (h the Hessian there); an angular error of the normal (sigma_n) moves the
     slopes with covariance sigma_n^2 (1+|g|^2)(I + g g^T) (checked by simulation in the
     tests).  So Cov = sigma_p^2 J J^T + sigma_n^2 [[0, 0], [0, (1+|g|^2)(I + g g^T)]] with
-    J = [[-g^T, 1], [-h, 0]], and the rows are multiplied by Cov^-1/2.  ``geo`` = (g, h)
+    J = [[-g^T, 1], [-h, 0]], and the rows are whitened by L^-1, L L^T = Cov.  ``geo`` = (g, h)
     (B, n, 2) and (B, n, 3) from a fit: taken from the observed slopes instead, they favour
     the rows whose noise flattened them and bias the curvature (and h = 0 without a fit).
     ``part`` "pos" or "slopes" keeps one row type (its own marginal covariance), for the
@@ -249,8 +252,9 @@ def _rows(p, nrm, mask, sig, geo=None, order=None, part="all"):
 
 
 def _whitening(g, h, sig, part):
-    """(Cov^-1/2, J J^T, N) (B, n, 3, 3) of each contact's (z, z_x, z_y) residual: Cov =
-    sigma_p^2 J J^T + sigma_n^2 N (``_rows``); ``part`` keeps one row type's block."""
+    """(L^-1 with L L^T = Cov, J J^T, N) (B, n, 3, 3) of each contact's (z, z_x, z_y)
+    residual: Cov = sigma_p^2 J J^T + sigma_n^2 N (``_rows``); ``part`` keeps one row type's
+    block."""
     g = np.clip(np.nan_to_num(g), -GEO_LIMIT, GEO_LIMIT)  # a degenerate fit's wild geometry
     h = np.clip(np.nan_to_num(h), -GEO_LIMIT, GEO_LIMIT)
     gx, gy = g[..., 0], g[..., 1]
@@ -274,16 +278,46 @@ def _whitening(g, h, sig, part):
         M[..., :, drop] = 0.0
     cov = sig[:, 0, None, None, None] ** 2 * P + sig[:, 1, None, None, None] ** 2 * N
     cov[..., drop, drop] = 1.0  # placeholders, removed from T below
-    vals, vecs = np.linalg.eigh(cov)
-    inv_root = 1.0 / np.sqrt(np.maximum(vals, 1e-300))
-    T = (vecs * inv_root[..., None, :]) @ np.swapaxes(vecs, -1, -2)
+    T = _inverse_cholesky(cov)
     T[..., drop, :] = 0.0
     return T, P, N
 
 
+def _inverse_cholesky(c):
+    """L^-1 (lower triangular) with L L^T = c, for every 3 x 3 of the stack, in closed form
+    (LAPACK's one call per contact cost a fifth of the fit).  Any whitening W with
+    W^T W = c^-1 gives the same fit, covariance and chi^2: they differ by a rotation of
+    each contact's three rows."""
+    tiny = 1e-300  # a pivot never below this (c is positive definite: sigmas are floored)
+    l00 = np.sqrt(np.maximum(c[..., 0, 0], tiny))
+    l10, l20 = c[..., 1, 0] / l00, c[..., 2, 0] / l00
+    l11 = np.sqrt(np.maximum(c[..., 1, 1] - l10 * l10, tiny))
+    l21 = (c[..., 2, 1] - l20 * l10) / l11
+    l22 = np.sqrt(np.maximum(c[..., 2, 2] - l20 * l20 - l21 * l21, tiny))
+    T = np.zeros_like(c)
+    T[..., 0, 0], T[..., 1, 1], T[..., 2, 2] = 1.0 / l00, 1.0 / l11, 1.0 / l22
+    T[..., 1, 0] = -l10 * T[..., 0, 0] * T[..., 1, 1]
+    T[..., 2, 1] = -l21 * T[..., 1, 1] * T[..., 2, 2]
+    T[..., 2, 0] = -(l20 * T[..., 0, 0] + l21 * T[..., 1, 0]) * T[..., 2, 2]
+    return T
+
+
+def _positions(p, mask):
+    """The contacts' x, y as ``_Rows`` hold them (padding at 0), for ``_geometry``."""
+    x, y = (np.where(mask, p[..., k], 0.0) for k in (0, 1))
+    return SimpleNamespace(x=x, y=y)
+
+
+def _with_order(rows, order):
+    """``rows`` with the jet design of another order (same data, weights and whitening)."""
+    A = _whiten(jet_basis.design(rows.x, rows.y, order), rows.T)
+    return _Rows(rows.x, rows.y, rows.b, rows.w, A, rows.T, rows.P, rows.N)
+
+
 def _geometry(rows, coef, model=None):
-    """(g (B, n, 2), h (B, n, 3)): slopes and second derivatives of a fit at the contacts;
-    ``model`` (B,) 1 where ``coef`` is the round model (its closed-form part added)."""
+    """(g (B, n, 2), h (B, n, 3)): slopes and second derivatives of a fit at the contacts
+    (``rows`` or ``_positions``: their x, y); ``model`` (B,) 1 where ``coef`` is the round
+    model (its closed-form part added)."""
     x, y = rows.x, rows.y
     order = jet_basis.order_of(coef.shape[-1])
     d = jet_basis.design(x, y, order, ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
@@ -321,7 +355,8 @@ def _noise(p, nrm, mask, noise_pos, noise_normal, L):
     sig = np.maximum(sig, WEIGHT_FLOOR)
     if noise_pos is not None and noise_normal is not None:
         return sig, dof
-    geo = _geometry(_rows(p, nrm, mask, sig), _quadric(_rows(p, nrm, mask, sig)).sol.coef)
+    rows = _rows(p, nrm, mask, sig)
+    geo = _geometry(rows, _quadric(rows).sol.coef)
     n = mask.sum(axis=1)
     if noise_pos is None:
         sig[:, 0], dof[:, 0] = _reml(p, nrm, mask, sig, geo, "pos", n)
@@ -391,27 +426,47 @@ def _quadric(rows):
 
 
 def _round(rows, mask, coef):
-    """Gauss-Newton on the 'round' model from ``coef`` until every step is below ``GN_TOL``
-    (at most ``GN_MAX_STEPS``); the last solve only linearises at the final iterate."""
+    """Gauss-Newton on the 'round' model from ``coef``, per patch until every step is below
+    ``GN_TOL`` (at most ``GN_MAX_STEPS``): a patch that has converged leaves the batch, so it
+    gets the iterations it would get alone; its last solve only linearises at its final
+    iterate.  The iterates of a patch its contacts do not determine (two points, say) may
+    overflow: ``batch_lstsq`` gives it NaN, ``ok`` is False, and it is refused later."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return _gauss_newton(rows, mask, coef)
+
+
+def _gauss_newton(rows, mask, coef):
     x, y, b, w, A = rows.x, rows.y, rows.b, rows.w, rows.A
     cols = list(jet_basis.HESSIAN)
     coef = _inside_rim(coef, x, y, mask, START_Q2)
+    todo = np.arange(len(coef))
+    parts, J_all, r_all = [], np.empty_like(A), np.empty_like(b)
     for step in range(GN_MAX_STEPS + 1):
-        H = jet_basis.hessian(coef)
-        J = A.copy()
-        J[..., cols] += rows.whiten(jet_basis.round_jacobian(x, y, H))
-        excess = rows.whiten(jet_basis.round_rows(x, y, H))
-        r = b - np.einsum("bmp,bp->bm", A, coef) - excess
-        sol = batch_lstsq.solve(J, r, w)
-        tiny = np.abs(sol.coef) <= GN_TOL * np.maximum(np.abs(coef), 1.0)
-        if step == GN_MAX_STEPS or np.all(tiny | ~np.isfinite(sol.coef)):
+        xs, ys, c, T = x[todo], y[todo], coef[todo], rows.T[todo]
+        H = jet_basis.hessian(c)
+        J = A[todo]
+        J[..., cols] += _whiten(jet_basis.round_jacobian(xs, ys, H), T)
+        r = (
+            b[todo]
+            - np.einsum("bmp,bp->bm", A[todo], c)
+            - _whiten(jet_basis.round_rows(xs, ys, H), T)
+        )
+        sol = batch_lstsq.solve(J, r, w[todo])
+        tiny = np.abs(sol.coef) <= GN_TOL * np.maximum(np.abs(c), 1.0)
+        done = np.all(tiny | ~np.isfinite(sol.coef), axis=1) | (step == GN_MAX_STEPS)
+        parts.append((todo[done], batch_lstsq.take(sol, done)))
+        J_all[todo[done]], r_all[todo[done]] = J[done], r[done]
+        go = ~done
+        coef[todo[go]] = _step(c[go], sol.coef[go], xs[go], ys[go], mask[todo[go]])
+        todo = todo[go]
+        if not todo.size:
             break
-        coef = _step(coef, sol.coef, x, y, mask)
+    sol = batch_lstsq.merge(parts, len(coef))
     # the last solve only linearises at the iterate: keep the iterate and its own residual
-    sol.coef, sol.residual = coef, r * w
+    sol.coef, sol.residual = coef, r_all * w
     sol.rss = np.einsum("bm,bm->b", sol.residual, sol.residual)
     ok = jet_basis.round_valid(x, y, jet_basis.hessian(coef), mask) & np.all(np.isfinite(coef), 1)
-    return _Model(sol, J, ok)
+    return _Model(sol, J_all, ok)
 
 
 def _inside_rim(coef, x, y, mask, limit):
@@ -577,7 +632,7 @@ def _split_fits(p, nrm, mask, sig, dof, fits):
     (blind (B, p, 5), scale (B, 5)) of ``batch_lstsq`` for the five derivatives: what that
     row type does not determine (positions on two lines do not give z_xx; nothing on one
     line gives the curvature across it)."""
-    geo = _geometry(_rows(p, nrm, mask, sig), fits.coef, fits.model)
+    geo = _geometry(_positions(p, mask), fits.coef, fits.model)
     out = []
     for part in ("pos", "slopes"):
         first = _rows(p, nrm, mask, sig, geo, ORDER, part)
@@ -590,7 +645,7 @@ def _split_fits(p, nrm, mask, sig, dof, fits):
         # misfit of this row type under its own better family: model error, not disagreement
         best = np.minimum(model.sol.rss, np.where(rnd.ok, rnd.sol.rss, np.inf))
         own_s2 = np.maximum(best / np.maximum(rows.w.sum(axis=1) - model.sol.rank, 1), 1.0)
-        for key in ("coef", "pinv", "rss", "blind", "scale", "rank"):
+        for key in ("coef", "Q", "P", "rss", "blind", "scale", "rank"):
             a, b = getattr(rnd.sol, key), getattr(model.sol, key)
             shape = pick.reshape(pick.shape[:1] + (1,) * (np.ndim(a) - 1))
             setattr(model.sol, key, np.where(shape, a, b))

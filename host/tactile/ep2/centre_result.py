@@ -1,6 +1,7 @@
 """From a centre-jet fit (``centre_jet``) to what a user is told: or why nothing is told.
 
-Per patch, in order:
+Per patch (each step runs on a whole stack of patches, with the same numbers for a
+patch alone or in a batch), in order:
 
 1. **Determined?**  The 95 % half-width of the curvature in the worst
    direction (largest eigenvalue of Cov(t), model-choice bias included) must
@@ -9,11 +10,8 @@ Per patch, in order:
    direction), two nearly coincident lines or a cluster that leaves one
    direction unsampled fails here and is refused (``DataError``, exit 3)
    naming that direction.  No geometric special case: the covariance carries it.
-2. **Consistent?**  The curvature from the positions alone and from the
-   normals alone (``centre_jet._split_fits``) must agree within their
-   covariances (test level 1e-5), unless their gap is below half the curvature (model
-   bias on noise-free data).  Otherwise refused: the normals contradict the
-   positions (sign, frame, localisation).
+2. **Consistent?**  The positions and the normals must describe one surface
+   (``agreement``, tested before 1.).
 3. **Intervals and label** (``uncertainty``, ``classify``): Cov is widened by
    the F quantile for its estimated noise (Satterthwaite degrees of
    freedom), the anisotropy is debiased where the curvature is resolved, and
@@ -33,9 +31,6 @@ from tactile.ep2.surface_geometry import eigen, principal, shape_entries
 MAX_HALF_WIDTH = 0.25  # x 1/L: the curvature's 95 % half-width beyond which it is not determined
 MIN_SPREAD = 5.0  # the contacts' spread in their thinnest direction, in position-noise sds
 PATH_PLANE_DEG = 45.0  # contacts in one plane tilted further than this from the surface: one path
-AGREE = 0.99999  # positions vs normals: test level (false alarms 1e-5 per patch)
-AGREE_REL = 0.5  # ... and the curvature gap must exceed this share of the curvature
-AGREE_TILT = 0.05  # ... or the tilt gap this many rad (3 deg)
 
 
 def widen(nu, q=3, p=0.95):
@@ -46,6 +41,12 @@ def widen(nu, q=3, p=0.95):
     finite = np.isfinite(nu)
     out = np.where(finite, q * fdtri(q, np.maximum(np.where(finite, nu, 1.0), 1.0), p) / chi2, 1.0)
     return float(out) if out.ndim == 0 else out
+
+
+def direction_text(d):
+    """ "(x, y, z)" of a unit direction to two decimals; a component that rounds to zero is
+    printed "0.00" whatever its sign (round-off differs between a batch and one patch)."""
+    return "(" + ", ".join(f"{0.0 if abs(v) < 0.005 else v:.2f}" for v in d) + ")"
 
 
 def determination(cov, axes, scale, spread, noise_pos):
@@ -79,11 +80,32 @@ def determination(cov, axes, scale, spread, noise_pos):
     worst = th[int(np.argmax(np.einsum("in,ij,jn->n", u, cov, u)))]
     d = np.cos(worst) * axes[0] + np.sin(worst) * axes[1]
     return (
-        f"curvature along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: its 95 %"
+        f"curvature along {direction_text(d)} is not determined: its 95 %"
         f" interval is +/- {half / scale:.3g} per unit length, over {MAX_HALF_WIDTH:g}/L"
         f" (L = {scale:.4g}); the contacts do not span that direction well (near one line,"
         " lines too close, or bunched): sweep across it"
     )
+
+
+def determination_many(cov, axes, scale, spread, noise_pos):
+    """``determination`` of every patch of a stack (cov (B, 3, 3), axes (B, 3, 3), scale and
+    noise_pos (B,), spread as ``spread_eigen`` gives it with the axes (B, 3, 3)): its three
+    tests on the whole stack, the message written for the patches that fail one."""
+    half = 1.96 * np.sqrt(np.maximum(np.linalg.eigvalsh(cov)[:, -1], 0.0))
+    (w2, v2, w3, v3), mean_axes = spread
+    floor = MIN_SPREAD * np.maximum(noise_pos / scale, 1e-3)
+    thin = np.sqrt(np.maximum(w2[:, 0], 0.0)) >= floor
+    apart = np.sqrt(np.maximum(w3[:, 0], 0.0)) >= floor
+    apart |= np.abs(v3[:, 2, 0]) >= math.cos(math.radians(PATH_PLANE_DEG))
+    fine = thin & apart & (half <= MAX_HALF_WIDTH)
+    return [
+        None
+        if fine[i]
+        else determination(
+            cov[i], axes[i], scale[i], ((w2[i], v2[i], w3[i], v3[i]), mean_axes[i]), noise_pos[i]
+        )
+        for i in range(len(cov))
+    ]
 
 
 def spread_eigen(xyz, mask):
@@ -106,7 +128,7 @@ def _thin_line(spread_w, spread_v, mean_axes, scale, sigma):
         return None
     d = spread_v[0, 0] * mean_axes[0] + spread_v[1, 0] * mean_axes[1]
     return (
-        f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
+        f"curvature across {direction_text(d)} is not determined: the"
         f" contacts lie near one line, spread only {thin * scale:.3g} across it, under"
         f" {MIN_SPREAD:g} times their position noise ({sigma * scale:.3g}): sweep across it"
     )
@@ -120,99 +142,11 @@ def _one_path_plane(w, v, mean_axes, scale, sigma):
     d = d / np.linalg.norm(d)
     tilt = math.degrees(math.acos(min(abs(float(p[2])), 1.0)))
     return (
-        f"curvature across ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) is not determined: the"
+        f"curvature across {direction_text(d)} is not determined: the"
         f" contacts lie in one plane standing {tilt:.0f} deg from the surface (one path), within"
         f" {thick * scale:.3g} of it, under {MIN_SPREAD:g} times their position noise"
         f" ({sigma * scale:.3g}): sweep across it"
     )
-
-
-def consistency(split, dof, scale, axes):
-    """(refusal or None, warning or None, curvature gap (3,)) for positions vs normals.
-
-    ``split`` = ((d, cov, blind) from the positions alone, ... from the normals alone),
-    d = (z_x, z_y, z_xx, z_xy, z_yy) at the centre; only the combinations both row types
-    determine are compared.  Beyond their noise
-    (test level 1 - ``AGREE``, 5 dof) they disagree; when the gap is also large
-    in itself (curvature gap over ``AGREE_REL`` of the curvature, or tilt gap over
-    ``AGREE_TILT`` rad: more than model bias on noise-free data reaches) the
-    patch is refused, otherwise it is a warning and the intervals are widened
-    by the gap (a real rig's normals carry friction and calibration errors).
-    """
-    (dp, cp, bp), (dn, cn, bn) = split
-    seen = _both_determine(_determined(*bp, cp), _determined(*bn, cn))  # (5, r)
-    gap = dp - dn
-    if seen.shape[1] == 0:
-        return None, None, np.zeros(3)
-    d2 = _mahalanobis2(seen.T @ gap, seen.T @ (cp + cn) @ seen)
-    crit = 5.0 * float(fdtri(5, max(dof, 1.0) if np.isfinite(dof) else 1e9, AGREE))
-    tp, tn = (np.array(shape_entries(*d)) for d in (dp, dn))
-    if d2 <= crit:
-        return None, None, np.zeros(3)
-    kp, kn = (np.array(eigen(*t)) / scale for t in (tp, tn))
-    # round-off zeros print as 0 (a batch and a single patch differ there, nowhere else)
-    top = max(float(np.abs(kp).max()), float(np.abs(kn).max()))
-    kp, kn = (np.where(np.abs(k) <= 1e-12 * top, 0.0, k) for k in (kp, kn))
-    tilt = math.degrees(math.atan(math.hypot(gap[0], gap[1])))
-    text = (
-        "positions and normals disagree: the positions give curvatures"
-        f" ({kp[0]:.3g}, {kp[1]:.3g}) per unit length, the normals ({kn[0]:.3g}, {kn[1]:.3g})"
-        f"{_where_most(tp, tn, axes, scale)}, tilts {tilt:.1f} deg apart ({math.sqrt(d2):.1f} sd)"
-    )
-    big = _norm(tp - tn) > AGREE_REL * max(_norm(tp), _norm(tn))
-    if big or math.radians(tilt) > AGREE_TILT:
-        return text + "; check the normals' sign and frame or the contact localisation", None, gap
-    return None, text + "; intervals widened to hold both", tp - tn
-
-
-def _where_most(tp, tn, axes, scale):
-    """Text: the normal curvatures of both estimates along the tangent direction where
-    they differ most (tells a mirrored saddle, whose principal curvatures agree, apart)."""
-    a, b, c = tp - tn
-    w, v = np.linalg.eigh(np.array([[a, b], [b, c]]))
-    u = v[:, int(np.argmax(np.abs(w)))]
-    kp, kn = (float(u @ np.array([[t[0], t[1]], [t[1], t[2]]]) @ u) / scale for t in (tp, tn))
-    d = u[0] * axes[0] + u[1] * axes[1]
-    return f", along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f}) {kp:.3g} vs {kn:.3g}"
-
-
-def _determined(blind, scale, cov):
-    """Orthonormal basis (5, r) of the derivative combinations u one row type determines:
-    in its span (blind @ (u / scale) = 0, ``batch_lstsq.Solution``) and to the standard a
-    curvature must meet (95 % half-width <= ``MAX_HALF_WIDTH``).  A formally full but
-    ill-conditioned fit (two fingers whose lines are nearly, not exactly, straight in the
-    patch frame) amplifies model bias far beyond its noise: it is not compared."""
-    _, sv, vt = np.linalg.svd(blind)
-    rank = int(np.sum(sv > 1e-8))
-    v = vt[rank:].T  # in the scaled coordinates
-    if v.shape[1] == 0:
-        return v
-    q, _ = np.linalg.qr(v * scale[:, None])
-    w, V = np.linalg.eigh(q.T @ cov @ q)
-    keep = 1.96 * np.sqrt(np.maximum(w, 0.0)) <= MAX_HALF_WIDTH
-    return q @ V[:, keep]
-
-
-def _both_determine(qa, qb):
-    """Orthonormal basis of the intersection of two subspaces given by orthonormal bases."""
-    if qa.shape[1] == 0 or qb.shape[1] == 0:
-        return np.zeros((qa.shape[0], 0))
-    eye = np.eye(qa.shape[0])
-    stacked = np.vstack([eye - qa @ qa.T, eye - qb @ qb.T])
-    _, sv, vt = np.linalg.svd(stacked)
-    rank = int(np.sum(sv > 1e-6))
-    return vt[rank:].T
-
-
-def _norm(t):
-    return math.sqrt(t[0] ** 2 + 2 * t[1] ** 2 + t[2] ** 2)
-
-
-def _mahalanobis2(v, cov):
-    w, V = np.linalg.eigh(cov)
-    keep = w > 1e-12 * max(float(w.max()), 1e-300)
-    proj = V[:, keep].T @ v
-    return float(np.sum(proj * proj / w[keep]))
 
 
 def summary(t, cov, bias, scale, intervals=True, cov_noise=None):
@@ -221,35 +155,55 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None):
     ``cov`` (floored, widened) sets the intervals and the tests; the anisotropy is debiased
     with ``cov_noise``, the estimate's own scatter (default ``cov``): a floor meant to keep
     intervals honest must not pull a low-noise estimate's k1 and k2 together."""
+    one = [None if v is None else np.asarray(v, float)[None] for v in (t, cov, bias, cov_noise)]
+    return summary_many(one[0], one[1], one[2], np.array([scale], float), intervals, one[3])[0]
+
+
+def summary_many(t, cov, bias, scale, intervals=True, cov_noise=None):
+    """``summary`` of every patch of a stack: t (B, 3), cov and cov_noise (B, 3, 3), bias
+    (B, 3), scale (B,); a list of dicts.  The linear algebra runs on the whole stack."""
     d2 = classify.flatness_distance(t, cov)
-    k1, k2 = (float(v) for v in eigen(*t))
-    r = math.sqrt(0.5 * (k1 * k1 + k2 * k2))
-    plane = classify.is_plane(r, d2)
-    m, _, lam = uncertainty.anisotropy(t, cov)
-    _, h, _ = uncertainty.anisotropy(t, cov if cov_noise is None else cov_noise)
-    if plane:  # no debiasing where the curvature itself is not resolved
-        h = math.hypot(0.5 * (t[0] - t[2]), t[1])
+    k1s, k2s = eigen(*np.moveaxis(t, -1, 0))
+    m, _, lam = uncertainty.anisotropy_many(t, cov)
+    _, h, _ = uncertainty.anisotropy_many(t, cov if cov_noise is None else cov_noise)
+    r = np.sqrt(0.5 * (k1s * k1s + k2s * k2s))
+    plane = (r <= classify.R_TOL) | (d2 < classify.CHI2_3_999)  # ``classify.is_plane``
+    # no debiasing where the curvature itself is not resolved
+    h = np.where(plane, np.hypot(0.5 * (t[:, 0] - t[:, 2]), t[:, 1]), h)
+    iv = uncertainty.intervals_many(t, cov, m, h, lam, bias) if intervals else None
+    c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
+    return [
+        _summary_one(i, m, h, iv, (float(r[i]), float(d2[i]), bool(plane[i])), scale, c)
+        for i in range(len(t))
+    ]
+
+
+def _summary_one(i, m, h, iv, flat, scale, c):
+    """Patch ``i``'s fields of ``summary_many`` from its stack's arrays; ``flat`` = (R, d^2,
+    plane), ``c`` (B,) the curvedness C."""
+    (r, d2, plane), scale = flat, float(scale[i])
+    m, h = float(m[i]), float(h[i])
     out = dict.fromkeys("S C radius S_interval radius_interval k1_interval k2_interval".split())
     out.update(k1=(m + h) / scale, k2=(m - h) / scale, votes={})
-    iv = uncertainty.intervals(t, cov, m, h, lam, bias) if intervals else None
     if iv is not None:
-        out["k1_interval"] = tuple(v / scale for v in iv["k1"])
-        out["k2_interval"] = tuple(v / scale for v in iv["k2"])
+        out["k1_interval"] = tuple(float(v) / scale for v in iv["k1"][i])
+        out["k2_interval"] = tuple(float(v) / scale for v in iv["k2"][i])
     if plane:
         out.update(shape="plane", confidence=classify.plane_confidence(r, d2))
         return out
     s = float(shape_index(m + h, m - h))
     sd = None
     if iv is not None:
-        root = math.sqrt(iv["crit"])
-        sd = ((s - iv["S"][0]) / root, (iv["S"][1] - s) / root)
-        out["S_interval"] = iv["S"]
-        lo, hi = iv["kmax"]
+        root = math.sqrt(float(iv["crit"][i]))
+        s_iv = tuple(float(v) for v in iv["S"][i])
+        sd = ((s - s_iv[0]) / root, (s_iv[1] - s) / root)
+        out["S_interval"] = s_iv
+        lo, hi = (float(v) for v in iv["kmax"][i])
         out["radius_interval"] = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
     p_flat = classify.plane_confidence(r, d2)
     out["shape"], out["confidence"], out["votes"] = classify.vote(s, sd, p_flat)
     kmax = max(abs(m + h), abs(m - h))
-    out.update(S=s, radius=scale / kmax, C=float(curvedness_c(curvedness_r(k1, k2) / scale)))
+    out.update(S=s, radius=scale / kmax, C=float(c[i]))
     return out
 
 

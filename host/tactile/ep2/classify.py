@@ -34,17 +34,18 @@ CHI2_3_999 = 16.26623619623813  # chi^2 with 3 dof, 99.9 % quantile
 
 
 def flatness_distance(tensor, cov):
-    """Mahalanobis d^2 of the mean shape-operator entries (3,) from 0, given Cov (3, 3)."""
+    """Mahalanobis d^2 of the mean shape-operator entries from 0, per patch of a stack:
+    tensor (B, 3), cov (B, 3, 3) -> (B,)."""
     diff = np.asarray(tensor, float)
     w, v = np.linalg.eigh(cov)
-    keep = w > 1e-12 * max(w.max(), 1e-300)
-    if not keep.any():
-        return np.inf if np.any(tensor != 0) else 0.0
-    proj = v[:, keep].T @ diff
-    rest = diff - v[:, keep] @ proj
-    if np.linalg.norm(rest) > 1e-9 * max(np.linalg.norm(diff), 1e-300):
-        return np.inf  # curvature along a direction the data pin to zero spread
-    return float(np.sum(proj * proj / w[keep]))
+    keep = w > 1e-12 * np.maximum(w.max(axis=-1), 1e-300)[:, None]
+    proj = np.where(keep, np.einsum("bij,bi->bj", v, diff), 0.0)
+    rest = diff - np.einsum("bij,bj->bi", v, proj)
+    d2 = np.sum(np.where(keep, proj * proj / np.where(keep, w, 1.0), 0.0), axis=-1)
+    size = np.linalg.norm(diff, axis=-1)
+    # curvature along a direction the data pin to zero spread
+    d2 = np.where(np.linalg.norm(rest, axis=-1) > 1e-9 * np.maximum(size, 1e-300), np.inf, d2)
+    return np.where(keep.any(axis=-1), d2, np.where(np.any(diff != 0, axis=-1), np.inf, 0.0))
 
 
 def is_plane(r_mean, d2):

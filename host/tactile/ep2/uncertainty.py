@@ -74,18 +74,26 @@ def tensor_cov(G, cov_factor, s2):
 
 def anisotropy(t, cov):
     """(m, h, lambda): mean curvature, debiased anisotropy |v|, Mahalanobis |v_hat|."""
-    a, b, c = t
+    m, h, lam = anisotropy_many(np.asarray(t, float)[None], np.asarray(cov, float)[None])
+    return float(m[0]), float(h[0]), float(lam[0])
+
+
+def anisotropy_many(t, cov):
+    """``anisotropy`` of a stack: t (B, 3), cov (B, 3, 3) -> m, h, lambda each (B,)."""
+    a, b, c = np.moveaxis(t, -1, 0)
     m = 0.5 * (a + c)
-    v = np.array([0.5 * (a - c), b])
+    v = np.stack([0.5 * (a - c), b], axis=-1)
     cov_v = _T_DB @ cov @ _T_DB.T
-    h = float(np.sqrt(max(v @ v - np.trace(cov_v), 0.0)))
-    return float(m), h, _mahalanobis(v, cov_v)
+    h = np.sqrt(np.maximum(np.sum(v * v, -1) - np.trace(cov_v, axis1=-2, axis2=-1), 0.0))
+    return m, h, _mahalanobis(v, cov_v)
 
 
 def critical_value(lam):
-    """Ellipsoid radius^2 for 95 % coverage given the anisotropy's Mahalanobis length."""
-    x = max(0.0, lam - np.sqrt(CHI2_2_95)) / 0.1
-    return float(np.interp(x, np.arange(_CRIT.size), _CRIT))
+    """Ellipsoid radius^2 for 95 % coverage given the anisotropy's Mahalanobis length
+    (a number or an array of them)."""
+    x = np.maximum(0.0, np.asarray(lam, float) - np.sqrt(CHI2_2_95)) / 0.1
+    out = np.interp(x, np.arange(_CRIT.size), _CRIT)
+    return float(out) if out.ndim == 0 else out
 
 
 def critical_value_k(lam):
@@ -97,10 +105,11 @@ def critical_value_k(lam):
 
 
 def _mahalanobis(v, cov):
+    """|v| in the metric of ``cov`` per problem of the stack: v (B, k), cov (B, k, k)."""
     w, V = np.linalg.eigh(cov)
-    tiny = 1e-12 * max(float(w.max()), 0.0) + 1e-300
-    proj = V.T @ v
-    return float(np.sqrt(np.sum(proj * proj / np.maximum(w, tiny))))
+    tiny = 1e-12 * np.maximum(w.max(axis=-1), 0.0) + 1e-300
+    proj = np.einsum("bij,bi->bj", V, v)
+    return np.sqrt(np.sum(proj * proj / np.maximum(w, tiny[:, None]), axis=-1))
 
 
 def _sphere_dirs(n=160):
@@ -116,62 +125,76 @@ _DIRS = _sphere_dirs()
 
 
 def ellipsoid_points(t, cov, crits):
-    """For each radius^2 in ``crits``: (m, h) at the boundary samples of the ellipsoid
-    and where the umbilic axis a = c, b = 0 crosses it (those points have h = 0)."""
+    """For each radius^2 in ``crits`` (each (B,)): (m, h, ok) at the boundary samples of
+    each ellipsoid of the stack (t (B, 3), cov (B, 3, 3)) and where the umbilic axis
+    a = c, b = 0 crosses it (those points have h = 0); ``ok`` marks the samples that exist
+    (a gradient step or an axis crossing may not)."""
     w, V = np.linalg.eigh(cov)
     w = np.maximum(w, 0.0)
-    unit = np.hstack([(V * np.sqrt(w)) @ _DIRS, _gradient_steps(t, cov)])
+    steps, ok_steps = _gradient_steps(t, cov)
+    unit = np.concatenate([(V * np.sqrt(w)[:, None, :]) @ _DIRS, steps], axis=-1)
+    ok = np.concatenate([np.ones((len(t), _DIRS.shape[1]), bool), ok_steps], axis=-1)
     out = []
     for crit in crits:
-        pts = t[:, None] + np.sqrt(crit) * unit
-        m = 0.5 * (pts[0] + pts[2])
-        h = np.hypot(0.5 * (pts[0] - pts[2]), pts[1])
-        mu = _axis_crossing(t, w, V, crit)
-        out.append((np.concatenate([m, mu]), np.concatenate([h, np.zeros(mu.size)])))
+        pts = t[:, :, None] + np.sqrt(crit)[:, None, None] * unit
+        m = 0.5 * (pts[:, 0] + pts[:, 2])
+        h = np.hypot(0.5 * (pts[:, 0] - pts[:, 2]), pts[:, 1])
+        mu, ok_mu = _axis_crossing(t, w, V, crit)
+        out.append(
+            (
+                np.concatenate([m, mu], axis=-1),
+                np.concatenate([h, np.zeros_like(mu)], axis=-1),
+                np.concatenate([ok, ok_mu], axis=-1),
+            )
+        )
     return out
 
 
 def _gradient_steps(t, cov):
     """Unit-radius steps cov g / sqrt(g^T cov g) along the gradients g of m, h, k1, k2
     and S at t (both signs): where a locally linear quantity has its extremes, so the
-    sampled range is never narrower than the delta-method interval."""
-    a, b, c = t
+    sampled range is never narrower than the delta-method interval.  (B, 3, 10) steps and
+    (B, 10) which exist (h's gradients need h > 0; a step needs g^T cov g > 0)."""
+    a, b, c = np.moveaxis(t, -1, 0)
     d = 0.5 * (a - c)
     h = np.hypot(d, b)
-    gm = np.array([0.5, 0.0, 0.5])
-    grads = [gm]
-    if h > 0:
-        gh = np.array([0.5 * d / h, b / h, -0.5 * d / h])
-        m = 0.5 * (a + c)
-        r = np.hypot(m, h)  # > 0; m^2 + h^2 itself underflows for curvatures near 1e-160
-        gs = ((h / r) * gm - (m / r) * gh) / r
-        grads += [gh, gm + gh, gm - gh, gs]
-    steps = []
-    for g in grads:
-        big = np.max(np.abs(g))
-        if not 0 < big < np.inf:
-            continue
-        g = g / big  # the step is scale-free in g, and gs grows like 1/curvature
-        cg = cov @ g
-        n = np.sqrt(max(float(g @ cg), 0.0))
-        if n > 0:
-            steps += [cg / n, -cg / n]
-    return np.array(steps).T if steps else np.zeros((3, 0))
+    pos = h > 0
+    hs = np.where(pos, h, 1.0)
+    gm = np.broadcast_to(np.array([0.5, 0.0, 0.5]), t.shape)
+    gh = np.stack([0.5 * d / hs, b / hs, -0.5 * d / hs], axis=-1)
+    m = 0.5 * (a + c)
+    r = np.hypot(m, hs)[:, None]  # > 0; m^2 + h^2 itself underflows for curvatures near 1e-160
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        gs = ((hs[:, None] / r) * gm - (m[:, None] / r) * gh) / r
+    grads = np.stack([gm, gh, gm + gh, gm - gh, gs], axis=1)  # (B, 5, 3)
+    big = np.max(np.abs(grads), axis=-1)
+    ok = (0 < big) & (big < np.inf)
+    ok[:, 1:] &= pos[:, None]
+    g = grads / np.where(ok, big, 1.0)[..., None]  # the step is scale-free in g
+    g = np.where(ok[..., None], g, 0.0)
+    cg = np.einsum("bij,bkj->bki", cov, g)
+    n = np.sqrt(np.maximum(np.sum(g * cg, axis=-1), 0.0))
+    ok &= n > 0
+    step = cg / np.where(ok, n, 1.0)[..., None]
+    steps = np.stack([step, -step], axis=2).reshape(len(t), 10, 3)  # +, - per gradient
+    return np.swapaxes(steps, -1, -2), np.repeat(ok, 2, axis=1)
 
 
 def _axis_crossing(t, w, V, crit):
-    """Values mu where (mu, 0, mu) lies on the ellipsoid boundary (0 or 2 values)."""
-    tiny = 1e-12 * max(float(w.max()), 0.0) + 1e-300
-    inv = (V / np.maximum(w, tiny)) @ V.T
+    """Values mu (B, 2) where (mu, 0, mu) lies on each ellipsoid's boundary, and whether
+    they exist (B, 2) (0 or 2 values)."""
+    tiny = 1e-12 * np.maximum(w.max(axis=-1), 0.0) + 1e-300
+    inv = (V / np.maximum(w, tiny[:, None])[:, None, :]) @ np.swapaxes(V, -1, -2)
     e = np.array([1.0, 0.0, 1.0])
-    qa = e @ inv @ e
-    qb = e @ inv @ t
-    qc = t @ inv @ t - crit
+    qa = np.einsum("i,bij,j->b", e, inv, e)
+    qb = np.einsum("i,bij,bj->b", e, inv, t)
+    qc = np.einsum("bi,bij,bj->b", t, inv, t) - crit
     disc = qb * qb - qa * qc
-    if not disc >= 0 or not qa > 0:
-        return np.empty(0)
-    root = np.sqrt(disc)
-    return np.array([(qb - root) / qa, (qb + root) / qa])
+    ok = (disc >= 0) & (qa > 0)
+    root = np.sqrt(np.where(ok, disc, 0.0))
+    qa = np.where(ok, qa, 1.0)
+    mu = np.stack([(qb - root) / qa, (qb + root) / qa], axis=-1)
+    return mu, np.repeat(ok[:, None], 2, axis=1)
 
 
 def intervals(t, cov, m, h, lam, bias=None):
@@ -181,21 +204,35 @@ def intervals(t, cov, m, h, lam, bias=None):
     (3,) or None a model-bias vector whose outer product is added to Cov.
     S uses ``critical_value(lam)``; k1, k2 and kmax use ``critical_value_k(lam)``.
     """
+    one = (np.asarray(t, float)[None], np.asarray(cov, float)[None])
+    bias = None if bias is None else np.asarray(bias, float)[None]
+    many = intervals_many(*one, *(np.array([v], float) for v in (m, h, lam)), bias)
+    out = {k: (float(v[0, 0]), float(v[0, 1])) for k, v in many.items() if k != "crit"}
+    out["crit"] = float(many["crit"][0])
+    return out
+
+
+def intervals_many(t, cov, m, h, lam, bias=None):
+    """``intervals`` of a stack: t (B, 3), cov (B, 3, 3), m, h, lam (B,), bias (B, 3) or
+    None; each interval (B, 2), ``crit`` (B,)."""
     from tactile.ep2.shape_index import shape_index
 
     if bias is not None:
-        cov = cov + np.outer(bias, bias)
+        cov = cov + bias[:, :, None] * bias[:, None, :]
     crit_s = critical_value(lam)
     crit_k = critical_value_k(lam)
-    (sm, sh), (pm, ph) = ellipsoid_points(t, cov, (crit_s, crit_k))
+    (sm, sh, s_ok), (pm, ph, p_ok) = ellipsoid_points(t, cov, (crit_s, crit_k))
     S = shape_index(sm + sh, sm - sh)
-    est = {"S": float(shape_index(m + h, m - h)), "k1": m + h, "k2": m - h, "kmax": abs(m) + h}
-    vals = {"S": S, "k1": pm + ph, "k2": pm - ph, "kmax": np.abs(pm) + ph}
+    est = {"S": shape_index(m + h, m - h), "k1": m + h, "k2": m - h, "kmax": np.abs(m) + h}
+    vals = {"S": (S, s_ok), "k1": (pm + ph, p_ok), "k2": (pm - ph, p_ok)}
+    vals["kmax"] = (np.abs(pm) + ph, p_ok)
     out = {}
-    for key, v in vals.items():
-        out[key] = (float(min(v.min(), est[key])), float(max(v.max(), est[key])))
+    for key, (v, ok) in vals.items():
+        lo = np.minimum(np.where(ok, v, np.inf).min(axis=-1), est[key])
+        hi = np.maximum(np.where(ok, v, -np.inf).max(axis=-1), est[key])
+        out[key] = np.stack([lo, hi], axis=-1)
     # the origin inside the ellipsoid: kmax can be 0 (a plane is compatible)
-    if _mahalanobis(t, cov) ** 2 <= crit_k:
-        out["kmax"] = (0.0, out["kmax"][1])
+    inside = _mahalanobis(t, cov) ** 2 <= crit_k
+    out["kmax"][:, 0] = np.where(inside, 0.0, out["kmax"][:, 0])
     out["crit"] = crit_s
     return out
