@@ -37,3 +37,17 @@ def test_the_recordings_example_runs_as_written(tmp_path):
     touching = re.match(r"(\d+) readings in 1 contact\(s\), mean \|F\| (\d+\.\d\d) N$", out[3])
     assert touching and int(touching.group(1)) > 10 and float(touching.group(2)) > 1.39  # gate
     assert re.match(r"/tactile/sensor0/wrench \[tactile_sensor0\] first force \(.*\) N$", out[4])
+    _parquet_block_runs_on_the_same_run(tmp_path)
+
+
+def _parquet_block_runs_on_the_same_run(cwd):
+    """The Parquet section's block, after the example recorded run1 in ``cwd``."""
+    text = (ROOT / "docs" / "recordings.md").read_text(encoding="utf-8")
+    section = text[text.index("## Parquet") :]
+    lines = re.search(r"```sh\n(.*?)```", section, re.S).group(1).strip().splitlines()
+    assert len(lines) == 2 and all(line.startswith(".venv/bin/") for line in lines)
+    for line in lines:
+        r = subprocess.run(line, shell=True, cwd=cwd, capture_output=True, text=True)
+        assert r.returncode == 0 and r.stderr == "", (line, r.stderr)
+    assert (cwd / "run1" / "run1.parquet").stat().st_size > 0
+    assert re.fullmatch(r"\d+ frames, fx_N in N\n", r.stdout), r.stdout

@@ -151,7 +151,7 @@ def test_help_shows_the_defaults(capsys):
     with pytest.raises(SystemExit):
         main(["export", "--help"])
     text = " ".join(capsys.readouterr().out.split())
-    assert "(default mcap)" in text and "(default: RUN/NAME.mcap, NAME the directory's" in text
+    assert "(default mcap)" in text and "(default: RUN/NAME.mcap or RUN/NAME.parquet, NAME" in text
 
 
 def test_without_the_extra_the_command_says_how_to_install_it(run, tmp_path, cli, monkeypatch):

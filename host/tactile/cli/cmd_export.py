@@ -1,11 +1,13 @@
-"""``tactile export RUN --format mcap [-o FILE]``: a recording as a file other tools open.
+"""``tactile export RUN --format mcap|parquet [-o FILE]``: a recording other tools open.
 
 ``mcap``: ROS 2 messages (``tactile.export_mcap``) for Foxglove and ROS 2 tools; it needs
-the ``export`` extra, and without it the command prints the install line and exits 2.
-The one-line summary names the file, the messages per topic and the clock of the stamps.
+the ``export`` extra.  ``parquet``: the frames (and contacts) as tables with units
+(``tactile.export_parquet``) for pandas and Arrow; it needs the ``parquet`` extra.  Without
+its extra the command prints the install line and exits 2.  The one-line summary names the
+file(s), what they hold and the clock of the stamps.
 """
 
-FORMATS = ("mcap",)
+FORMATS = ("mcap", "parquet")
 
 
 def add_arguments(parser):
@@ -14,10 +16,14 @@ def add_arguments(parser):
         "--format",
         choices=FORMATS,
         default="mcap",
-        help="mcap: ROS 2 WrenchStamped per sensor and a PoseArray of contacts (default mcap)",
+        help="mcap: ROS 2 WrenchStamped per sensor and a PoseArray of contacts; parquet: the"
+        " frames and contacts as tables with units (default mcap)",
     )
     parser.add_argument(
-        "-o", "--out", help="output file (default: RUN/NAME.mcap, NAME the directory's name)"
+        "-o",
+        "--out",
+        help="output file (default: RUN/NAME.mcap or RUN/NAME.parquet, NAME the directory's"
+        " name; parquet puts the contacts beside it, in NAME.contacts.parquet)",
     )
 
 
@@ -25,18 +31,31 @@ def run(args):
     import pathlib
 
     from tactile.errors import InputError
-    from tactile.export_mcap import require_mcap, write_mcap
     from tactile.recording_load import load_recording
 
-    require_mcap()  # the install hint before any work
+    if args.format == "parquet":
+        from tactile.export_parquet import require_pyarrow as require
+        from tactile.export_parquet import write_parquet as write
+    else:
+        from tactile.export_mcap import require_mcap as require
+        from tactile.export_mcap import write_mcap as write
+    require()  # the install hint before any work
     run_dir = pathlib.Path(args.run)
     if not run_dir.is_dir():
         raise InputError(f"{run_dir}: not a directory (expected 'tactile record -o {run_dir}')")
     name = f"{run_dir.resolve().name}.{args.format}"
     out = pathlib.Path(args.out) if args.out else run_dir / name
-    summary = write_mcap(load_recording(run_dir), out)
-    print(line(summary), flush=True)
+    summary = write(load_recording(run_dir), out)
+    print(line(summary) if args.format == "mcap" else parquet_line(summary), flush=True)
     return 0
+
+
+def parquet_line(summary):
+    """``wrote FILE: N frames (N, N*m, s)[; FILE2: M contacts (m)]``."""
+    out = f"wrote {summary['path']}: {summary['frames']:,} frames (N, N*m, s; units in the schema)"
+    if summary["contacts_path"]:
+        out += f"; {summary['contacts_path']}: {summary['contacts']:,} contacts (m)"
+    return out
 
 
 def line(summary):

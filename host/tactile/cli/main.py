@@ -22,7 +22,10 @@ COMMANDS = {
     "record": ("tactile.cli.cmd_record", "record a stream: raw capture, contacts CSV, metadata"),
     "live": ("tactile.cli.cmd_live", "terminal view of force/torque and contact state"),
     "decode": ("tactile.cli.cmd_decode", "decode a raw byte capture into JSON lines"),
-    "export": ("tactile.cli.cmd_export", "write a recording as MCAP (ROS 2) for other tools"),
+    "export": (
+        "tactile.cli.cmd_export",
+        "write a recording as MCAP (ROS 2) or Parquet for other tools",
+    ),
     "emulate": ("tactile.cli.cmd_emulate", "serve a simulated board on a pseudo-terminal"),
     "flash": ("tactile.cli.cmd_flash", "copy the firmware onto a MicroPython board"),
     "ep1": ("tactile.cli.cmd_ep1", "EP1: curvature at a point from rolling probes (ch. 3)"),

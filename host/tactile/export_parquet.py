@@ -1,0 +1,132 @@
+"""A recording as Parquet tables, for pandas, polars, DuckDB and Arrow users.
+
+``RUN.parquet`` holds the frames, one row per SAMPLE or CONTACT frame in file order, with
+the columns of ``tactile.load_recording`` (``COLUMNS``): board time, host time, sensor,
+contact fields, and the wrench in N and N*m.  ``RUN.contacts.parquet`` beside it holds
+contacts.csv in m, when the run has one.  Every column's unit is in its Arrow field
+metadata (``unit``), and the file's metadata holds ``tactile`` (version, source, units)
+and the recording's ``meta.json``.  A host time the recording does not determine is a null,
+never a NaN.
+
+``pyarrow`` is the ``parquet`` extra, imported only here.
+"""
+
+import json
+import os
+import pathlib
+
+import numpy as np
+
+from tactile import __version__
+from tactile.errors import InputError, TactileError
+
+INSTALL_HINT = "Parquet export needs the 'parquet' extra: pip install 'tactile-shape[parquet]'"
+
+# column, RecordingData attribute (index into a 2-D one), unit
+COLUMNS = (
+    ("seq", "seq", None, "1"),
+    ("board_us", "board_us", None, "us"),
+    ("segment", "segment", None, "1"),
+    ("board_time_s", "board_time_s", None, "s"),
+    ("host_utc_s", "host_utc_s", None, "s"),
+    ("host_monotonic_s", "host_monotonic_s", None, "s"),
+    ("sensor", "sensor", None, "1"),
+    ("is_contact", "is_contact", None, "1"),
+    ("phase", "phase", None, "1"),
+    ("contact_id", "contact_id", None, "1"),
+    ("flags", "flags", None, "1"),
+    ("fx_N", "force_N", 0, "N"),
+    ("fy_N", "force_N", 1, "N"),
+    ("fz_N", "force_N", 2, "N"),
+    ("tx_Nm", "torque_Nm", 0, "N*m"),
+    ("ty_Nm", "torque_Nm", 1, "N*m"),
+    ("tz_Nm", "torque_Nm", 2, "N*m"),
+)
+CONTACT_COLUMNS = (("x_m", "m"), ("y_m", "m"), ("z_m", "m"), ("nx", "1"), ("ny", "1"), ("nz", "1"))
+
+
+class ParquetUnavailable(TactileError):
+    """The ``parquet`` extra (pyarrow) is not installed."""
+
+    exit_code = 2
+
+
+def require_pyarrow():
+    """``(pyarrow, pyarrow.parquet)``, or ``ParquetUnavailable`` with the install hint."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise ParquetUnavailable(INSTALL_HINT) from None
+    return pa, pq
+
+
+def _array(pa, values):
+    """An Arrow array; NaN (a host time not determined) becomes null."""
+    values = np.asarray(values)
+    if values.dtype.kind == "f":
+        return pa.array(values, mask=~np.isfinite(values))
+    return pa.array(values)
+
+
+def frames_table(rec):
+    """The frames of ``rec`` (a ``RecordingData``) as an Arrow table with units."""
+    pa, _ = require_pyarrow()
+    fields, arrays = [], []
+    for name, attr, col, unit in COLUMNS:
+        values = getattr(rec, attr)
+        if values is None:  # no host time at all: a column of nulls, still typed
+            values = np.full(len(rec), np.nan)
+        arr = _array(pa, values if col is None else values[:, col])
+        fields.append(pa.field(name, arr.type, metadata={"unit": unit}))
+        arrays.append(arr)
+    why = rec.host_time_why or ""
+    meta = {"tactile": _describe("frames", rec, why), "meta.json": json.dumps(rec.meta)}
+    return pa.Table.from_arrays(arrays, schema=pa.schema(fields, metadata=meta))
+
+
+def contacts_table(contacts):
+    """contacts.csv (``rec.contacts``) in m as an Arrow table: points, normals, labels."""
+    pa, _ = require_pyarrow()
+    values = np.hstack([contacts.points_m, contacts.normals])
+    fields = [pa.field(n, pa.float64(), metadata={"unit": u}) for n, u in CONTACT_COLUMNS]
+    arrays = [pa.array(values[:, i]) for i in range(6)]
+    for label in ("finger", "patch"):
+        if getattr(contacts, label) is not None:
+            fields.append(pa.field(label, pa.string(), metadata={"unit": "label"}))
+            arrays.append(pa.array([str(v) for v in getattr(contacts, label)]))
+    return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
+
+
+def _describe(what, rec, why):
+    return json.dumps(
+        {
+            "version": __version__,
+            "table": what,
+            "source": str(rec.path),
+            "host_time": rec.host_time_source,
+            "host_time_why": why,
+        }
+    )
+
+
+def write_parquet(rec, path):
+    """Write ``rec`` to ``path`` (frames) and, with contacts, ``NAME.contacts.parquet``
+    beside it, each replaced whole (written beside, then renamed).  Returns a summary."""
+    _, pq = require_pyarrow()
+    path = pathlib.Path(path)
+    out = {"path": str(path), "frames": len(rec), "contacts": None, "contacts_path": None}
+    tables = [(path, frames_table(rec))]
+    if rec.contacts is not None:
+        cpath = path.with_name(path.name.removesuffix(".parquet") + ".contacts.parquet")
+        tables.append((cpath, contacts_table(rec.contacts)))
+        out.update(contacts=len(rec.contacts.points_m), contacts_path=str(cpath))
+    for target, table in tables:
+        tmp = target.with_name(target.name + ".tmp")
+        try:
+            pq.write_table(table, tmp)
+            os.replace(tmp, target)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise InputError(f"{target}: cannot write the Parquet file ({exc.strerror})") from None
+    return out
