@@ -22,7 +22,8 @@ from tactile.ep1.from_ft import read_probe_log
 from tactile.ep1.probes_csv import read_probes
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError
-from tactile.localize.pose_log import posed_world_contacts, read_pose_log
+from tactile.localize.pose_log import read_pose_log
+from tactile.localize.posed import posed_world_contacts
 
 pytestmark = pytest.mark.filterwarnings("error")
 

@@ -16,12 +16,8 @@ from sweep_record import record_sweep
 
 from tactile.ep2 import analyze_patch
 from tactile.errors import InputError
-from tactile.localize.pose_log import (
-    MAX_NORMAL_SD_DEG,
-    normal_sd,
-    posed_world_contacts,
-    read_pose_log,
-)
+from tactile.localize.pose_log import read_pose_log
+from tactile.localize.posed import MAX_NORMAL_SD_DEG, normal_sd, posed_world_contacts
 from tactile.localize.sphere import sphere_contact
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR, SceneError, load_scene

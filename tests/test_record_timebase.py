@@ -17,7 +17,8 @@ import pytest
 from drift_port import DriftingPort
 
 from tactile.derive import derive
-from tactile.localize.pose_log import read_pose_log, window_index
+from tactile.localize.pose_log import read_pose_log
+from tactile.localize.posed import window_index
 from tactile.log_clock import CLOCKS, log_end
 from tactile.record_session import Session
 from tactile_sim.emulator import load_scene

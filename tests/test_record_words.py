@@ -47,7 +47,7 @@ def test_a_pose_log_run_fills_its_bar_and_its_derive_line_is_words(cli, tmp_path
 
 
 def test_the_pose_report_in_words():
-    from tactile.localize.pose_log import PoseReport
+    from tactile.localize.posed import PoseReport
 
     whole = PoseReport(frames=5, outside=0, no_contact=0, unusable=0, usable=5, status={"ok": 5})
     assert str(whole) == "every reading in a pose window localised"

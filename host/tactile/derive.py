@@ -129,7 +129,8 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, time
     """SCARA joints (ch. 5) or sensor poses: contacts.csv in metres either way (the thesis's
     tables 5-7 are in cm; ``tactile ep2 analyze --units cm`` shows them so)."""
     from tactile.localize import format_contacts
-    from tactile.localize.pose_log import posed_world_contacts, read_pose_log
+    from tactile.localize.pose_log import read_pose_log
+    from tactile.localize.posed import posed_world_contacts
 
     log = read_pose_log(pose_log)
     scara = log.kind == "scara"

@@ -15,7 +15,8 @@ from tactile.localize.kinematics import (
     to_world,
 )
 from tactile.localize.pipeline import posed_contacts, scara_contacts
-from tactile.localize.pose_log import posed_world_contacts, read_pose_log
+from tactile.localize.pose_log import read_pose_log
+from tactile.localize.posed import posed_world_contacts
 from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
 from tactile.localize.wheel import rim_contact, wheel_contact, wheel_theta
 

@@ -29,7 +29,7 @@ is exactly constant within each window (the moves happen between windows, in ``s
 so the pose log is exact, not an approximation.  Frames sampled during a move fall outside
 every window and the host drops them.  The log also states the sensor's noise (``[sensor]``
 of the scene, as a datasheet would), by which the host drops the frames of the load ramps
-whose normals the noise swamps (``tactile.localize.pose_log.normal_sd``).
+whose normals the noise swamps (``tactile.localize.posed.normal_sd``).
 
 Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``): ``object``
 (``objects.KINDS``), ``radius_m``, ``rotation_deg``, ``tilt_deg``, ``fingers``, ``spacing_m``,
