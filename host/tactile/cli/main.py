@@ -38,7 +38,8 @@ COMMANDS = {
 
 
 def _top_parser(positional=True):
-    lines = [f"  {name:<9} {help_}" for name, (_, help_) in COMMANDS.items()]
+    width = max(map(len, COMMANDS))
+    lines = [f"  {name:<{width}}  {help_}" for name, (_, help_) in COMMANDS.items()]
     parser = argparse.ArgumentParser(
         prog="tactile",
         description="Tactile shape exploration: board, emulator, EP1 and EP2.",
