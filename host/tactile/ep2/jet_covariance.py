@@ -28,10 +28,11 @@ def tensor(coef, pinv):
 
 
 def propagate(G, rows, rss, rank, sig, dof):
-    """Cov = s^2 sum_c G_c T_c Sigma_c T_c^T G_c^T over the contacts c (G: (B, q, 3n), a linear
-    map of the whitened data), where Sigma_c is the contact's covariance with each sigma
+    """Cov = s^2 sum_c G_c T_c Sigma_c T_c^T G_c^T over the contacts c (G: (B, q, m), a linear
+    map of the whitened data ``rows``), where Sigma_c is the contact's covariance with each sigma
     lifted to at least ``FLOOR``, and s^2 = max(chi^2/dof, 1); and the Satterthwaite degrees
     of freedom of that noise estimate."""
+    G = rows.full(G)  # one row type's rows: zeros for the others
     B, q, m3 = G.shape
     n = m3 // 3
     Gc = G.reshape(B, q, 3, n)

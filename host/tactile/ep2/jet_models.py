@@ -54,11 +54,11 @@ def _gauss_newton(rows, mask, coef):
         xs, ys, c, T = x[todo], y[todo], coef[todo], rows.T[todo]
         H = jet_basis.hessian(c)
         J = A[todo]
-        J[..., cols] += jet_rows.whiten(jet_basis.round_jacobian(xs, ys, H), T)
+        J[..., cols] += rows.whiten(jet_basis.round_jacobian(xs, ys, H), T)
         r = (
             b[todo]
             - np.einsum("bmp,bp->bm", A[todo], c)
-            - jet_rows.whiten(jet_basis.round_rows(xs, ys, H), T)
+            - rows.whiten(jet_basis.round_rows(xs, ys, H), T)
         )
         sol = batch_lstsq.solve(J, r, w[todo])
         tiny = np.abs(sol.coef) <= GN_TOL * np.maximum(np.abs(c), 1.0)

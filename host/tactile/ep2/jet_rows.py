@@ -19,35 +19,62 @@ GEO_LIMIT = 1e3  # slopes and second derivatives (/ L) beyond this are clipped i
 
 @dataclass
 class Rows:
-    """One frame's whitened least-squares rows (see ``make``)."""
+    """One frame's whitened least-squares rows (see ``make``): positions, x-slopes, y-slopes
+    stacked (3n rows), or one row type's alone (``part``: n or 2n rows, m below)."""
 
     x: np.ndarray  # (B, n) contact positions
     y: np.ndarray
-    b: np.ndarray  # (B, 3n) whitened data
-    w: np.ndarray  # (B, 3n) 1 for a used row, 0 for padding or a row type left out
-    A: np.ndarray  # (B, 3n, p) whitened jet design
+    b: np.ndarray  # (B, m) whitened data
+    w: np.ndarray  # (B, m) 1 for a used row, 0 for padding
+    A: np.ndarray  # (B, m, p) whitened jet design
     T: np.ndarray  # (B, n, 3, 3) each contact's whitening of (z, z_x, z_y) (lower triangular)
     P: np.ndarray  # (B, n, 3, 3) its covariance per unit sigma_p^2 (J J^T)
     N: np.ndarray  # (B, n, 3, 3) ... per unit sigma_n^2
+    part: str = "all"  # the row types kept: "all", "pos" or "slopes" (``PARTS``)
 
-    def whiten(self, v):
-        """Whiten stacked rows (B, 3n) or (B, 3n, k) (positions, x-slopes, y-slopes)."""
-        return whiten(v, self.T)
+    def whiten(self, v, T=None):
+        """Whiten stacked rows (B, 3n) or (B, 3n, k) (positions, x-slopes, y-slopes), keeping
+        this ``part``'s rows; ``T`` a subset of the stack's ``T`` (default all of it)."""
+        return whiten(v, self.T if T is None else T, self.part)
+
+    def full(self, G):
+        """G (..., m) over this part's rows as (..., 3n), zero on the rows left out."""
+        if self.part == "all":
+            return G
+        out = np.zeros(G.shape[:-1] + (3 * self.x.shape[1],))
+        out[..., _blocks(self.part, self.x.shape[1])] = G
+        return out
 
 
-def whiten(v, T):
+PARTS = {"all": (0, 3), "pos": (0, 1), "slopes": (1, 3)}  # row blocks kept: [first, stop)
+
+
+def _blocks(part, n):
+    first, stop = PARTS[part]
+    return slice(first * n, stop * n)
+
+
+def whiten(v, T, part="all"):
     """Each contact's 3 rows times its lower-triangular 3 x 3 whitening (``_inverse_cholesky``;
     six multiply-adds per row: a batched 3 x 3 product is slower through einsum or matmul
-    at this size)."""
+    at this size).  ``part`` keeps one row type's blocks (its ``T`` is block diagonal, so
+    the rows kept are those of the whole, exactly)."""
     B, n = T.shape[:2]
     blocks = v.reshape(B, 3, n, -1)
     Tt = T[..., None]  # (B, n, 3, 3, 1)
-    out = np.empty_like(blocks)
-    out[:, 0] = Tt[:, :, 0, 0] * blocks[:, 0]
-    out[:, 1] = Tt[:, :, 1, 0] * blocks[:, 0] + Tt[:, :, 1, 1] * blocks[:, 1]
-    out[:, 2] = Tt[:, :, 2, 0] * blocks[:, 0] + Tt[:, :, 2, 1] * blocks[:, 1]
-    out[:, 2] += Tt[:, :, 2, 2] * blocks[:, 2]
-    return out.reshape(v.shape)
+    if part == "pos":
+        return (Tt[:, :, 0, 0] * blocks[:, 0]).reshape((B, n) + v.shape[2:])
+    first = PARTS[part][0]
+    out = np.empty((B, 3 - first) + blocks.shape[2:])
+    if part == "all":
+        out[:, 0] = Tt[:, :, 0, 0] * blocks[:, 0]
+        out[:, 1] = Tt[:, :, 1, 0] * blocks[:, 0] + Tt[:, :, 1, 1] * blocks[:, 1]
+        out[:, 2] = Tt[:, :, 2, 0] * blocks[:, 0] + Tt[:, :, 2, 1] * blocks[:, 1]
+    else:  # slopes: T[1, 0] = T[2, 0] = 0, so the terms in positions are exact zeros
+        out[:, 0] = Tt[:, :, 1, 1] * blocks[:, 1]
+        out[:, 1] = Tt[:, :, 2, 1] * blocks[:, 1]
+    out[:, -1] += Tt[:, :, 2, 2] * blocks[:, 2]
+    return out.reshape((B, (3 - first) * n) + v.shape[2:])
 
 
 def make(p, nrm, mask, sig, geo=None, order=None, part="all"):
@@ -74,10 +101,10 @@ def make(p, nrm, mask, sig, geo=None, order=None, part="all"):
     T, P, N = _whitening(g, h, sig, part)
     x, y = (np.where(mask, p[..., k], 0.0) for k in (0, 1))
     b = np.concatenate([np.where(mask, p[..., 2], 0.0), sx, sy], axis=1)
-    keep = {"all": (1, 1, 1), "pos": (1, 0, 0), "slopes": (0, 1, 1)}[part]
-    w = np.concatenate([mask * k for k in keep], axis=1).astype(float)
+    first, stop = PARTS[part]  # the rows a part leaves out are not built at all
+    w = np.concatenate([mask] * (stop - first), axis=1).astype(float)
     A = jet_basis.design(x, y, ORDER if order is None else order)
-    return Rows(x, y, whiten(b, T), w, whiten(A, T), T, P, N)
+    return Rows(x, y, whiten(b, T, part), w, whiten(A, T, part), T, P, N, part)
 
 
 def _whitening(g, h, sig, part):
@@ -139,8 +166,8 @@ def positions(p, mask):
 
 def with_order(rows, order):
     """``rows`` with the jet design of another order (same data, weights and whitening)."""
-    A = whiten(jet_basis.design(rows.x, rows.y, order), rows.T)
-    return Rows(rows.x, rows.y, rows.b, rows.w, A, rows.T, rows.P, rows.N)
+    A = rows.whiten(jet_basis.design(rows.x, rows.y, order))
+    return Rows(rows.x, rows.y, rows.b, rows.w, A, rows.T, rows.P, rows.N, rows.part)
 
 
 def geometry(rows, coef, model=None):
