@@ -115,16 +115,16 @@ def _whitening(g, h, sig, part):
     h = np.clip(np.nan_to_num(h), -GEO_LIMIT, GEO_LIMIT)
     gx, gy = g[..., 0], g[..., 1]
     g2 = gx * gx + gy * gy
-    zero, one = np.zeros_like(gx), np.ones_like(gx)
-    J = np.stack(
-        [
-            np.stack([-gx, -gy, one], -1),
-            np.stack([-h[..., 0], -h[..., 1], zero], -1),
-            np.stack([-h[..., 1], -h[..., 2], zero], -1),
-        ],
-        -2,
-    )
-    P = J @ np.swapaxes(J, -1, -2)
+    hxx, hxy, hyy = h[..., 0], h[..., 1], h[..., 2]
+    # J = [[-gx, -gy, 1], [-hxx, -hxy, 0], [-hxy, -hyy, 0]]: P = J J^T entry by entry (a
+    # stack of 3 x 3 products through matmul was a tenth of the rows' cost)
+    P = np.empty(gx.shape + (3, 3))
+    P[..., 0, 0] = g2 + 1.0
+    P[..., 0, 1] = P[..., 1, 0] = gx * hxx + gy * hxy
+    P[..., 0, 2] = P[..., 2, 0] = gx * hxy + gy * hyy
+    P[..., 1, 1] = hxx * hxx + hxy * hxy
+    P[..., 1, 2] = P[..., 2, 1] = hxx * hxy + hxy * hyy
+    P[..., 2, 2] = hxy * hxy + hyy * hyy
     N = np.zeros_like(P)
     N[..., 1:, 1:] = (1.0 + g2)[..., None, None] * (np.eye(2) + g[..., :, None] * g[..., None, :])
     keep = {"all": [0, 1, 2], "pos": [0], "slopes": [1, 2]}[part]
