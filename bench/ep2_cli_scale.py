@@ -29,6 +29,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -111,29 +112,39 @@ def cpu_s():
 def measure(cmd, stop_after=None):
     """(wall s, CPU s, peak RSS MB, stdout lines, exit code, s to the first line) of
     ``cmd``; with ``stop_after``, Ctrl-C it that many seconds after its first line (the
-    lines counted up to then)."""
+    lines counted up to then).  A thread drains stdout as fast as it comes: read every
+    0.2 s, the 64 KiB pipe held the CLI to about 130 patches/s."""
     cpu0, t0 = cpu_s(), time.perf_counter()
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=ENV, start_new_session=True
     )
-    os.set_blocking(proc.stdout.fileno(), False)
-    peak, lines, first, stop = 0, 0, None, None
+    seen = {"lines": 0, "first": None, "stop": None}
+    drain = threading.Thread(target=_drain, args=(proc.stdout, seen), daemon=True)
+    drain.start()
+    peak = 0
     while proc.poll() is None:
         peak = max(peak, peak_rss_mb(proc.pid))
-        got = (proc.stdout.read() or b"").count(b"\n")
-        lines += got if stop is None else 0
         now = time.perf_counter()
-        first = now if first is None and lines else first
+        first, stop = seen["first"], seen["stop"]
         if stop is None and stop_after is not None and first and now - first > stop_after:
-            stop = now
+            seen["stop"] = now
             os.killpg(proc.pid, signal.SIGINT)  # the CLI's own Ctrl-C (workers ignore it)
         if stop is not None and now - stop > 60:
             os.killpg(proc.pid, signal.SIGKILL)
         time.sleep(0.2)
-    lines += (proc.stdout.read() or b"").count(b"\n") if stop is None else 0
+    drain.join()
     wall = time.perf_counter() - t0
-    start = None if first is None else first - t0
-    return wall, cpu_s() - cpu0, peak, lines, proc.returncode, start
+    start = None if seen["first"] is None else seen["first"] - t0
+    return wall, cpu_s() - cpu0, peak, seen["lines"], proc.returncode, start
+
+
+def _drain(pipe, seen):
+    """Count the lines of ``pipe`` until it closes (those before ``seen["stop"]``)."""
+    for block in iter(lambda: pipe.read1(1 << 16), b""):
+        if seen["stop"] is None:
+            seen["lines"] += block.count(b"\n")
+        if seen["first"] is None and seen["lines"]:
+            seen["first"] = time.perf_counter()
 
 
 def best_of(fn, arg, n=3):
