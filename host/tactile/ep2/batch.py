@@ -5,7 +5,7 @@ patches of one size together, ``_prepare_stacked``), then a chunk of patches is 
 one ``centre_jet.fit`` call on a padded stack with a row mask (the fit is batch-first: the
 stack equals each patch alone, tested), and the analysis after the fit
 (positions-versus-normals test, determination, intervals, label, grid statistics:
-``api.jet_outcomes``) runs on the whole stack too; only the assembly of each patch's
+``jet_outcomes.outcomes``) runs on the whole stack too; only the assembly of each patch's
 result is per patch.  The result per patch equals ``analyze_patch``'s to round-off; a
 patch that is refused or malformed gives its exception in its place and the others still
 come out.
@@ -15,7 +15,15 @@ Only the default method is batched; ``method="spline"`` falls back to one patch 
 
 import numpy as np
 
-from tactile.ep2 import api, centre_jet, discontinuity, extent
+from tactile.ep2 import (
+    api,
+    centre_jet,
+    discontinuity,
+    extent,
+    jet_outcomes,
+    patch_input,
+    patch_result,
+)
 from tactile.errors import DataError, InputError
 
 CHUNK = 256  # patches per fit call (bench/ep2_speed.py, ep2_tradeoff.py: best of 16-1024)
@@ -51,7 +59,7 @@ def _chunk(patches, kw):
     unpacked = [_unpack(p) for p in patches]
     for j, (quick, item) in enumerate(zip(_prepare_stacked(unpacked, kw), unpacked, strict=True)):
         try:
-            prepared.append((j, quick or api._prepare(*item, kw)))
+            prepared.append((j, quick or patch_input.prepare(*item, kw)))
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:
@@ -66,11 +74,12 @@ def _chunk(patches, kw):
         opts = prepared[0][1].opts
         noise = (opts["noise_pos"], opts["noise_normal"])
         fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"])
-        pre = api.outcome_inputs(fits, opts["grid"])
+        pre = jet_outcomes.inputs(fits, opts["grid"])
         lines = [prep.opts["lines"] for _, prep in prepared]
-        for (j, prep), res in zip(prepared, api.jet_outcomes(fits, opts, pre, lines), strict=True):
+        outcomes = jet_outcomes.outcomes(fits, opts, pre, lines)
+        for (j, prep), res in zip(prepared, outcomes, strict=True):
             if not isinstance(res, DataError):
-                res = api._result(
+                res = patch_result.from_fields(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
             results[j] = res
@@ -78,15 +87,15 @@ def _chunk(patches, kw):
 
 
 def _prepare_stacked(unpacked, kw):
-    """``api._prepare`` of every patch that passes its checks as it stands (valid options,
+    """``patch_input.prepare`` of every patch that passes its checks as it stands (valid options,
     finite, representable spread, non-zero normals, no duplicated rows), for each group of
-    patches of one size at once; None for the others, which ``api._prepare`` takes one at a
+    patches of one size at once; None for the others, which ``patch_input.prepare`` takes one at a
     time (it refuses them, or drops their duplicates).  The same numbers either way."""
     out = [None] * len(unpacked)
     try:  # what holds for every patch or none: the one-patch path says why not
-        api._validate(np.zeros((1, 3)), np.ones((1, 3)), kw["method"], kw["weighting"])
-        api._check_options(np.zeros((1, 3)), None, *(kw[k] for k in _CONSTANT_OPTIONS))
-        api._check_order(kw["method"], kw["order"])
+        patch_input.validate(np.zeros((1, 3)), np.ones((1, 3)), kw["method"], kw["weighting"])
+        patch_input.check_options(np.zeros((1, 3)), None, *(kw[k] for k in _CONSTANT_OPTIONS))
+        patch_input.check_order(kw["method"], kw["order"])
     except (DataError, InputError):
         return out
     groups = {}
@@ -113,7 +122,7 @@ def _prepare_group(group, unpacked, kw):
     h = (0.5 * hi - 0.5 * lo).max(axis=-1)
     good &= (h == 0.0) | ((extent.MIN_SPREAD <= 2.0 * h) & (2.0 * h <= extent.MAX_SPREAD))
     if kw["noise_pos"] is not None:
-        top = api.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
+        top = patch_input.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
         good &= (kw["noise_pos"] >= 0.0) & (kw["noise_pos"] <= top)
     big = np.max(np.abs(N), axis=-1)  # ``patch_frame.unit_normals``
     good &= np.all(big > 0, axis=-1)
@@ -130,12 +139,13 @@ def _prepare_group(group, unpacked, kw):
             continue
         _, _, finger, lines = unpacked[j]
         breaks = discontinuity.find_breaks(N[b], finger, kw["break_angle"])
-        out.append(api.Prepared(P[b], N[b], api._opts(kw, lines), breaks, 0, middle[b]))
+        opts = patch_input.options(kw, lines)
+        out.append(patch_input.Prepared(P[b], N[b], opts, breaks, 0, middle[b]))
     return out
 
 
 def _has_duplicates(P, N):
-    """(G,) whether a patch repeats a row exactly (``api._drop_duplicates`` drops them)."""
+    """(G,) whether a patch repeats a row exactly (``patch_input._drop_duplicates`` drops them)."""
     G, n, _ = P.shape
     patch = np.repeat(np.arange(G, dtype=float), n)[:, None]
     rows = np.concatenate([patch, P.reshape(-1, 3), N.reshape(-1, 3)], axis=1)

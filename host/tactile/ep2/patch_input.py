@@ -1,0 +1,119 @@
+"""One patch's input made ready to fit (``prepare``): options and contacts checked, exact
+duplicates dropped, the contacts centred; shared by ``analyze_patch`` and ``analyze_patches``.
+
+Malformed input raises ``InputError`` naming the contact (or CSV line) and column, or
+the keyword and its CLI option.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tactile.ep2 import centre_jet, discontinuity, extent, patch_frame
+from tactile.errors import InputError
+
+METHODS = ("jet", "spline")
+MAX_GRID = 256  # analysis grid N x N: memory grows as N^2
+MAX_SEGMENTS = 64  # spline segments per direction
+MAX_NOISE_SPREADS = 1e6  # a position noise beyond this many spreads leaves no shape to fit
+WEIGHTINGS = ("auto", "tangent", "position")
+
+
+@dataclass
+class Prepared:
+    """One patch ready to fit: validated, duplicates dropped, centred (``analyze_patch``)."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    opts: dict
+    breaks: list
+    dropped: int
+    middle: np.ndarray
+
+
+def prepare(points, normals, finger, lines, kw):
+    """Validation and the steps before the fit, shared by one patch and a batch."""
+    method, weighting, order = kw["method"], kw["weighting"], kw["order"]
+    noise_pos, noise_normal = kw["noise_pos"], kw["noise_normal"]
+    pts, nrm = validate(points, normals, method, weighting, lines)
+    check_options(
+        pts, noise_pos, noise_normal, kw["grid"], kw["segments"], kw["max_normal_angle"],
+        kw["break_angle"],
+    )  # fmt: skip
+    pts, nrm, finger, lines, dropped = _drop_duplicates(pts, nrm, finger, lines)
+    pts, middle = extent.centred(
+        pts
+    )  # the frame's origin moves back in ``patch_result.from_fields``
+    breaks = discontinuity.find_breaks(nrm, finger, kw["break_angle"])
+    check_order(method, order)
+    return Prepared(pts, nrm, options(kw, lines), breaks, dropped, middle)
+
+
+def check_order(method, order):
+    if method != "spline" and order not in (None, centre_jet.ORDER):
+        raise InputError(f"the jet order is {centre_jet.ORDER}; --order is for method spline")
+
+
+def options(kw, lines):
+    """The options the methods read, from ``analyze_patch``'s keywords and a patch's lines."""
+    keys = "segments weighting noise_pos noise_normal grid align solver max_normal_angle shrink"
+    out = {"order": 2 if kw["order"] is None else kw["order"]}
+    out.update({k: kw[k] for k in keys.split()}, intervals=kw["intervals"], lines=lines)
+    return out
+
+
+def validate(points, normals, method, weighting, lines=None):
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r} (choose {', '.join(METHODS)})")
+    if weighting not in WEIGHTINGS:
+        raise InputError(f"unknown weighting {weighting!r} (choose {', '.join(WEIGHTINGS)})")
+    if method == "jet" and weighting != "auto":
+        raise InputError(f"weighting {weighting!r} is the thesis's: use it with method 'spline'")
+    pts = np.asarray(points, float)
+    nrm = np.asarray(normals, float)
+    if pts.ndim != 2 or pts.shape[1] != 3 or nrm.shape != pts.shape:
+        raise InputError(f"points and normals must both be (n, 3); got {pts.shape} and {nrm.shape}")
+    if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm))):
+        raise InputError("points and normals must be finite numbers")
+    problem = extent.spread_problem(pts)
+    if problem is not None:
+        row, axis, why = problem
+        at = f"contact {row}" if lines is None else f"line {lines[row]}"
+        raise InputError(f"{at}: column '{extent.AXES[axis]}': {why}")
+    return pts, patch_frame.unit_normals(nrm)
+
+
+def check_options(pts, noise_pos, noise_normal, grid, segments, max_angle, break_angle):
+    """Numbers the fit can use, or ``InputError`` naming the keyword and its CLI option."""
+
+    def refuse(name, rule, value):
+        option = "--" + name.replace("_", "-")
+        return InputError(f"{name} ({option}): must be {rule}, got {value!r}")
+
+    top = MAX_NOISE_SPREADS * 2.0 * float(extent.box(pts)[1].max())
+    if noise_pos is not None and not 0.0 <= noise_pos <= top:
+        rule = f"a number >= 0 and at most {MAX_NOISE_SPREADS:g} contact spreads ({top:.3g})"
+        raise refuse("noise_pos", rule, noise_pos)
+    if noise_normal is not None and not 0.0 <= noise_normal <= np.pi:
+        raise refuse("noise_normal", "a number of rad in [0, pi]", noise_normal)
+    if not 0.0 < max_angle <= 90.0:
+        raise refuse("max_normal_angle", "a number of deg in (0, 90]", max_angle)
+    if not 0.0 <= break_angle <= 180.0:
+        raise refuse("break_angle", "a number of deg in [0, 180]", break_angle)
+    if not 2 <= grid <= MAX_GRID:
+        raise refuse("grid", f"a whole number in 2..{MAX_GRID}", grid)
+    if not all(1 <= n <= MAX_SEGMENTS for n in np.atleast_1d(segments)):
+        raise refuse("segments", f"a whole number in 1..{MAX_SEGMENTS}", segments)
+
+
+def _drop_duplicates(pts, nrm, finger, lines):
+    """Rows repeated exactly (same position and normal) carry no new information: keep the
+    first of each, so they cannot narrow the intervals.  Returns the count dropped."""
+    rows = np.column_stack([pts, nrm])
+    _, first = np.unique(rows, axis=0, return_index=True)
+    if first.size == len(rows):
+        return pts, nrm, finger, lines, 0
+    keep = np.sort(first)
+    finger = None if finger is None else [finger[i] for i in keep]
+    lines = None if lines is None else [lines[i] for i in keep]
+    return pts[keep], nrm[keep], finger, lines, len(rows) - keep.size
