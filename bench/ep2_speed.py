@@ -2,7 +2,8 @@
 the per-patch loop, and the CLI on 1000 patches.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_speed.py [--n 512] [--against REV]
-[--batch-only]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim first).
+[--batch-only | --fit-only]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim:studies
+first).  ``--fit-only`` times the batched tangent fit alone (``tangent_fit``).
 ``--against REV`` also times git revision REV's ``analyze_patch`` loop and
 ``analyze_patches`` on the same patches, in a child process that imports REV's host
 library (``git archive``), alternating with this tree's runs: before and after side by
@@ -20,7 +21,7 @@ import time
 
 import numpy as np
 
-from tactile.ep2 import analyze_patch, analyze_patches, batch_lstsq
+from tactile.ep2 import analyze_patch, analyze_patches, batch_lstsq, jet_basis, jet_frames, jet_rows
 from tactile_sim.ep2 import make, sweep
 
 CASES = (
@@ -141,12 +142,66 @@ def batched(n=512, against=None):
     print(f"\nanalyze_patches, chunk 256, the SVD for every solve: {ms:.2f} ms / patch")
 
 
+def tangent_fit(points, normals, sigma):
+    """The batched tangent fit alone (issue 13's 30,000 patches/s figure): each patch in its
+    mean-normal frame, the 3-jet fitted to positions and slopes whitened per contact with
+    the stated noise ``sigma`` = (position, normal), a second pass whitened by the first
+    fit's geometry; k1 >= k2 (B, 2) from the Hessian at the centre.  No noise estimate,
+    model choice, checks or intervals: the kernel the default analysis calls ~38 times."""
+    B, n = points.shape[:2]
+    mask = np.ones((B, n), bool)
+    origin, M = jet_frames.mean_frame(points, normals, mask, [None] * B)
+    p = np.einsum("bij,bnj->bni", M, points - origin[:, None, :])
+    nrm = np.einsum("bij,bnj->bni", M, normals)
+    sig = np.broadcast_to(np.asarray(sigma, float), (B, 2))
+    geo = None
+    for _ in range(2):
+        rows = jet_rows.make(p, nrm, mask, sig, geo)
+        coef = batch_lstsq.solve(rows.A, rows.b, rows.w).coef
+        geo = jet_rows.geometry(rows, coef)
+    return np.linalg.eigvalsh(-jet_basis.hessian(coef))[:, ::-1]  # z along the outward normal
+
+
+def tangent_fit_speed(n=4096):
+    """patches/s of ``tangent_fit`` in chunks of 256, beside analyze_patches (default) on
+    the first 256 of the same patches; its curvatures against the truth (R = 10)."""
+    ds = [
+        sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=s)
+        for s in range(n)
+    ]
+    P = np.array([d["points"] for d in ds])
+    N = np.array([d["normals"] for d in ds])
+    k = None
+    best = np.inf
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        k = np.concatenate(
+            [tangent_fit(P[i : i + 256], N[i : i + 256], (0.01, 0.01)) for i in range(0, n, 256)]
+        )
+        best = min(best, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    analyze_patches([(P[i], N[i]) for i in range(256)])
+    full = (time.perf_counter() - t0) / 256
+    print(f"\n| {n} patches, chunks of 256 | patches / s | us / patch |")
+    print("|---|---|---|")
+    print(
+        f"| tangent fit alone (two passes, noise stated) | {n / best:,.0f} | {1e6 * best / n:.1f} |"
+    )
+    print(f"| analyze_patches (default analysis) | {1 / full:,.0f} | {1e6 * full:.1f} |")
+    err, k2 = np.median(np.abs(k[:, 0] - 0.1)) / 0.1, np.median(k[:, 1])
+    print(f"\ntangent fit alone: median |k1 - 1/R| / (1/R) = {err:.4f} (k2 median {k2:.2g})")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=512, help="patches for the batched comparison")
     ap.add_argument("--against", help="a git revision to time side by side (e.g. main)")
     ap.add_argument("--batch-only", action="store_true", help="only the batched comparison")
+    ap.add_argument("--fit-only", action="store_true", help="only the tangent fit alone")
     args = ap.parse_args()
+    if args.fit_only:
+        tangent_fit_speed()
+        return
     if not args.batch_only:
         d = sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=1)
         print("| configuration | median ms / patch (36 contacts, 8x8 grid) |")
