@@ -79,28 +79,39 @@ def merge(parts, n):
 
 
 def solve(A, b, w):
-    """Solve every problem of the stack: A (..., m, p), b (..., m), w (..., m)."""
+    """Solve every problem of the stack: A (..., m, p), b (..., m), w (..., m).  The work is
+    done on A^T (..., p, m), so an A that is a transposed view of a C-ordered (..., p, m)
+    stack (``jet_rows.Rows.A``) is used without a copy, and every product is of C-ordered
+    stacks."""
     lead, (m, p) = A.shape[:-2], A.shape[-2:]
-    A, b, w = A.reshape(-1, m, p), b.reshape(-1, m), w.reshape(-1, m)
-    Aw = A * w[..., None]
+    At = np.ascontiguousarray(np.swapaxes(A.reshape(-1, m, p), -1, -2))
+    b, w = b.reshape(-1, m), w.reshape(-1, m)
+    if not np.all(w == 1.0):  # rows removed or weighted (padding); else A is used as is
+        At = At * w[:, None, :]
     bw = b * w
-    scale = np.sqrt(np.einsum("bmp,bmp->bp", Aw, Aw))
-    live = scale > 0
-    scale = np.where(live, scale, 1.0)
-    X = Aw / scale[:, None, :]
+    G = At @ np.swapaxes(At, -1, -2)  # A^T A: the column scaling is read off its diagonal
+    scale = np.sqrt(np.diagonal(G, axis1=-2, axis2=-1))
     # a problem whose numbers overflowed (a degenerate patch's fit diverging) determines
     # nothing: every column blind, its coefficients NaN; the others of the stack go on
-    bad = ~(np.all(np.isfinite(X), axis=(1, 2)) & np.all(np.isfinite(bw), axis=1))
+    bad = ~(np.isfinite(scale).all(axis=1) & np.isfinite(bw).all(axis=1))
     if bad.any():
-        X[bad], bw[bad], live[bad], scale[bad] = 0.0, 0.0, False, 1.0
-    Q, P, fast = _cholesky_qr2(X, live)
-    blind = np.zeros((len(X), p, p))
+        bad &= ~(np.isfinite(At).all(axis=(1, 2)) & np.isfinite(bw).all(axis=1))
+        for k in np.flatnonzero(~bad & ~np.isfinite(scale).all(axis=1)):  # |A| ~ 1e154
+            scale[k] = np.sqrt(np.einsum("pm,pm->p", At[k], At[k]))
+            Xk = At[k] / np.where(scale[k] > 0, scale[k], 1.0)[:, None]
+            G[k] = (Xk @ Xk.T) * np.outer(scale[k], scale[k])
+        At[bad], bw[bad], scale[bad], G[bad] = 0.0, 0.0, 0.0, 0.0
+    live = scale > 0
+    scale = np.where(live, scale, 1.0)
+    Qt, P, fast = _cholesky_qr2(At, G / (scale[:, :, None] * scale[:, None, :]), scale, live)
+    blind = np.zeros((len(At), p, p))
     blind[:, np.arange(p), np.arange(p)] = ~live
     slow = np.flatnonzero(~fast)
     if slow.size:  # near-singular or rank-deficient: the SVD decides the rank
-        Q[slow], P[slow], blind[slow] = _svd(X[slow])
-    coef = np.einsum("bij,bj->bi", P, np.einsum("bmk,bm->bk", Q, bw)) / scale  # P Q^T bw
-    residual = bw - (Aw @ coef[..., None])[..., 0]
+        Q, P[slow], blind[slow] = _svd(np.swapaxes(At[slow], -1, -2) / scale[slow, None, :])
+        Qt[slow] = np.swapaxes(Q, -1, -2)
+    coef = np.einsum("bij,bj->bi", P, (Qt @ bw[..., None])[..., 0]) / scale  # P Q^T bw
+    residual = bw - (coef[:, None, :] @ At)[:, 0]
     coef[bad], residual[bad] = np.nan, np.nan
     out = Solution(
         coef=coef,
@@ -109,7 +120,7 @@ def solve(A, b, w):
         residual=residual,
         blind=blind,
         scale=scale,
-        Q=Q,
+        Q=np.swapaxes(Qt, -1, -2),
         P=P,
     )
     for name in FIELDS:
@@ -118,19 +129,20 @@ def solve(A, b, w):
     return out
 
 
-def _cholesky_qr2(X, live):
-    """(Q (B, m, p), P (B, p, p), ok (B,)): X = Q R with R = R2 R1, so pinv(X) = P Q^T with
-    P = R^-1, where ok; a zero column (``~live``) stays zero in Q, its coefficient 0."""
+def _cholesky_qr2(At, G, scale, live):
+    """(Q^T (B, p, m), P (B, p, p), ok (B,)): X = A / scale = Q R with R = R2 R1, so
+    pinv(X) = P Q^T with P = R^-1, where ok; G = X^T X (from A's, ``solve``), At = A^T;
+    a zero column (``~live``) stays zero in Q, its coefficient 0.  X itself is never
+    formed: Q1^T = R1^-T X^T = (R1^-T / scale) A^T."""
     dead = ~live
-    R1, ok = _cholesky(_gram(X, dead))
+    R1, ok = _cholesky(_unit_dead(G, dead))
     R1i = _upper_inverse(R1)
     cond = np.sqrt(np.einsum("bij,bij->b", R1, R1) * np.einsum("bij,bij->b", R1i, R1i))
     ok &= cond <= FAST_MAX_COND
-    Q1 = X @ R1i
-    R2, ok2 = _cholesky(_gram(Q1, dead))
+    Q1t = (np.swapaxes(R1i, -1, -2) / scale[:, None, :]) @ At
+    R2, ok2 = _cholesky(_unit_dead(Q1t @ np.swapaxes(Q1t, -1, -2), dead))
     R2i = _upper_inverse(R2)
-    Q = Q1 @ R2i
-    return Q, R1i @ R2i, ok & ok2
+    return np.swapaxes(R2i, -1, -2) @ Q1t, R1i @ R2i, ok & ok2
 
 
 SMALL_STACK = 32  # fewer problems than this: LAPACK's inverse, one call each
@@ -152,10 +164,8 @@ def _upper_inverse(R):
     return out
 
 
-def _gram(X, dead):
-    """X^T X with a unit diagonal on zero columns (their R row is e_k: coefficient 0).
-    X^T is copied first: the product of two C-ordered stacks is twice as fast."""
-    G = np.ascontiguousarray(np.swapaxes(X, -1, -2)) @ X
+def _unit_dead(G, dead):
+    """G (B, p, p) with a unit diagonal on zero columns (their R row is e_k: coefficient 0)."""
     k = np.arange(G.shape[-1])
     G[:, k, k] = np.where(dead, 1.0, G[:, k, k])
     return G
