@@ -77,6 +77,32 @@ def whiten(v, T, part="all"):
     return out.reshape((B, (3 - first) * n) + v.shape[2:])
 
 
+def whitened_design(x, y, order, T, part="all"):
+    """``whiten(jet_basis.design(x, y, order), T, part)`` (B, m, p), as the transposed view
+    of a C-ordered (B, p, m) stack, the layout ``batch_lstsq.solve`` works in (no copy
+    there).  Column x^i y^j / (i! j!) has rows X_i Y_j, X_(i-1) Y_j, X_i Y_(j-1) (X_k =
+    x^k / k!, zero for k < 0), so its whitened rows are Y_(j) times a combination of X_i,
+    X_(i-1) that depends on i alone, plus T_22 X_i Y_(j-1): formed on the powers (B, order
+    + 1, n), then one product per column, not a pass per term over the whole design."""
+    B, n = x.shape
+    mons = jet_basis.monomials(order)
+    first, stop = PARTS[part]
+    X, Y = (
+        np.stack([np.zeros_like(v)] + jet_basis._scaled_powers(v, order + 1), 1) for v in (x, y)
+    )
+    t = T[:, None, :]  # (B, 1, n, 3, 3)
+    lower, upper = X[:, :-1], X[:, 1:]  # X_(i-1), X_i for i = 0 .. order
+    S = np.stack([t[..., k, 0] * upper + t[..., k, 1] * lower for k in range(first, stop)], 1)
+    W = t[..., 2, 2] * upper  # (B, order + 1, n): T_22 X_i, times Y_(j-1)
+    out = np.empty((B, len(mons), stop - first, n))  # (B, p, row block, contact): A^T
+    tmp = np.empty((B, n))
+    for c, (i, j) in enumerate(mons):
+        np.multiply(S[:, :, i], Y[:, None, j + 1], out=out[:, c])
+        if stop == 3 and j > 0:
+            out[:, c, -1] += np.multiply(W[:, i], Y[:, j], out=tmp)
+    return np.swapaxes(out.reshape(B, len(mons), (stop - first) * n), 1, 2)
+
+
 def make(p, nrm, mask, sig, geo=None, order=None, part="all"):
     """Rows in the current frame, each contact's (z, z_x, z_y) whitened by its covariance.
 
@@ -103,8 +129,8 @@ def make(p, nrm, mask, sig, geo=None, order=None, part="all"):
     b = np.concatenate([np.where(mask, p[..., 2], 0.0), sx, sy], axis=1)
     first, stop = PARTS[part]  # the rows a part leaves out are not built at all
     w = np.concatenate([mask] * (stop - first), axis=1).astype(float)
-    A = jet_basis.design(x, y, ORDER if order is None else order)
-    return Rows(x, y, whiten(b, T, part), w, whiten(A, T, part), T, P, N, part)
+    A = whitened_design(x, y, ORDER if order is None else order, T, part)
+    return Rows(x, y, whiten(b, T, part), w, A, T, P, N, part)
 
 
 def _whitening(g, h, sig, part):
@@ -166,7 +192,7 @@ def positions(p, mask):
 
 def with_order(rows, order):
     """``rows`` with the jet design of another order (same data, weights and whitening)."""
-    A = rows.whiten(jet_basis.design(rows.x, rows.y, order))
+    A = whitened_design(rows.x, rows.y, order, rows.T, rows.part)
     return Rows(rows.x, rows.y, rows.b, rows.w, A, rows.T, rows.P, rows.N, rows.part)
 
 
