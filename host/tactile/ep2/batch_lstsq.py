@@ -35,7 +35,8 @@ class Solution:
     functional f of coef is determined by the data iff blind @ (f / scale) = 0.  ``pinv``
     and ``leverage`` are formed from Q (..., m, p) and P (..., p, p) (pinv of the scaled
     columns = P Q^T) when asked for: most solves (Gauss-Newton steps, the noise estimate)
-    never need them."""
+    never need them, nor Q itself, kept as Q^T = M U (U (..., p, m) the first CholeskyQR
+    pass's Q^T, M (..., p, p) the second's R^-T)."""
 
     coef: np.ndarray
     rss: np.ndarray
@@ -43,22 +44,27 @@ class Solution:
     residual: np.ndarray
     blind: np.ndarray
     scale: np.ndarray
-    Q: np.ndarray
+    U: np.ndarray
+    M: np.ndarray
     P: np.ndarray
     _pinv: np.ndarray = field(default=None, repr=False)
 
     @property
     def pinv(self):
         if self._pinv is None:
-            self._pinv = (self.P @ np.swapaxes(self.Q, -1, -2)) / self.scale[..., :, None]
+            self._pinv = ((self.P @ self.M) @ self.U) / self.scale[..., :, None]
         return self._pinv
+
+    @property
+    def Q(self):
+        return np.swapaxes(self.M @ self.U, -1, -2)
 
     @property
     def leverage(self):
         return np.einsum("...mk,...mk->...m", self.Q, self.Q)
 
 
-FIELDS = ("coef", "rss", "rank", "residual", "blind", "scale", "Q", "P")
+FIELDS = ("coef", "rss", "rank", "residual", "blind", "scale", "U", "M", "P")
 
 
 def take(sol, keep):
@@ -103,14 +109,14 @@ def solve(A, b, w):
         At[bad], bw[bad], scale[bad], G[bad] = 0.0, 0.0, 0.0, 0.0
     live = scale > 0
     scale = np.where(live, scale, 1.0)
-    Qt, P, fast = _cholesky_qr2(At, G / (scale[:, :, None] * scale[:, None, :]), scale, live)
+    U, M, P, fast = _cholesky_qr2(At, G / (scale[:, :, None] * scale[:, None, :]), scale, live)
     blind = np.zeros((len(At), p, p))
     blind[:, np.arange(p), np.arange(p)] = ~live
     slow = np.flatnonzero(~fast)
     if slow.size:  # near-singular or rank-deficient: the SVD decides the rank
         Q, P[slow], blind[slow] = _svd(np.swapaxes(At[slow], -1, -2) / scale[slow, None, :])
-        Qt[slow] = np.swapaxes(Q, -1, -2)
-    coef = np.einsum("bij,bj->bi", P, (Qt @ bw[..., None])[..., 0]) / scale  # P Q^T bw
+        U[slow], M[slow] = np.swapaxes(Q, -1, -2), np.eye(p)
+    coef = np.einsum("bij,bj->bi", P @ M, (U @ bw[..., None])[..., 0]) / scale  # P Q^T bw
     residual = bw - (coef[:, None, :] @ At)[:, 0]
     coef[bad], residual[bad] = np.nan, np.nan
     out = Solution(
@@ -120,7 +126,8 @@ def solve(A, b, w):
         residual=residual,
         blind=blind,
         scale=scale,
-        Q=np.swapaxes(Qt, -1, -2),
+        U=U,
+        M=M,
         P=P,
     )
     for name in FIELDS:
@@ -130,10 +137,10 @@ def solve(A, b, w):
 
 
 def _cholesky_qr2(At, G, scale, live):
-    """(Q^T (B, p, m), P (B, p, p), ok (B,)): X = A / scale = Q R with R = R2 R1, so
-    pinv(X) = P Q^T with P = R^-1, where ok; G = X^T X (from A's, ``solve``), At = A^T;
-    a zero column (``~live``) stays zero in Q, its coefficient 0.  X itself is never
-    formed: Q1^T = R1^-T X^T = (R1^-T / scale) A^T."""
+    """(U (B, p, m), M (B, p, p), P (B, p, p), ok (B,)): X = A / scale = Q R with
+    R = R2 R1, Q^T = M U, so pinv(X) = P Q^T with P = R^-1, where ok; G = X^T X (from A's,
+    ``solve``), At = A^T; a zero column (``~live``) stays zero in Q, its coefficient 0.
+    X itself is never formed: Q1^T = R1^-T X^T = (R1^-T / scale) A^T."""
     dead = ~live
     R1, ok = _cholesky(_unit_dead(G, dead))
     R1i = _upper_inverse(R1)
@@ -142,7 +149,7 @@ def _cholesky_qr2(At, G, scale, live):
     Q1t = (np.swapaxes(R1i, -1, -2) / scale[:, None, :]) @ At
     R2, ok2 = _cholesky(_unit_dead(Q1t @ np.swapaxes(Q1t, -1, -2), dead))
     R2i = _upper_inverse(R2)
-    return np.swapaxes(R2i, -1, -2) @ Q1t, R1i @ R2i, ok & ok2
+    return Q1t, np.swapaxes(R2i, -1, -2), R1i @ R2i, ok & ok2
 
 
 SMALL_STACK = 32  # fewer problems than this: LAPACK's inverse, one call each

@@ -215,7 +215,7 @@ def _split_fits(p, nrm, mask, sig, dof, fits):
         # misfit of this row type under its own better family: model error, not disagreement
         best = np.minimum(model.sol.rss, np.where(rnd.ok, rnd.sol.rss, np.inf))
         own_s2 = np.maximum(best / np.maximum(rows.w.sum(axis=1) - model.sol.rank, 1), 1.0)
-        for key in ("coef", "Q", "P", "rss", "blind", "scale", "rank"):
+        for key in ("coef", "U", "M", "P", "rss", "blind", "scale", "rank"):
             a, b = getattr(rnd.sol, key), getattr(model.sol, key)
             shape = pick.reshape(pick.shape[:1] + (1,) * (np.ndim(a) - 1))
             setattr(model.sol, key, np.where(shape, a, b))

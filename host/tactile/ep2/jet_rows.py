@@ -201,9 +201,7 @@ def geometry(rows, coef, model=None):
     (``rows`` or ``positions``: their x, y); ``model`` (B,) 1 where ``coef`` is the round
     model (its closed-form part added)."""
     x, y = rows.x, rows.y
-    order = jet_basis.order_of(coef.shape[-1])
-    d = jet_basis.design(x, y, order, ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
-    v = np.einsum("bmp,bp->bm", d, coef).reshape(len(coef), 5, -1)
+    v = _jet_derivatives(x, y, coef, ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2)))
     if model is not None and np.any(model == 1):
         H = jet_basis.hessian(coef)
         _, ex, ey = jet_basis.round_excess(x, y, H)
@@ -211,3 +209,23 @@ def geometry(rows, coef, model=None):
         extra = np.stack([ex, ey, exx, exy, eyy], axis=1)
         v = v + np.where(model[:, None, None] == 1, extra, 0.0)
     return np.moveaxis(v[:, :2], 1, -1), np.moveaxis(v[:, 2:], 1, -1)
+
+
+def _jet_derivatives(x, y, coef, derivs):
+    """(B, len(derivs), n): the jet's derivatives (dx, dy) at the contacts, as sum_i
+    X_(i-dx) (C Y_(.-dy))_i with C[i, j] the coefficient of x^i y^j / (i! j!) (X_k =
+    x^k / k!, zero for k < 0): products on the powers, not a design of 5 n rows."""
+    B, n = x.shape
+    order = jet_basis.order_of(coef.shape[-1])
+    q, top = order + 1, max(max(d) for d in derivs)
+    C = np.zeros((B, q, q))
+    i, j = (np.array([e[k] for e in jet_basis.monomials(order)]) for k in (0, 1))
+    C[:, i, j] = coef
+    X, Y = (
+        np.concatenate([np.zeros((B, top, n)), np.stack(jet_basis._scaled_powers(v, q), 1)], 1)
+        for v in (x, y)
+    )  # index k + top: v^k / k!
+    Z = {dy: C @ Y[:, top - dy : top - dy + q] for dy in {d[1] for d in derivs}}
+    return np.stack(
+        [np.einsum("bin,bin->bn", X[:, top - dx : top - dx + q], Z[dy]) for dx, dy in derivs], 1
+    )
