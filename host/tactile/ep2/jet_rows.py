@@ -90,17 +90,19 @@ def whitened_design(x, y, order, T, part="all"):
     X, Y = (
         np.stack([np.zeros_like(v)] + jet_basis._scaled_powers(v, order + 1), 1) for v in (x, y)
     )
-    t = T[:, None, :]  # (B, 1, n, 3, 3)
+    t, K = T[:, None, :], stop - first  # (B, 1, n, 3, 3); row blocks kept
     lower, upper = X[:, :-1], X[:, 1:]  # X_(i-1), X_i for i = 0 .. order
-    S = np.stack([t[..., k, 0] * upper + t[..., k, 1] * lower for k in range(first, stop)], 1)
+    S = np.stack([t[..., k, 0] * upper + t[..., k, 1] * lower for k in range(first, stop)], 2)
+    S = S.reshape(B, order + 1, K * n)  # (B, i, rows of the K blocks)
+    Yk = Y[:, :, None, :].repeat(K, 2).reshape(B, order + 2, K * n)  # long rows: no broadcast
     W = t[..., 2, 2] * upper  # (B, order + 1, n): T_22 X_i, times Y_(j-1)
-    out = np.empty((B, len(mons), stop - first, n))  # (B, p, row block, contact): A^T
+    out = np.empty((B, len(mons), K * n))  # A^T
     tmp = np.empty((B, n))
     for c, (i, j) in enumerate(mons):
-        np.multiply(S[:, :, i], Y[:, None, j + 1], out=out[:, c])
+        np.multiply(S[:, i], Yk[:, j + 1], out=out[:, c])
         if stop == 3 and j > 0:
-            out[:, c, -1] += np.multiply(W[:, i], Y[:, j], out=tmp)
-    return np.swapaxes(out.reshape(B, len(mons), (stop - first) * n), 1, 2)
+            out[:, c, -n:] += np.multiply(W[:, i], Y[:, j], out=tmp)
+    return np.swapaxes(out, 1, 2)
 
 
 def make(p, nrm, mask, sig, geo=None, order=None, part="all"):
