@@ -55,6 +55,11 @@ z = np.load(sys.argv[1])
 pairs = list(zip(z["points"], z["normals"]))
 what = sys.argv[2]
 t0 = time.perf_counter()
+if what == "fit":  # this tree's bench, REV's host library: tangent fit patches / s
+    sys.path.insert(0, sys.argv[3])
+    from ep2_speed import fit_chunks
+    print(json.dumps(fit_chunks(z["points"], z["normals"])[1]))
+    sys.exit()
 if what == "loop":
     for p, q in pairs:
         analyze_patch(p, q)
@@ -88,11 +93,10 @@ def _export(rev, into):
 def _theirs(host, data, what):
     """ms per patch of the exported revision (a child process; its import time excluded)."""
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    paths = [host] + [os.path.join(here, d) for d in ("protocol", "firmware")]
+    paths = [host] + [os.path.join(here, d) for d in ("protocol", "firmware", "sim")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
-    out = subprocess.run(
-        [sys.executable, "-c", _CHILD, data, what], env=env, check=True, capture_output=True
-    )
+    args = [sys.executable, "-c", _CHILD, data, what, os.path.join(here, "bench")]
+    out = subprocess.run(args, env=env, check=True, capture_output=True)
     return json.loads(out.stdout)
 
 
@@ -162,9 +166,17 @@ def tangent_fit(points, normals, sigma):
     return np.linalg.eigvalsh(-jet_basis.hessian(coef))[:, ::-1]  # z along the outward normal
 
 
-def tangent_fit_speed(n=4096):
+def fit_chunks(P, N):
+    """(k1, k2 of every patch, seconds) of ``tangent_fit`` over P, N in chunks of 256."""
+    t0 = time.perf_counter()
+    k = [tangent_fit(P[i : i + 256], N[i : i + 256], (0.01, 0.01)) for i in range(0, len(P), 256)]
+    return np.concatenate(k), time.perf_counter() - t0
+
+
+def tangent_fit_speed(n=4096, against=None):
     """patches/s of ``tangent_fit`` in chunks of 256, beside analyze_patches (default) on
-    the first 256 of the same patches; its curvatures against the truth (R = 10)."""
+    the first 256 of the same patches; its curvatures against the truth (R = 10); with
+    ``against`` (a git revision) the same fit on that revision's host library, alternating."""
     ds = [
         sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=s)
         for s in range(n)
@@ -172,13 +184,17 @@ def tangent_fit_speed(n=4096):
     P = np.array([d["points"] for d in ds])
     N = np.array([d["normals"] for d in ds])
     k = None
-    best = np.inf
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        k = np.concatenate(
-            [tangent_fit(P[i : i + 256], N[i : i + 256], (0.01, 0.01)) for i in range(0, n, 256)]
-        )
-        best = min(best, time.perf_counter() - t0)
+    best, theirs = np.inf, np.inf
+    with tempfile.TemporaryDirectory() as tmp:
+        data = os.path.join(tmp, "patches.npz")
+        np.savez(data, points=P, normals=N)
+        host = _export(against, tmp) if against else None
+        fit_chunks(P[:256], N[:256])  # warm
+        for _ in range(REPEATS):
+            k, t = fit_chunks(P, N)
+            best = min(best, t)
+            if host:
+                theirs = min(theirs, _theirs(host, data, "fit"))
     t0 = time.perf_counter()
     analyze_patches([(P[i], N[i]) for i in range(256)])
     full = (time.perf_counter() - t0) / 256
@@ -187,7 +203,11 @@ def tangent_fit_speed(n=4096):
     print(
         f"| tangent fit alone (two passes, noise stated) | {n / best:,.0f} | {1e6 * best / n:.1f} |"
     )
+    if against:
+        print(f"| {against}: tangent fit alone | {n / theirs:,.0f} | {1e6 * theirs / n:.1f} |")
     print(f"| analyze_patches (default analysis) | {1 / full:,.0f} | {1e6 * full:.1f} |")
+    if against:
+        print(f"\ntangent fit alone: {theirs / best:.2f} x {against}'s")
     err, k2 = np.median(np.abs(k[:, 0] - 0.1)) / 0.1, np.median(k[:, 1])
     print(f"\ntangent fit alone: median |k1 - 1/R| / (1/R) = {err:.4f} (k2 median {k2:.2g})")
 
@@ -200,7 +220,7 @@ def main():
     ap.add_argument("--fit-only", action="store_true", help="only the tangent fit alone")
     args = ap.parse_args()
     if args.fit_only:
-        tangent_fit_speed()
+        tangent_fit_speed(against=args.against)
         return
     if not args.batch_only:
         d = sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=1)
