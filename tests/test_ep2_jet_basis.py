@@ -8,7 +8,10 @@ Guards:
 - ``design``: derivative rows against finite differences of the position rows, and its
   coefficients are the partial derivatives at the centre (``CHANNELS``, ``HESSIAN``);
 - ``batch_lstsq.solve`` against ``numpy.linalg.lstsq`` (coef, hat diagonal, rss), zero-weight
-  rows, and the documented minimum-norm answer and rank of a rank-deficient problem;
+  rows, and the documented minimum-norm answer and rank of a rank-deficient problem; a
+  problem with non-finite or overflowing numbers gets NaN alone, the caller's A untouched;
+- ``jet_rows.whitened_design`` and ``geometry`` against the design matrix whitened and
+  multiplied out (their fast forms share nothing with ``design``);
 - ``centre_result.widen(nu)`` = q F_q,nu(0.95) / chi2_q(0.95) from ``scipy.stats``, -> 1.
 """
 
@@ -18,7 +21,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from tactile.ep2 import batch_lstsq, centre_result, jet_basis
+from tactile.ep2 import batch_lstsq, centre_result, jet_basis, jet_rows
 
 
 def _rng(seed):
@@ -260,6 +263,53 @@ def test_rank_deficient_problem_gives_the_minimum_norm_solution_and_its_rank():
         if k == 2:
             assert sol.coef[k, 5] == 0.0  # the zero column gets nothing
         assert sol.leverage[k].sum() == pytest.approx(sol.rank[k])
+
+
+def test_non_finite_or_overflowing_problem_gets_nan_alone_and_the_input_is_untouched():
+    """A NaN in A, and entries past 1e154 (A^T A overflows), determine nothing: NaN
+    coefficients, rank 0; the other problems equal their solves alone; A as passed (a
+    transposed view, the layout ``jet_rows`` hands over) is not written to."""
+    rng = _rng(21)
+    A, b, w = _problem(rng, B=4, m=30, p=6)
+    A[1, 3, 2] = np.nan
+    A[2] *= 1e160
+    At = np.ascontiguousarray(np.swapaxes(A, 1, 2))
+    view = np.swapaxes(At, 1, 2)
+    before = At.copy()
+    sol = batch_lstsq.solve(view, b, w)
+    np.testing.assert_array_equal(At, before)
+    assert np.isnan(sol.coef[[1, 2]]).all() and list(sol.rank[[1, 2]]) == [0, 0]
+    for k in (0, 3):
+        alone = batch_lstsq.solve(A[k : k + 1], b[k : k + 1], w[k : k + 1])
+        np.testing.assert_allclose(sol.coef[k], alone.coef[0], rtol=1e-12)
+        assert sol.rank[k] == 6
+
+
+@pytest.mark.parametrize("part", ["all", "pos", "slopes"])
+@pytest.mark.parametrize("order", [2, 3, 4])
+def test_whitened_design_and_geometry_equal_the_design_multiplied_out(order, part):
+    """``whitened_design`` = each contact's 3 x 3 T times its rows of ``design`` (written
+    out with einsum), keeping ``part``'s blocks; ``geometry`` = the derivative rows of
+    ``design`` times coef."""
+    rng = _rng(30 + order)
+    B, n = 5, 12
+    x, y = rng.uniform(-3, 3, (2, B, n))
+    T = np.tril(rng.normal(size=(B, n, 3, 3)))
+    first, stop = jet_rows.PARTS[part]
+    T[:, :, :first] = T[:, :, :, :first] = T[:, :, stop:] = T[:, :, :, stop:] = 0.0
+    D = jet_basis.design(x, y, order).reshape(B, 3, n, -1)
+    full = np.einsum("bnkl,blnp->bknp", T, D)[:, first:stop].reshape(B, -1, D.shape[-1])
+    got = jet_rows.whitened_design(x, y, order, T, part)
+    np.testing.assert_allclose(got, full, rtol=1e-13, atol=1e-13 * np.abs(full).max())
+    coef = rng.normal(size=(B, jet_basis.n_coef(order)))
+    derivs = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+    v = np.einsum("bmp,bp->bm", jet_basis.design(x, y, order, derivs), coef).reshape(B, 5, n)
+    g, h = jet_rows.geometry(
+        jet_rows.positions(np.stack([x, y, x], -1), np.ones((B, n), bool)), coef
+    )
+    np.testing.assert_allclose(
+        np.concatenate([g, h], -1), np.moveaxis(v, 1, -1), rtol=1e-12, atol=1e-12 * np.abs(v).max()
+    )
 
 
 def test_fast_path_and_svd_path_agree_and_each_problem_takes_its_own_path(monkeypatch):

@@ -95,17 +95,15 @@ def solve(A, b, w):
     if not np.all(w == 1.0):  # rows removed or weighted (padding); else A is used as is
         At = At * w[:, None, :]
     bw = b * w
-    G = At @ np.swapaxes(At, -1, -2)  # A^T A: the column scaling is read off its diagonal
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is caught below
+        G = At @ np.swapaxes(At, -1, -2)  # A^T A: the column scaling is read off its diagonal
     scale = np.sqrt(np.diagonal(G, axis1=-2, axis2=-1))
-    # a problem whose numbers overflowed (a degenerate patch's fit diverging) determines
-    # nothing: every column blind, its coefficients NaN; the others of the stack go on
+    # a problem whose numbers overflowed (a degenerate patch's fit diverging, or |A| past
+    # ~1e154, where A^T A does) determines nothing: every column blind, its coefficients
+    # NaN; the others of the stack go on
     bad = ~(np.isfinite(scale).all(axis=1) & np.isfinite(bw).all(axis=1))
     if bad.any():
-        bad &= ~(np.isfinite(At).all(axis=(1, 2)) & np.isfinite(bw).all(axis=1))
-        for k in np.flatnonzero(~bad & ~np.isfinite(scale).all(axis=1)):  # |A| ~ 1e154
-            scale[k] = np.sqrt(np.einsum("pm,pm->p", At[k], At[k]))
-            Xk = At[k] / np.where(scale[k] > 0, scale[k], 1.0)[:, None]
-            G[k] = (Xk @ Xk.T) * np.outer(scale[k], scale[k])
+        At = At.copy()  # it may be the caller's array (a view's transpose)
         At[bad], bw[bad], scale[bad], G[bad] = 0.0, 0.0, 0.0, 0.0
     live = scale > 0
     scale = np.where(live, scale, 1.0)
