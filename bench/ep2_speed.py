@@ -8,7 +8,8 @@ first).  ``--fit-only`` times the batched tangent fit alone (``tangent_fit``).
 ``analyze_patches`` on the same patches, in a child process that imports REV's host
 library (``git archive``), alternating with this tree's runs: before and after side by
 side in one run (best of ``REPEATS``; compare the ratios, the machine is shared).
-``--batch-only`` skips the one-patch configurations and the CLI.
+``--batch-only`` skips the one-patch configurations and the CLI; with ``--fit-only``,
+``--against REV`` times REV's host library on the same tangent fit (this bench's code).
 """
 
 import argparse
