@@ -154,13 +154,17 @@ def _whitening(g, h, sig, part):
     P[..., 1, 2] = P[..., 2, 1] = hxx * hxy + hxy * hyy
     P[..., 2, 2] = hxy * hxy + hyy * hyy
     N = np.zeros_like(P)
-    N[..., 1:, 1:] = (1.0 + g2)[..., None, None] * (np.eye(2) + g[..., :, None] * g[..., None, :])
+    a = 1.0 + g2
+    N[..., 1, 1], N[..., 2, 2] = a * (1.0 + gx * gx), a * (1.0 + gy * gy)
+    N[..., 1, 2] = N[..., 2, 1] = a * (gx * gy)
     keep = {"all": [0, 1, 2], "pos": [0], "slopes": [1, 2]}[part]
     drop = [k for k in range(3) if k not in keep]
-    for M in (P, N):
-        M[..., drop, :] = 0.0
-        M[..., :, drop] = 0.0
-    cov = sig[:, 0, None, None, None] ** 2 * P + sig[:, 1, None, None, None] ** 2 * N
+    if drop:
+        for M in (P, N):
+            M[..., drop, :] = 0.0
+            M[..., :, drop] = 0.0
+    cov = sig[:, 0, None, None, None] ** 2 * P
+    cov += sig[:, 1, None, None, None] ** 2 * N
     cov[..., drop, drop] = 1.0  # placeholders, removed from T below
     T = _inverse_cholesky(cov)
     T[..., drop, :] = 0.0
