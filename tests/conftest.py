@@ -118,3 +118,21 @@ def board(request):
         except cores.CoreUnavailable as exc:
             pytest.skip(str(exc))
     return BoardTarget(request.param, request.config.getoption("--port"))
+
+
+@pytest.fixture(scope="session")
+def recorded_run(tmp_path_factory):
+    """One ``tactile record`` of the shipped sphere sweep (tests/recorded.py), shared by the
+    loader's and both exports' tests: tests write their variants elsewhere."""
+    from recorded import record_sweep
+
+    tmp = tmp_path_factory.mktemp("sweep")
+    return record_sweep(tmp / "rec", tmp)
+
+
+@pytest.fixture(scope="session")
+def recorded_msgs(recorded_run):
+    """The SAMPLE/CONTACT messages of ``recorded_run``'s capture, decoded independently."""
+    from recorded import frames_of
+
+    return frames_of(recorded_run)

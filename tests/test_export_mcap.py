@@ -8,26 +8,15 @@ import sys
 
 import numpy as np
 import pytest
-from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, frames_of, record_sweep, variant
+from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, variant
 
 import tactile
 from tactile.export_mcap import normal_quaternions
 
 
-@pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("sweep")
-    return record_sweep(tmp / "rec", tmp)
-
-
-@pytest.fixture(scope="module")
-def msgs(run):
-    return frames_of(run)
-
-
-def _rows(msgs, host=None):
+def _rows(recorded_msgs, host=None):
     head = LEGACY_HEADER if host is None else HOST_HEADER
-    lines = [frame_line(m, None if host is None else host(m)) for m in msgs]
+    lines = [frame_line(m, None if host is None else host(m)) for m in recorded_msgs]
     return "\n".join([head, *lines]) + "\n"
 
 
@@ -54,18 +43,24 @@ def _stamp_ns(header):
     return header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
 
 
-def test_a_wrenchstamped_per_frame_on_a_topic_per_sensor_in_board_time(run, msgs, tmp_path, cli):
-    board = variant(run, tmp_path / "board", _rows(msgs), meta_change=lambda d: None)
+def test_a_wrenchstamped_per_frame_on_a_topic_per_sensor_in_board_time(
+    recorded_run, recorded_msgs, tmp_path, cli
+):
+    board = variant(
+        recorded_run, tmp_path / "board", _rows(recorded_msgs), meta_change=lambda d: None
+    )
     code, out, err = cli("export", board, "-o", tmp_path / "b.mcap")
     assert code == 0 and err == "" and out.count("\n") == 1
-    assert out.startswith(f"wrote {tmp_path / 'b.mcap'}: {len(msgs)} WrenchStamped (N, N*m)")
+    assert out.startswith(
+        f"wrote {tmp_path / 'b.mcap'}: {len(recorded_msgs)} WrenchStamped (N, N*m)"
+    )
     assert "on 3 topics" in out and "stamps: board clock" in out
     assert "did not map the board's clock" in out
     meta, topics = read_mcap(tmp_path / "b.mcap")
     assert meta["tactile"]["stamps"].startswith("board clock")
     assert meta["tactile"]["units"].startswith("force N, torque N*m, position m")
     for s in range(3):
-        mine = [m for m in msgs if m.sensor == s]
+        mine = [m for m in recorded_msgs if m.sensor == s]
         got = topics[f"/tactile/sensor{s}/wrench"]
         assert len(got) == len(mine) > 400
         for m, (schema, log_ns, seq, w) in zip(mine, got):
@@ -83,10 +78,12 @@ def _rotate_x(q):
     return np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)])
 
 
-def test_contacts_are_one_posearray_in_metres_pointing_along_the_normals(run, tmp_path, cli):
-    assert cli("export", run, "-o", tmp_path / "c.mcap")[0] == 0
+def test_contacts_are_one_posearray_in_metres_pointing_along_the_normals(
+    recorded_run, tmp_path, cli
+):
+    assert cli("export", recorded_run, "-o", tmp_path / "c.mcap")[0] == 0
     meta, topics = read_mcap(tmp_path / "c.mcap")
-    contacts = tactile.load_recording(run).contacts
+    contacts = tactile.load_recording(recorded_run).contacts
     [(schema, log_ns, _, arr)] = topics["/tactile/contacts"]
     assert schema == "geometry_msgs/msg/PoseArray" and arr.header.frame_id == "world"
     first = min(e[1] for t, es in topics.items() if t != "/tactile/contacts" for e in es)
@@ -102,10 +99,10 @@ def test_contacts_are_one_posearray_in_metres_pointing_along_the_normals(run, tm
     assert meta["tactile"]["contacts"].startswith(f"{len(pos)} contacts from contacts.csv")
 
 
-def test_contacts_written_in_cm_are_exported_in_metres(run, tmp_path, cli):
-    metres = tactile.load_recording(run).contacts.points_m
-    cm = variant(run, tmp_path / "cm")
-    lines = (run / "contacts.csv").read_text().splitlines()[1:]  # below "# units: m"
+def test_contacts_written_in_cm_are_exported_in_metres(recorded_run, tmp_path, cli):
+    metres = tactile.load_recording(recorded_run).contacts.points_m
+    cm = variant(recorded_run, tmp_path / "cm")
+    lines = (recorded_run / "contacts.csv").read_text().splitlines()[1:]  # below "# units: m"
     scaled = [",".join(str(float(v) * 100) if i < 3 else v for i, v in enumerate(ln.split(",")))
               for ln in lines[1:]]  # fmt: skip
     (cm / "contacts.csv").write_text("\n".join(["# units: cm", lines[0], *scaled]) + "\n")
@@ -116,31 +113,33 @@ def test_contacts_written_in_cm_are_exported_in_metres(run, tmp_path, cli):
     assert "written in cm, here in m" in meta["tactile"]["contacts"]
 
 
-def test_with_host_time_the_stamps_are_host_utc(run, msgs, tmp_path, cli):
+def test_with_host_time_the_stamps_are_host_utc(recorded_run, recorded_msgs, tmp_path, cli):
     def host(m):  # a host clock 50 ppm fast of the board's, in Unix time
         mono = 500.0 + m.timestamp_us * 1e-6 * (1 + 50e-6)
         return mono, mono + 1_763_900_000.0
 
-    timed = variant(run, tmp_path / "host", _rows(msgs, host), meta_change=lambda d: None)
+    timed = variant(
+        recorded_run, tmp_path / "host", _rows(recorded_msgs, host), meta_change=lambda d: None
+    )
     code, out, _ = cli("export", timed, "-o", tmp_path / "h.mcap")
     assert code == 0 and "stamps: host UTC, Unix time (from frames.csv)" in out
     meta, topics = read_mcap(tmp_path / "h.mcap")
     assert meta["tactile"]["stamps"] == "host UTC, Unix time (from frames.csv)"
     for s in range(3):
-        mine = [m for m in msgs if m.sensor == s]
+        mine = [m for m in recorded_msgs if m.sensor == s]
         for m, (_, log_ns, _, w) in zip(mine, topics[f"/tactile/sensor{s}/wrench"]):
             written_us = round(float(f"{host(m)[1]:.6f}") * 1e6)  # frames.csv: to the us
             assert _stamp_ns(w.header) == log_ns == written_us * 1000
 
 
-def test_default_output_and_bad_input(run, tmp_path, cli):
-    code, out, _ = cli("export", run)
-    assert code == 0 and (run / f"{run.name}.mcap").is_file()
-    assert out.startswith(f"wrote {run / run.name}.mcap: ")
-    (run / f"{run.name}.mcap").unlink()
+def test_default_output_and_bad_input(recorded_run, tmp_path, cli):
+    code, out, _ = cli("export", recorded_run)
+    assert code == 0 and (recorded_run / f"{recorded_run.name}.mcap").is_file()
+    assert out.startswith(f"wrote {recorded_run / recorded_run.name}.mcap: ")
+    (recorded_run / f"{recorded_run.name}.mcap").unlink()
     code, out, err = cli("export", tmp_path / "nothing")
     assert code == 2 and out == "" and err.count("\n") == 1 and "not a directory" in err
-    code, out, err = cli("export", run, "-o", tmp_path / "no" / "such" / "dir.mcap")
+    code, out, err = cli("export", recorded_run, "-o", tmp_path / "no" / "such" / "dir.mcap")
     assert code == 2 and err.count("\n") == 1 and "cannot write the MCAP file" in err
     assert "Traceback" not in err and not (tmp_path / "no").exists()
 
@@ -154,22 +153,24 @@ def test_help_shows_the_defaults(capsys):
     assert "(default mcap)" in text and "(default: RUN/NAME.mcap or RUN/NAME.parquet, NAME" in text
 
 
-def test_without_the_extra_the_command_says_how_to_install_it(run, tmp_path, cli, monkeypatch):
+def test_without_the_extra_the_command_says_how_to_install_it(
+    recorded_run, tmp_path, cli, monkeypatch
+):
     for name in ("mcap_ros2", "mcap_ros2.writer"):
         monkeypatch.setitem(sys.modules, name, None)  # import -> ImportError
-    code, out, err = cli("export", run, "-o", tmp_path / "x.mcap")
+    code, out, err = cli("export", recorded_run, "-o", tmp_path / "x.mcap")
     assert code == 2 and out == ""
     assert err == "tactile export: error: MCAP export needs the 'export' extra:" \
         " pip install 'tactile-shape[export]'\n"  # fmt: skip
     assert not (tmp_path / "x.mcap").exists()
 
 
-def test_other_commands_and_the_loader_do_not_import_mcap(run):
+def test_other_commands_and_the_loader_do_not_import_mcap(recorded_run):
     code = (
         "import sys, tactile\n"
         "from tactile.cli.main import main\n"
-        f"main(['decode', {str(run / 'capture.bin')!r}])\n"
-        f"tactile.load_recording({str(run)!r})\n"
+        f"main(['decode', {str(recorded_run / 'capture.bin')!r}])\n"
+        f"tactile.load_recording({str(recorded_run)!r})\n"
         "print('mcap' in sys.modules, 'mcap_ros2' in sys.modules)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

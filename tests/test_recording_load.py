@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 import pytest
-from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, frames_of, record_sweep, variant
+from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, variant
 
 import tactile
 from tactile.errors import InputError
@@ -16,43 +16,34 @@ from tactile_protocol import constants as C
 WRAP = 2**32
 
 
-@pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("sweep")
-    return record_sweep(tmp / "rec", tmp)
-
-
-@pytest.fixture(scope="module")
-def msgs(run):
-    return frames_of(run)
-
-
-def test_arrays_equal_the_capture_decoded_independently(run, msgs):
-    rec = tactile.load_recording(run)
-    assert len(rec) == len(msgs) > 1000 and rec.sensors == [0, 1, 2]
-    np.testing.assert_array_equal(rec.seq, [m.seq for m in msgs])
-    np.testing.assert_array_equal(rec.board_us, [m.timestamp_us for m in msgs])
-    np.testing.assert_array_equal(rec.sensor, [m.sensor for m in msgs])
-    counts = np.array([[m.fx, m.fy, m.fz, m.tx, m.ty, m.tz] for m in msgs])
+def test_arrays_equal_the_capture_decoded_independently(recorded_run, recorded_msgs):
+    rec = tactile.load_recording(recorded_run)
+    assert len(rec) == len(recorded_msgs) > 1000 and rec.sensors == [0, 1, 2]
+    np.testing.assert_array_equal(rec.seq, [m.seq for m in recorded_msgs])
+    np.testing.assert_array_equal(rec.board_us, [m.timestamp_us for m in recorded_msgs])
+    np.testing.assert_array_equal(rec.sensor, [m.sensor for m in recorded_msgs])
+    counts = np.array([[m.fx, m.fy, m.fz, m.tx, m.ty, m.tz] for m in recorded_msgs])
     np.testing.assert_array_equal(rec.force_N, counts[:, :3] / 1e6)  # uN -> N, exactly
     np.testing.assert_array_equal(rec.torque_Nm, counts[:, 3:] / 1e6)
     np.testing.assert_array_equal(rec.wrench, counts / 1e6)
-    contact = np.array([m.type_name == "CONTACT" for m in msgs])
+    contact = np.array([m.type_name == "CONTACT" for m in recorded_msgs])
     np.testing.assert_array_equal(rec.is_contact, contact)
-    phase = [m.phase if m.type_name == "CONTACT" else -1 for m in msgs]
+    phase = [m.phase if m.type_name == "CONTACT" else -1 for m in recorded_msgs]
     np.testing.assert_array_equal(rec.phase, phase)
-    np.testing.assert_array_equal(rec.contact_id, [getattr(m, "contact_id", -1) for m in msgs])
+    np.testing.assert_array_equal(
+        rec.contact_id, [getattr(m, "contact_id", -1) for m in recorded_msgs]
+    )
     # one boot, no wrap: the board time is the stamp in seconds
     assert set(rec.segment) == {0}
     np.testing.assert_array_equal(rec.board_time_s, rec.board_us * 1e-6)
-    assert rec.meta == json.loads((run / "meta.json").read_text())
+    assert rec.meta == json.loads((recorded_run / "meta.json").read_text())
     assert rec.lines[0] >= 2 and np.all(np.diff(rec.lines) == 1)
 
 
-def test_contacts_are_the_csv_in_metres_with_unit_normals(run):
-    rec = tactile.load_recording(run)
+def test_contacts_are_the_csv_in_metres_with_unit_normals(recorded_run):
+    rec = tactile.load_recording(recorded_run)
     # skip_header: with names=True, genfromtxt takes names from a leading comment line
-    written = np.genfromtxt(run / "contacts.csv", delimiter=",", names=True, dtype=None,
+    written = np.genfromtxt(recorded_run / "contacts.csv", delimiter=",", names=True, dtype=None,
                             skip_header=1, encoding="utf-8", comments="#")  # fmt: skip
     c = rec.contacts
     assert rec.contacts_why is None and c.file_unit == "m" and len(c.points_m) == len(written)
@@ -64,27 +55,33 @@ def test_contacts_are_the_csv_in_metres_with_unit_normals(run):
     assert np.all(np.abs(c.points_m) < 0.1)  # the sphere is 5 cm: metres, not cm
 
 
-def _text(msgs, host=None, header=None):
+def _text(recorded_msgs, host=None, header=None):
     head = header or (LEGACY_HEADER if host is None else HOST_HEADER)
-    rows = [frame_line(m, None if host is None else host(i)) for i, m in enumerate(msgs)]
+    rows = [frame_line(m, None if host is None else host(i)) for i, m in enumerate(recorded_msgs)]
     return "\n".join([head, *rows]) + "\n"
 
 
-def test_a_recording_without_host_time_says_so(run, msgs, tmp_path):
-    legacy = variant(run, tmp_path / "legacy", _text(msgs), meta_change=lambda d: None)
+def test_a_recording_without_host_time_says_so(recorded_run, recorded_msgs, tmp_path):
+    legacy = variant(
+        recorded_run, tmp_path / "legacy", _text(recorded_msgs), meta_change=lambda d: None
+    )
     rec = tactile.load_recording(legacy)
     assert rec.host_utc_s is None and rec.host_monotonic_s is None
     assert rec.host_time_source is None and "did not map the board's clock" in rec.host_time_why
 
 
-def test_host_time_columns_are_used_as_written_and_empty_cells_are_nan(run, msgs, tmp_path):
-    t = np.array([m.timestamp_us for m in msgs]) * 1e-6
+def test_host_time_columns_are_used_as_written_and_empty_cells_are_nan(
+    recorded_run, recorded_msgs, tmp_path
+):
+    t = np.array([m.timestamp_us for m in recorded_msgs]) * 1e-6
 
     def host(i):  # 50 ppm fast, 1.7e9 s Unix time; row 7 unknown
         mono = 1000.0 + t[i] * (1 + 50e-6)
         return (None, None) if i == 7 else (mono, mono + 1.7e9)
 
-    cols = variant(run, tmp_path / "cols", _text(msgs, host), meta_change=lambda d: None)
+    cols = variant(
+        recorded_run, tmp_path / "cols", _text(recorded_msgs, host), meta_change=lambda d: None
+    )
     rec = tactile.load_recording(cols)
     assert rec.host_time_source == "frames.csv"
     mono = 1000.0 + t * (1 + 50e-6)
@@ -93,11 +90,11 @@ def test_host_time_columns_are_used_as_written_and_empty_cells_are_nan(run, msgs
     expect[7] = expect_utc[7] = np.nan
     np.testing.assert_array_equal(rec.host_monotonic_s, expect)
     np.testing.assert_array_equal(rec.host_utc_s, expect_utc)
-    assert rec.host_time_why.startswith(f"1 of {len(msgs)} rows have no host time")
+    assert rec.host_time_why.startswith(f"1 of {len(recorded_msgs)} rows have no host time")
     assert "row 7: frames.csv has no host time (meta.json has no time_base)" in rec.host_time_why
     # the board's own columns are unchanged by the extra ones
-    np.testing.assert_array_equal(rec.board_us, [m.timestamp_us for m in msgs])
-    np.testing.assert_array_equal(rec.force_N[:, 0], [m.fx / 1e6 for m in msgs])
+    np.testing.assert_array_equal(rec.board_us, [m.timestamp_us for m in recorded_msgs])
+    np.testing.assert_array_equal(rec.force_N[:, 0], [m.fx / 1e6 for m in recorded_msgs])
 
 
 def _time_base(usable=True, first_row=0, rows=None, ref_us=500_000, drift=50.0):
@@ -121,21 +118,27 @@ def _with_segments(*segments):
     return change
 
 
-def test_without_columns_the_mapping_in_meta_json_gives_host_time(run, msgs, tmp_path):
-    n = len(msgs)
-    mapped = variant(run, tmp_path / "mapped", _text(msgs), _with_segments(_time_base(rows=n)))
+def test_without_columns_the_mapping_in_meta_json_gives_host_time(
+    recorded_run, recorded_msgs, tmp_path
+):
+    n = len(recorded_msgs)
+    mapped = variant(
+        recorded_run, tmp_path / "mapped", _text(recorded_msgs), _with_segments(_time_base(rows=n))
+    )
     rec = tactile.load_recording(mapped)
-    us = np.array([m.timestamp_us for m in msgs], dtype=float)
+    us = np.array([m.timestamp_us for m in recorded_msgs], dtype=float)
     d = (us - 500_000) * 1e-6 * (1 + 50e-6)
     assert rec.host_time_source == "meta.json" and rec.host_time_why is None
     np.testing.assert_allclose(rec.host_monotonic_s, 2000.0 + d, rtol=0, atol=1e-9)
     np.testing.assert_allclose(rec.host_utc_s, 1.7e9 + 0.25 + d, rtol=0, atol=1e-6)
 
 
-def test_empty_host_columns_fall_back_to_meta_json_and_its_reason(run, msgs, tmp_path):
-    empty = _text(msgs, lambda i: (None, None))
-    unusable = _with_segments(_time_base(usable=False, rows=len(msgs)))
-    rec = tactile.load_recording(variant(run, tmp_path / "fast", empty, unusable))
+def test_empty_host_columns_fall_back_to_meta_json_and_its_reason(
+    recorded_run, recorded_msgs, tmp_path
+):
+    empty = _text(recorded_msgs, lambda i: (None, None))
+    unusable = _with_segments(_time_base(usable=False, rows=len(recorded_msgs)))
+    rec = tactile.load_recording(variant(recorded_run, tmp_path / "fast", empty, unusable))
     assert rec.host_utc_s is None and rec.host_time_source is None
     assert "emulator in fast mode" in rec.host_time_why
 
@@ -182,19 +185,19 @@ def test_a_segment_without_a_usable_mapping_has_nan_host_time_and_says_why(tmp_p
     assert "fast mode" in rec.host_time_why
 
 
-def test_a_units_line_is_read_and_a_wrong_one_refused(run, msgs, tmp_path):
-    body = _text(msgs)
-    ok = variant(run, tmp_path / "ok", "# units: N, N*m, s\n" + body)
+def test_a_units_line_is_read_and_a_wrong_one_refused(recorded_run, recorded_msgs, tmp_path):
+    body = _text(recorded_msgs)
+    ok = variant(recorded_run, tmp_path / "ok", "# units: N, N*m, s\n" + body)
     rec = tactile.load_recording(ok)
-    np.testing.assert_array_equal(rec.force_N, tactile.load_recording(run).force_N)
-    bad = variant(run, tmp_path / "bad", "# units: mN\n" + body)
+    np.testing.assert_array_equal(rec.force_N, tactile.load_recording(recorded_run).force_N)
+    bad = variant(recorded_run, tmp_path / "bad", "# units: mN\n" + body)
     with pytest.raises(InputError, match=r"frames\.csv:1: units 'mN': frames\.csv holds N"):
         tactile.load_recording(bad)
 
 
-def _contacts_variant(run, dest, first_line, scale):
-    out = variant(run, dest)
-    lines = (run / "contacts.csv").read_text().splitlines()[1:]  # below its "# units: m"
+def _contacts_variant(recorded_run, dest, first_line, scale):
+    out = variant(recorded_run, dest)
+    lines = (recorded_run / "contacts.csv").read_text().splitlines()[1:]  # below its "# units: m"
     rows = [",".join(str(float(v) * scale) if i < 3 else v for i, v in enumerate(ln.split(",")))
             for ln in lines[1:]]  # fmt: skip
     head = [first_line] if first_line else []
@@ -202,23 +205,25 @@ def _contacts_variant(run, dest, first_line, scale):
     return out
 
 
-def test_contacts_in_cm_by_their_units_line_are_given_in_metres(run, tmp_path):
-    metres = tactile.load_recording(run).contacts.points_m
-    rec = tactile.load_recording(_contacts_variant(run, tmp_path / "cm", "# units: cm, 1", 100.0))
+def test_contacts_in_cm_by_their_units_line_are_given_in_metres(recorded_run, tmp_path):
+    metres = tactile.load_recording(recorded_run).contacts.points_m
+    rec = tactile.load_recording(
+        _contacts_variant(recorded_run, tmp_path / "cm", "# units: cm, 1", 100.0)
+    )
     assert rec.contacts.file_unit == "cm"
     np.testing.assert_allclose(rec.contacts.points_m, metres, rtol=1e-14, atol=1e-18)
-    bad = _contacts_variant(run, tmp_path / "in", "# units: inch", 1.0)
+    bad = _contacts_variant(recorded_run, tmp_path / "in", "# units: inch", 1.0)
     with pytest.raises(InputError, match=r"contacts\.csv:1: units 'inch': not a length unit"):
         tactile.load_recording(bad)
 
 
-def test_contacts_without_a_units_line_take_the_unit_of_their_pose_log(run, tmp_path):
+def test_contacts_without_a_units_line_take_the_unit_of_their_pose_log(recorded_run, tmp_path):
     """Files written before the units line: a SCARA joint log meant cm, a sensor-pose log m."""
-    metres = tactile.load_recording(run).contacts.points_m
+    metres = tactile.load_recording(recorded_run).contacts.points_m
     scara = tmp_path / "joints.csv"
     scara.write_text("# rig: scara L1=0.35 L2=0.3 L3=0.12 L4=0.015\nt_start_us,t_end_us,finger,"
                      "q1,q2,q3,z\n0,10,0,0.1,0.2,0.3,0.1\n")  # fmt: skip
-    cm = _contacts_variant(run, tmp_path / "cm", None, 100.0)
+    cm = _contacts_variant(recorded_run, tmp_path / "cm", None, 100.0)
     meta = json.loads((cm / "meta.json").read_text())
     meta["command"] = ["tactile", "record", "--pose-log", str(scara), "-o", str(cm)]
     (cm / "meta.json").write_text(json.dumps(meta))
@@ -231,22 +236,24 @@ def test_contacts_without_a_units_line_take_the_unit_of_their_pose_log(run, tmp_
     assert len(rec) > 1000  # the frames still load
 
 
-def test_bad_input_is_one_error_naming_the_file_line_and_column(run, msgs, tmp_path):
+def test_bad_input_is_one_error_naming_the_file_line_and_column(
+    recorded_run, recorded_msgs, tmp_path
+):
     with pytest.raises(InputError, match="not a directory"):
         tactile.load_recording(tmp_path / "nothing")
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputError, match=r"meta\.json: no such file"):
         tactile.load_recording(tmp_path / "empty")
-    text = _text(msgs).splitlines()
+    text = _text(recorded_msgs).splitlines()
     nan = text[:]
     nan[5] = nan[5].rsplit(",", 1)[0] + ",nan"  # line 6: tz_Nm
     with pytest.raises(InputError, match=r"frames\.csv:6: column 'tz_Nm': not a finite number"):
-        tactile.load_recording(variant(run, tmp_path / "nan", "\n".join(nan) + "\n"))
+        tactile.load_recording(variant(recorded_run, tmp_path / "nan", "\n".join(nan) + "\n"))
     cells = text[3].split(",")
     cells[3] = str(C.MAX_SENSORS)  # line 4: a sensor index beyond the protocol's
     sensor = [*text[:3], ",".join(cells), *text[4:]]
     with pytest.raises(InputError, match=r"frames\.csv:4: column 'sensor': must be a whole"):
-        tactile.load_recording(variant(run, tmp_path / "sensor", "\n".join(sensor) + "\n"))
+        tactile.load_recording(variant(recorded_run, tmp_path / "sensor", "\n".join(sensor) + "\n"))
 
 
 def test_import_tactile_stays_light_and_the_loader_needs_no_mcap():
