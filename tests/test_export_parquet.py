@@ -7,16 +7,17 @@ import sys
 
 import numpy as np
 import pytest
-from recorded import HOST_HEADER, frame_line, frames_of, variant
+from recorded import HOST_HEADER, frame_line, variant
 
 pq = pytest.importorskip("pyarrow.parquet", reason="the 'parquet' extra (pyarrow) is missing")
 
 
-def test_frames_and_contacts_read_back_in_si_with_units_in_the_schema(recorded_run, tmp_path, cli):
+def test_frames_and_contacts_read_back_in_si_with_units_in_the_schema(
+    recorded_run, recorded_msgs, tmp_path, cli
+):
     out = tmp_path / "r.parquet"
     code, stdout, err = cli("export", recorded_run, "--format", "parquet", "-o", out)
     assert code == 0 and err == "", err
-    recorded_msgs = frames_of(recorded_run)
     table = pq.read_table(out)
     assert stdout.startswith(f"wrote {out}: {len(recorded_msgs):,} frames (N, N*m, s")
     cols = table.to_pydict()
@@ -46,9 +47,8 @@ def test_frames_and_contacts_read_back_in_si_with_units_in_the_schema(recorded_r
     assert {f.name: f.metadata[b"unit"] for f in contacts.schema}["x_m"] == b"m"
 
 
-def test_a_host_time_not_determined_is_null_not_nan(recorded_run, tmp_path, cli):
+def test_a_host_time_not_determined_is_null_not_nan(recorded_run, recorded_msgs, tmp_path, cli):
     """Rows without a host time (empty cells in frames.csv) come out null: no NaN in output."""
-    recorded_msgs = frames_of(recorded_run)
     host = lambda m: (None, None) if m.seq % 2 else (10.0 + m.seq, 1.7e9 + m.seq)  # noqa: E731
     text = "\n".join([HOST_HEADER, *(frame_line(m, host(m)) for m in recorded_msgs)]) + "\n"
     rec = variant(recorded_run, tmp_path / "half", "# units: N, N*m, us, s\n" + text)
