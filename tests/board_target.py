@@ -23,6 +23,7 @@ import pytest
 
 from tactile.board_client import BoardClient
 from tactile.serial_port import open_port
+from tactile.stream_decoder import StreamDecoder
 
 EMULATED = ("python", "c")
 TARGETS = (*EMULATED, pytest.param("hardware", marks=pytest.mark.hardware))
@@ -112,3 +113,16 @@ def read_for(client, seconds, until=None):
         if until is not None and until(out):
             break
     return out
+
+
+def run_emulated(url, seconds):
+    """Read the in-process emulator at ``url`` (``sim://...``) until its board clock passes
+    ``seconds``: (port, decoded messages, decoder counters)."""
+    import serial
+
+    port = serial.serial_for_url(url, timeout=0.01)
+    decoder = StreamDecoder()
+    msgs = []
+    while port.emulator.t_us < seconds * 1e6:
+        msgs += decoder.feed(port.read(8192))
+    return port, msgs, decoder.counters

@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pytest
 import serial
-from board_target import EMULATED, read_for
+from board_target import EMULATED, read_for, run_emulated
 
 from tactile.board_client import BoardClient, CommandRefused
 from tactile.serial_port import open_port
@@ -162,19 +162,10 @@ def test_record_writes_capture_frames_and_meta_that_agree(board, cli, tmp_path):
 # --- on the emulated cores: what only a simulation can script --------------------------------
 
 
-def _run(url, seconds):
-    port = serial.serial_for_url(url, timeout=0.01)
-    decoder = StreamDecoder()
-    msgs = []
-    while port.emulator.t_us < seconds * 1e6:
-        msgs += decoder.feed(port.read(8192))
-    return port, msgs, decoder.counters
-
-
 @emulated
 def test_contact_begin_and_end_land_where_the_scene_puts_them(board, tmp_path):
     scene_path = _scene(tmp_path, noise=False)
-    port, msgs, counters = _run(board.url(scene_path), 4.0)
+    port, msgs, counters = run_emulated(board.url(scene_path), 4.0)
     assert port.emulator.core == board.core
     scene = port.emulator.scene
     enter, exit_ = scene.board["enter_threshold_N"], scene.board["exit_threshold_N"]
@@ -201,7 +192,7 @@ def test_sensor_faults_give_status_and_recovery(board, tmp_path):
         '[[sensor_fault]]\nat_s = 1.2\nkind = "stuck_drdy"\nfor_s = 0.05\n'
         '[[sensor_fault]]\nat_s = 2.5\nkind = "saturate"\nfor_s = 0.02\n'
     )
-    _, msgs, _ = _run(board.url(_scene(tmp_path, extra=extra)), 3.5)
+    _, msgs, _ = run_emulated(board.url(_scene(tmp_path, extra=extra)), 3.5)
     faults = [m.faults for m in msgs if m.type_name == "STATUS"]
     assert any(f & C.FAULT_I2C and not f & C.FAULT_RECOVERED for f in faults)
     assert any(f & C.FAULT_DRDY_STUCK and not f & C.FAULT_RECOVERED for f in faults)

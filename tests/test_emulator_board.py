@@ -9,9 +9,8 @@ import subprocess
 import sys
 
 import pytest
-import serial
+from board_target import run_emulated
 
-from tactile.stream_decoder import StreamDecoder
 from tactile_sim.emulator import SceneError, load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.urlhandler import register
@@ -33,15 +32,6 @@ def _press(tmp_path, extra="", noise=True):
     return _scene(tmp_path, text + "\n" + extra)
 
 
-def _run(url, seconds):
-    port = serial.serial_for_url(url, timeout=0.01)
-    decoder = StreamDecoder()
-    msgs = []
-    while port.emulator.t_us < seconds * 1e6:
-        msgs += decoder.feed(port.read(8192))
-    return port, msgs, decoder.counters
-
-
 def test_it_is_the_real_firmware():
     from tactile_fw.board import Board
 
@@ -61,7 +51,7 @@ def test_link_faults_are_counted_exactly(tmp_path):
     corrupt = list(range(50, 3000, 97))
     drop = list(range(101, 3000, 211))
     extra = f"[link]\ncorrupt_frames = {corrupt}\ndrop_byte_frames = {drop}\n"
-    port, msgs, counters = _run(f"sim://{_press(tmp_path, extra)}", 3.5)
+    port, msgs, counters = run_emulated(f"sim://{_press(tmp_path, extra)}", 3.5)
     injected = port.faults.injected
     assert injected["corrupted"] == len(corrupt) and injected["dropped_bytes"] == len(drop)
     total = injected["corrupted"] + injected["dropped_bytes"]
@@ -73,7 +63,7 @@ def test_link_faults_are_counted_exactly(tmp_path):
 
 def test_faults_can_be_turned_off_in_the_url(tmp_path):
     extra = "[link]\ncorrupt_frames = [10, 20]\n"
-    _, _, counters = _run(f"sim://{_press(tmp_path, extra)}?faults=0", 0.5)
+    _, _, counters = run_emulated(f"sim://{_press(tmp_path, extra)}?faults=0", 0.5)
     assert counters.lost_frames == 0
 
 
