@@ -307,6 +307,11 @@ def _decode(path, line_no, raw):
 # --- lines into rows and cells -------------------------------------------------------------
 
 
+def skipped(row):
+    """A CSV row no reader takes as data: empty, only blanks, or a ``#`` comment."""
+    return not row or not "".join(row).strip() or row[0].lstrip().startswith("#")
+
+
 def _rows(path, max_bytes=None):
     """Yield (line number, cells) of the header and data rows; blank and ``#`` lines skipped."""
     with contextlib.closing(_text_lines(path, max_bytes)) as lines:
@@ -319,9 +324,8 @@ def _rows(path, max_bytes=None):
                 return
             except csv.Error as exc:
                 raise InputError(f"{where(path, numbered.line)}: not valid CSV: {exc}") from None
-            if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
-                continue
-            yield numbered.line, row
+            if not skipped(row):
+                yield numbered.line, row
 
 
 class _Numbered:

@@ -32,6 +32,7 @@ from tactile.tabular import (
     _no_header,
     _number,
     count_lines,
+    skipped,
 )
 
 BLOCK_BYTES = 1 << 18  # bytes of text a block: ~3,500 rows of contacts (as fast as 1 MiB)
@@ -82,7 +83,7 @@ class CsvBlocks:
                 break
             except csv.Error as exc:
                 raise InputError(f"{where(self.path, feed.line)}: not valid CSV: {exc}") from None
-            if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
+            if skipped(row):
                 continue
             if slow is not None:
                 slow.add(feed.line, row)
