@@ -417,3 +417,9 @@ def test_the_emulators_cal_file_holds_the_calibration_its_board_holds(tmp_path):
     si = convert.si_per_count(files.read(path), VOLTS_PER_COUNT)
     board = np.linalg.inv(sensitivity_matrix(sensor["force_range_N"], sensor["torque_range_Nm"]))
     assert np.allclose(si, board, rtol=1e-12, atol=0)
+
+
+def test_emulate_cal_file_that_cannot_be_written_is_one_line_exit_2(tmp_path, cli):
+    code, out, err = cli("emulate", "press", "--cal-file", tmp_path / "no" / "FT1.cal")
+    assert code == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert "--cal-file: cannot write" in err

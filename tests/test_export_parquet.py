@@ -85,3 +85,11 @@ def test_mcap_export_and_the_loader_do_not_import_pyarrow(recorded_run, tmp_path
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.splitlines()[-1] == "False"
+
+
+def test_an_output_that_cannot_be_written_is_one_line_exit_2(recorded_run, tmp_path, cli):
+    code, out, err = cli("export", recorded_run, "--format", "parquet",
+                         "-o", tmp_path / "no" / "such" / "x.parquet")  # fmt: skip
+    assert code == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert "x.parquet: cannot write the Parquet file" in err
+    assert not list((tmp_path).rglob("*.parquet*"))  # nothing half-written left behind
