@@ -132,15 +132,13 @@ def _prepare_group(group, unpacked, kw):
     good &= ~_has_duplicates(P, N)
     middle = 0.5 * lo + 0.5 * hi  # ``extent.centred``
     P = P - middle[:, None, :]
-    out = []
-    for b, (j, _, _) in enumerate(group):
-        if not good[b]:
-            out.append(None)
-            continue
-        _, _, finger, lines = unpacked[j]
-        breaks = discontinuity.find_breaks(N[b], finger, kw["break_angle"])
-        opts = patch_input.options(kw, lines)
-        out.append(patch_input.Prepared(P[b], N[b], opts, breaks, 0, middle[b]))
+    out = [None] * len(group)
+    live = np.flatnonzero(good)
+    fingers = [unpacked[group[b][0]][2] for b in live.tolist()]
+    breaks = discontinuity.find_breaks_many(N[live], fingers, kw["break_angle"])
+    for b, brk in zip(live.tolist(), breaks, strict=True):
+        opts = patch_input.options(kw, unpacked[group[b][0]][3])
+        out[b] = patch_input.Prepared(P[b], N[b], opts, brk, 0, middle[b])
     return out
 
 

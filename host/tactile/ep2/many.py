@@ -68,8 +68,9 @@ def analyze_chunk(work, opts, split):
 
     out = [None] * len(work)
     batch = []
+    cut = _breaks([g for g, _ in work], opts) if split else [False] * len(work)
     for i, (g, name) in enumerate(work):
-        if split and _breaks(g, opts):
+        if cut[i]:
             out[i] = analyze_one(g, name, opts, split)
         else:
             batch.append(i)
@@ -84,17 +85,49 @@ def analyze_chunk(work, opts, split):
     return out
 
 
-def _breaks(group, opts):
-    """True when ``analyze_sweep`` would cut this patch (its normals break, §6.2.5)."""
+def _breaks(groups, opts):
+    """[bool] per ``Contacts`` group: whether ``analyze_sweep`` would cut it (its normals
+    break, §6.2.5, or a zero normal makes it refuse, as ``analyze_one`` then says), for the
+    groups of one size at once: ``patch_frame.unit_normals`` and
+    ``discontinuity.find_breaks_many`` on their stack."""
+    import numpy as np
+
+    from tactile.ep2 import discontinuity
+
+    angle = opts.get("break_angle", discontinuity.BREAK_ANGLE_DEG)
+    out = [False] * len(groups)
+    sizes = {}
+    for i, g in enumerate(groups):
+        if g.finger is not None:
+            nrm = np.asarray(g.normals, float)
+            if nrm.ndim != 2 or nrm.shape[1] != 3:
+                out[i] = _breaks_one(g, angle)
+            else:
+                sizes.setdefault(len(nrm), []).append((i, nrm))
+    for same in sizes.values():
+        N = np.stack([nrm for _, nrm in same])
+        big = np.max(np.abs(N), axis=-1) if N.size else np.zeros(N.shape[:2])
+        ok = np.all(big > 0, axis=-1)  # else ``unit_normals`` refuses: a zero normal
+        N, big = N[ok], big[ok]
+        N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
+        N = N / np.linalg.norm(N, axis=-1)[..., None]
+        live = [i for (i, _), keep in zip(same, ok.tolist(), strict=True) if keep]
+        found = discontinuity.find_breaks_many(N, [groups[i].finger for i in live], angle)
+        for i, _ in same:
+            out[i] = True
+        for i, brk in zip(live, found, strict=True):
+            out[i] = bool(brk)
+    return out
+
+
+def _breaks_one(group, angle):
+    """``_breaks`` of one group (normals of another shape than (n, 3))."""
     import numpy as np
 
     from tactile.ep2 import discontinuity, patch_frame
 
-    if group.finger is None:
-        return False
     try:
         nrm = patch_frame.unit_normals(np.asarray(group.normals, float))
-        angle = opts.get("break_angle", discontinuity.BREAK_ANGLE_DEG)
         return bool(discontinuity.find_breaks(nrm, group.finger, angle))
     except (DataError, InputError):
         return True  # ``analyze_one`` gives the refusal as ``analyze_sweep`` does
