@@ -7,6 +7,8 @@ import pathlib
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from tactile import tabular
 from tactile.errors import InputError
@@ -176,3 +178,60 @@ def test_the_units_line_is_found_before_the_header(tmp_path):
     path = _write(tmp_path, "# rig: x\n#  Units :  cm \nx,y,z\n1,2,3\n# units: m\n")
     assert tabular.units_line(path) == (2, "cm")
     assert tabular.units_line(_write(tmp_path, "x,y,z\n1,2,3\n")) is None
+
+
+# -- issue 13: dumps writes the object itself where ``clean``'s copy would read the same ----
+
+_KEYS = st.one_of(st.text(max_size=3), st.integers(-3, 3), st.booleans(), st.none(), st.floats())
+_LEAVES = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**70), 2**70),
+    st.floats(),  # NaN, inf, -0.0 included
+    st.text(max_size=4),
+    st.binary(max_size=3),
+    st.floats().map(np.float64),
+    st.floats(width=32).map(np.float32),
+    st.integers(-(2**62), 2**62).map(np.int64),
+    st.booleans().map(np.bool_),
+    st.lists(st.floats(), max_size=3).map(np.array),
+)
+_TREES = st.recursive(
+    _LEAVES,
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4),
+        st.lists(inner, max_size=4).map(tuple),
+        st.dictionaries(st.text(max_size=3), inner, max_size=4),
+        st.dictionaries(_KEYS, inner, max_size=4),
+    ),
+    max_leaves=12,
+)
+
+
+@given(_TREES)
+def test_dumps_is_json_of_the_clean_copy(obj):
+    """The same text (or the same error) as ``json.dumps(clean(obj))``, the way it was
+    written before it skipped the copy: str keys and others (True -> "True", 1 and "1"
+    merged), NaN and inf anywhere, NumPy scalars and arrays, bytes."""
+    try:
+        want = json.dumps(clean(obj), allow_nan=False, separators=(",", ":"))
+    except Exception as exc:  # noqa: BLE001 - the same exception either way
+        with pytest.raises(type(exc)):
+            dumps(obj)
+        return
+    assert dumps(obj) == want
+
+
+def test_dumps_of_an_ep2_record_is_unchanged():
+    """A record as ``tactile ep2 analyze --json`` writes it: NumPy direction, tuples, a null."""
+    from tactile.ep2 import analyze_patch
+    from tactile_sim.ep2 import make, sweep
+
+    d = sweep(make("saddle", 8.0), noise_pos=0.01, noise_normal=0.01, seed=1)
+    rec = analyze_patch(d["points"], d["normals"], finger=d["finger"]).to_dict(7)
+    rec["S_mean"] = float("nan")
+    assert isinstance(rec["direction1"], np.ndarray) and isinstance(rec["k1_interval"], tuple)
+    want = json.dumps(clean(rec), allow_nan=False, separators=(",", ":"))
+    assert dumps(rec) == want and '"S_mean":null' in want
+    del rec["S_mean"]
+    assert dumps(rec) == json.dumps(clean(rec), allow_nan=False, separators=(",", ":"))

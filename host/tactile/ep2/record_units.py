@@ -7,6 +7,8 @@ it, C and C_mean shifted by -(2/pi) ln(scale) (C = (2/pi) ln R, R in 1/unit, the
 and a ``units`` field naming the unit of each number.
 """
 
+import functools
+
 from tactile.units import c_shift
 
 __all__ = ["DIMENSIONS", "in_unit", "units_of"]
@@ -36,6 +38,11 @@ DIMENSIONLESS = ("S", "S_interval", "S_mean", "S_std", "confidence")
 
 def units_of(unit):
     """{field: its unit} for lengths in ``unit``."""
+    return dict(_units_of(unit))
+
+
+@functools.lru_cache(maxsize=16)
+def _units_of(unit):
     out = {}
     for name, power in DIMENSIONS.items():
         if power == "C":
