@@ -172,17 +172,18 @@ def summary_many(t, cov, bias, scale, intervals=True, cov_noise=None):
     h = np.where(plane, np.hypot(0.5 * (t[:, 0] - t[:, 2]), t[:, 1]), h)
     iv = uncertainty.intervals_many(t, cov, m, h, lam, bias) if intervals else None
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
-    return [
-        _summary_one(i, m, h, iv, (float(r[i]), float(d2[i]), bool(plane[i])), scale, c)
-        for i in range(len(t))
-    ]
+    # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
+    m, h, scale, c = (np.asarray(v, float).tolist() for v in (m, h, scale, c))
+    iv = None if iv is None else {k: np.asarray(v).tolist() for k, v in iv.items()}
+    flat = zip(r.tolist(), d2.tolist(), plane.tolist(), strict=True)
+    return [_summary_one(i, m, h, iv, f, scale, c) for i, f in enumerate(flat)]
 
 
 def _summary_one(i, m, h, iv, flat, scale, c):
-    """Patch ``i``'s fields of ``summary_many`` from its stack's arrays; ``flat`` = (R, d^2,
-    plane), ``c`` (B,) the curvedness C."""
-    (r, d2, plane), scale = flat, float(scale[i])
-    m, h = float(m[i]), float(h[i])
+    """Patch ``i``'s fields of ``summary_many`` from its stack's numbers (lists); ``flat`` =
+    (R, d^2, plane), ``c`` the curvedness C."""
+    (r, d2, plane), scale = flat, scale[i]
+    m, h = m[i], h[i]
     out = dict.fromkeys("S C radius S_interval radius_interval k1_interval k2_interval".split())
     out.update(k1=(m + h) / scale, k2=(m - h) / scale, votes={})
     if iv is not None:

@@ -31,6 +31,7 @@ MIN_VOTE = 0.999
 
 
 CHI2_3_999 = 16.26623619623813  # chi^2 with 3 dof, 99.9 % quantile
+_EDGES = (-math.inf, *S_EDGES.tolist(), math.inf)
 
 
 def flatness_distance(tensor, cov):
@@ -84,13 +85,15 @@ def vote(s_est, s_sd, p_flat=0.0):
     interval below it), and a symmetric normal there would put almost all the
     mass in the sphere band whatever the interval's width.
     """
-    if not s_sd or not np.any(s_sd):
+    if not s_sd or not (any(s_sd) if type(s_sd) is tuple else np.any(s_sd)):
         return S_NAMES[int(s_class(s_est))], 1.0 - p_flat, {}
     lo, hi = (s_sd, s_sd) if np.isscalar(s_sd) else s_sd
-    edges = [-np.inf, *S_EDGES.tolist(), np.inf]
-    cdf = [split_normal_cdf(e, s_est, lo, hi) for e in edges]
-    shares = np.diff(cdf) * (1.0 - p_flat)
-    best = int(np.argmax(shares))
+    cdf = [split_normal_cdf(e, s_est, lo, hi) for e in _EDGES]
+    # Python floats, the same arithmetic as np.diff; argmax as numpy's (first NaN, else
+    # the first largest)
+    shares = [(b - a) * (1.0 - p_flat) for a, b in zip(cdf, cdf[1:], strict=False)]
+    nan = [i for i, v in enumerate(shares) if v != v]
+    best = nan[0] if nan else shares.index(max(shares))
     votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}
     if shares[best] >= MIN_VOTE:
         return S_NAMES[best], float(shares[best]), votes

@@ -68,6 +68,13 @@ def hk_labels(K, H, eps_k=0.0, eps_h=0.0, table=2):
     return out
 
 
+def hk_label(K, H, eps_k=0.0, eps_h=0.0):
+    """``hk_labels`` (table 2) of one (K, H) pair of Python numbers, without arrays."""
+    sk = 1 if K > eps_k else -1 if K < -eps_k else 0
+    sh = 1 if H > eps_h else -1 if H < -eps_h else 0
+    return HK_TABLE2.get((sk, sh), "flat")
+
+
 # S regions (6.2.4, fig. 50): the S axis cut into Koenderink's named bands.
 S_REGIONS = (
     (-1.0, -0.75, "concave_sphere"),
