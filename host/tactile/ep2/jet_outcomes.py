@@ -4,6 +4,7 @@ positions-versus-normals test (``agreement``), determination, intervals and labe
 ``DataError`` in its place.  Only the assembly of each patch's fields is per patch.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,8 +22,10 @@ class OutcomeInputs:
     widen: np.ndarray
     spread: tuple
     grid: tuple
-    stats: dict
+    stats: dict  # Python lists (``grid_batch.at`` reads them per patch)
     direction1: np.ndarray
+    box: np.ndarray  # (B, 4) x min, x max, y min, y max of the contacts (/ L)
+    score: list  # per patch, its models' scores
 
 
 def inputs(fits, n_grid):
@@ -30,12 +33,18 @@ def inputs(fits, n_grid):
     ch, gx, gy = grid_batch.channels(fits.coef, fits.model, fits.xy, fits.mask, n_grid)
     zx, zy, zxx, zxy, zyy = (fits.coef[:, k] for k in jet_basis.CHANNELS)
     d1 = np.asarray(principal(zx, zy, zxx, zxy, zyy)["dir1"], float)
+    x, y, inside = fits.xy[..., 0], fits.xy[..., 1], fits.mask
+    low = [np.where(inside, v, np.inf).min(axis=-1) for v in (x, y)]
+    high = [np.where(inside, v, -np.inf).max(axis=-1) for v in (x, y)]
+    stats = grid_batch.statistics(ch, fits.scale)
     return OutcomeInputs(
         widen=centre_result.widen(fits.dof),
         spread=centre_result.spread_eigen(fits.xyz_mean, fits.mask),
         grid=(ch, gx, gy),
-        stats=grid_batch.statistics(ch, fits.scale),
+        stats={k: np.asarray(v).tolist() for k, v in stats.items()},
         direction1=np.einsum("bi,bij->bj", d1, fits.axes),
+        box=np.stack([low[0], high[0], low[1], high[1]], axis=-1),
+        score=np.asarray(fits.score, float).tolist(),
     )
 
 
@@ -96,13 +105,13 @@ def _name_rows(why, lines):
 def _jet_fields(fits, i, out, pre):
     """Patch ``i``'s result fields: ``out`` (its ``summary``) and what the fit holds."""
     L, axes = float(fits.scale[i]), fits.axes[i]
-    coef, model, xy = fits.coef[i], int(fits.model[i]), fits.xy[i][fits.mask[i]]
+    coef, model = fits.coef[i], int(fits.model[i])
     out.update(grid_batch.at(pre.stats, i, L, out["shape"] == "plane"))
     ch, gx, gy = pre.grid
     out.update(
         order=centre_jet.ORDER,
         weighting="auto" if not any(fits.stated) else "stated",
-        model=_model_text(fits.score[i], model),
+        model=_model_text(pre.score[i], model),
         noise_pos=float(fits.noise[i, 0]),
         noise_normal=float(fits.noise[i, 1]),
         frame=patch_frame.PatchFrame(fits.origin[i], axes),
@@ -110,7 +119,7 @@ def _jet_fields(fits, i, out, pre):
         surface=lambda q: _jet_height(coef, model, q),
         grid=([c[i] for c in ch], gx[i], gy[i]),
         direction1=pre.direction1[i],
-        box=(xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max()),
+        box=tuple(pre.box[i]),
     )
     return out
 
@@ -125,8 +134,7 @@ def _jet_height(coef, model, xy):
 def _model_text(score, model):
     """One line: which model and why (its AIC lead over the runner-up, ``centre_jet``)."""
     names = {0: "quadric 3-jet", 1: "round 3-jet (sphere/cylinder closed form)"}
-    score = np.asarray(score, float)
-    rest = [k for k in range(len(score)) if k != model and np.isfinite(score[k])]
+    rest = [k for k in range(len(score)) if k != model and math.isfinite(score[k])]
     if not rest:
         return f"{names[model]}: the only model that fits"
     runner = min(rest, key=lambda k: score[k])
