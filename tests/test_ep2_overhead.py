@@ -47,3 +47,19 @@ def test_vote_is_its_array_form(seed):
         assert repr(got) == repr(want)  # NaN confidences included
         seen.add(got[0] == "uncertain")
     assert seen == {True, False}
+
+
+def test_duplicate_rows_found_as_by_whole_rows():
+    """``batch._has_duplicates`` (whole rows compared only where two x are equal) says what
+    comparing every row says: exact repeats, equal x alone, -0.0 and 0.0, NaN."""
+    from tactile.ep2.batch import _has_duplicates, _repeats
+
+    rng = np.random.default_rng(5)
+    P, N = rng.normal(size=(300, 9, 3)), rng.normal(size=(300, 9, 3))
+    P[::3, 4], N[::3, 4] = P[::3, 1], N[::3, 1]  # a repeated row
+    P[1::3, 5, 0] = P[1::3, 2, 0]  # the same x, another row
+    P[2::9, 6, 0], P[2::9, 7, 0] = 0.0, -0.0
+    P[5::9, 3, 1] = np.nan
+    got = _has_duplicates(P, N)
+    assert np.array_equal(got, _repeats(P, N))
+    assert got[::3].all() and not got[1::3].any() and got[5::9].all()

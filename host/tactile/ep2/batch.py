@@ -143,7 +143,20 @@ def _prepare_group(group, unpacked, kw):
 
 
 def _has_duplicates(P, N):
-    """(G,) whether a patch repeats a row exactly (``patch_input._drop_duplicates`` drops them)."""
+    """(G,) whether a patch repeats a row exactly (``patch_input._drop_duplicates`` drops them).
+    Only a patch with two equal x (or a non-finite number) can: the rows of those alone are
+    compared whole."""
+    x = np.sort(P[..., 0], axis=-1)
+    maybe = np.any(x[:, 1:] == x[:, :-1], axis=-1)
+    maybe |= ~(np.all(np.isfinite(P), axis=(1, 2)) & np.all(np.isfinite(N), axis=(1, 2)))
+    out = np.zeros(len(P), bool)
+    if maybe.any():
+        out[maybe] = _repeats(P[maybe], N[maybe])
+    return out
+
+
+def _repeats(P, N):
+    """``_has_duplicates`` by comparing whole rows (a sort of every row of the stack)."""
     G, n, _ = P.shape
     patch = np.repeat(np.arange(G, dtype=float), n)[:, None]
     rows = np.concatenate([patch, P.reshape(-1, 3), N.reshape(-1, 3)], axis=1)
