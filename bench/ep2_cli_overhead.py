@@ -3,7 +3,7 @@ against a git revision's host library, side by side in one run, and whether thei
 are byte for byte the same.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_cli_overhead.py [--against main]
-[--patches 5000,10000] [--repeats 3]   (from a checkout:
+[--patches 5000,10000] [--repeats 2] [--stages N]   (from a checkout:
 PYTHONPATH=protocol:firmware:host:sim:studies first).
 
 Files of 36-contact patches with a ``finger`` column, rows scattered through the file
@@ -14,6 +14,10 @@ its ``host``, as ``ep2_speed.py --against`` does): the best CPU seconds of ``--r
 runs each, their ratio, and whether the two trees wrote the same bytes.  The estimator's
 fit is the same code in both unless REV differs there too; ``--split`` spends most of its
 time fitting the cut parts one at a time (``analyze_patch``).
+
+``--stages N`` instead times, in process, where the CPU of ``ep2 analyze --json`` on N
+patches goes in each tree (``STAGES``: the reader's checking pass, the preparation, the
+fit, the analysis after it, the results and their JSON, the rest), best of ``--repeats``.
 """
 
 import argparse
@@ -71,13 +75,85 @@ def run(host, path, flags):
     return cpu_s() - cpu0, proc.stdout, proc.returncode
 
 
+# the stages timed by ``--stages``: (module, function, stage); a tree without one skips it
+STAGES = (
+    ("tactile.cli.cmd_ep2", "_checked", "reader, checking pass"),
+    ("tactile.ep2.batch", "_prepare_stacked", "preparation (breaks, duplicates)"),
+    ("tactile.ep2.centre_jet", "fit", "the fit (centre_jet.fit)"),
+    ("tactile.ep2.jet_outcomes", "inputs", "analysis after the fit"),
+    ("tactile.ep2.jet_outcomes", "outcomes", "analysis after the fit"),
+    ("tactile.ep2.patch_result", "from_fields", "results, records, JSON"),
+    ("tactile.ep2.many", "_outcome", "results, records, JSON"),
+    ("tactile.ep2.record_units", "in_unit", "results, records, JSON"),
+    ("tactile.jsonout", "dumps", "results, records, JSON"),
+)
+_STAGED = """
+import importlib, io, json, sys, time
+from contextlib import redirect_stdout
+spent = {}
+def timed(f, stage):
+    def g(*a, **k):
+        t = time.process_time()
+        try:
+            return f(*a, **k)
+        finally:
+            spent[stage] = spent.get(stage, 0.0) + time.process_time() - t
+    return g
+for mod, name, stage in json.loads(sys.argv[2]):
+    m = importlib.import_module(mod)
+    if hasattr(m, name):
+        setattr(m, name, timed(getattr(m, name), stage))
+from tactile.cli.main import main
+t0 = time.process_time()
+with redirect_stdout(io.StringIO()):
+    try:
+        main(["ep2", "analyze", sys.argv[1], "--json", "--jobs", "1"])
+    except SystemExit:
+        pass
+spent["whole run (imports aside)"] = time.process_time() - t0
+print(json.dumps(spent))
+"""
+
+
+def stages(hosts, path, repeats):
+    """[{stage: best CPU s}] per host: one in-process ``ep2 analyze --json`` run each,
+    alternating, with the functions of ``STAGES`` timed."""
+    import json
+
+    best = [{} for _ in hosts]
+    for _ in range(repeats):
+        for k, host in enumerate(hosts):
+            env = dict(ENV, PYTHONPATH=os.pathsep.join([host, *SOURCES]))
+            args = [sys.executable, "-c", _STAGED, path, json.dumps(STAGES)]
+            out = json.loads(subprocess.run(args, env=env, capture_output=True, check=True).stdout)
+            for stage, cpu in out.items():
+                best[k][stage] = min(best[k].get(stage, np.inf), cpu)
+    for b in best:
+        named = sum(v for s, v in b.items() if not s.startswith("whole"))
+        b["the rest (reader's second pass, printing, chunks)"] = (
+            b.pop("whole run (imports aside)") - named
+        )
+    return best
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--against", default="main", help="git revision to compare (default main)")
     ap.add_argument("--patches", default="5000,10000", help="file sizes, comma separated")
     ap.add_argument("--repeats", type=int, default=2, help="best of, each configuration")
+    ap.add_argument("--stages", type=int, metavar="N", help="only where the CPU goes, N patches")
     args = ap.parse_args()
     ours = os.path.join(HERE, "..", "host")
+    if args.stages:
+        with tempfile.TemporaryDirectory() as tmp:
+            theirs, path = _export(args.against, tmp), os.path.join(tmp, "p.csv")
+            write_csv(path, args.stages)
+            old, new = stages((theirs, ours), path, args.repeats)
+        print(f"| {args.stages:,} patches, --json | {args.against} CPU (s) | this tree CPU (s) |")
+        print("|---|---|---|")
+        for stage in dict.fromkeys([*old, *new]):
+            print(f"| {stage} | {old.get(stage, 0):.2f} | {new.get(stage, 0):.2f} |")
+        return
     print(f"| patches | output | {args.against} CPU (s) | this tree CPU (s) | ratio | same bytes |")
     print("|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
