@@ -2,6 +2,8 @@
 
 - ``TactileError``: base; ``exit_code`` is what the CLI returns.
 - ``InputError`` (2): bad user input; the message names file, line, column/field.
+- ``MissingExtra`` (2): the command needs an optional extra that is not installed; the
+  message says how to install it (``tactile.extras``).
 - ``DataError`` (3): the data are well formed but do not determine a result.
 - ``BoardError`` (IOError, 4): talking to a board or emulator failed;
   ``BoardTimeout``, ``ProtocolVersionError`` and ``PortError`` refine it;
@@ -14,6 +16,10 @@ class TactileError(Exception):
 
 
 class InputError(TactileError, ValueError):
+    exit_code = 2
+
+
+class MissingExtra(TactileError):
     exit_code = 2
 
 

@@ -25,9 +25,9 @@ import pathlib
 import numpy as np
 
 from tactile import __version__
-from tactile.errors import InputError, TactileError
+from tactile.errors import InputError
+from tactile.extras import need
 
-INSTALL_HINT = "MCAP export needs the 'export' extra: pip install 'tactile-shape[export]'"
 SEP = "=" * 80 + "\n"
 TIME = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"
 HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
@@ -58,19 +58,10 @@ CONTACTS_TOPIC = "/tactile/contacts"
 WORLD_FRAME = "world"
 
 
-class ExportUnavailable(TactileError):
-    """The ``export`` extra (mcap, mcap-ros2-support) is not installed."""
-
-    exit_code = 2
-
-
 def require_mcap():
-    """The ROS 2 MCAP ``Writer`` class, or ``ExportUnavailable`` with the install hint."""
-    try:
-        from mcap_ros2.writer import Writer
-    except ImportError:
-        raise ExportUnavailable(INSTALL_HINT) from None
-    return Writer
+    """The ROS 2 MCAP ``Writer`` class, or ``MissingExtra`` (the ``export`` extra: mcap,
+    mcap-ros2-support)."""
+    return need("export", "MCAP export", "mcap_ros2.writer")[0].Writer
 
 
 def wrench_topic(sensor):

@@ -18,9 +18,8 @@ import pathlib
 import numpy as np
 
 from tactile import __version__
-from tactile.errors import InputError, TactileError
-
-INSTALL_HINT = "Parquet export needs the 'parquet' extra: pip install 'tactile-shape[parquet]'"
+from tactile.errors import InputError
+from tactile.extras import need
 
 # column, RecordingData attribute (index into a 2-D one), unit
 COLUMNS = (
@@ -45,20 +44,9 @@ COLUMNS = (
 CONTACT_COLUMNS = (("x_m", "m"), ("y_m", "m"), ("z_m", "m"), ("nx", "1"), ("ny", "1"), ("nz", "1"))
 
 
-class ParquetUnavailable(TactileError):
-    """The ``parquet`` extra (pyarrow) is not installed."""
-
-    exit_code = 2
-
-
 def require_pyarrow():
-    """``(pyarrow, pyarrow.parquet)``, or ``ParquetUnavailable`` with the install hint."""
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError:
-        raise ParquetUnavailable(INSTALL_HINT) from None
-    return pa, pq
+    """``(pyarrow, pyarrow.parquet)``, or ``MissingExtra`` (the ``parquet`` extra)."""
+    return need("parquet", "Parquet export", "pyarrow", "pyarrow.parquet")
 
 
 def _array(pa, values):

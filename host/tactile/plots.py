@@ -3,7 +3,7 @@ mesh (thesis figs. 39 ii, 40, 43, 47) and the S and C maps over the grid (fig. 5
 
 Functions take arrays or a ``PatchResult`` (``tactile.ep2.analyze_patch``) and a path,
 write the PNG and return the path.  matplotlib (the ``plot`` extra) is imported only
-inside them, with the Agg backend; without it they raise ``PlotUnavailable``.
+inside them, with the Agg backend; without it they raise ``tactile.errors.MissingExtra``.
 
 Every figure names the thesis figure it reproduces, draws geometry to equal scale, puts
 its legend outside the axes and labels each axis with its unit: ``unit`` is the length
@@ -15,10 +15,10 @@ passes (the ch. 5 rig moves one finger in passes).
 import numpy as np
 
 from tactile.ep2 import extent
-from tactile.errors import InputError, TactileError
+from tactile.errors import InputError
+from tactile.extras import pyplot
 
 __all__ = [
-    "PlotUnavailable",
     "map_grids",
     "plot_contacts",
     "plot_maps",
@@ -26,7 +26,6 @@ __all__ = [
     "require_matplotlib",
 ]
 
-INSTALL_HINT = "matplotlib is not installed; plotting needs: pip install 'tactile-shape[plot]'"
 DPI = 100
 S_CMAP = "RdBu_r"  # diverging: convex (S > 0) red, saddle white, concave blue
 C_CMAP = "viridis"
@@ -42,20 +41,9 @@ CONTACTS_REF = "cf. thesis figs. 39 ii, 42 ii, 46 ii"
 MAPS_REF = "cf. thesis fig. 50"
 
 
-class PlotUnavailable(TactileError):
-    """matplotlib is missing."""
-
-
 def require_matplotlib():
-    """Return ``matplotlib.pyplot`` on the Agg backend, or raise ``PlotUnavailable``."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise PlotUnavailable(INSTALL_HINT) from None
-    return plt
+    """Return ``matplotlib.pyplot`` on the Agg backend, or raise ``MissingExtra``."""
+    return pyplot()
 
 
 def _contacts(points, normals):

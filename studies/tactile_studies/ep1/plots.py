@@ -9,6 +9,7 @@ imported when one is called.
 
 import numpy as np
 
+from tactile.extras import pyplot
 from tactile.plots import log_ticks
 
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
@@ -22,10 +23,7 @@ FLOOR_NOTE = f"(errors truncated at 100 %; below {FLOOR:g} % drawn at {FLOOR:g} 
 
 
 def _figure(n, width=3.6):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(
         1, n, figsize=(width * n + 1.6, 3.5), squeeze=False, sharey=True, layout="constrained"

@@ -10,6 +10,8 @@ when one is called.
 
 import numpy as np
 
+from tactile.extras import pyplot
+
 __all__ = [
     "plot_cylinder_radius",
     "plot_cylinders",
@@ -27,10 +29,7 @@ LENGTH = "length unit"
 
 
 def _figure(n, width=3.6, height=3.4, sharey=True, ratios=None):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, axes = plt.subplots(
         1,
@@ -131,10 +130,7 @@ def plot_rotation(rows, path):
 
 def _radius_figure(rows, path, true_s, what, title):
     """One row per fit order, the radii as categories (as the thesis's bar charts)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     degrees = sorted({r["degree"] for r in rows})
     fig, axes = plt.subplots(
