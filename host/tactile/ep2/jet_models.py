@@ -54,12 +54,9 @@ def _gauss_newton(rows, mask, coef):
         xs, ys, c, T = x[todo], y[todo], coef[todo], rows.T[todo]
         H = jet_basis.hessian(c)
         J = A[todo]  # a copy: the residual first, then the round part's columns added
-        r = (
-            b[todo]
-            - np.einsum("bmp,bp->bm", J, c)
-            - rows.whiten(jet_basis.round_rows(xs, ys, H), T)
-        )
-        J[..., cols] += rows.whiten(jet_basis.round_jacobian(xs, ys, H), T)
+        excess, jac = jet_basis.round_rows_jacobian(xs, ys, H)
+        r = b[todo] - np.einsum("bmp,bp->bm", J, c) - rows.whiten(excess, T)
+        J[..., cols] += rows.whiten(jac, T)
         sol = batch_lstsq.solve(J, r, w[todo])
         tiny = np.abs(sol.coef) <= GN_TOL * np.maximum(np.abs(c), 1.0)
         done = np.all(tiny | ~np.isfinite(sol.coef), axis=1) | (step == GN_MAX_STEPS)
