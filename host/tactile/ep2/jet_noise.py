@@ -1,7 +1,7 @@
 """The centre jet's noise estimate (``centre_jet`` step 2): sigma_p and sigma_n by REML.
 
 Each sigma the user does not state is estimated from its own row type's jet fit
-(positions alone, slopes alone), as chi^2 over the spare rows (rows minus leverage).
+(positions alone, slopes alone), as chi^2 over the spare rows (rows minus the rank, the sum of the leverages).
 """
 
 import numpy as np
@@ -67,7 +67,7 @@ def _reml(p, nrm, mask, sig, geo, part, count):
     degree = np.array([i + j for i, j in jet_basis.monomials(NOISE_ORDER)])
     order = _noise_order(count)
     sol = batch_lstsq.solve(rows.A * (degree <= order[:, None])[:, None, :], rows.b, rows.w)
-    spare = count - sol.leverage.sum(axis=1)
+    spare = count - sol.rank  # the leverages sum to the rank: no hat matrix needed
     ok = spare >= 1.0  # no spare rows: the noise is unknown, taken as large (sigma 1 = L)
     value = np.where(ok, np.sqrt(sol.rss / np.where(ok, spare, 1.0)), 1.0)
     return value, np.where(ok, spare, 1.0)
