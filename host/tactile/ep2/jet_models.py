@@ -25,20 +25,21 @@ class Model:
     ok: np.ndarray  # (B,) usable (round: every contact inside the closed form's rim)
 
 
-def both(rows, mask, start=None):
-    """The quadric and the round model on the same rows (round from ``start`` or the quadric)."""
+def both(rows, mask, start=None, tol=GN_TOL):
+    """The quadric and the round model on the same rows (round from ``start`` or the quadric,
+    to ``tol``)."""
     quad = quadric(rows)
-    return quad, round_model(rows, mask, quad.sol.coef if start is None else start)
+    return quad, round_model(rows, mask, quad.sol.coef if start is None else start, tol)
 
 
 def quadric(rows):
     return Model(batch_lstsq.solve(rows.A, rows.b, rows.w), rows.A, np.ones(len(rows.b), bool))
 
 
-def round_model(rows, mask, coef):
+def round_model(rows, mask, coef, tol=GN_TOL):
     """Gauss-Newton on the 'round' model from ``coef``, per patch until it has converged to
-    ``GN_TOL`` (at most ``GN_MAX_STEPS``): a patch that has converged leaves the batch, so it
-    gets the iterations it would get alone.  Converged: a step below ``GN_TOL``, or one whose
+    ``tol`` (at most ``GN_MAX_STEPS``): a patch that has converged leaves the batch, so it
+    gets the iterations it would get alone.  Converged: a step below ``tol``, or one whose
     contraction from the step before says what is left after it is (``_left``): that last
     step is taken, and its solve's linearised residual is the residual (exact to the step's
     square); the solution's covariance parts are linearised one step before the final
@@ -47,10 +48,10 @@ def round_model(rows, mask, coef):
     points, say) may overflow: ``batch_lstsq`` gives it NaN, ``ok`` is False, and it is
     refused later."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return _gauss_newton(rows, mask, coef)
+        return _gauss_newton(rows, mask, coef, tol)
 
 
-def _gauss_newton(rows, mask, coef):
+def _gauss_newton(rows, mask, coef, tol):
     x, y, b, w, A = rows.x, rows.y, rows.b, rows.w, rows.A
     cols = list(jet_basis.HESSIAN)
     coef = _inside_rim(coef, x, y, mask, START_Q2)
@@ -67,8 +68,8 @@ def _gauss_newton(rows, mask, coef):
         sol = batch_lstsq.solve(J, r, w[todo])
         rel = np.where(np.isfinite(sol.coef), np.abs(sol.coef) / np.maximum(np.abs(c), 1.0), 0)
         size = np.max(rel, axis=1)
-        tiny = size <= GN_TOL
-        near = ~tiny & (_left(size, last[todo]) <= GN_TOL) & (size <= LINEARISE_TOL)
+        tiny = size <= tol
+        near = ~tiny & (_left(size, last[todo]) <= tol) & (size <= LINEARISE_TOL)
         near &= np.all(np.isfinite(sol.coef), axis=1)
         last[todo] = size
         done = tiny | near | (step == GN_MAX_STEPS)

@@ -1,7 +1,8 @@
 """The centre jet's noise estimate (``centre_jet`` step 2): sigma_p and sigma_n by REML.
 
 Each sigma the user does not state is estimated from its own row type's jet fit
-(positions alone, slopes alone), as chi^2 over the spare rows (rows minus the rank, the sum of the leverages).
+(positions alone, slopes alone), as chi^2 over the spare rows (rows minus the rank, which
+is the sum of the leverages).
 """
 
 import numpy as np
