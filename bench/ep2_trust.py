@@ -417,7 +417,9 @@ def report(results, head):
 def _parser():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
-        "--split", default="tune", choices=("tune", "holdout", "holdout2", "degenerate", "all")
+        "--split",
+        default="tune",
+        choices=("tune", "holdout", "holdout2", "holdout3", "degenerate", "all"),
     )
     ap.add_argument(
         "--estimator", default="default", help="default, stated, jet or module:function"
