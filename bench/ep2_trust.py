@@ -180,7 +180,7 @@ def run_case(task):
     takes_noise = "noise" in inspect.signature(fn).parameters
     _warm_up(spec, fn, takes_noise)
     floor = max(case.noise, NOISE_FLOOR)
-    noise = (floor * case.unit, floor)
+    noise = (floor * case.unit, max(case.noise * case.normal_ratio, NOISE_FLOOR))
     n = 1 if case.noise == 0 and not case.random_layout else trials
     rec = {"err": [], "jet_err": [], "cover": {"S": [], "k1": [], "k2": []}, "wrong": 0}
     rec.update(kerr=[], kerr_jet=[])
