@@ -180,7 +180,7 @@ def run_case(task):
     takes_noise = "noise" in inspect.signature(fn).parameters
     _warm_up(spec, fn, takes_noise)
     floor = max(case.noise, NOISE_FLOOR)
-    noise = (floor * case.unit, floor)
+    noise = (floor * case.unit, max(case.noise * case.normal_ratio, NOISE_FLOOR))
     n = 1 if case.noise == 0 and not case.random_layout else trials
     rec = {"err": [], "jet_err": [], "cover": {"S": [], "k1": [], "k2": []}, "wrong": 0}
     rec.update(kerr=[], kerr_jet=[])
@@ -417,7 +417,9 @@ def report(results, head):
 def _parser():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
-        "--split", default="tune", choices=("tune", "holdout", "holdout2", "degenerate", "all")
+        "--split",
+        default="tune",
+        choices=("tune", "holdout", "holdout2", "holdout3", "degenerate", "all"),
     )
     ap.add_argument(
         "--estimator", default="default", help="default, stated, jet or module:function"

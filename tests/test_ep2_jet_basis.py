@@ -127,6 +127,44 @@ def test_round_jacobian_matches_central_differences(seed):
 
 
 @pytest.mark.parametrize("seed", range(5))
+def test_round_jacobian_in_closed_form_matches_complex_steps(seed):
+    """The chain-rule Jacobian against an independent route exact to round-off: one complex
+    step per Hessian entry through ``round_excess`` (what the Jacobian was before)."""
+    rng = _rng(250 + seed)
+    H = _random_H(rng)
+    x, y = _inside_disc(rng, 30, 0.95 / max(np.abs(np.linalg.eigvalsh(H)).max(), 1e-3))
+    rows, J = jet_basis.round_rows_jacobian(x, y, H)
+    np.testing.assert_allclose(rows, jet_basis.round_rows(x, y, H), rtol=1e-14, atol=1e-15)
+    h = 1e-30
+    for k, cells in enumerate((((0, 0),), ((0, 1), (1, 0)), ((1, 1),))):
+        Hc = H.astype(complex)
+        for cell in cells:
+            Hc[cell] += 1j * h
+        cs = jet_basis.round_rows(x.astype(complex), y.astype(complex), Hc).imag / h
+        np.testing.assert_allclose(J[:, k], cs, rtol=1e-12, atol=1e-14)
+
+
+def test_round_jacobian_is_zero_in_q2_past_the_rim_and_broadcasts():
+    """Past the rim Q2 is clamped: the rows stop moving with Q2; a batch equals each alone."""
+    H = np.array([[[-1.0, 0.0], [0.0, -1.0]], [[-0.3, 0.1], [0.1, 0.2]]])
+    x = np.array([[0.5, 1.2, 0.0], [0.4, -0.8, 1.1]])
+    y = np.array([[0.0, 0.3, 0.9], [0.2, 0.5, -0.6]])
+    rows, J = jet_basis.round_rows_jacobian(x, y, H)
+    assert J.shape == (2, 9, 3) and np.all(np.isfinite(J))
+    for b in range(2):
+        one = jet_basis.round_rows_jacobian(x[b], y[b], H[b])
+        np.testing.assert_allclose(J[b], one[1], rtol=1e-15)
+    # the sphere's second contact is past the rim (Q2 = 1.53): its z row depends on H only
+    # through Q1 there
+    np.testing.assert_allclose(
+        J[0, 1],
+        np.array([x[0, 1] ** 2, 2 * x[0, 1] * y[0, 1], y[0, 1] ** 2])
+        * (1 / (1 + np.sqrt(1 - 0.999)) - 0.5),
+        rtol=1e-12,
+    )
+
+
+@pytest.mark.parametrize("seed", range(5))
 def test_round_excess_slopes_and_round_second_match_central_differences(seed):
     rng = _rng(300 + seed)
     H = _random_H(rng)

@@ -659,3 +659,48 @@ def test_one_straight_path_off_the_apex_never_gets_a_label(family, angle, noise)
         assert "not determined" in str(err) or "disagree" in str(err), err
         return
     assert res.shape == "uncertain", (res.shape, res.confidence)
+
+
+# --- the normals' noise estimate where position noise dominates the slopes ---------------
+
+
+def _noisy_positions(seed, noise_normal):
+    d = sweep(make("cylinder", 10.0, 30.0), noise_pos=0.05, noise_normal=noise_normal, seed=seed)
+    return d["points"], d["normals"]
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_tiny_normal_noise_under_position_noise_is_estimated_not_cycled(seed):
+    """1 % position noise, 0.0005 rad normal noise: the slopes' covariance is mostly the
+    position noise's.  The fixed point used to cycle there (sigma_n 0 <-> 0.19 rad, its
+    value set by the number of passes) and 4 of these 10 patches were refused."""
+    res = analyze_patch(*_noisy_positions(seed, 0.0005))
+    rec = res.to_dict("p")
+    assert 0.0005 / 3 <= rec["noise_normal"] <= 0.0005 * 3
+    assert rec["shape"] == "cylinder" and abs(res.k1 * 10.0 - 1.0) < 0.05
+
+
+def test_the_normals_noise_is_the_root_of_chi2_per_spare_row(monkeypatch):
+    """Independent check of the estimate: the slopes' own REML fit at the returned sigma_n
+    has chi^2 per spare row 1 (to the stopping tolerance), for every patch of a batch,
+    including the ones where position noise dominates."""
+    from tactile.ep2 import jet_noise
+
+    seen = {}
+    real = jet_noise._normal_noise
+
+    def spy(p, nrm, mask, sig, geo, count):
+        out = real(p, nrm, mask, sig, geo, count)
+        trial = np.stack([sig[:, 0], out[0]], axis=1)
+        seen["scale"] = jet_noise._reml(p, nrm, mask, trial, geo, "slopes", count)[0]
+        seen["sigma"] = out[0]
+        return out
+
+    monkeypatch.setattr(jet_noise, "_normal_noise", spy)
+    from tactile.ep2 import analyze_patches
+
+    patches = [_noisy_positions(s, n) for s in range(6) for n in (0.0005, 0.005, 0.02)]
+    analyze_patches(patches)
+    above = seen["sigma"] > 10 * jet_noise.WEIGHT_FLOOR
+    assert above.sum() >= 15
+    np.testing.assert_allclose(seen["scale"][above], 1.0, atol=5 * jet_noise.NOISE_TOL)

@@ -38,6 +38,11 @@ ORDER = jet_rows.ORDER  # jet order of both models
 ROUND_MARGIN = 4.0  # chi^2 by which 'round' must beat 'quadric' to be chosen
 AMBIGUOUS = 8.0  # chi^2 gaps within this leave the choice open: intervals cover both models
 MODELS = ("quadric", "round")
+# Gauss-Newton tolerances (``jet_models.GN_TOL`` for the final fit): the passes that only
+# place the frame and weight the rows, and the one-row-type fits that only feed a chi^2 test,
+# stop at 1e-8 (the estimates move by ~1e-9 relative; bench/ep2_speed.py: ~1/10 of the time)
+PASS_TOL = 1e-8
+SPLIT_TOL = 1e-8
 
 
 @dataclass
@@ -84,11 +89,12 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     sig, dof = jet_noise.estimate(p, nrm, mask, noise_pos, noise_normal, L)
     first = jet_models.quadric(jet_models.refit_rows(p, nrm, mask, sig))
     O, M, p, nrm = jet_frames.reframe(O, M, L, p, nrm, first.sol.coef)
-    quad, rnd = jet_models.both(jet_models.refit_rows(p, nrm, mask, sig), mask)
+    quad, rnd = jet_models.both(jet_models.refit_rows(p, nrm, mask, sig), mask, tol=PASS_TOL)
     better = np.where(rnd.ok & (rnd.sol.rss < quad.sol.rss), 1, 0)
     coef = np.where(better[:, None] == 1, rnd.sol.coef, quad.sol.coef)
     O, M, p, nrm = jet_frames.reframe(O, M, L, p, nrm, coef)
-    quad, rnd = jet_models.both(jet_models.refit_rows(p, nrm, mask, sig), mask, rnd.sol.coef)
+    rows = jet_models.refit_rows(p, nrm, mask, sig)
+    quad, rnd = jet_models.both(rows, mask, rnd.sol.coef, PASS_TOL)
     better = np.where(rnd.ok & (rnd.sol.rss < quad.sol.rss), 1, 0)
     coef = np.where(better[:, None] == 1, rnd.sol.coef, quad.sol.coef)
     geo = jet_rows.geometry(jet_rows.positions(p, mask), coef, better)
@@ -208,9 +214,8 @@ def _split_fits(p, nrm, mask, sig, dof, fits):
         rows = jet_rows.make(p, nrm, mask, sig, own, jet_rows.ORDER, part)
         model = jet_models.quadric(rows)
         start = fits.coef[:, : model.sol.coef.shape[1]]
-        rnd = jet_models.round_model(
-            rows, mask, np.where((fits.model == 1)[:, None], start, model.sol.coef)
-        )
+        start = np.where((fits.model == 1)[:, None], start, model.sol.coef)
+        rnd = jet_models.round_model(rows, mask, start, SPLIT_TOL)
         pick = ((fits.model == 1) & rnd.ok)[:, None]  # the joint fit's model, refitted
         # misfit of this row type under its own better family: model error, not disagreement
         best = np.minimum(model.sol.rss, np.where(rnd.ok, rnd.sol.rss, np.inf))
