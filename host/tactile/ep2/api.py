@@ -104,18 +104,32 @@ def _analyze_jet(pts, nrm, opts):
 def analyze_sweep(points, normals, finger=None, split=False, **kw):
     """Like ``analyze_patch``; with ``split`` a sweep broken by discontinuities
     (§6.2.5) is cut into parts analysed separately.  Returns a list of results."""
+    parts = sweep_parts(points, normals, finger, kw.pop("lines", None), split, kw)
+    if parts is None:
+        return [analyze_patch(points, normals, finger=finger, **kw)]
+    return [
+        analyze_patch(p["points"], p["normals"], finger=p["finger"], lines=p["lines"], **kw)
+        for p in parts
+    ]
+
+
+def sweep_parts(points, normals, finger, lines, split, kw):
+    """The parts ``analyze_sweep`` fits (dicts of points, normals, finger, lines, as
+    ``analyze_patches`` takes them), or None when it fits the patch whole (no ``split``, or
+    no break).  Raises as ``analyze_sweep`` does for normals it cannot use."""
     nrm = patch_frame.unit_normals(np.asarray(normals, float))
     breaks = discontinuity.find_breaks(
         nrm, finger, kw.get("break_angle", discontinuity.BREAK_ANGLE_DEG)
     )
     if not (split and breaks):
-        return [analyze_patch(points, normals, finger=finger, **kw)]
-    parts = discontinuity.split_parts(len(nrm), finger, breaks)
-    pts = np.asarray(points, float)
-    fing = np.asarray(finger)
-    lines = kw.pop("lines", None)
-    out = []
-    for rows in parts:
-        sub_lines = None if lines is None else [lines[i] for i in rows]
-        out.append(analyze_patch(pts[rows], nrm[rows], finger=fing[rows], lines=sub_lines, **kw))
-    return out
+        return None
+    pts, fing = np.asarray(points, float), np.asarray(finger)
+    return [
+        {
+            "points": pts[rows],
+            "normals": nrm[rows],
+            "finger": fing[rows],
+            "lines": None if lines is None else [lines[i] for i in rows],
+        }
+        for rows in discontinuity.split_parts(len(nrm), finger, breaks)
+    ]

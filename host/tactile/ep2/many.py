@@ -63,26 +63,42 @@ def _outcome(name, n, results):
 
 def analyze_chunk(work, opts, split):
     """[``Outcome``] of ``work``, a list of (``Contacts``, name): one ``analyze_patches``
-    call for every patch that is not split."""
+    call for every patch of the chunk and every part of the ones ``split`` cuts (§6.2.5;
+    ``api.sweep_parts``).  A cut patch is refused, as ``analyze_sweep`` refuses it, by its
+    first part that is."""
     from tactile.ep2.batch import analyze_patches
 
     out = [None] * len(work)
-    batch = []
     cut = _breaks([g for g, _ in work], opts) if split else [False] * len(work)
+    patches, owners = [], []  # owners[k]: the work index patches[k] belongs to
     for i, (g, name) in enumerate(work):
-        if cut[i]:
-            out[i] = analyze_one(g, name, opts, split)
-        else:
-            batch.append(i)
-    patches = [
-        {"points": g.points, "normals": g.normals, "finger": g.finger, "lines": g.lines}
-        for g, _ in (work[i] for i in batch)
-    ]
+        parts = _parts(g, opts) if cut[i] else None
+        if isinstance(parts, Exception):
+            out[i] = _outcome(name, len(g.points), parts)
+            continue
+        whole = {"points": g.points, "normals": g.normals, "finger": g.finger, "lines": g.lines}
+        for part in parts or [whole]:
+            patches.append(part)
+            owners.append(i)
     results = analyze_patches(patches, chunk=max(1, len(patches)), **opts)
-    for i, res in zip(batch, results, strict=True):
+    found = {}
+    for i, res in zip(owners, results, strict=True):
+        found.setdefault(i, []).append(res)
+    for i, res in found.items():
         g, name = work[i]
-        out[i] = _outcome(name, len(g.points), res if isinstance(res, Exception) else [res])
+        refused = next((r for r in res if isinstance(r, Exception)), None)
+        out[i] = _outcome(name, len(g.points), refused if refused is not None else res)
     return out
+
+
+def _parts(group, opts):
+    """``api.sweep_parts`` of a group ``_breaks`` found cut, or the exception it raised."""
+    from tactile.ep2.api import sweep_parts
+
+    try:
+        return sweep_parts(group.points, group.normals, group.finger, group.lines, True, opts)
+    except (DataError, InputError) as exc:
+        return exc
 
 
 def _breaks(groups, opts):
