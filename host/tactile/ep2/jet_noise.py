@@ -76,7 +76,7 @@ def _normal_noise(p, nrm, mask, sig, geo, count):
             (new > lo[todo, 0]) & (new < hi[todo, 0]), new, _false_position(lo[todo], hi[todo])
         )
         floor = (new <= WEIGHT_FLOOR) & (cur <= WEIGHT_FLOOR)  # the root is below the floor
-        done = (np.abs(new - cur) <= NOISE_TOL * cur) | floor
+        done = (np.abs(new - cur) <= NOISE_TOL * cur) | floor | ~np.isfinite(scale)
         sn[todo] = np.maximum(new, WEIGHT_FLOOR)
         todo = todo[~done]
         if not todo.size:
