@@ -2,7 +2,11 @@
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_trust.py --split tune [--trials 100]
      [--estimator default|stated|jet|module:function] [--families sphere cylinder] [--match TEXT]
-     [--jobs 2] [--json out.json] [--quick]
+     [--jobs 2] [--json out.json] [--quick] [--batch]
+
+``--batch`` fits each case's trials in one ``analyze_patches`` call (default and stated
+only): the same numbers to round-off, several times faster; the us column is then each
+patch's share of the call.
 
 Cases come from ``tactile_studies.ep2.cases`` (tune / holdout / degenerate; the holdout
 split is for final evaluation only).  Per case, on the SAME draws: RMS S error of the
@@ -49,7 +53,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ep2_peers import paired_ratio, rms  # noqa: E402
 
-from tactile.ep2 import analyze_patch, peers  # noqa: E402
+from tactile.ep2 import analyze_patch, analyze_patches, peers  # noqa: E402
 from tactile.errors import DataError  # noqa: E402
 from tactile_studies.ep2 import cases as casegen  # noqa: E402
 
@@ -164,10 +168,11 @@ def _call(fn, d, noise, takes_noise):
     try:
         out = fn(d["points"], d["normals"], d["finger"], **kw)
     except DataError as err:
-        return None, reason(err), None, time.perf_counter() - t0
+        return None, reason(err), None, getattr(fn, "share", time.perf_counter() - t0)
     except Exception as err:  # a crash is a finding, not a reason to stop the bench
-        return None, None, f"{type(err).__name__}: {reason(err)}", time.perf_counter() - t0
-    dt = time.perf_counter() - t0
+        crash = f"{type(err).__name__}: {reason(err)}"
+        return None, None, crash, getattr(fn, "share", time.perf_counter() - t0)
+    dt = getattr(fn, "share", time.perf_counter() - t0)
     if not math.isfinite(out["S"]):
         return None, None, "non-finite S", dt
     return out, None, None, dt
@@ -175,7 +180,7 @@ def _call(fn, d, noise, takes_noise):
 
 def run_case(task):
     """Metrics of one case (dict of plain numbers, lists and None; no NaN)."""
-    case, trials, spec = task
+    case, trials, spec, batch = task
     fn = resolve(spec)
     takes_noise = "noise" in inspect.signature(fn).parameters
     _warm_up(spec, fn, takes_noise)
@@ -186,14 +191,44 @@ def run_case(task):
     rec.update(kerr=[], kerr_jet=[])
     rec.update(null=0, refusals=Counter(), crashes=Counter(), jet_failed=0, truth_failed=0)
     rec.update(t_ours=0.0, t_jet=0.0, answered=0)
+    draws = []
     for t in range(n):
         try:
-            d = casegen.draw(case, t)
+            draws.append(casegen.draw(case, t))
         except (ValueError, DataError):  # no truth at the patch centre for this draw
             rec["truth_failed"] += 1
-            continue
+    if batch and spec in BATCHED:
+        fn = _batched(draws, BATCHED[spec], noise)
+    for d in draws:
         _trial(rec, case, d, fn, noise, takes_noise)
     return _case_summary(case, n, rec)
+
+
+BATCHED = {"default": {}, "stated": None}  # None: the true noise, stated
+
+
+def _batched(draws, kw, noise):
+    """``--batch``: every draw of a case through one ``analyze_patches`` call (results equal
+    ``analyze_patch``'s to round-off), given back one at a time as the estimator, each
+    charged an equal share of the call's time."""
+    if kw is None:
+        kw = {"noise_pos": noise[0], "noise_normal": noise[1]}
+    patches = [
+        {"points": d["points"], "normals": d["normals"], "finger": d["finger"]} for d in draws
+    ]
+    t0 = time.perf_counter()
+    results = analyze_patches(patches, **kw)
+    share = (time.perf_counter() - t0) / max(len(draws), 1)
+    done = {id(d["points"]): r for d, r in zip(draws, results, strict=True)}
+
+    def estimator(points, normals, finger, noise=None):
+        res = done[id(points)]
+        if isinstance(res, Exception):
+            raise res
+        return summarise(res)
+
+    estimator.share = share  # ``_call`` charges this, not the look-up
+    return estimator
 
 
 def _warm_up(spec, fn, takes_noise):
@@ -288,9 +323,9 @@ def select(args):
     return chosen
 
 
-def run(chosen, trials, spec, jobs):
+def run(chosen, trials, spec, jobs, batch=False):
     """Per-case results in input order (``jobs`` > 1: a process pool)."""
-    tasks = [(c, trials, spec) for c in chosen]
+    tasks = [(c, trials, spec, batch) for c in chosen]
     if jobs <= 1:
         return [run_case(t) for t in tasks]
     with multiprocessing.get_context("fork").Pool(jobs) as pool:
@@ -430,6 +465,11 @@ def _parser():
     ap.add_argument("--jobs", type=int, default=2, help="worker processes (results in order)")
     ap.add_argument("--json", help="write the raw per-case numbers here")
     ap.add_argument("--quick", action="store_true", help="smoke run: 24 cases, <= 5 trials")
+    ap.add_argument(
+        "--batch",
+        action="store_true",
+        help="default/stated: each case's trials in one analyze_patches call (us: its share)",
+    )
     return ap
 
 
@@ -439,11 +479,12 @@ def main(argv=None):
     trials = min(args.trials, 5) if args.quick else args.trials
     chosen = select(args)
     t0 = time.perf_counter()
-    results = run(chosen, trials, args.estimator, args.jobs)
+    results = run(chosen, trials, args.estimator, args.jobs, args.batch)
     wall = time.perf_counter() - t0
     head = (
         f"split {args.split}, estimator {args.estimator}, {len(chosen)} cases,"
         f" {trials} trials per case (1 when noise-free), {wall:.1f} s wall, {args.jobs} jobs"
+        + (", batched per case" if args.batch else "")
     )
     print(report(results, head))
     if args.json:

@@ -314,3 +314,26 @@ def test_bench_smoke(tmp_path, capsys):
     rows = json.loads(path.read_text())["cases"]
     assert {r["group"] for r in rows} == {"line"}
     assert all(r["answered"] + r["refused"] + r["crashed"] == r["trials"] for r in rows)
+
+
+@pytest.mark.parametrize("estimator", ["default", "stated"])
+def test_bench_batch_scores_as_the_loop(tmp_path, capsys, estimator):
+    """``--batch`` (each case's trials in one analyze_patches call) scores every case as the
+    per-patch loop does: refusals and their reasons, labels, coverage, to round-off in the
+    errors; only the time differs."""
+    bench = _bench()
+    got = {}
+    for flag in ([], ["--batch"]):
+        path = tmp_path / f"out{len(flag)}.json"
+        args = ["--split", "tune", "--families", "cylinder", "sphere", "--match", "rot=30 sweep"]
+        args += ["--trials", "3", "--jobs", "1", "--estimator", estimator, "--json", str(path)]
+        assert bench.main(args + flag) == 0
+        got[bool(flag)] = json.loads(path.read_text())["cases"]
+    capsys.readouterr()
+    assert len(got[True]) == len(got[False]) >= 8
+    for a, b in zip(got[False], got[True], strict=True):
+        for key in ("id", "answered", "refused", "null", "wrong", "reasons", "n_cover_S"):
+            assert a[key] == b[key], key
+        assert a["s_err"] == pytest.approx(b["s_err"], rel=1e-6, abs=1e-12)
+        for key in ("cover_S", "cover_k1", "cover_k2"):
+            assert a[key] == b[key], key
