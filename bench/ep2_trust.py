@@ -454,7 +454,7 @@ def _parser():
     ap.add_argument(
         "--split",
         default="tune",
-        choices=("tune", "holdout", "holdout2", "holdout3", "degenerate", "all"),
+        choices=("tune", "holdout", "holdout2", "holdout3", "holdout4", "degenerate", "all"),
     )
     ap.add_argument(
         "--estimator", default="default", help="default, stated, jet or module:function"
