@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import agreement, centre_jet, centre_result, grid_batch, jet_basis, patch_frame
+from tactile.ep2 import agreement, centre_result, grid_batch, jet_basis, patch_frame
 from tactile.ep2.surface_geometry import principal
 from tactile.errors import DataError
 
