@@ -181,8 +181,11 @@ def _lower_order(high, low, used):
     """The 3-jet's t shrunk toward the 2-jet's, t_2 + w (t_3 - t_2) with the positive-part
     factor w = max(0, 1 - SHRINK v / |t_3 - t_2|^2), v = v_3 - v_2 (v = tr Cov(t) of the
     noise alone, without the misfit scaling: nested fits, so |t_3 - t_2|^2 ~ v chi^2_3 / 3
-    where the 2-jet is unbiased) as ``_truncation`` does; Cov (1 - w^2) Cov_2 + w^2 Cov_3
-    (``jet_shrink``); the model fields are the 2-jet pair's where w < 1/2.  Why: three finger
+    where the 2-jet is unbiased) as ``_truncation`` does.  The estimate's own scatter
+    (``cov_noise``, for the debiasing) is (1 - w^2) Cov_2 + w^2 Cov_3 (``jet_shrink``); the
+    intervals and tests keep Cov_3 (>= that, nested): a 2-jet whose bias the data cannot
+    see may still have one (a cluster of contacts).  The model fields are the 2-jet pair's
+    where w < 1/2.  Why: three finger
     lines leave the 3-jet's positions blind to (u - u1)(u - u2)(u - u3) (u across the lines),
     which confounds the curvature across them with the cubic along u; only the slopes part
     them, so with normals much noisier than the positions the 3-jet's curvature is the
@@ -202,9 +205,8 @@ def _lower_order(high, low, used):
         a, b = getattr(high, key), getattr(low, key)
         b = _pad(b, a.shape[1]) if key == "coef" else b
         setattr(high, key, b + w * (a - b))
-    w2 = (keep * keep)[:, None, None]
-    for key in ("cov", "cov_noise"):
-        setattr(high, key, (1.0 - w2) * getattr(low, key) + w2 * getattr(high, key))
+    w2 = (keep * keep)[:, None, None]  # the estimate's own scatter, for the debiasing
+    high.cov_noise = (1.0 - w2) * low.cov_noise + w2 * high.cov_noise
     use = keep < 0.5
     high.dof = np.minimum(high.dof, low.dof)
     for key in ("model", "chi2", "score", "order"):
