@@ -15,7 +15,9 @@ For a stack of patches (padded arrays and a row mask), all at once:
    Taylor polynomial) and ``round`` (its quadratic part replaced by the closed
    form that is exact for spheres and cylinders of any radius and axis,
    solved by Gauss-Newton; ``jet_models``).  ``round`` is chosen when its chi^2 is lower by
-   more than ``ROUND_MARGIN``; a quadric height field keeps ``quadric``.
+   more than ``ROUND_MARGIN``; a quadric height field keeps ``quadric``.  The same pair
+   as 2-jets, and t shrunk toward theirs where the 3-jet's extra terms buy only variance
+   (``_lower_order``: three uneven finger lines under noisy normals).
 5. **Curvature at the centre**: shape-operator entries t = (a, b, c)
    (``surface_geometry.shape_entries``) with Cov(t) propagated through the
    linear map from the weighted data (``jet_covariance``).  The noise in Cov is never below
