@@ -15,7 +15,9 @@ For a stack of patches (padded arrays and a row mask), all at once:
    Taylor polynomial) and ``round`` (its quadratic part replaced by the closed
    form that is exact for spheres and cylinders of any radius and axis,
    solved by Gauss-Newton; ``jet_models``).  ``round`` is chosen when its chi^2 is lower by
-   more than ``ROUND_MARGIN``; a quadric height field keeps ``quadric``.
+   more than ``ROUND_MARGIN``; a quadric height field keeps ``quadric``.  The same pair
+   as 2-jets, and t shrunk toward theirs where the 3-jet's extra terms buy only variance
+   (``_lower_order``: three uneven finger lines under noisy normals).
 5. **Curvature at the centre**: shape-operator entries t = (a, b, c)
    (``surface_geometry.shape_entries``) with Cov(t) propagated through the
    linear map from the weighted data (``jet_covariance``).  The noise in Cov is never below
@@ -42,6 +44,7 @@ MODELS = ("quadric", "round")
 # place the frame and weight the rows, and the one-row-type fits that only feed a chi^2 test,
 # stop at 1e-8 (the estimates move by ~1e-9 relative; bench/ep2_speed.py: ~1/10 of the time)
 PASS_TOL = 1e-8
+SHRINK = 3.0  # t_3 shrunk to t_2 by max(0, 1 - SHRINK (v_3 - v_2) / |t_3 - t_2|^2)
 SPLIT_TOL = 1e-8
 
 
@@ -67,6 +70,7 @@ class JetFits:
     mask: np.ndarray  # (B, n)
     reason: list  # per patch: None, or why it is refused
     split: tuple  # positions alone, normals alone (``_split_fits``)
+    order: np.ndarray = None  # (B,) jet order of the chosen model
     xyz_mean: np.ndarray = None  # (B, n, 3) contacts in the mean-normal frame (/ L)
     mean_axes: np.ndarray = None  # (B, 3, 3) that frame's axes in world coordinates
 
@@ -100,12 +104,17 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     geo = jet_rows.geometry(jet_rows.positions(p, mask), coef, better)
     rows = jet_rows.make(p, nrm, mask, sig, geo)
     quad, rnd = jet_models.both(rows, mask, rnd.sol.coef)
-    models = [quad, rnd]  # + quadric 2- and 4-jets by AIC: tried, see _finish
-    frame = (L, O, M)
-    out = _finish(models, rows, mask, sig, dof, frame, (noise_pos, noise_normal), reason)
+    frame, stated = (L, O, M), (noise_pos, noise_normal)
+    out = _finish([quad, rnd], rows, mask, sig, dof, frame, stated, reason)
     out.bias = _truncation(
-        out, jet_models.quadric(jet_rows.with_order(rows, jet_rows.ORDER + 1)), rows, sig, dof
+        out, jet_models.quadric(jet_rows.with_order(rows, ORDER + 1)), rows, sig, dof
     )
+    low_rows = jet_rows.with_order(rows, ORDER - 1)
+    start = rnd.sol.coef[:, : jet_basis.n_coef(ORDER - 1)]
+    low = _finish(list(jet_models.both(low_rows, mask, start)), low_rows, mask, sig, dof, frame,
+                  stated, reason)  # fmt: skip
+    low.bias = _truncation(low, quad, low_rows, sig, dof)
+    out = _lower_order(out, low, 3.0 * mask.sum(axis=1))
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
     return out
@@ -166,7 +175,47 @@ def _finish(models, rows, mask, sig, dof, frame, stated, reason):
         mask=mask,
         reason=reason,
         split=(),
+        order=np.full(len(chi2), jet_basis.order_of(width)),
     )
+
+
+def _lower_order(high, low, used):
+    """The 3-jet's t shrunk toward the 2-jet's, t_2 + w (t_3 - t_2) with the positive-part
+    factor w = max(0, 1 - SHRINK v / |t_3 - t_2|^2), v = v_3 - v_2 (v = tr Cov(t) of the
+    noise alone, without the misfit scaling: nested fits, so |t_3 - t_2|^2 ~ v chi^2_3 / 3
+    where the 2-jet is unbiased) as ``_truncation`` does.  The estimate's own scatter
+    (``cov_noise``, for the debiasing) is (1 - w^2) Cov_2 + w^2 Cov_3 (``jet_shrink``); the
+    intervals and tests keep Cov_3 (>= that, nested): a 2-jet whose bias the data cannot
+    see may still have one (a cluster of contacts).  The model fields are the 2-jet pair's
+    where w < 1/2.  Why: three finger
+    lines leave the 3-jet's positions blind to (u - u1)(u - u2)(u - u3) (u across the lines),
+    which confounds the curvature across them with the cubic along u; only the slopes part
+    them, so with normals much noisier than the positions the 3-jet's curvature is the
+    normals' (holdout3: sd 6-10 x the 2-jet's).  ``used`` (B,): the rows of each patch."""
+    v = []
+    for fits in (high, low):
+        rss = np.take_along_axis(fits.chi2, fits.model[:, None], axis=1)[:, 0]
+        rank = jet_basis.n_coef(fits.order)
+        s2 = np.maximum(rss / np.maximum(used - rank, 1), 1.0)
+        v.append(np.trace(fits.cov_noise, axis1=1, axis2=2) / s2)
+    d = np.sum((low.t - high.t) ** 2, axis=1)
+    spare = np.maximum(v[0] - v[1], 0.0)
+    keep = np.maximum(1.0 - SHRINK * spare / np.where(d > 0, d, np.inf), 0.0)
+    keep = np.where(np.isfinite(d), keep, 1.0)
+    w = keep[:, None]
+    for key in ("t", "bias", "coef"):
+        a, b = getattr(high, key), getattr(low, key)
+        b = _pad(b, a.shape[1]) if key == "coef" else b
+        setattr(high, key, b + w * (a - b))
+    w2 = (keep * keep)[:, None, None]  # the estimate's own scatter, for the debiasing
+    high.cov_noise = (1.0 - w2) * low.cov_noise + w2 * high.cov_noise
+    use = keep < 0.5
+    high.dof = np.minimum(high.dof, low.dof)
+    for key in ("model", "chi2", "score", "order"):
+        a, b = getattr(high, key), getattr(low, key)
+        shape = use.reshape(use.shape + (1,) * (np.ndim(a) - 1))
+        setattr(high, key, np.where(shape, b, a))
+    return high
 
 
 def _truncation(fits, quartic, rows, sig, dof):

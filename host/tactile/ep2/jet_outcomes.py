@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import agreement, centre_jet, centre_result, grid_batch, jet_basis, patch_frame
+from tactile.ep2 import agreement, centre_result, grid_batch, jet_basis, patch_frame
 from tactile.ep2.surface_geometry import principal
 from tactile.errors import DataError
 
@@ -109,7 +109,7 @@ def _jet_fields(fits, i, out, pre):
     out.update(grid_batch.at(pre.stats, i, L, out["shape"] == "plane"))
     ch, gx, gy = pre.grid
     out.update(
-        order=centre_jet.ORDER,
+        order=int(fits.order[i]),
         weighting="auto" if not any(fits.stated) else "stated",
         model=_model_text(pre.score[i], model),
         noise_pos=float(fits.noise[i, 0]),
