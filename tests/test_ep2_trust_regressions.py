@@ -361,6 +361,28 @@ def test_every_record_explains_its_model_in_one_field(obj, first):
         assert model.split()[0] == first, model
 
 
+def test_the_model_field_names_the_order_the_record_reports():
+    """The 2-jet shrinkage (``centre_jet._lower_order``) can leave a patch on its 2-jet or
+    between the two: the model line names the order of ``order`` and, for a blend, the
+    3-jet's weight (it said "3-jet" for every patch before)."""
+    seen = {"2": 0, "3": 0, "blend": 0}
+    for noise in (0.0, 0.001, 0.01, 0.03):
+        for seed in range(4):
+            d = sweep(make("cylinder", 10.0), noise_pos=noise, noise_normal=noise, seed=seed)
+            rec = _record(analyze_patch(d["points"], d["normals"]))
+            what = rec["model"].split(":")[0]
+            assert f" {rec['order']}-jet" in what, rec["model"]
+            assert f"{5 - rec['order']}-jet" not in what.split(" blended")[0], rec["model"]
+            seen[str(rec["order"])] += 1
+            weight = re.search(r"3-jet weight ([0-9.]+)\)", what)
+            if weight is not None:
+                seen["blend"] += 1
+                w = float(weight.group(1))
+                near_half = abs(w - 0.5) <= 0.005  # shown to 2 decimals
+                assert 0 < w < 1 and (near_half or (w > 0.5) == (rec["order"] == 3)), rec["model"]
+    assert min(seen.values()) >= 1, seen
+
+
 # -- duplicated rows ----------------------------------------------------------------------
 
 

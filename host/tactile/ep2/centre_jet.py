@@ -45,6 +45,7 @@ MODELS = ("quadric", "round")
 # stop at 1e-8 (the estimates move by ~1e-9 relative; bench/ep2_speed.py: ~1/10 of the time)
 PASS_TOL = 1e-8
 SHRINK = 3.0  # t_3 shrunk to t_2 by max(0, 1 - SHRINK (v_3 - v_2) / |t_3 - t_2|^2)
+ROUNDOFF = 1e-9  # relative: a 2-jet / 3-jet difference below it is round-off (``_lower_order``)
 SPLIT_TOL = 1e-8
 
 
@@ -71,6 +72,7 @@ class JetFits:
     reason: list  # per patch: None, or why it is refused
     split: tuple  # positions alone, normals alone (``_split_fits``)
     order: np.ndarray = None  # (B,) jet order of the chosen model
+    weight: np.ndarray = None  # (B,) the 3-jet's share w of t, 1 - w its 2-jet's (``_lower_order``)
     xyz_mean: np.ndarray = None  # (B, n, 3) contacts in the mean-normal frame (/ L)
     mean_axes: np.ndarray = None  # (B, 3, 3) that frame's axes in world coordinates
 
@@ -200,9 +202,14 @@ def _lower_order(high, low, used):
         v.append(np.trace(fits.cov_noise, axis1=1, axis2=2) / s2)
     d = np.sum((low.t - high.t) ** 2, axis=1)
     spare = np.maximum(v[0] - v[1], 0.0)
+    # round-off is no excess: jets that agree to it report the 2-jet, whatever the scale
+    d = np.where(d > (ROUNDOFF * np.maximum(1.0, np.abs(high.t).max(axis=1))) ** 2, d, 0.0)
+    spare = np.where(spare > ROUNDOFF * v[1], spare, 0.0)
     keep = np.maximum(1.0 - SHRINK * spare / np.where(d > 0, d, np.inf), 0.0)
+    keep = np.where(d > 0, keep, 0.0)
     keep = np.where(np.isfinite(d), keep, 1.0)
     w = keep[:, None]
+    high.weight = keep
     for key in ("t", "bias", "coef"):
         a, b = getattr(high, key), getattr(low, key)
         b = _pad(b, a.shape[1]) if key == "coef" else b

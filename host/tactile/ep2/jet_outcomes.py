@@ -111,7 +111,7 @@ def _jet_fields(fits, i, out, pre):
     out.update(
         order=int(fits.order[i]),
         weighting="auto" if not any(fits.stated) else "stated",
-        model=_model_text(pre.score[i], model),
+        model=_model_text(pre.score[i], model, int(fits.order[i]), _weight(fits, i)),
         noise_pos=float(fits.noise[i, 0]),
         noise_normal=float(fits.noise[i, 1]),
         frame=patch_frame.PatchFrame(fits.origin[i], axes),
@@ -131,12 +131,21 @@ def _jet_height(coef, model, xy):
     return z
 
 
-def _model_text(score, model):
-    """One line: which model and why (its AIC lead over the runner-up, ``centre_jet``)."""
-    names = {0: "quadric 3-jet", 1: "round 3-jet (sphere/cylinder closed form)"}
+def _weight(fits, i):
+    """The 3-jet's share of patch ``i``'s estimate (1 where no 2-jet was fitted)."""
+    return 1.0 if fits.weight is None else float(fits.weight[i])
+
+
+def _model_text(score, model, order=3, weight=1.0):
+    """One line: which model, of which order, and why (its AIC lead over the runner-up,
+    ``centre_jet``); a blend of the 3-jet and its 2-jet (``centre_jet._lower_order``) says
+    the 3-jet's share."""
+    names = {0: f"quadric {order}-jet", 1: f"round {order}-jet (sphere/cylinder closed form)"}
+    other = 5 - order  # the blend's other jet: 2 <-> 3
+    blend = f" blended with its {other}-jet (3-jet weight {weight:.2f})" if 0 < weight < 1 else ""
     rest = [k for k in range(len(score)) if k != model and math.isfinite(score[k])]
     if not rest:
-        return f"{names[model]}: the only model that fits"
+        return f"{names[model]}{blend}: the only model that fits"
     runner = min(rest, key=lambda k: score[k])
     lead = float(score[runner] - score[model])
-    return f"{names[model]}: chi2 + 2 dof {lead:.3g} below the {names[runner]}"
+    return f"{names[model]}{blend}: chi2 + 2 dof {lead:.3g} below the {names[runner]}"
