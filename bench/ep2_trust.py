@@ -8,8 +8,8 @@ Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_trust.py --split tune [--
 only): the same numbers to round-off, several times faster; the us column is then each
 patch's share of the call.
 
-Cases come from ``tactile_studies.ep2.cases`` (tune / holdout / degenerate; the holdout
-split is for final evaluation only).  Per case, on the SAME draws: RMS S error of the
+Cases come from ``tactile_studies.ep2.cases`` (tune / holdout / holdout2-5 / degenerate;
+a holdout split is for final evaluation only).  Per case, on the SAME draws: RMS S error of the
 estimator and of the peer ``tactile.ep2.peers.jet(..., with_normals=True)`` (given the
 true noise, floored at 1e-6 of the base unit; curvature at the patch centre) and their
 paired ratio with a bootstrap 95 % interval (``ep2_peers.paired_ratio``); max |S error|
@@ -454,7 +454,7 @@ def _parser():
     ap.add_argument(
         "--split",
         default="tune",
-        choices=("tune", "holdout", "holdout2", "holdout3", "holdout4", "degenerate", "all"),
+        choices=("tune", "holdout", *(f"holdout{i}" for i in range(2, 6)), "degenerate", "all"),
     )
     ap.add_argument(
         "--estimator", default="default", help="default, stated, jet or module:function"

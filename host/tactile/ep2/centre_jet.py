@@ -23,7 +23,8 @@ For a stack of patches (padded arrays and a row mask), all at once:
    linear map from the weighted data (``jet_covariance``).  The noise in Cov is never below
    ``jet_covariance.FLOOR`` (relative), so noise-free or duplicated data cannot claim
    infinite precision; the other model's difference, weighted by its
-   relative likelihood, is kept as a bias vector for the intervals.
+   relative likelihood, or the chosen model's truncation as that model one order up sees
+   it (``_truncation``), is kept as a bias vector for the intervals.
 
 Nothing here raises for one bad patch: ``reason`` holds why a patch is refused.
 """
@@ -32,7 +33,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import jet_basis, jet_covariance, jet_frames, jet_models, jet_noise, jet_rows
+from tactile.ep2 import (
+    batch_lstsq,
+    jet_basis,
+    jet_covariance,
+    jet_frames,
+    jet_models,
+    jet_noise,
+    jet_rows,
+)
 
 ORDER = jet_rows.ORDER  # jet order of both models
 
@@ -108,14 +117,12 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     quad, rnd = jet_models.both(rows, mask, rnd.sol.coef)
     frame, stated = (L, O, M), (noise_pos, noise_normal)
     out = _finish([quad, rnd], rows, mask, sig, dof, frame, stated, reason)
-    out.bias = _truncation(
-        out, jet_models.quadric(jet_rows.with_order(rows, ORDER + 1)), rows, sig, dof
-    )
+    out.bias = _truncation(out, _next_order(rows, mask, out.model, rnd.sol.coef), rows, sig, dof)
     low_rows = jet_rows.with_order(rows, ORDER - 1)
     start = rnd.sol.coef[:, : jet_basis.n_coef(ORDER - 1)]
     low = _finish(list(jet_models.both(low_rows, mask, start)), low_rows, mask, sig, dof, frame,
                   stated, reason)  # fmt: skip
-    low.bias = _truncation(low, quad, low_rows, sig, dof)
+    low.bias = _truncation(low, (quad, rnd), low_rows, sig, dof)
     out = _lower_order(out, low, 3.0 * mask.sum(axis=1))
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
@@ -225,25 +232,57 @@ def _lower_order(high, low, used):
     return high
 
 
-def _truncation(fits, quartic, rows, sig, dof):
-    """The bias vector for the intervals: the model-choice one, or the 3-jet's truncation
-    as the 4-jet sees it, whichever is larger.  The difference d = t_4 - t is shrunk by its
-    own noise, max(0, 1 - 3 v / |d|^2) with v = tr Cov(t_4) - tr Cov(t) (under no bias
-    |d|^2 ~ v chi^2_3 / 3: kept in ~3 % of noise-only draws), so it only widens where the
-    4-jet sees a curvature the 3-jet misses (strongly curved, tilted height fields).
-    Nothing where the layout does not determine the 4-jet, nor for the round model (the
-    closed form holds every even order of a sphere or cylinder, which a 4-jet truncates)."""
-    t4, G = jet_covariance.tensor(quartic.sol.coef, quartic.sol.pinv)
-    raw4 = jet_covariance.propagate(G, rows, quartic.sol.rss, quartic.sol.rank, sig, dof)[2]
+def _truncation(fits, higher, rows, sig, dof):
+    """The bias vector for the intervals: the model-choice one, or the chosen model's
+    truncation as the same model one order up sees it (``higher``: that order's quadric and
+    round fits), whichever is larger.  The difference d = t_up - t is shrunk by its own
+    noise, max(0, 1 - 3 v / |d|^2) with v = tr Cov(t_up) - tr Cov(t) (under no bias |d|^2 ~
+    v chi^2_3 / 3: kept in ~3 % of noise-only draws), so it only widens where the next order
+    sees a curvature this one misses (strongly curved, tilted height fields).  Nothing where
+    the layout does not determine the next order, nor where its round fit has not converged
+    (chi^2 above the nested smaller fit's).  The round model is judged by the round model
+    one order up, not by the quadric's: the closed form holds every even order of a sphere or
+    cylinder, which a quadric jet truncates, so there d is noise; but a round 3-jet also wins
+    the chi^2 choice on strongly curved general quadrics while misfitting them (holdout4:
+    chi^2 / dof 2-150, S off by 5-8 sd), and until this its bias vector was zero."""
+    pick = np.clip(fits.model, 0, 1)
+    t_up, raw_up = [], []
+    for m in higher:
+        t4, G = jet_covariance.tensor(m.sol.coef, m.sol.pinv)
+        t_up.append(t4)
+        raw_up.append(jet_covariance.propagate(G, rows, m.sol.rss, m.sol.rank, sig, dof)[2])
+    t4 = np.where(pick[:, None] == 1, t_up[1], t_up[0])
+    raw4 = np.where(pick[:, None, None] == 1, raw_up[1], raw_up[0])
     d = np.where(np.isfinite(t4), t4 - fits.t, 0.0)
     v = np.maximum(np.trace(raw4, axis1=1, axis2=2) - np.trace(fits.cov_noise, axis1=1, axis2=2), 0)
     size = np.sum(d * d, axis=1)
     keep = np.maximum(1.0 - 3.0 * v / np.where(size > 0, size, np.inf), 0.0)
-    full = quartic.sol.rank == quartic.sol.coef.shape[1]
-    keep = np.where(full & (fits.model == 0), keep, 0.0)  # round: exact where 4-jets are not
+    full = higher[0].sol.rank == higher[0].sol.coef.shape[1]
+    own = np.take_along_axis(fits.chi2, pick[:, None], axis=1)[:, 0]
+    rnd = higher[1]
+    # a nested larger fit cannot fit worse: if it does, its Gauss-Newton has not converged
+    done = rnd.ok & (rnd.sol.rss <= own * (1.0 + 1e-6) + 1e-9)
+    keep = np.where(full & ((pick == 0) | done), np.nan_to_num(keep), 0.0)
     trunc = keep[:, None] * d
     larger = np.sum(trunc * trunc, axis=1) > np.sum(fits.bias * fits.bias, axis=1)
     return np.where(larger[:, None], trunc, fits.bias)
+
+
+def _next_order(rows, mask, model, start):
+    """The quadric and round fits one order above ``rows``' (round from ``start``): the
+    round one only where ``model`` chose it (a Gauss-Newton), the quadric's elsewhere."""
+    up = jet_rows.with_order(rows, ORDER + 1)
+    quad = jet_models.quadric(up)
+    idx = np.flatnonzero(model == 1)
+    if not idx.size:
+        return quad, quad
+    sub = jet_rows.Rows(*(getattr(up, k)[idx] for k in "x y b w A T P N".split()), up.part)
+    rnd = jet_models.round_model(sub, mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL)
+    rest = np.flatnonzero(model != 1)
+    sol = batch_lstsq.merge([(idx, rnd.sol), (rest, batch_lstsq.take(quad.sol, rest))], len(model))
+    ok = np.ones(len(model), bool)
+    ok[idx] = rnd.ok
+    return quad, jet_models.Model(sol, None, ok)
 
 
 def _pad(coef, width):

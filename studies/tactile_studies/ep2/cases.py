@@ -47,6 +47,7 @@ HOLDOUT_SEED = 20240611
 HOLDOUT2_SEED = 20261123  # the second, final held-out draw (``split``)
 HOLDOUT3_SEED = 77013  # a draw nothing had seen, normal / position noise drawn apart
 HOLDOUT4_SEED = 4242  # the same recipe again, for what holdout3's worst cases led to
+HOLDOUT5_SEED = 5151  # and again, for the round model's truncation found on holdout4
 
 
 @dataclass(frozen=True)
@@ -388,7 +389,7 @@ def degenerate_cases():
 
 
 def split(name):
-    """Cases of a split by name: tune, holdout, holdout2, holdout3, holdout4, degenerate or all.
+    """Cases of a split by name: tune, holdout, holdout2-5, degenerate or all.
 
     ``holdout2`` is a second draw of the same recipe: the first holdout, once run, exposed
     two defects (a noise floor that biased low-noise k1, k2 together; model misfit read as
@@ -397,13 +398,16 @@ def split(name):
     normals' noise apart from the positions' (the earlier splits tied them, and the noise
     estimate's cycling, issue 13, lay outside every split), judged its bracketed root.
     ``holdout4``, a fourth draw of holdout3's recipe, judged the 2-jet shrinkage designed
-    while looking at holdout3's worst cases."""
+    while looking at holdout3's worst cases.  ``holdout5``, a fifth draw of the same recipe,
+    judged the round model's truncation view (``centre_jet._truncation``) designed while
+    looking at holdout4's worst quadrics."""
     table = {
         "tune": tune_cases,
         "holdout": holdout_cases,
         "holdout2": lambda: holdout_cases(seed=HOLDOUT2_SEED),
         "holdout3": lambda: holdout_cases(seed=HOLDOUT3_SEED, ratios=True),
         "holdout4": lambda: holdout_cases(seed=HOLDOUT4_SEED, ratios=True),
+        "holdout5": lambda: holdout_cases(seed=HOLDOUT5_SEED, ratios=True),
         "degenerate": degenerate_cases,
     }
     if name == "all":
