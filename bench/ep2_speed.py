@@ -2,13 +2,16 @@
 the per-patch loop, and the CLI on 1000 patches.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_speed.py [--n 512] [--against REV]
-[--batch-only | --fit-only]   (from a checkout: PYTHONPATH=protocol:firmware:host:sim:studies
-first).  ``--fit-only`` times the batched tangent fit alone (``tangent_fit``).
+[--batch-only | --fit-only] [--scene cylinders|round]   (from a checkout:
+PYTHONPATH=protocol:firmware:host:sim:studies first).  ``--fit-only`` times the batched
+tangent fit alone (``tangent_fit``).
 ``--against REV`` also times git revision REV's ``analyze_patch`` loop and
 ``analyze_patches`` on the same patches, in a child process that imports REV's host
 library (``git archive``), alternating with this tree's runs: before and after side by
 side in one run (best of ``REPEATS``; compare the ratios, the machine is shared).
-``--batch-only`` skips the one-patch configurations and the CLI; with ``--fit-only``,
+``--scene round`` batches low-noise spheres and cylinders, where the round model is
+chosen (its truncation view fits a round 4-jet).  ``--batch-only`` skips the one-patch
+configurations and the CLI; with ``--fit-only``,
 ``--against REV`` times REV's host library on the same tangent fit (this bench's code).
 """
 
@@ -55,6 +58,8 @@ from tactile.ep2 import analyze_patch, analyze_patches
 z = np.load(sys.argv[1])
 pairs = list(zip(z["points"], z["normals"]))
 what = sys.argv[2]
+if what != "fit":  # warm, as this tree is warmed: imports and caches of the first call
+    analyze_patches(pairs[:16])
 t0 = time.perf_counter()
 if what == "fit":  # this tree's bench, REV's host library: tangent fit patches / s
     sys.path.insert(0, sys.argv[3])
@@ -92,7 +97,8 @@ def _export(rev, into):
 
 
 def _theirs(host, data, what):
-    """ms per patch of the exported revision (a child process; its import time excluded)."""
+    """ms per patch of the exported revision (a child process, warmed by a first call as
+    this tree is; its import time excluded)."""
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     paths = [host] + [os.path.join(here, d) for d in ("protocol", "firmware", "sim")]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
@@ -101,14 +107,21 @@ def _theirs(host, data, what):
     return json.loads(out.stdout)
 
 
-def batched(n=512, against=None):
+SCENES = {  # --scene: which model the data choose
+    "cylinders": lambda s: sweep(  # noisy R 10 cylinders: the quadric (2-jet) chosen
+        make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=s
+    ),
+    "round": lambda s: sweep(  # R 8 spheres and cylinders at noise 5e-4: the round model
+        make(("sphere", "cylinder")[s % 2], 8.0), noise_pos=5e-4, noise_normal=5e-4, seed=s
+    ),
+}
+
+
+def batched(n=512, against=None, scene="cylinders"):
     """ms per patch: a loop of analyze_patch against analyze_patches at several chunk
     sizes, on the same n noisy patches, side by side in one run; with ``against`` (a git
     revision) the same for that revision, alternating with this tree's runs."""
-    ds = [
-        sweep(make("cylinder", 10.0, 30.0), noise_pos=0.01, noise_normal=0.01, seed=s)
-        for s in range(n)
-    ]
+    ds = [SCENES[scene](s) for s in range(n)]
     pairs = [(d["points"], d["normals"]) for d in ds]
     configs = ["loop", *map(str, CHUNKS)]
     best = {}
@@ -219,6 +232,7 @@ def main():
     ap.add_argument("--against", help="a git revision to time side by side (e.g. main)")
     ap.add_argument("--batch-only", action="store_true", help="only the batched comparison")
     ap.add_argument("--fit-only", action="store_true", help="only the tangent fit alone")
+    ap.add_argument("--scene", choices=sorted(SCENES), default="cylinders", help="the patches")
     args = ap.parse_args()
     if args.fit_only:
         tangent_fit_speed(against=args.against)
@@ -229,7 +243,7 @@ def main():
         print("|---|---|")
         for name, kw in CASES:
             print(f"| {name} | {median_ms(d, kw):.3f} |")
-    batched(args.n, args.against)
+    batched(args.n, args.against, args.scene)
     if args.batch_only:
         return
     tactile = os.path.join(os.path.dirname(sys.executable), "tactile")
