@@ -117,13 +117,17 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     quad, rnd = jet_models.both(rows, mask, rnd.sol.coef)
     frame, stated = (L, O, M), (noise_pos, noise_normal)
     out = _finish([quad, rnd], rows, mask, sig, dof, frame, stated, reason)
-    out.bias = _truncation(out, _next_order(rows, mask, out.model, rnd.sol.coef), rows, sig, dof)
     low_rows = jet_rows.with_order(rows, ORDER - 1)
     start = rnd.sol.coef[:, : jet_basis.n_coef(ORDER - 1)]
     low = _finish(list(jet_models.both(low_rows, mask, start)), low_rows, mask, sig, dof, frame,
                   stated, reason)  # fmt: skip
     low.bias = _truncation(low, (quad, rnd), low_rows, sig, dof)
-    out = _lower_order(out, low, 3.0 * mask.sum(axis=1))
+    keep = _shrink_weight(out, low, 3.0 * mask.sum(axis=1))
+    # the 3-jet's own truncation view only where the 3-jet has a share (w > 0): elsewhere
+    # the blend below discards its bias, and the round 4-jet is a Gauss-Newton
+    higher = _next_order(rows, mask, out.model, rnd.sol.coef, keep > 0)
+    out.bias = _truncation(out, higher, rows, sig, dof)
+    out = _lower_order(out, low, keep)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
     return out
@@ -188,11 +192,9 @@ def _finish(models, rows, mask, sig, dof, frame, stated, reason):
     )
 
 
-def _lower_order(high, low, used):
-    """The 3-jet's t shrunk toward the 2-jet's, t_2 + w (t_3 - t_2) with the positive-part
-    factor w = max(0, 1 - SHRINK v / |t_3 - t_2|^2), v = v_3 - v_2 (v = tr Cov(t) of the
-    noise alone, without the misfit scaling: nested fits, so |t_3 - t_2|^2 ~ v chi^2_3 / 3
-    where the 2-jet is unbiased) as ``_truncation`` does.  The estimate's own scatter
+def _lower_order(high, low, keep):
+    """The 3-jet's t shrunk toward the 2-jet's, t_2 + w (t_3 - t_2), w = ``keep``
+    (``_shrink_weight``).  The estimate's own scatter
     (``cov_noise``, for the debiasing) is (1 - w^2) Cov_2 + w^2 Cov_3 (``jet_shrink``); the
     intervals and tests keep Cov_3 (>= that, nested): a 2-jet whose bias the data cannot
     see may still have one (a cluster of contacts).  The model fields are the 2-jet pair's
@@ -200,21 +202,7 @@ def _lower_order(high, low, used):
     lines leave the 3-jet's positions blind to (u - u1)(u - u2)(u - u3) (u across the lines),
     which confounds the curvature across them with the cubic along u; only the slopes part
     them, so with normals much noisier than the positions the 3-jet's curvature is the
-    normals' (holdout3: sd 6-10 x the 2-jet's).  ``used`` (B,): the rows of each patch."""
-    v = []
-    for fits in (high, low):
-        rss = np.take_along_axis(fits.chi2, fits.model[:, None], axis=1)[:, 0]
-        rank = jet_basis.n_coef(fits.order)
-        s2 = np.maximum(rss / np.maximum(used - rank, 1), 1.0)
-        v.append(np.trace(fits.cov_noise, axis1=1, axis2=2) / s2)
-    d = np.sum((low.t - high.t) ** 2, axis=1)
-    spare = np.maximum(v[0] - v[1], 0.0)
-    # round-off is no excess: jets that agree to it report the 2-jet, whatever the scale
-    d = np.where(d > (ROUNDOFF * np.maximum(1.0, np.abs(high.t).max(axis=1))) ** 2, d, 0.0)
-    spare = np.where(spare > ROUNDOFF * v[1], spare, 0.0)
-    keep = np.maximum(1.0 - SHRINK * spare / np.where(d > 0, d, np.inf), 0.0)
-    keep = np.where(d > 0, keep, 0.0)
-    keep = np.where(np.isfinite(d), keep, 1.0)
+    normals' (holdout3: sd 6-10 x the 2-jet's)."""
     w = keep[:, None]
     high.weight = keep
     for key in ("t", "bias", "coef"):
@@ -230,6 +218,28 @@ def _lower_order(high, low, used):
         shape = use.reshape(use.shape + (1,) * (np.ndim(a) - 1))
         setattr(high, key, np.where(shape, b, a))
     return high
+
+
+def _shrink_weight(high, low, used):
+    """w = max(0, 1 - SHRINK v / |t_3 - t_2|^2), v = v_3 - v_2 (v = tr Cov(t) of the noise
+    alone, without the misfit scaling: nested fits, so |t_3 - t_2|^2 ~ v chi^2_3 / 3 where
+    the 2-jet is unbiased), the positive-part rule ``_truncation`` uses; 0 where the two
+    jets agree to round-off.  ``used`` (B,): the rows of each patch."""
+    v = []
+    for fits in (high, low):
+        rss = np.take_along_axis(fits.chi2, fits.model[:, None], axis=1)[:, 0]
+        rank = jet_basis.n_coef(fits.order)
+        s2 = np.maximum(rss / np.maximum(used - rank, 1), 1.0)
+        v.append(np.trace(fits.cov_noise, axis1=1, axis2=2) / s2)
+    d = np.sum((low.t - high.t) ** 2, axis=1)
+    spare = np.maximum(v[0] - v[1], 0.0)
+    # round-off is no excess: jets that agree to it report the 2-jet, whatever the scale
+    d = np.where(d > (ROUNDOFF * np.maximum(1.0, np.abs(high.t).max(axis=1))) ** 2, d, 0.0)
+    spare = np.where(spare > ROUNDOFF * v[1], spare, 0.0)
+    keep = np.maximum(1.0 - SHRINK * spare / np.where(d > 0, d, np.inf), 0.0)
+    keep = np.where(d > 0, keep, 0.0)
+    keep = np.where(np.isfinite(d), keep, 1.0)
+    return keep
 
 
 def _truncation(fits, higher, rows, sig, dof):
@@ -268,19 +278,20 @@ def _truncation(fits, higher, rows, sig, dof):
     return np.where(larger[:, None], trunc, fits.bias)
 
 
-def _next_order(rows, mask, model, start):
+def _next_order(rows, mask, model, start, need):
     """The quadric and round fits one order above ``rows``' (round from ``start``): the
-    round one only where ``model`` chose it (a Gauss-Newton), the quadric's elsewhere."""
+    round one only where ``model`` chose it and ``need`` (a Gauss-Newton), the quadric's
+    elsewhere; a round patch not ``need``ed is marked not ok (no truncation view)."""
     up = jet_rows.with_order(rows, ORDER + 1)
     quad = jet_models.quadric(up)
-    idx = np.flatnonzero(model == 1)
+    idx = np.flatnonzero((model == 1) & need)
     if not idx.size:
-        return quad, quad
+        return quad, jet_models.Model(quad.sol, None, model != 1)
     sub = jet_rows.Rows(*(getattr(up, k)[idx] for k in "x y b w A T P N".split()), up.part)
     rnd = jet_models.round_model(sub, mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL)
-    rest = np.flatnonzero(model != 1)
+    rest = np.setdiff1d(np.arange(len(model)), idx)
     sol = batch_lstsq.merge([(idx, rnd.sol), (rest, batch_lstsq.take(quad.sol, rest))], len(model))
-    ok = np.ones(len(model), bool)
+    ok = model != 1
     ok[idx] = rnd.ok
     return quad, jet_models.Model(sol, None, ok)
 
