@@ -54,7 +54,7 @@ MODELS = ("quadric", "round")
 # stop at 1e-8 (the estimates move by ~1e-9 relative; bench/ep2_speed.py: ~1/10 of the time)
 PASS_TOL = 1e-8
 SHRINK = 3.0  # t_3 shrunk to t_2 by max(0, 1 - SHRINK (v_3 - v_2) / |t_3 - t_2|^2)
-ROUNDOFF = 1e-9  # relative: a 2-jet / 3-jet difference below it is round-off (``_lower_order``)
+ROUNDOFF = 1e-9  # relative: a 2-jet / 3-jet difference below it is round-off (``_shrink_weight``)
 SPLIT_TOL = 1e-8
 
 
@@ -121,12 +121,12 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     start = rnd.sol.coef[:, : jet_basis.n_coef(ORDER - 1)]
     low = _finish(list(jet_models.both(low_rows, mask, start)), low_rows, mask, sig, dof, frame,
                   stated, reason)  # fmt: skip
-    low.bias = _truncation(low, (quad, rnd), low_rows, sig, dof)
+    low.bias = _truncation(low, *_judges(low.model, quad, rnd, rnd.ok), low_rows, sig, dof)
     keep = _shrink_weight(out, low, 3.0 * mask.sum(axis=1))
     # the 3-jet's own truncation view only where the 3-jet has a share (w > 0): elsewhere
     # the blend below discards its bias, and the round 4-jet is a Gauss-Newton
-    higher = _next_order(rows, mask, out.model, rnd.sol.coef, keep > 0)
-    out.bias = _truncation(out, higher, rows, sig, dof)
+    up = _next_order(rows, mask, out.model, rnd.sol.coef, keep > 0)
+    out.bias = _truncation(out, *up, rows, sig, dof)
     out = _lower_order(out, low, keep)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
@@ -242,58 +242,61 @@ def _shrink_weight(high, low, used):
     return keep
 
 
-def _truncation(fits, higher, rows, sig, dof):
+def _truncation(fits, up, full, rows, sig, dof):
     """The bias vector for the intervals: the model-choice one, or the chosen model's
-    truncation as the same model one order up sees it (``higher``: that order's quadric and
-    round fits), whichever is larger.  The difference d = t_up - t is shrunk by its own
-    noise, max(0, 1 - 3 v / |d|^2) with v = tr Cov(t_up) - tr Cov(t) (under no bias |d|^2 ~
+    truncation as the same model one order up sees it (``up``, per patch: ``_judges``),
+    whichever is larger.  The difference d = t_up - t is shrunk by its own noise,
+    max(0, 1 - 3 v / |d|^2) with v = tr Cov(t_up) - tr Cov(t) (under no bias |d|^2 ~
     v chi^2_3 / 3: kept in ~3 % of noise-only draws), so it only widens where the next order
     sees a curvature this one misses (strongly curved, tilted height fields).  Nothing where
-    the layout does not determine the next order, nor where its round fit has not converged
-    (chi^2 above the nested smaller fit's).  The round model is judged by the round model
-    one order up, not by the quadric's: the closed form holds every even order of a sphere or
-    cylinder, which a quadric jet truncates, so there d is noise; but a round 3-jet also wins
-    the chi^2 choice on strongly curved general quadrics while misfitting them (holdout4:
-    chi^2 / dof 2-150, S off by 5-8 sd), and until this its bias vector was zero."""
-    pick = np.clip(fits.model, 0, 1)
-    t_up, raw_up = [], []
-    for m in higher:
-        t4, G = jet_covariance.tensor(m.sol.coef, m.sol.pinv)
-        t_up.append(t4)
-        raw_up.append(jet_covariance.propagate(G, rows, m.sol.rss, m.sol.rank, sig, dof)[2])
-    t4 = np.where(pick[:, None] == 1, t_up[1], t_up[0])
-    raw4 = np.where(pick[:, None, None] == 1, raw_up[1], raw_up[0])
+    the layout does not determine the next order (``full``: the quadric's rank), nor where
+    its round fit has not converged (chi^2 above the nested smaller fit's).  The round model
+    is judged by the round model one order up, not by the quadric's: the closed form holds
+    every even order of a sphere or cylinder, which a quadric jet truncates, so there d is
+    noise; but a round 3-jet also wins the chi^2 choice on strongly curved general quadrics
+    while misfitting them (holdout4: chi^2 / dof 2-150, S off by 5-8 sd)."""
+    t4, G = jet_covariance.tensor(up.sol.coef, up.sol.pinv)
+    raw4 = jet_covariance.propagate(G, rows, up.sol.rss, up.sol.rank, sig, dof)[2]
     d = np.where(np.isfinite(t4), t4 - fits.t, 0.0)
     v = np.maximum(np.trace(raw4, axis1=1, axis2=2) - np.trace(fits.cov_noise, axis1=1, axis2=2), 0)
     size = np.sum(d * d, axis=1)
     keep = np.maximum(1.0 - 3.0 * v / np.where(size > 0, size, np.inf), 0.0)
-    full = higher[0].sol.rank == higher[0].sol.coef.shape[1]
-    own = np.take_along_axis(fits.chi2, pick[:, None], axis=1)[:, 0]
-    rnd = higher[1]
+    round_ = fits.model == 1
+    own = np.take_along_axis(fits.chi2, round_[:, None].astype(int), axis=1)[:, 0]
     # a nested larger fit cannot fit worse: if it does, its Gauss-Newton has not converged
-    done = rnd.ok & (rnd.sol.rss <= own * (1.0 + 1e-6) + 1e-9)
-    keep = np.where(full & ((pick == 0) | done), np.nan_to_num(keep), 0.0)
+    done = up.ok & (up.sol.rss <= own * (1.0 + 1e-6) + 1e-9)
+    keep = np.where(full & (~round_ | done), np.nan_to_num(keep), 0.0)
     trunc = keep[:, None] * d
     larger = np.sum(trunc * trunc, axis=1) > np.sum(fits.bias * fits.bias, axis=1)
     return np.where(larger[:, None], trunc, fits.bias)
 
 
+def _judges(model, quad, rnd, ok):
+    """(the fit that judges each patch's truncation, ``full``): ``rnd``'s where ``model``
+    chose the round model (usable where ``ok``), ``quad``'s elsewhere; ``full`` where the
+    quadric one order up has full rank."""
+    idx, rest = np.flatnonzero(model == 1), np.flatnonzero(model != 1)
+    parts = [(idx, batch_lstsq.take(rnd.sol, idx)), (rest, batch_lstsq.take(quad.sol, rest))]
+    full = quad.sol.rank == quad.sol.coef.shape[1]
+    return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok | (model != 1)), full
+
+
 def _next_order(rows, mask, model, start, need):
-    """The quadric and round fits one order above ``rows``' (round from ``start``): the
-    round one only where ``model`` chose it and ``need`` (a Gauss-Newton), the quadric's
-    elsewhere; a round patch not ``need``ed is marked not ok (no truncation view)."""
+    """``_judges`` one order above ``rows``: the quadric 4-jet, and the round 4-jet (a
+    Gauss-Newton from ``start``) only where ``model`` chose the round model and ``need``;
+    a round patch not ``need``ed has no truncation view."""
     up = jet_rows.with_order(rows, ORDER + 1)
     quad = jet_models.quadric(up)
-    idx = np.flatnonzero((model == 1) & need)
+    full = quad.sol.rank == quad.sol.coef.shape[1]
+    idx, ok = np.flatnonzero((model == 1) & need), model != 1
     if not idx.size:
-        return quad, jet_models.Model(quad.sol, None, model != 1)
+        return jet_models.Model(quad.sol, None, ok), full
     sub = jet_rows.Rows(*(getattr(up, k)[idx] for k in "x y b w A T P N".split()), up.part)
-    rnd = jet_models.round_model(sub, mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL)
+    fit = jet_models.round_model(sub, mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL)
     rest = np.setdiff1d(np.arange(len(model)), idx)
-    sol = batch_lstsq.merge([(idx, rnd.sol), (rest, batch_lstsq.take(quad.sol, rest))], len(model))
-    ok = model != 1
-    ok[idx] = rnd.ok
-    return quad, jet_models.Model(sol, None, ok)
+    ok[idx] = fit.ok
+    parts = [(idx, fit.sol), (rest, batch_lstsq.take(quad.sol, rest))]
+    return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok), full
 
 
 def _pad(coef, width):

@@ -111,7 +111,7 @@ def _jet_fields(fits, i, out, pre):
     out.update(
         order=int(fits.order[i]),
         weighting="auto" if not any(fits.stated) else "stated",
-        model=_model_text(pre.score[i], model, int(fits.order[i]), _weight(fits, i)),
+        model=_model_text(pre.score[i], model, int(fits.order[i]), float(fits.weight[i])),
         noise_pos=float(fits.noise[i, 0]),
         noise_normal=float(fits.noise[i, 1]),
         frame=patch_frame.PatchFrame(fits.origin[i], axes),
@@ -129,11 +129,6 @@ def _jet_height(coef, model, xy):
     if model == 1:
         z = z + jet_basis.round_excess(xy[:, 0], xy[:, 1], jet_basis.hessian(coef))[0]
     return z
-
-
-def _weight(fits, i):
-    """The 3-jet's share of patch ``i``'s estimate (1 where no 2-jet was fitted)."""
-    return 1.0 if fits.weight is None else float(fits.weight[i])
 
 
 def _model_text(score, model, order=3, weight=1.0):
