@@ -5,59 +5,19 @@ Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_revisions.py [--scene cyl
 checkout: PYTHONPATH=protocol:firmware:host:sim:studies first).
 
 Each revision's host library (``git archive``) runs ``analyze_patches`` (chunk 256) on the
-same patches (``ep2_speed.SCENES``) in its own child process: warmed by a first call, then
-the best of 3 in CPU time.  The revisions take turns, ``--rounds`` times, and each one's
+same patches (``ep2_speed.SCENES``) in its own child process (``ep2_speed``'s): warmed by a first
+call, then the best of 3 in CPU time.  The revisions take turns, ``--rounds`` times, and each one's
 median over the rounds is printed with its range and its ratio to the first revision: on
 this shared 2-core machine one run of one revision moves by 20-30 %, so single runs do not
 rank changes of that size (docs/ep2.md, "What the trust work cost").
 """
 
 import argparse
-import json
 import os
-import shutil
-import subprocess
-import sys
 import tempfile
 
 import numpy as np
-from ep2_speed import SCENES
-
-HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-CHILD = """
-import json, sys, time
-import numpy as np
-from tactile.ep2 import analyze_patches
-z = np.load(sys.argv[1])
-pairs = list(zip(z["points"], z["normals"]))
-analyze_patches(pairs[:32])
-best = float("inf")
-for _ in range(3):
-    t0 = time.process_time()
-    analyze_patches(pairs, chunk=256)
-    best = min(best, time.process_time() - t0)
-print(json.dumps(1e3 * best / len(pairs)))
-"""
-
-
-def export(rev, into):
-    """``rev``'s host library under ``into``/host (``.``: this working tree's)."""
-    if rev == ".":
-        shutil.copytree(os.path.join(HERE, "host"), os.path.join(into, "host"))
-    else:
-        tar = subprocess.run(["git", "-C", HERE, "archive", rev, "host"], check=True,
-                             capture_output=True).stdout  # fmt: skip
-        subprocess.run(["tar", "-x", "-C", into], input=tar, check=True)
-    return os.path.join(into, "host")
-
-
-def one(host, data):
-    """CPU ms per patch of the host library at ``host`` (a child process)."""
-    paths = [host] + [os.path.join(HERE, d) for d in ("protocol", "firmware", "sim")]
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths), OPENBLAS_NUM_THREADS="1")
-    out = subprocess.run([sys.executable, "-c", CHILD, data], env=env, check=True,
-                         capture_output=True, text=True).stdout  # fmt: skip
-    return json.loads(out)
+from ep2_speed import SCENES, _export, _theirs
 
 
 def main():
@@ -76,10 +36,10 @@ def main():
         hosts = {}
         for k, rev in enumerate(args.revs):
             os.makedirs(os.path.join(tmp, str(k)))
-            hosts[rev] = export(rev, os.path.join(tmp, str(k)))
+            hosts[rev] = _export(rev, os.path.join(tmp, str(k)))
         for _ in range(args.rounds):
             for rev in args.revs:
-                times[rev].append(one(hosts[rev], data))
+                times[rev].append(_theirs(hosts[rev], data, "cpu"))
     first = float(np.median(times[args.revs[0]]))
     print(f"\n| {args.n} patches ({args.scene}), {args.rounds} rounds | median CPU ms / patch"
           f" | range | vs {args.revs[0]} |")  # fmt: skip

@@ -18,6 +18,7 @@ configurations and the CLI; with ``--fit-only``,
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -66,6 +67,14 @@ if what == "fit":  # this tree's bench, REV's host library: tangent fit patches 
     from ep2_speed import fit_chunks
     print(json.dumps(fit_chunks(z["points"], z["normals"])[1]))
     sys.exit()
+if what == "cpu":  # ep2_revisions.py: CPU, best of 3, chunk 256
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.process_time()
+        analyze_patches(pairs, chunk=256)
+        best = min(best, time.process_time() - t0)
+    print(json.dumps(1e3 * best / len(pairs)))
+    sys.exit()
 if what == "loop":
     for p, q in pairs:
         analyze_patch(p, q)
@@ -87,8 +96,12 @@ def _this(pairs, what):
 
 
 def _export(rev, into):
-    """REV's host library, as ``git archive`` gives it, under ``into``/host."""
+    """REV's host library, as ``git archive`` gives it, under ``into``/host (``.``: this
+    working tree's)."""
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    if rev == ".":
+        shutil.copytree(os.path.join(here, "host"), os.path.join(into, "host"))
+        return os.path.join(into, "host")
     tar = subprocess.run(
         ["git", "-C", here, "archive", rev, "host"], check=True, capture_output=True
     ).stdout
