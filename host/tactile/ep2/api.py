@@ -92,7 +92,9 @@ def analyze_patch(
 def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
     noise = (opts["noise_pos"], opts["noise_normal"])
-    fits = centre_jet.fit(pts[None], nrm[None], mask, *noise, opts["max_normal_angle"])
+    fits = centre_jet.fit(
+        pts[None], nrm[None], mask, *noise, opts["max_normal_angle"], opts["intervals"]
+    )
     (out,) = jet_outcomes.outcomes(
         fits, opts, jet_outcomes.inputs(fits, opts["grid"]), [opts["lines"]]
     )

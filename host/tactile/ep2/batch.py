@@ -73,7 +73,7 @@ def _chunk(patches, kw):
             P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
         opts = prepared[0][1].opts
         noise = (opts["noise_pos"], opts["noise_normal"])
-        fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"])
+        fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"], opts["intervals"])
         pre = jet_outcomes.inputs(fits, opts["grid"])
         lines = [prep.opts["lines"] for _, prep in prepared]
         outcomes = jet_outcomes.outcomes(fits, opts, pre, lines)

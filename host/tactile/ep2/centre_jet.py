@@ -86,8 +86,12 @@ class JetFits:
     mean_axes: np.ndarray = None  # (B, 3, 3) that frame's axes in world coordinates
 
 
-def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=70.0):
-    """Fit every patch of the stack: points, normals (B, n, 3) (unit normals), mask (B, n)."""
+def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=70.0,
+        intervals=True):  # fmt: skip
+    """Fit every patch of the stack: points, normals (B, n, 3) (unit normals), mask (B, n).
+    Without ``intervals`` the truncation views (``_truncation``: a 4-jet solve and a round
+    4-jet's Gauss-Newton), which only widen intervals, are not computed: ``bias`` is the
+    model-choice one alone, and every other field is the same."""
     mask = np.asarray(mask, bool)
     reason = [None] * len(mask)
     O, M = jet_frames.mean_frame(points, normals, mask, reason)
@@ -121,12 +125,13 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     start = rnd.sol.coef[:, : jet_basis.n_coef(ORDER - 1)]
     low = _finish(list(jet_models.both(low_rows, mask, start)), low_rows, mask, sig, dof, frame,
                   stated, reason)  # fmt: skip
-    low.bias = _truncation(low, *_judges(low.model, quad, rnd, rnd.ok), low_rows, sig, dof)
     keep = _shrink_weight(out, low, 3.0 * mask.sum(axis=1))
-    # the 3-jet's own truncation view only where the 3-jet has a share (w > 0): elsewhere
-    # the blend below discards its bias, and the round 4-jet is a Gauss-Newton
-    up = _next_order(rows, mask, out.model, rnd.sol.coef, keep > 0)
-    out.bias = _truncation(out, *up, rows, sig, dof)
+    if intervals:
+        low.bias = _truncation(low, *_judges(low.model, quad, rnd, rnd.ok), low_rows, sig, dof)
+        # the 3-jet's own truncation view only where the 3-jet has a share (w > 0): elsewhere
+        # the blend below discards its bias, and the round 4-jet is a Gauss-Newton
+        up = _next_order(rows, mask, out.model, rnd.sol.coef, keep > 0)
+        out.bias = _truncation(out, *up, rows, sig, dof)
     out = _lower_order(out, low, keep)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
@@ -299,6 +304,33 @@ def _next_order(rows, mask, model, start, need):
     return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok), full
 
 
+def _split_round(rows, mask, quad, fits):
+    """(the solution of the joint fit's model on one row type's ``rows``, that row type's
+    misfit s^2 under its own better family): the quadric ``quad``, or where the joint fit
+    chose the round model a Gauss-Newton from its solution.  The misfit, max(chi^2 / dof,
+    1) of the lower chi^2 (model error, not disagreement), needs the round fit only where
+    the quadric's chi^2 / dof is above 1, so the round model runs on those patches and the
+    round ones alone (the rest get exactly what a fit of all would give them)."""
+    dof = np.maximum(rows.w.sum(axis=1) - quad.rank, 1)
+    need = np.flatnonzero((fits.model == 1) | (quad.rss > dof))
+    own_s2 = np.maximum(quad.rss / dof, 1.0)
+    if not need.size:
+        return quad, own_s2
+    sub = jet_rows.Rows(*(getattr(rows, k)[need] for k in "x y b w A T P N".split()), rows.part)
+    start = np.where((fits.model[need] == 1)[:, None], fits.coef[need, : quad.coef.shape[1]],
+                     quad.coef[need])  # fmt: skip
+    rnd = jet_models.round_model(sub, mask[need], start, SPLIT_TOL)
+    best = np.minimum(quad.rss[need], np.where(rnd.ok, rnd.sol.rss, np.inf))
+    own_s2[need] = np.maximum(best / dof[need], 1.0)
+    pick = (fits.model[need] == 1) & rnd.ok  # the joint fit's model, refitted
+    if not pick.any():
+        return quad, own_s2
+    parts = [(need[pick], batch_lstsq.take(rnd.sol, pick))]
+    rest = np.setdiff1d(np.arange(len(dof)), need[pick])
+    parts.append((rest, batch_lstsq.take(quad, rest)))
+    return batch_lstsq.merge(parts, len(dof)), own_s2
+
+
 def _pad(coef, width):
     """Jet coefficients padded with zeros to ``width`` (graded order: the same polynomial)."""
     return np.pad(coef, ((0, 0), (0, width - coef.shape[1])))
@@ -322,18 +354,7 @@ def _split_fits(p, nrm, mask, sig, dof, fits):
         )  # the joint fit may be nonsense
         rows = jet_rows.make(p, nrm, mask, sig, own, jet_rows.ORDER, part)
         model = jet_models.quadric(rows)
-        start = fits.coef[:, : model.sol.coef.shape[1]]
-        start = np.where((fits.model == 1)[:, None], start, model.sol.coef)
-        rnd = jet_models.round_model(rows, mask, start, SPLIT_TOL)
-        pick = ((fits.model == 1) & rnd.ok)[:, None]  # the joint fit's model, refitted
-        # misfit of this row type under its own better family: model error, not disagreement
-        best = np.minimum(model.sol.rss, np.where(rnd.ok, rnd.sol.rss, np.inf))
-        own_s2 = np.maximum(best / np.maximum(rows.w.sum(axis=1) - model.sol.rank, 1), 1.0)
-        for key in ("coef", "U", "M", "P", "rss", "blind", "scale", "rank"):
-            a, b = getattr(rnd.sol, key), getattr(model.sol, key)
-            shape = pick.reshape(pick.shape[:1] + (1,) * (np.ndim(a) - 1))
-            setattr(model.sol, key, np.where(shape, a, b))
-        sol = model.sol
+        sol, own_s2 = _split_round(rows, mask, model.sol, fits)
         ch = list(jet_basis.CHANNELS)
         # the noise, times the misfit of the row type's own better family only: a joint
         # family that misfits one row type (mirrored normals, say) must not widen its way

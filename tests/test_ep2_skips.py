@@ -1,0 +1,75 @@
+"""Work the centre jet leaves out is work nobody reads (issue 13, "compute only what a run
+uses"): without intervals the truncation views are not fitted; the one-row-type fits run
+the round model only on the patches whose result or misfit it can change.  Either way
+every field that is read comes out the same."""
+
+import numpy as np
+import pytest
+
+from tactile.ep2 import centre_jet, jet_models, jet_rows
+from tactile_sim.ep2 import make, sweep
+
+FIELDS = ("t", "cov", "cov_noise", "dof", "model", "chi2", "score", "coef", "noise", "weight")
+
+
+def _stack(kind, radius, noise, n=24):
+    ds = [
+        sweep(make(kind, radius, 20.0), noise_pos=noise, noise_normal=noise, seed=s)
+        for s in range(n)
+    ]
+    P = np.array([d["points"] for d in ds])
+    N = np.array([d["normals"] for d in ds])
+    return P, N, np.ones(P.shape[:2], bool)
+
+
+@pytest.mark.parametrize("kind,radius,noise", [("cylinder", 10.0, 0.01), ("sphere", 8.0, 5e-4)])
+def test_without_intervals_the_truncation_views_are_skipped_and_nothing_else_moves(
+    mocker, kind, radius, noise
+):
+    P, N, mask = _stack(kind, radius, noise)
+    full = centre_jet.fit(P, N, mask)
+    views = mocker.spy(centre_jet, "_next_order")
+    truncation = mocker.spy(centre_jet, "_truncation")
+    bare = centre_jet.fit(P, N, mask, intervals=False)
+    assert views.call_count == 0 and truncation.call_count == 0
+    for key in FIELDS:
+        np.testing.assert_array_equal(getattr(bare, key), getattr(full, key), err_msg=key)
+    for a, b in zip(bare.split, full.split, strict=True):
+        for x, y in zip(a[:2], b[:2], strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+def _split_round_of_all(rows, mask, quad, fits):
+    """The reference: the round model fitted to every patch, the lower chi^2's misfit."""
+    dof = np.maximum(rows.w.sum(axis=1) - quad.rank, 1)
+    start = np.where((fits.model == 1)[:, None], fits.coef[:, : quad.coef.shape[1]], quad.coef)
+    rnd = jet_models.round_model(rows, mask, start, centre_jet.SPLIT_TOL)
+    best = np.minimum(quad.rss, np.where(rnd.ok, rnd.sol.rss, np.inf))
+    pick = ((fits.model == 1) & rnd.ok)[:, None]
+    return np.where(pick, rnd.sol.coef, quad.coef), np.maximum(best / dof, 1.0), rnd
+
+
+@pytest.mark.parametrize("part", ["pos", "slopes"])
+def test_the_round_split_fit_on_the_patches_that_need_it_equals_it_on_all(mocker, part):
+    """Cylinders (the quadric chosen, about half the chi^2 / dof above 1) mixed with spheres
+    at low noise (the round model chosen): the same coefficients and misfit as fitting the
+    round model everywhere, from a smaller batch."""
+    stacks = [_stack("cylinder", 10.0, 0.01, 16), _stack("sphere", 8.0, 5e-4, 8)]
+    P, N, mask = (np.concatenate(parts) for parts in zip(*stacks, strict=True))
+    seen = {}
+    real = centre_jet._split_fits
+    mocker.patch.object(centre_jet, "_split_fits", lambda *a: seen.setdefault("a", a) and real(*a))
+    centre_jet.fit(P, N, mask)
+    p, nrm, mask, sig, _, fits = seen["a"]
+    geo = jet_rows.geometry(jet_rows.positions(p, mask), fits.coef, fits.model)
+    first = jet_rows.make(p, nrm, mask, sig, geo, jet_rows.ORDER, part)
+    own = jet_rows.geometry(first, jet_models.quadric(first).sol.coef)
+    rows = jet_rows.make(p, nrm, mask, sig, own, jet_rows.ORDER, part)
+    quad = jet_models.quadric(rows).sol
+    want_coef, want_s2, _ = _split_round_of_all(rows, mask, quad, fits)
+    runs = mocker.spy(jet_models, "round_model")
+    sol, s2 = centre_jet._split_round(rows, mask, quad, fits)
+    assert 0 < len(runs.call_args.args[0].b) < len(P)  # some patches skipped, some not
+    assert np.any(fits.model == 1) and np.any(s2 > 1.0)
+    np.testing.assert_array_equal(sol.coef, want_coef)
+    np.testing.assert_array_equal(s2, want_s2)
