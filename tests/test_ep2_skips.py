@@ -73,3 +73,28 @@ def test_the_round_split_fit_on_the_patches_that_need_it_equals_it_on_all(mocker
     assert np.any(fits.model == 1) and np.any(s2 > 1.0)
     np.testing.assert_array_equal(sol.coef, want_coef)
     np.testing.assert_array_equal(s2, want_s2)
+
+
+def test_the_3_jets_truncation_view_is_fitted_only_where_the_3_jet_keeps_a_share(mocker):
+    """Where the 2-jet shrinkage leaves the 3-jet no share its bias is discarded, so the
+    4-jets are fitted on the other patches alone; there the bias is the whole stack's."""
+    stacks = [_stack("cylinder", 10.0, 0.01, 24), _stack("sphere", 8.0, 5e-4, 8)]
+    P, N, mask = (np.concatenate(parts) for parts in zip(*stacks, strict=True))
+    real, seen = centre_jet._own_truncation, {}
+
+    def both_ways(fits, need, rows, mask, start, sig, dof):  # before the blend changes fits
+        up = centre_jet._next_order(rows, mask, fits.model, start)
+        seen["everywhere"] = centre_jet._truncation(fits, *up, rows, sig, dof)
+        seen["need"], seen["before"] = need, fits.bias.copy()
+        views = mocker.spy(centre_jet, "_next_order")
+        seen["got"] = real(fits, need, rows, mask, start, sig, dof)
+        seen["fitted"] = len(views.call_args.args[0].b)
+        return seen["got"]
+
+    mocker.patch.object(centre_jet, "_own_truncation", both_ways)
+    centre_jet.fit(P, N, mask)
+    need, got = seen["need"], seen["got"]
+    assert 0 < need.sum() < len(P) and seen["fitted"] == need.sum()
+    np.testing.assert_array_equal(got[~need], seen["before"][~need])
+    np.testing.assert_allclose(got[need], seen["everywhere"][need], rtol=1e-12, atol=1e-15)
+    assert not np.array_equal(got[need], seen["before"][need])  # the view widens some

@@ -30,6 +30,7 @@ Nothing here raises for one bad patch: ``reason`` holds why a patch is refused.
 """
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -128,10 +129,7 @@ def fit(points, normals, mask, noise_pos=None, noise_normal=None, max_angle_deg=
     keep = _shrink_weight(out, low, 3.0 * mask.sum(axis=1))
     if intervals:
         low.bias = _truncation(low, *_judges(low.model, quad, rnd, rnd.ok), low_rows, sig, dof)
-        # the 3-jet's own truncation view only where the 3-jet has a share (w > 0): elsewhere
-        # the blend below discards its bias, and the round 4-jet is a Gauss-Newton
-        up = _next_order(rows, mask, out.model, rnd.sol.coef, keep > 0)
-        out.bias = _truncation(out, *up, rows, sig, dof)
+        out.bias = _own_truncation(out, keep > 0, rows, mask, rnd.sol.coef, sig, dof)
     out = _lower_order(out, low, keep)
     out.split = _split_fits(p, nrm, mask, sig, dof, out)
     out.xyz_mean, out.mean_axes = xyz_mean, mean_axes
@@ -286,22 +284,46 @@ def _judges(model, quad, rnd, ok):
     return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok | (model != 1)), full
 
 
-def _next_order(rows, mask, model, start, need):
+def _own_truncation(fits, need, rows, mask, start, sig, dof):
+    """``fits.bias`` with ``_truncation`` where ``need``: the 3-jet's own truncation view
+    only where the 3-jet has a share (w > 0); elsewhere the blend (``_lower_order``)
+    discards its bias, so neither 4-jet is fitted there (the round one is a Gauss-Newton
+    from ``start``).  The patches are independent: a sub-stack gives each what the whole
+    stack would."""
+    idx = np.flatnonzero(need)
+    if not idx.size:
+        return fits.bias
+    sub = SimpleNamespace(
+        **{k: getattr(fits, k)[idx] for k in ("t", "cov_noise", "model", "chi2", "bias")}
+    )
+    some = _rows_of(rows, idx)
+    up = _next_order(some, mask[idx], sub.model, start[idx])
+    bias = fits.bias.copy()
+    bias[idx] = _truncation(sub, *up, some, sig[idx], dof[idx])
+    return bias
+
+
+def _next_order(rows, mask, model, start):
     """``_judges`` one order above ``rows``: the quadric 4-jet, and the round 4-jet (a
-    Gauss-Newton from ``start``) only where ``model`` chose the round model and ``need``;
-    a round patch not ``need``ed has no truncation view."""
+    Gauss-Newton from ``start``) where ``model`` chose the round model."""
     up = jet_rows.with_order(rows, ORDER + 1)
     quad = jet_models.quadric(up)
     full = quad.sol.rank == quad.sol.coef.shape[1]
-    idx, ok = np.flatnonzero((model == 1) & need), model != 1
+    idx, ok = np.flatnonzero(model == 1), model != 1
     if not idx.size:
         return jet_models.Model(quad.sol, None, ok), full
-    sub = jet_rows.Rows(*(getattr(up, k)[idx] for k in "x y b w A T P N".split()), up.part)
-    fit = jet_models.round_model(sub, mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL)
+    fit = jet_models.round_model(
+        _rows_of(up, idx), mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL
+    )
     rest = np.setdiff1d(np.arange(len(model)), idx)
     ok[idx] = fit.ok
     parts = [(idx, fit.sol), (rest, batch_lstsq.take(quad.sol, rest))]
     return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok), full
+
+
+def _rows_of(rows, idx):
+    """The patches ``idx`` of a stack's ``jet_rows.Rows``."""
+    return jet_rows.Rows(*(getattr(rows, k)[idx] for k in "x y b w A T P N".split()), rows.part)
 
 
 def _split_round(rows, mask, quad, fits):
@@ -316,7 +338,7 @@ def _split_round(rows, mask, quad, fits):
     own_s2 = np.maximum(quad.rss / dof, 1.0)
     if not need.size:
         return quad, own_s2
-    sub = jet_rows.Rows(*(getattr(rows, k)[need] for k in "x y b w A T P N".split()), rows.part)
+    sub = _rows_of(rows, need)
     start = np.where((fits.model[need] == 1)[:, None], fits.coef[need, : quad.coef.shape[1]],
                      quad.coef[need])  # fmt: skip
     rnd = jet_models.round_model(sub, mask[need], start, SPLIT_TOL)
