@@ -2,9 +2,10 @@
 the per-patch loop, and the CLI on 1000 patches.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_speed.py [--n 512] [--against REV]
-[--batch-only | --fit-only] [--scene cylinders|round]   (from a checkout:
+[--batch-only | --fit-only | --options] [--scene cylinders|round]   (from a checkout:
 PYTHONPATH=protocol:firmware:host:sim:studies first).  ``--fit-only`` times the batched
-tangent fit alone (``tangent_fit``).
+tangent fit alone (``tangent_fit``); ``--options`` the batch with parts of the default
+analysis switched off (``OPTIONS``), taking turns, against the default.
 ``--against REV`` also times git revision REV's ``analyze_patch`` loop and
 ``analyze_patches`` on the same patches, in a child process that imports REV's host
 library (``git archive``), alternating with this tree's runs: before and after side by
@@ -173,6 +174,33 @@ def batched(n=512, against=None, scene="cylinders"):
     print(f"\nanalyze_patches, chunk 256, the SVD for every solve: {ms:.2f} ms / patch")
 
 
+OPTIONS = (  # --options: what switching a part of the default analysis off saves
+    ("default", {}),
+    ("intervals=False (no truncation views)", {"intervals": False}),
+    ("noise stated (no noise estimate)", {"noise_pos": 0.01, "noise_normal": 0.01}),
+    ("both", {"intervals": False, "noise_pos": 0.01, "noise_normal": 0.01}),
+)
+
+
+def options_cost(n=512, scene="cylinders", rounds=5):
+    """CPU ms per patch of ``analyze_patches`` (chunk 256) with each of ``OPTIONS``, taking
+    turns ``rounds`` times on the same patches; medians and the ratio to the default."""
+    pairs = [(d["points"], d["normals"]) for d in (SCENES[scene](s) for s in range(n))]
+    analyze_patches(pairs[:32])  # warm
+    times = {name: [] for name, _ in OPTIONS}
+    for _ in range(rounds):
+        for name, kw in OPTIONS:
+            t0 = time.process_time()
+            analyze_patches(pairs, **kw)
+            times[name].append(1e3 * (time.process_time() - t0) / n)
+    base = np.median(times["default"])
+    print(f"\n| {n} patches ({scene}), {rounds} turns | median CPU ms / patch | vs default |")
+    print("|---|---|---|")
+    for name, _ in OPTIONS:
+        ms = np.median(times[name])
+        print(f"| {name} | {ms:.2f} | {ms / base:.2f} |")
+
+
 def tangent_fit(points, normals, sigma):
     """The batched tangent fit alone (issue 13's 30,000 patches/s figure): each patch in its
     mean-normal frame, the 3-jet fitted to positions and slopes whitened per contact with
@@ -246,7 +274,11 @@ def main():
     ap.add_argument("--batch-only", action="store_true", help="only the batched comparison")
     ap.add_argument("--fit-only", action="store_true", help="only the tangent fit alone")
     ap.add_argument("--scene", choices=sorted(SCENES), default="cylinders", help="the patches")
+    ap.add_argument("--options", action="store_true", help="only the cost of each option")
     args = ap.parse_args()
+    if args.options:
+        options_cost(args.n, args.scene)
+        return
     if args.fit_only:
         tangent_fit_speed(against=args.against)
         return
