@@ -98,3 +98,18 @@ def test_the_3_jets_truncation_view_is_fitted_only_where_the_3_jet_keeps_a_share
     np.testing.assert_array_equal(got[~need], seen["before"][~need])
     np.testing.assert_allclose(got[need], seen["everywhere"][need], rtol=1e-12, atol=1e-15)
     assert not np.array_equal(got[need], seen["before"][need])  # the view widens some
+
+
+def test_each_contacts_unit_covariance_is_computed_once_and_is_t_m_t_transposed(mocker):
+    """``Rows.unit`` (T P T^T, T N T^T) entry by entry equals the 3 x 3 products, and the
+    rows of another order and a sub-stack reuse it instead of computing it again."""
+    P, N, mask = _stack("cylinder", 10.0, 0.01, 6)
+    rows = jet_rows.make(P, N, mask, np.full((6, 2), 0.01))
+    made = mocker.spy(jet_rows, "_sandwich")
+    KP, KN = rows.unit()
+    for K, M in ((KP, rows.P), (KN, rows.N)):
+        want = rows.T @ M @ np.swapaxes(rows.T, -1, -2)
+        np.testing.assert_allclose(K, want, rtol=1e-13, atol=1e-13 * np.abs(want).max())
+    low, some = jet_rows.with_order(rows, 2), rows.take([4, 1])
+    assert low.unit()[0] is KP and np.array_equal(some.unit()[1], KN[[4, 1]])
+    assert made.call_count == 2

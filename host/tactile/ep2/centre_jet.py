@@ -296,7 +296,7 @@ def _own_truncation(fits, need, rows, mask, start, sig, dof):
     sub = SimpleNamespace(
         **{k: getattr(fits, k)[idx] for k in ("t", "cov_noise", "model", "chi2", "bias")}
     )
-    some = _rows_of(rows, idx)
+    some = rows.take(idx)
     up = _next_order(some, mask[idx], sub.model, start[idx])
     bias = fits.bias.copy()
     bias[idx] = _truncation(sub, *up, some, sig[idx], dof[idx])
@@ -313,17 +313,12 @@ def _next_order(rows, mask, model, start):
     if not idx.size:
         return jet_models.Model(quad.sol, None, ok), full
     fit = jet_models.round_model(
-        _rows_of(up, idx), mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL
+        up.take(idx), mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL
     )
     rest = np.setdiff1d(np.arange(len(model)), idx)
     ok[idx] = fit.ok
     parts = [(idx, fit.sol), (rest, batch_lstsq.take(quad.sol, rest))]
     return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok), full
-
-
-def _rows_of(rows, idx):
-    """The patches ``idx`` of a stack's ``jet_rows.Rows``."""
-    return jet_rows.Rows(*(getattr(rows, k)[idx] for k in "x y b w A T P N".split()), rows.part)
 
 
 def _split_round(rows, mask, quad, fits):
@@ -338,7 +333,7 @@ def _split_round(rows, mask, quad, fits):
     own_s2 = np.maximum(quad.rss / dof, 1.0)
     if not need.size:
         return quad, own_s2
-    sub = _rows_of(rows, need)
+    sub = rows.take(need)
     start = np.where((fits.model[need] == 1)[:, None], fits.coef[need, : quad.coef.shape[1]],
                      quad.coef[need])  # fmt: skip
     rnd = jet_models.round_model(sub, mask[need], start, SPLIT_TOL)

@@ -37,10 +37,8 @@ def propagate(G, rows, rss, rank, sig, dof):
     n = m3 // 3
     Gc = G.reshape(B, q, 3, n)
     lifted = np.maximum(sig, FLOOR)
-    unit = []  # each row type's part for a unit sigma
-    for M in (rows.P, rows.N):
-        K = rows.T @ M @ np.swapaxes(rows.T, -1, -2)  # (B, n, 3, 3)
-        unit.append(np.einsum("zian,znac,zjcn->zij", Gc, K, Gc))
+    # each row type's part for a unit sigma
+    unit = [np.einsum("zian,znac,zjcn->zij", Gc, K, Gc) for K in rows.unit()]
     parts = [lifted[:, k, None, None] ** 2 * unit[k] for k in range(2)]
     used = rows.w.sum(axis=1)
     s2 = np.maximum(rss / np.maximum(used - rank, 1), 1.0)

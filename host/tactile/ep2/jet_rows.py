@@ -6,7 +6,7 @@ variables; ``make``).  ``geometry`` gives a fit's slopes and second derivatives 
 contacts, from which the next rows are whitened.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
@@ -31,6 +31,22 @@ class Rows:
     P: np.ndarray  # (B, n, 3, 3) its covariance per unit sigma_p^2 (J J^T)
     N: np.ndarray  # (B, n, 3, 3) ... per unit sigma_n^2
     part: str = "all"  # the row types kept: "all", "pos" or "slopes" (``PARTS``)
+    _unit: list = field(default_factory=list, repr=False)  # ``unit``'s, once computed
+
+    def unit(self):
+        """(T P T^T, T N T^T) (B, n, 3, 3): each contact's whitened residual covariance per
+        unit sigma_p^2 and per unit sigma_n^2 (``jet_covariance.propagate``), computed once
+        and shared by the rows of another order (``with_order``) and their sub-stacks
+        (``take``)."""
+        if not self._unit:
+            self._unit.extend(_sandwich(self.T, M) for M in (self.P, self.N))
+        return tuple(self._unit)
+
+    def take(self, idx):
+        """The patches ``idx`` of the stack (their ``unit`` too, if computed)."""
+        unit = [u[idx] for u in self._unit]
+        keys = ("x", "y", "b", "w", "A", "T", "P", "N")
+        return Rows(*(getattr(self, k)[idx] for k in keys), self.part, unit)
 
     def whiten(self, v, T=None):
         """Whiten stacked rows (B, 3n) or (B, 3n, k) (positions, x-slopes, y-slopes), keeping
@@ -190,6 +206,21 @@ def _inverse_cholesky(c):
     return T
 
 
+def _sandwich(T, M):
+    """T M T^T for every contact's lower-triangular T and symmetric M (B, n, 3, 3), entry by
+    entry (a stack of 3 x 3 products through matmul is one BLAS call per contact)."""
+    TM = np.empty_like(M)
+    for i in range(3):
+        for j in range(3):
+            TM[..., i, j] = sum(T[..., i, a] * M[..., a, j] for a in range(i + 1))
+    out = np.empty_like(M)
+    for i in range(3):
+        for k in range(i, 3):
+            out[..., i, k] = sum(TM[..., i, a] * T[..., k, a] for a in range(k + 1))
+            out[..., k, i] = out[..., i, k]
+    return out
+
+
 def positions(p, mask):
     """The contacts' x, y as ``Rows`` hold them (padding at 0), for ``geometry``."""
     x, y = (np.where(mask, p[..., k], 0.0) for k in (0, 1))
@@ -199,7 +230,7 @@ def positions(p, mask):
 def with_order(rows, order):
     """``rows`` with the jet design of another order (same data, weights and whitening)."""
     A = whitened_design(rows.x, rows.y, order, rows.T, rows.part)
-    return Rows(rows.x, rows.y, rows.b, rows.w, A, rows.T, rows.P, rows.N, rows.part)
+    return Rows(rows.x, rows.y, rows.b, rows.w, A, rows.T, rows.P, rows.N, rows.part, rows._unit)
 
 
 def geometry(rows, coef, model=None):
