@@ -1,6 +1,9 @@
 """EP2 peers: this fit vs FITPACK vs 2-jet, RMS error of S and k1 over noise, and run time.
 
-Run: .venv/bin/python bench/ep2_peers.py [--trials 600]
+Run: .venv/bin/python bench/ep2_peers.py [--trials 600] [--loop]
+This library's estimators run each noise level's draws through one ``analyze_patches``
+call (issue 13; ``--loop``: one ``analyze_patch`` call each, the per-patch cost); the
+peers have no batched form and run one patch at a time.
 Objects: convex cylinder R 10 and sphere R 10 (random rotation), concave cylinder R 10, in
 turn, on the default three-finger sweep (36 contacts, patch 4 x 4).  Noise sigma on each
 position coordinate (unit) and on the normal direction per tangent axis (rad) are equal.
@@ -16,7 +19,7 @@ import time
 
 import numpy as np
 
-from tactile.ep2 import analyze_patch, peers
+from tactile.ep2 import analyze_patch, analyze_patches, peers
 from tactile.ep2.shape_index import shape_index
 from tactile_sim.ep2 import make, sweep
 
@@ -32,24 +35,36 @@ SPLIT = (
 )
 
 
-def _ours(d, grid_mean=False, **kw):
-    """(k1, k2): at the patch centre (the default) or the grid maps (the thesis's mean)."""
-    r = analyze_patch(d["points"], d["normals"], maps=grid_mean, **kw)
+def _k(r, grid_mean):
+    """(k1, k2) of a result: at the patch centre (the default) or the grid maps (the
+    thesis's mean)."""
+    if isinstance(r, Exception):
+        raise r
     if grid_mean:
         return r.maps["k1"], r.maps["k2"]
     return np.array([r.k1]), np.array([r.k2])
 
 
-def estimators(sig):
+def ours(sig):
+    """This library's estimators: name -> ``analyze_patch`` options."""
     sp = max(sig, 1e-6)
     return {
-        DEFAULT: lambda d: _ours(d),
-        "this, thesis statistic (grid-mean S)": lambda d: _ours(d, grid_mean=True),
-        "this, noise stated": lambda d: _ours(d, noise_pos=sp, noise_normal=sp),
-        "this, spline deg 2 auto (previous default)": lambda d: _ours(d, method="spline"),
-        "this, thesis (spline deg 3, tangent)": lambda d: _ours(
-            d, method="spline", order=3, weighting="tangent"
-        ),
+        DEFAULT: {},
+        "this, thesis statistic (grid-mean S)": {"maps": True},
+        "this, noise stated": {"noise_pos": sp, "noise_normal": sp},
+        "this, spline deg 2 auto (previous default)": {"method": "spline"},
+        "this, thesis (spline deg 3, tangent)": {
+            "method": "spline",
+            "order": 3,
+            "weighting": "tangent",
+        },
+    }
+
+
+def estimators(sig):
+    """The peers, one patch at a time (none has a batched form)."""
+    sp = max(sig, 1e-6)
+    return {
         "FITPACK bisplrep (pos)": lambda d: peers.fitpack(d["points"], d["normals"], sp),
         "LSQBivariateSpline (pos)": lambda d: peers.lsq_spline(d["points"], d["normals"]),
         "2-jet, positions": lambda d: peers.jet(d["points"], d["normals"], sp, sp, False),
@@ -60,26 +75,41 @@ def estimators(sig):
     }
 
 
-def run(sig, trials):
+def _run_ours(draws, kw, loop):
+    """[(k1, k2)] of every draw, through ``analyze_patches`` (results equal
+    ``analyze_patch``'s to round-off) or, with ``loop``, one ``analyze_patch`` each."""
+    pairs = [(d["points"], d["normals"]) for d, _, _ in draws]
+    if loop:
+        return [_k(analyze_patch(p, q, **kw), "maps" in kw) for p, q in pairs]
+    return [_k(r, "maps" in kw) for r in analyze_patches(pairs, **kw)]
+
+
+def run(sig, trials, loop=False):
     """Errors (S, relative k1) per estimator and object, and total run time per estimator."""
     rng = np.random.default_rng(7)
-    ests = estimators(sig)
-    err = {k: {"S": [], "k1": [], "obj": []} for k in ests}
-    t_used = dict.fromkeys(ests, 0.0)
+    draws = []
     for t in range(trials):
         kind, radius = OBJECTS[t % len(OBJECTS)]
         obj = make(kind, radius, rng.uniform(0, 180))
-        d = sweep(obj, noise_pos=sig, noise_normal=sig, seed=t)
-        k_true = obj.true_k()
-        concave = kind == "concave_cylinder"
-        for name, fn in ests.items():
-            t0 = time.perf_counter()
-            k1, k2 = fn(d)
-            t_used[name] += time.perf_counter() - t0
-            kk, kt = (k2, k_true[1]) if concave else (k1, k_true[0])
-            err[name]["S"].append(float(np.mean(shape_index(k1, k2))) - obj.true_s())
-            err[name]["k1"].append((float(np.mean(kk)) - kt) / abs(kt))
-            err[name]["obj"].append(kind)
+        draws.append((sweep(obj, noise_pos=sig, noise_normal=sig, seed=t), obj, kind))
+    ks, t_used = {}, {}
+    for name, kw in ours(sig).items():
+        t0 = time.perf_counter()
+        ks[name] = _run_ours(draws, kw, loop)
+        t_used[name] = time.perf_counter() - t0
+    for name, fn in estimators(sig).items():
+        t0 = time.perf_counter()
+        ks[name] = [fn(d) for d, _, _ in draws]
+        t_used[name] = time.perf_counter() - t0
+    err = {}
+    for name, got in ks.items():
+        e = err[name] = {"S": [], "k1": [], "obj": []}
+        for (k1, k2), (_, obj, kind) in zip(got, draws, strict=True):
+            k_true = obj.true_k()
+            kk, kt = (k2, k_true[1]) if kind == "concave_cylinder" else (k1, k_true[0])
+            e["S"].append(float(np.mean(shape_index(k1, k2))) - obj.true_s())
+            e["k1"].append((float(np.mean(kk)) - kt) / abs(kt))
+            e["obj"].append(kind)
     return {k: {q: np.array(v) for q, v in e.items()} for k, e in err.items()}, t_used
 
 
@@ -98,8 +128,9 @@ def paired_ratio(a, b, n_boot=400):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--trials", type=int, default=600)
+    ap.add_argument("--loop", action="store_true", help="this library one patch at a time")
     args = ap.parse_args()
-    results = {sig: run(sig, args.trials) for sig in NOISES}
+    results = {sig: run(sig, args.trials, args.loop) for sig in NOISES}
     print("| noise | estimator | RMS S error | RMS k1 error (rel) | us/patch |")
     print("|---|---|---|---|---|")
     for sig, (err, t_used) in results.items():
