@@ -113,3 +113,19 @@ def test_each_contacts_unit_covariance_is_computed_once_and_is_t_m_t_transposed(
     low, some = jet_rows.with_order(rows, 2), rows.take([4, 1])
     assert low.unit()[0] is KP and np.array_equal(some.unit()[1], KN[[4, 1]])
     assert made.call_count == 2
+
+
+def test_replacing_some_problems_of_a_solution_keeps_the_rest_and_the_original():
+    """``batch_lstsq.replace``, how a sub-stack's fit goes back into the stack's."""
+    from tactile.ep2 import batch_lstsq
+
+    rng = np.random.default_rng(3)
+    A, b, w = rng.normal(size=(5, 12, 4)), rng.normal(size=(5, 12)), np.ones((5, 12))
+    whole = batch_lstsq.solve(A, b, w)
+    other = batch_lstsq.solve(A[[3, 0]] * 2.0, b[[3, 0]], w[[3, 0]])
+    before = whole.coef.copy()
+    got = batch_lstsq.replace(whole, [3, 0], other)
+    for key in batch_lstsq.FIELDS:
+        np.testing.assert_array_equal(getattr(got, key)[[3, 0]], getattr(other, key))
+        np.testing.assert_array_equal(getattr(got, key)[[1, 2, 4]], getattr(whole, key)[[1, 2, 4]])
+    np.testing.assert_array_equal(whole.coef, before)

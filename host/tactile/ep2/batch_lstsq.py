@@ -72,6 +72,16 @@ def take(sol, keep):
     return Solution(**{k: getattr(sol, k)[keep] for k in FIELDS})
 
 
+def replace(sol, idx, part):
+    """``sol`` with its problems ``idx`` replaced by those of ``part`` (a ``Solution`` of
+    len(idx) problems); a new ``Solution``, ``sol`` untouched."""
+    out = {}
+    for k in FIELDS:
+        out[k] = getattr(sol, k).copy()
+        out[k][idx] = getattr(part, k)
+    return Solution(**out)
+
+
 def merge(parts, n):
     """One ``Solution`` of ``n`` problems from (indices, ``Solution`` of those) parts that
     cover each problem once."""

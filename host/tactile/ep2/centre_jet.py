@@ -278,10 +278,10 @@ def _judges(model, quad, rnd, ok):
     """(the fit that judges each patch's truncation, ``full``): ``rnd``'s where ``model``
     chose the round model (usable where ``ok``), ``quad``'s elsewhere; ``full`` where the
     quadric one order up has full rank."""
-    idx, rest = np.flatnonzero(model == 1), np.flatnonzero(model != 1)
-    parts = [(idx, batch_lstsq.take(rnd.sol, idx)), (rest, batch_lstsq.take(quad.sol, rest))]
+    idx = np.flatnonzero(model == 1)
+    sol = batch_lstsq.replace(quad.sol, idx, batch_lstsq.take(rnd.sol, idx))
     full = quad.sol.rank == quad.sol.coef.shape[1]
-    return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok | (model != 1)), full
+    return jet_models.Model(sol, None, ok | (model != 1)), full
 
 
 def _own_truncation(fits, need, rows, mask, start, sig, dof):
@@ -315,10 +315,8 @@ def _next_order(rows, mask, model, start):
     fit = jet_models.round_model(
         up.take(idx), mask[idx], _pad(start[idx], up.A.shape[-1]), PASS_TOL
     )
-    rest = np.setdiff1d(np.arange(len(model)), idx)
     ok[idx] = fit.ok
-    parts = [(idx, fit.sol), (rest, batch_lstsq.take(quad.sol, rest))]
-    return jet_models.Model(batch_lstsq.merge(parts, len(model)), None, ok), full
+    return jet_models.Model(batch_lstsq.replace(quad.sol, idx, fit.sol), None, ok), full
 
 
 def _split_round(rows, mask, quad, fits):
@@ -342,10 +340,7 @@ def _split_round(rows, mask, quad, fits):
     pick = (fits.model[need] == 1) & rnd.ok  # the joint fit's model, refitted
     if not pick.any():
         return quad, own_s2
-    parts = [(need[pick], batch_lstsq.take(rnd.sol, pick))]
-    rest = np.setdiff1d(np.arange(len(dof)), need[pick])
-    parts.append((rest, batch_lstsq.take(quad, rest)))
-    return batch_lstsq.merge(parts, len(dof)), own_s2
+    return batch_lstsq.replace(quad, need[pick], batch_lstsq.take(rnd.sol, pick)), own_s2
 
 
 def _pad(coef, width):
