@@ -380,6 +380,26 @@ def test_fast_path_and_svd_path_agree_and_each_problem_takes_its_own_path(monkey
     assert mixed.coef[1, 3] == 0.0 and mixed.blind[1, 3, 3] == 1.0
 
 
+
+@pytest.mark.parametrize("B", [batch_lstsq.SMALL_STACK - 1, 3 * batch_lstsq.SMALL_STACK])
+def test_upper_inverse_is_each_problems_inverse_whatever_the_stack(B):
+    """Both branches (LAPACK below ``SMALL_STACK``, back substitution over the stack above):
+    R^-1 R = I to round-off times cond, nothing below the diagonal, and a problem's inverse
+    the same to round-off whether the rest of the stack is there or not."""
+    rng = _rng(15)
+    p = 10
+    R = np.triu(rng.normal(size=(B, p, p)))
+    R[:, np.arange(p), np.arange(p)] = np.abs(R[:, np.arange(p), np.arange(p)]) + 0.1
+    R[0] *= np.logspace(0, 6, p)[:, None]  # rows scaled over 6 decades: cond ~1e6
+    inv = batch_lstsq._upper_inverse(R)
+    assert np.all(np.tril(inv, -1) == 0.0)
+    for k in range(B):
+        cond = np.linalg.cond(R[k])
+        err = np.abs(inv[k] @ R[k] - np.eye(p)).max()
+        assert err < 1e-14 * cond, (k, err, cond)
+    alone = np.linalg.inv(R[:1])[0]
+    np.testing.assert_allclose(inv[0], alone, rtol=0, atol=1e-14 * np.linalg.cond(R[0]) * np.abs(alone).max())
+
 # --- the F widening ----------------------------------------------------------------------
 
 

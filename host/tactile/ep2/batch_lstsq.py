@@ -171,12 +171,15 @@ def _upper_inverse(R):
     if len(R) < SMALL_STACK:
         return np.linalg.inv(R)
     p = R.shape[-1]
-    out = np.zeros_like(R)
+    Rt = np.ascontiguousarray(np.moveaxis(R, 0, -1))  # (p, p, B): each step's operands
+    out = np.zeros_like(Rt)  # are contiguous rows of B, not strided (B, k) slices
     for i in range(p - 1, -1, -1):
-        row = -np.einsum("bk,bkj->bj", R[:, i, i + 1 :], out[:, i + 1 :, :])
-        row[:, i] += 1.0
-        out[:, i, :] = row / R[:, i, i, None]
-    return out
+        row = out[i]  # (p, B)
+        np.einsum("kb,kjb->jb", Rt[i, i + 1 :], out[i + 1 :], out=row)
+        np.negative(row, out=row)
+        row[i] += 1.0
+        row /= Rt[i, i]
+    return np.moveaxis(out, -1, 0)
 
 
 def _unit_dead(G, dead):
