@@ -144,12 +144,16 @@ def batched(n=512, against=None, scene="cylinders"):
         np.savez(data, points=np.array([p for p, _ in pairs]), normals=[q for _, q in pairs])
         host = _export(against, tmp) if against else None
         analyze_patches(pairs[:16])  # warm: imports, caches
+        turns = []  # each turn's loop / chunk-256 ratio: the run's own spread
         for _ in range(REPEATS):
+            turn = {}
             for what in configs:
-                best[what] = min(best.get(what, np.inf), _this(pairs, what))
+                turn[what] = _this(pairs, what)
+                best[what] = min(best.get(what, np.inf), turn[what])
                 if host and what in ("loop", "256"):
                     key = (against, what)
                     best[key] = min(best.get(key, np.inf), _theirs(host, data, what))
+            turns.append(turn["loop"] / turn["256"])
     loop = best["loop"]
     print(f"\n| {n} patches | ms / patch | patches / s | vs this loop |")
     print("|---|---|---|---|")
@@ -162,6 +166,7 @@ def batched(n=512, against=None, scene="cylinders"):
         ]
     for name, ms in rows:
         print(f"| {name} | {ms:.2f} | {1e3 / ms:.0f} | {loop / ms:.1f} |")
+    print("\nloop / chunk 256, each turn: " + ", ".join(f"{r:.1f}x" for r in turns))
     if against:
         old_loop = best[(against, "loop")]
         print(
