@@ -380,7 +380,6 @@ def test_fast_path_and_svd_path_agree_and_each_problem_takes_its_own_path(monkey
     assert mixed.coef[1, 3] == 0.0 and mixed.blind[1, 3, 3] == 1.0
 
 
-
 @pytest.mark.parametrize("B", [batch_lstsq.SMALL_STACK - 1, 3 * batch_lstsq.SMALL_STACK])
 def test_upper_inverse_is_each_problems_inverse_whatever_the_stack(B):
     """Both branches (LAPACK below ``SMALL_STACK``, back substitution over the stack above):
@@ -398,7 +397,9 @@ def test_upper_inverse_is_each_problems_inverse_whatever_the_stack(B):
         err = np.abs(inv[k] @ R[k] - np.eye(p)).max()
         assert err < 1e-14 * cond, (k, err, cond)
     alone = np.linalg.inv(R[:1])[0]
-    np.testing.assert_allclose(inv[0], alone, rtol=0, atol=1e-14 * np.linalg.cond(R[0]) * np.abs(alone).max())
+    tol = 1e-14 * np.linalg.cond(R[0]) * np.abs(alone).max()
+    np.testing.assert_allclose(inv[0], alone, rtol=0, atol=tol)
+
 
 # --- the F widening ----------------------------------------------------------------------
 
