@@ -35,6 +35,12 @@ SPLIT = (
 )
 
 
+def _stated(sig):
+    """The noise sigma an estimator is told: the true one, floored (a zero sigma would
+    weight a row infinitely)."""
+    return max(sig, 1e-6)
+
+
 def _k(r, grid_mean):
     """(k1, k2) of a result: at the patch centre (the default) or the grid maps (the
     thesis's mean)."""
@@ -47,7 +53,7 @@ def _k(r, grid_mean):
 
 def ours(sig):
     """This library's estimators: name -> ``analyze_patch`` options."""
-    sp = max(sig, 1e-6)
+    sp = _stated(sig)
     return {
         DEFAULT: {},
         "this, thesis statistic (grid-mean S)": {"maps": True},
@@ -63,7 +69,7 @@ def ours(sig):
 
 def estimators(sig):
     """The peers, one patch at a time (none has a batched form)."""
-    sp = max(sig, 1e-6)
+    sp = _stated(sig)
     return {
         "FITPACK bisplrep (pos)": lambda d: peers.fitpack(d["points"], d["normals"], sp),
         "LSQBivariateSpline (pos)": lambda d: peers.lsq_spline(d["points"], d["normals"]),
