@@ -23,6 +23,7 @@ shares with the parent, so this is the largest single process, not a sum).
    linearity.
 """
 
+import functools
 import os
 import resource
 import signal
@@ -33,6 +34,7 @@ import threading
 import time
 
 import numpy as np
+from timing import best_of
 
 from tactile.ep2.contacts_csv import group_rows
 from tactile_sim.ep2 import make, sweep
@@ -147,22 +149,13 @@ def _drain(pipe, seen):
             seen["first"] = time.perf_counter()
 
 
-def best_of(fn, arg, n=3):
-    ts = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        fn(arg)
-        ts.append(time.perf_counter() - t0)
-    return min(ts)
-
-
 def grouping(sizes):
     print("\n| patches | rows | grouping (s) |")
     print("|---|---|---|")
     times = {}
     for n in sizes:
         ids = [str(v) for v in scattered_ids(n)]
-        times[n] = best_of(group_rows, ids)
+        times[n] = best_of(functools.partial(group_rows, ids))[0]
         print(f"| {n:,} | {len(ids):,} | {times[n]:.3f} |")
     if 100_000 in times:
         print(f"\ngrouping 10k -> 100k: x{times[100_000] / times[10_000]:.1f} (10 = linear)")

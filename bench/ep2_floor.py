@@ -29,6 +29,7 @@ import time
 from collections import Counter
 
 import numpy as np
+from timing import best_of
 
 from tactile.ep2 import analyze_patches, batch_lstsq
 
@@ -62,20 +63,14 @@ def count_solves(pairs):
     for rows, p in seen:
         by_p[p] += len(rows) / n
     flops = sum(float(np.sum(qr_flops(rows, p))) for rows, p in seen) / n
-    analyze_patches(pairs[:16])  # warm
-    t0 = time.process_time()
+    t0 = time.process_time()  # warmed by the counted run
     analyze_patches(pairs)
     return dict(sorted(by_p.items())), flops, 1e3 * (time.process_time() - t0) / n
 
 
-def best_of(f, repeats=3):
-    f()
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.process_time()
-        f()
-        best = min(best, time.process_time() - t0)
-    return best
+def _cpu(fn):
+    """CPU seconds of ``fn()``, best of 3 after a warm call."""
+    return best_of(fn, clock=time.process_time, warm=True)[0]
 
 
 def rates(batch=4096, m=108, p=10):
@@ -83,17 +78,17 @@ def rates(batch=4096, m=108, p=10):
     on a stack of ``batch`` m x p problems (minimal QR flops for both)."""
     rng = np.random.default_rng(0)
     big = rng.standard_normal((1500, 1500))
-    peak = 2.0 * 1500**3 / best_of(lambda: big @ big) / 1e9
+    peak = 2.0 * 1500**3 / _cpu(lambda: big @ big) / 1e9
     A = rng.standard_normal((batch, m, p))
     b, w = rng.standard_normal((batch, m)), np.ones((batch, m))
     work = batch * qr_flops(m, p) / 1e9
-    lapack = work / best_of(lambda: np.linalg.qr(A))  # Q and R: pinv, leverage need Q
+    lapack = work / _cpu(lambda: np.linalg.qr(A))  # Q and R: pinv, leverage need Q
 
     def chunks():
         for i in range(0, batch, 256):
             batch_lstsq.solve(A[i : i + 256], b[i : i + 256], w[i : i + 256])
 
-    ours = work / best_of(chunks)
+    ours = work / _cpu(chunks)
     out = {"dgemm 1500 x 1500 (peak)": peak, "LAPACK QR (Q and R), one call a matrix": lapack,
             "batch_lstsq.solve, chunks of 256": ours}  # fmt: skip
     if shutil.which("gcc"):
@@ -123,6 +118,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=256, help="patches per scene (default 256)")
     args = ap.parse_args()
+    if args.n < 1:
+        ap.error(f"--n must be at least 1 (got {args.n})")
     from ep2_speed import SCENES
 
     speed = rates()

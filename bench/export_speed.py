@@ -13,9 +13,9 @@ import json
 import pathlib
 import sys
 import tempfile
-import time
 
 import numpy as np
+from timing import best_of
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 for sub in ("protocol", "firmware", "host", "sim", "studies"):
@@ -46,15 +46,6 @@ def make_recording(out, rows, seed=1):
     (out / "meta.json").write_text(json.dumps(meta), encoding="utf-8")
 
 
-def best_of(n, fn):
-    times = []
-    for _ in range(n):
-        t = time.perf_counter()
-        value = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), value
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", type=int, default=60_000, help="rows (default 60000)")
@@ -67,10 +58,10 @@ def main():
         run = pathlib.Path(tmp) / "run"
         make_recording(run, args.rows)
         csv_mb = (run / "frames.csv").stat().st_size / 2**20
-        load_s, rec = best_of(3, lambda: load_recording(run))
+        load_s, rec = best_of(lambda: load_recording(run))
         assert rec.host_time_source == "frames.csv" and rec.host_time_why is None
         out = pathlib.Path(tmp) / "run.mcap"
-        export_s, _ = best_of(3, lambda: write_mcap(rec, out))
+        export_s, _ = best_of(lambda: write_mcap(rec, out))
         mcap_mb = out.stat().st_size / 2**20
     print(f"rows: {args.rows:,} (3 sensors, frames.csv {csv_mb:.1f} MiB, MCAP {mcap_mb:.1f} MiB)")
     print("| stage | wall s | rows/s |")
