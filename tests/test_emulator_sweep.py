@@ -439,6 +439,14 @@ GOOD = "t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz\n"
          "sensor: need noise_force_N"),
         ("# sensor: noise_force_N=0.1,0.1,-0.2 noise_torque_Nm=0,0,0\n" + GOOD
          + "0,10,0,0,0,0,1,0,0,0\n", 1, ">= 0"),
+        ("# probe: sphere radius_m=0.01 centre_m=0,0,0 colour=red\n" + GOOD
+         + "0,10,0,0,0,0,1,0,0,0\n", 1, "probe: unknown field 'colour=red' (radius_m=R"),
+        ("# probe: sphere radius_m=0.01 centre_m=0,0,z\n" + GOOD + "0,10,0,0,0,0,1,0,0,0\n", 1,
+         "probe: centre_m: not numbers: '0,0,z'"),
+        ("# sensor: noise_force_N=0.1,0.1,0.1 noise_torque_Nm\n" + GOOD
+         + "0,10,0,0,0,0,1,0,0,0\n", 1, "sensor: unknown field 'noise_torque_Nm'"),
+        ("# sensor: noise_force_N=0.1,0.1,nan noise_torque_Nm=0,0,0\n" + GOOD
+         + "0,10,0,0,0,0,1,0,0,0\n", 1, "noise_force_N: need 3 number(s) >= 0 and <= 1e+06"),
     ],
 )  # fmt: skip
 def test_bad_pose_log_is_one_line_naming_file_and_line(tmp_path, text, line, says):

@@ -144,34 +144,16 @@ def _scan(path):
 
 
 def _parse_probe(path, line, text):
+    """``sphere radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az]`` -> radius, centre, axis."""
     words = text.split()
     if not words or words[0] != "sphere":
         raise InputError(f"{where(path, line)}: probe: only 'sphere' is known, got {show(text)}")
-    out = {"axis": None}
-    need = {"radius_m": 1, "centre_m": 3, "axis": 3}
-    for word in words[1:]:
-        key, eq, value = word.partition("=")
-        if key not in need or not eq:
-            raise InputError(
-                f"{where(path, line)}: probe: unknown field {show(word)}"
-                " (radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az])"
-            )
-        try:
-            v = np.array([float(x) for x in value.split(",")])
-        except ValueError:
-            raise InputError(
-                f"{where(path, line)}: probe: {key}: not numbers: {show(value)}"
-            ) from None
-        if v.size != need[key] or not np.all(np.abs(v) <= LIMIT):
-            raise InputError(
-                f"{where(path, line)}: probe: {key}: need {need[key]} number(s) within"
-                f" +-{LIMIT:g}, got {show(value)}"
-            )
-        out[{"radius_m": "radius", "centre_m": "centre"}.get(key, key)] = (
-            float(v[0]) if key == "radius_m" else v
-        )
-    if "radius" not in out or "centre" not in out:
+    usage = "radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az]"
+    sizes = {"radius_m": 1, "centre_m": 3, "axis": 3}
+    got = _vectors(f"{where(path, line)}: probe", words[1:], sizes, usage, -LIMIT)
+    if "radius_m" not in got or "centre_m" not in got:
         raise InputError(f"{where(path, line)}: probe: need radius_m=R and centre_m=cx,cy,cz")
+    out = {"radius": float(got["radius_m"][0]), "centre": got["centre_m"], "axis": got.get("axis")}
     if not out["radius"] >= MIN_RADIUS_M:
         raise InputError(f"{where(path, line)}: probe: radius_m must be >= {MIN_RADIUS_M:g}")
     if out["axis"] is not None and not np.max(np.abs(out["axis"])) >= 1e-6:
@@ -181,31 +163,34 @@ def _parse_probe(path, line, text):
 
 def _parse_sensor(path, line, text):
     """``noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz`` -> (6,) sigmas, both required."""
+    usage = "noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz"
+    sizes = {"noise_force_N": 3, "noise_torque_Nm": 3}
+    out = _vectors(f"{where(path, line)}: sensor", text.split(), sizes, usage, 0.0)
+    if len(out) != 2:
+        raise InputError(f"{where(path, line)}: sensor: need {usage}")
+    return np.concatenate([out["noise_force_N"], out["noise_torque_Nm"]])
+
+
+def _vectors(at, words, sizes, usage, least):
+    """{key: (sizes[key],) floats} of a header tag's ``key=v,v,...`` words, each value in
+    [least, LIMIT]; a one-line error prefixed ``at`` (file:line: tag) on an unknown key, a
+    non-number or a wrong count or range."""
     out = {}
-    for word in text.split():
+    for word in words:
         key, eq, value = word.partition("=")
-        if key not in ("noise_force_N", "noise_torque_Nm") or not eq:
-            raise InputError(
-                f"{where(path, line)}: sensor: unknown field {show(word)}"
-                " (noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz)"
-            )
+        if key not in sizes or not eq:
+            raise InputError(f"{at}: unknown field {show(word)} ({usage})")
         try:
             v = np.array([float(x) for x in value.split(",")])
         except ValueError:
+            raise InputError(f"{at}: {key}: not numbers: {show(value)}") from None
+        if v.size != sizes[key] or not np.all((v >= least) & (v <= LIMIT)):
+            bounds = f"within +-{LIMIT:g}" if least == -LIMIT else f">= {least:g} and <= {LIMIT:g}"
             raise InputError(
-                f"{where(path, line)}: sensor: {key}: not numbers: {show(value)}"
-            ) from None
-        if v.size != 3 or not np.all((v >= 0) & (v <= LIMIT)):
-            raise InputError(
-                f"{where(path, line)}: sensor: {key}: need 3 numbers >= 0 and <= {LIMIT:g}, got"
-                f" {show(value)}"
+                f"{at}: {key}: need {sizes[key]} number(s) {bounds}, got {show(value)}"
             )
         out[key] = v
-    if len(out) != 2:
-        raise InputError(
-            f"{where(path, line)}: sensor: need noise_force_N=sx,sy,sz and noise_torque_Nm=sx,sy,sz"
-        )
-    return np.concatenate([out["noise_force_N"], out["noise_torque_Nm"]])
+    return out
 
 
 def _parse_rig(path, line, text):
