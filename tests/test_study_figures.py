@@ -114,7 +114,7 @@ def radius_rows(kind_s):
     """Synthetic fig. 33/34 rows: S mean and STD distinct per radius, order and weighting."""
     rng = np.random.default_rng(0)
     return [
-        {"radius": r, "degree": d, "weighting": w, "S_mean": kind_s + rng.normal(0, 0.02),
+        {"radius": r, "spline_degree": d, "weighting": w, "S_mean": kind_s + rng.normal(0, 0.02),
          "S_std": rng.uniform(0.001, 0.05)}
         for r in ep2.RADII for d in (2, 3, 4) for w in ("tangent", "position", "auto")
     ]  # fmt: skip
@@ -138,7 +138,7 @@ def test_figs_33_and_34_draw_mean_s_with_its_std_as_bars(tmp_path, figures, plot
             sel = [
                 r
                 for r in rows
-                if (r["degree"], r["weighting"]) == (degree, w) and r["S_mean"] is not None
+                if (r["spline_degree"], r["weighting"]) == (degree, w) and r["S_mean"] is not None
             ]
             mean, std = (np.array([r[k] for r in sel]) for k in ("S_mean", "S_std"))
             np.testing.assert_allclose(bar.lines[0].get_ydata(), mean)
@@ -172,7 +172,7 @@ def test_ep2_study_runs_print_exactly_what_they_wrote(tmp_path, cli, figures):
 
 def test_fig30_draws_the_std_and_names_its_units(tmp_path, figures):
     rows = [
-        {"radius": r, "rotation": a, "weighting": w, "degree": 2 if w == "auto" else 3,
+        {"radius": r, "rotation": a, "weighting": w, "spline_degree": 2 if w == "auto" else 3,
          "S_mean": 0.5 - a / 1000, "S_std": a / 2000}
         for r in (6, 10, 500) for a in ep2.ROTATIONS for w in ("tangent", "position", "auto")
     ]  # fmt: skip

@@ -102,16 +102,20 @@ def plot_cylinders(rows, path):
 
 
 def _weighting_label(w, row):
-    return f"{w} weighting, {ORDER_NAME.get(row['degree'], row['degree'])}"
+    return f"{w} weighting, {ORDER_NAME.get(row['spline_degree'], row['spline_degree'])}"
 
 
 def plot_rotation(rows, path):
     """Fig. 32: RMS over the grid of S - 0.5 against rotation, one line per radius and fit."""
     plt, fig, (ax,) = _figure(1, width=5.0)
-    keys = sorted({(r["radius"], r["weighting"], r["degree"]) for r in rows})
+    keys = sorted({(r["radius"], r["weighting"], r["spline_degree"]) for r in rows})
     for n, (radius, w, deg) in enumerate(keys):
         sel = sorted(
-            (r for r in rows if (r["radius"], r["weighting"], r["degree"]) == (radius, w, deg)),
+            (
+                r
+                for r in rows
+                if (r["radius"], r["weighting"], r["spline_degree"]) == (radius, w, deg)
+            ),
             key=lambda r: r["rotation"],
         )
         ax.plot(
@@ -132,14 +136,14 @@ def _radius_figure(rows, path, true_s, what, title):
     """One row per fit order, the radii as categories (as the thesis's bar charts)."""
     plt = pyplot()
 
-    degrees = sorted({r["degree"] for r in rows})
+    degrees = sorted({r["spline_degree"] for r in rows})
     fig, axes = plt.subplots(
         len(degrees), 1, figsize=(8.6, 2.3 * len(degrees) + 0.9), sharex=True,
         squeeze=False, layout="constrained",
     )  # fmt: skip
     axes = axes[:, 0]
     for ax, deg in zip(axes, degrees, strict=True):
-        sub = [r for r in rows if r["degree"] == deg]
+        sub = [r for r in rows if r["spline_degree"] == deg]
         _errorbars(ax, sub, "radius", lambda w, _: f"{w} weighting")
         _truth(ax, true_s, what)
         ax.set_ylabel(f"{ORDER_NAME.get(deg, deg)}\nS (dimensionless)", fontsize=9)

@@ -21,7 +21,9 @@ from tactile_sim.ep2.sweep import sweep
 
 ROTATIONS = (0, 10, 30, 45, 60, 80, 90)
 RADII = (5.7, 6, 7, 8, 9, 10, 20, 40, 80, 150, 300, 500, 1000)
-UNITS = "lengths cm, R and curvatures 1/cm, angles deg (rotation), S dimensionless"
+UNITS = (
+    "lengths cm, R and curvatures 1/cm, angles deg (rotation), S and spline_degree dimensionless"
+)
 THESIS_LAYOUT = {"centre": (0.0, 0.0)}
 
 
@@ -67,7 +69,11 @@ def cylinders():
                 deg = 3 if w != "auto" else 2
                 rows.append(
                     _row(
-                        _analyse(obj, deg, w), radius=radius, rotation=rot, weighting=w, degree=deg
+                        _analyse(obj, deg, w),
+                        radius=radius,
+                        rotation=rot,
+                        weighting=w,
+                        spline_degree=deg,
                     )
                 )
     return rows
@@ -89,7 +95,7 @@ def rotation():
                         "radius": radius,
                         "rotation": rot,
                         "weighting": w,
-                        "degree": deg,
+                        "spline_degree": deg,
                         "rms_S_error": rms,
                         "S_error": None if res is None or res.S is None else res.S - 0.5,
                     }
@@ -104,7 +110,9 @@ def radius_sweep(kind="cylinder"):
         obj = make(kind, radius, 45.0 if kind == "cylinder" else 0.0, **THESIS_LAYOUT)
         for deg in (2, 3, 4):
             for w in ("tangent", "position", "auto"):
-                rows.append(_row(_analyse(obj, deg, w), radius=radius, degree=deg, weighting=w))
+                rows.append(
+                    _row(_analyse(obj, deg, w), radius=radius, spline_degree=deg, weighting=w)
+                )
     return rows
 
 
