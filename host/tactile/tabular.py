@@ -126,8 +126,8 @@ def read_csv(
         try:
             header_line, header = next(rows)
         except StopIteration:
-            raise InputError(_no_header(path)) from None
-        index = _header_index(path, header_line, header, required)
+            raise InputError(no_header(path)) from None
+        index = header_index(path, header_line, header, required)
         floats = [c for c in (*required, *optional_float) if c in index]
         blanks = [c for c in blank_float if c in index]
         texts = [c for c in optional_text if c in index]
@@ -142,13 +142,13 @@ def read_csv(
                     " one file; split it)"
                 )
             for name in floats:
-                columns[name].append(_number(path, line_no, name, row, index[name]))
+                columns[name].append(number_at(path, line_no, name, row, index[name]))
             for name in blanks:
                 i = index[name]
-                empty = not _cell(path, line_no, name, row, i)
-                columns[name].append(NAN if empty else _number(path, line_no, name, row, i))
+                empty = not cell_at(path, line_no, name, row, i)
+                columns[name].append(NAN if empty else number_at(path, line_no, name, row, i))
             for name in texts:
-                text = _cell(path, line_no, name, row, index[name])
+                text = cell_at(path, line_no, name, row, index[name])
                 columns[name].append(shared[name].setdefault(text, text))
             lines.append(line_no)
     if not lines:
@@ -174,10 +174,11 @@ def preamble(path, max_bytes=None):
                 comments.append((line_no, s))
             elif s:
                 return comments, line_no, _parse_one(path, line_no, s)
-    raise InputError(_no_header(path))
+    raise InputError(no_header(path))
 
 
-def _no_header(path):
+def no_header(path):
+    """The one-line message for a file without a header row."""
     return f"{where(path, 1)}: no header row (the file is empty or only comments)"
 
 
@@ -235,12 +236,12 @@ def _text_lines(path, max_bytes=None):
 
     At most ``MAX_LINE_BYTES`` per line and ``max_bytes`` in all are ever held or read.
     """
-    for first, block in _line_blocks(path, max_bytes):
+    for first, block in line_blocks(path, max_bytes):
         for line_no, raw in enumerate(block.splitlines(keepends=True), first):
-            yield line_no, _line_text(path, line_no, raw)
+            yield line_no, line_text(path, line_no, raw)
 
 
-def _line_blocks(path, max_bytes=None, size=_CHUNK):
+def line_blocks(path, max_bytes=None, size=_CHUNK):
     """Yield (number of its first line, bytes) of runs of whole lines, in file order: each
     run ends at a line break (LF, CR LF or CR) or at the end of the file.
 
@@ -281,7 +282,7 @@ def count_lines(block):
     return n + (not block.endswith((b"\n", b"\r")))
 
 
-def _line_text(path, line_no, raw):
+def line_text(path, line_no, raw):
     """One physical line decoded (the BOM dropped from line 1), or ``InputError``."""
     if len(raw) > MAX_LINE_BYTES and len(raw.rstrip(b"\r\n")) > MAX_LINE_BYTES:
         raise InputError(_too_long(path, line_no))
@@ -350,7 +351,9 @@ def _parse_one(path, line_no, text):
         raise InputError(f"{where(path, line_no)}: not valid CSV: {exc}") from None
 
 
-def _header_index(path, line_no, header, required):
+def header_index(path, line_no, header, required):
+    """{column name: index} of a header row; ``InputError`` naming a required column
+    that is missing."""
     index = {}
     for i, name in enumerate(header):
         index.setdefault(name.strip(), i)
@@ -365,14 +368,16 @@ def _header_index(path, line_no, header, required):
     return index
 
 
-def _cell(path, line_no, name, row, i):
+def cell_at(path, line_no, name, row, i):
+    """Cell ``i`` (column ``name``) of a row, stripped; ``InputError`` if the row is short."""
     if i >= len(row):
         raise InputError(f"{where(path, line_no, name)}: missing value (row is short)")
     return row[i].strip()
 
 
-def _number(path, line_no, name, row, i):
-    text = _cell(path, line_no, name, row, i)
+def number_at(path, line_no, name, row, i):
+    """Cell ``i`` as a float; ``InputError`` naming file, line and column otherwise."""
+    text = cell_at(path, line_no, name, row, i)
     try:
         value = float(text)
     except ValueError:

@@ -25,13 +25,13 @@ import numpy as np
 from tactile.errors import InputError, where
 from tactile.tabular import (
     MAX_LINE_BYTES,
-    _cell,
-    _header_index,
-    _line_blocks,
-    _line_text,
-    _no_header,
-    _number,
+    cell_at,
     count_lines,
+    header_index,
+    line_blocks,
+    line_text,
+    no_header,
+    number_at,
     skipped,
 )
 
@@ -62,7 +62,7 @@ class CsvBlocks:
         self._index = self._feed = None
 
     def __iter__(self):
-        feed = self._feed = _Feed(self.path, _line_blocks(self.path, self.max_bytes, BLOCK_BYTES))
+        feed = self._feed = _Feed(self.path, line_blocks(self.path, self.max_bytes, BLOCK_BYTES))
         reader = csv.reader(feed)
         slow = None  # rows parsed one at a time, from the header on
         while True:
@@ -94,14 +94,14 @@ class CsvBlocks:
         if slow is not None and len(slow.lines):
             yield slow.block()
         if self._index is None:
-            raise InputError(_no_header(self.path))
+            raise InputError(no_header(self.path))
 
     @property
     def bytes_read(self):
         return 0 if self._feed is None else self._feed.bytes
 
     def _header(self, line_no, row):
-        self._index = _header_index(self.path, line_no, row, self.required)
+        self._index = header_index(self.path, line_no, row, self.required)
         self.header_line = line_no
         self.texts = tuple(c for c in self.optional_text if c in self._index)
 
@@ -194,7 +194,7 @@ class _Feed:
             self.start(*run)
         self.line = self.first + self.i
         self.i += 1
-        return _line_text(self.path, self.line, self.raw[self.i - 1])
+        return line_text(self.path, self.line, self.raw[self.i - 1])
 
 
 class _Rows:
@@ -217,9 +217,9 @@ class _Rows:
                 " one file; split it)"
             )
         for name, col in zip(o.required, self.columns):
-            col.append(_number(o.path, line_no, name, row, o._index[name]))
+            col.append(number_at(o.path, line_no, name, row, o._index[name]))
         for name, col in self.texts.items():
-            col.append(_cell(o.path, line_no, name, row, o._index[name]))
+            col.append(cell_at(o.path, line_no, name, row, o._index[name]))
         self.lines.append(line_no)
         o.rows += 1
 
