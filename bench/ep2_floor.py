@@ -29,6 +29,7 @@ import time
 from collections import Counter
 
 import numpy as np
+from bench_args import positive_int
 from timing import best_of
 
 from tactile.ep2 import analyze_patches, batch_lstsq
@@ -116,10 +117,8 @@ def c_kernel(A, b):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=256, help="patches per scene (default 256)")
+    ap.add_argument("--n", type=positive_int, default=256, help="patches per scene (default 256)")
     args = ap.parse_args()
-    if args.n < 1:
-        ap.error(f"--n must be at least 1 (got {args.n})")
     from ep2_speed import SCENES
 
     speed = rates()

@@ -18,6 +18,7 @@ import argparse
 import time
 
 import numpy as np
+from bench_args import positive_int
 
 from tactile.ep2 import analyze_patch, analyze_patches, peers
 from tactile.ep2.shape_index import shape_index
@@ -133,7 +134,7 @@ def paired_ratio(a, b, n_boot=400):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--trials", type=int, default=600)
+    ap.add_argument("--trials", type=positive_int, default=600)
     ap.add_argument("--loop", action="store_true", help="this library one patch at a time")
     args = ap.parse_args()
     results = {sig: run(sig, args.trials, args.loop) for sig in NOISES}

@@ -26,6 +26,7 @@ import tempfile
 import time
 
 import numpy as np
+from bench_args import positive_int
 
 from tactile.ep2 import analyze_patch, analyze_patches, batch_lstsq, jet_basis, jet_frames, jet_rows
 from tactile_sim.ep2 import make, sweep
@@ -274,7 +275,7 @@ def tangent_fit_speed(n=4096, against=None):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=512, help="patches for the batched comparison")
+    ap.add_argument("--n", type=positive_int, default=512, help="patches, batched comparison")
     ap.add_argument("--against", help="a git revision to time side by side (e.g. main)")
     ap.add_argument("--batch-only", action="store_true", help="only the batched comparison")
     ap.add_argument("--fit-only", action="store_true", help="only the tangent fit alone")

@@ -37,9 +37,13 @@ register_sim_ports()
 
 
 def load_bench(name):
-    """A script of ``bench/`` as a module (its estimators and rules, not a copy of them)."""
+    """A script of ``bench/`` as a module (its estimators and rules, not a copy of them),
+    with ``bench/`` on the import path as when the script runs (its shared helpers)."""
     import importlib.util
+    import sys
 
+    if str(ROOT / "bench") not in sys.path:
+        sys.path.append(str(ROOT / "bench"))
     spec = importlib.util.spec_from_file_location(name, ROOT / "bench" / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

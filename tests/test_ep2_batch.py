@@ -113,3 +113,26 @@ def test_the_peers_bench_scores_this_library_batched_as_one_at_a_time():
         for key in ("S", "k1"):
             np.testing.assert_allclose(batch[name][key], loop[name][key], rtol=1e-8, atol=1e-12)
         assert list(batch[name]["obj"]) == list(loop[name]["obj"])
+
+
+@pytest.mark.parametrize(
+    ("script", "flag"),
+    [("ep2_peers.py", "--trials"), ("ep2_speed.py", "--n"), ("ep2_floor.py", "--n")],
+)
+@pytest.mark.parametrize("value", ["0", "x"])
+def test_the_ep2_benches_refuse_a_count_below_one_in_one_line(script, flag, value):
+    """A count of patches or trials below 1 (once a division by zero after the whole run)
+    is refused before any work: argparse's usage and one error line, exit 2."""
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    run = subprocess.run(
+        [sys.executable, str(ROOT / "bench" / script), flag, value],
+        capture_output=True, text=True, timeout=120, cwd=ROOT,
+    )  # fmt: skip
+    last = run.stderr.strip().splitlines()[-1]
+    assert run.returncode == 2 and not run.stdout and "Traceback" not in run.stderr
+    assert last.startswith(f"{script}: error: argument {flag}: ")
+    assert ("at least 1" if value != "x" else "not a whole number") in last
