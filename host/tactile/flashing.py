@@ -21,7 +21,10 @@ from tactile.errors import BoardError, InputError, PortError
 
 
 def main_py(n_sensors=1, wdt_ms=0):
+    """The board's ``/main.py``.  Ctrl-C goes off first: every command frame holds a 0x03, and
+    a host may send one while the firmware is still being imported (``tactile_fw.port_mpy``)."""
     return (
+        "import micropython; micropython.kbd_intr(-1)  # frames hold Ctrl-C bytes\n"
         "from tactile_fw.port_mpy import main\n"
         f"main(n_sensors={int(n_sensors)}, wdt_ms={int(wdt_ms)})\n"
     )
@@ -98,7 +101,7 @@ def plan(port, mpy=False, n_sensors=1, wdt_ms=0):
             lines.append(f"mpy-cross {src} -> :{dest[:-3]}.mpy")
         else:
             lines.append(f"copy {src} -> :{dest}")
-    lines.append(f"write :main.py  ({main_py(n_sensors, wdt_ms).splitlines()[1]})")
+    lines.append(f"write :main.py  ({main_py(n_sensors, wdt_ms).splitlines()[-1]})")
     lines.append(f"reset the board on {port}")
     return lines
 

@@ -49,6 +49,12 @@ class SimI2C:
         self._fail_n = n
         self._fail_errno = err
 
+    def begin(self, addr):
+        """The address phase of a transaction a controller drives byte by byte (the emulated
+        Pico's): the device, to ``write`` and ``read_into`` next, or OSError as the whole
+        transaction would raise it (a NACK, an injected failure)."""
+        return self._device(addr, 0)
+
     def scan(self):
         return sorted(a for a in self.devices if a not in self.nack)
 

@@ -39,9 +39,16 @@ def add_arguments(parser):
     )
     parser.add_argument(
         "--core",
-        choices=("python", "c", "qemu"),
-        help="firmware to run: the MicroPython one, the C core, or the C core's Cortex-M0 "
-        "image in QEMU (default: the scene's [board] core, else python)",
+        choices=("python", "c", "qemu", "rp2040"),
+        help="firmware to run: the MicroPython one, the C core, the C core's Cortex-M0 image "
+        "in QEMU, or an emulated Raspberry Pi Pico running what 'tactile flash' put on it "
+        "(default: the scene's [board] core, else python)",
+    )
+    parser.add_argument(
+        "--flash",
+        metavar="FILE",
+        help="--core rp2040: the emulated Pico's flash, kept across runs (default: "
+        "$XDG_STATE_HOME/tactile/pico.flash; a new file holds stock MicroPython)",
     )
     parser.add_argument(
         "--now",
@@ -65,11 +72,13 @@ def run(args):
     scene = load_scene(args.scene)
     link = scene.link or {}
     disconnects = () if args.no_faults else link.get("disconnect", ())
-    if args.core == "qemu" and disconnects:
-        raise InputError(f"{scene.path}: [link] disconnect: not served with --core qemu "
-                         "(QEMU owns the UART); use --no-faults or another core")  # fmt: skip
+    if args.core in ("qemu", "rp2040") and disconnects:
+        raise InputError(f"{scene.path}: [link] disconnect: not served with --core {args.core} "
+                         "(the chip owns its port); use --no-faults or another core")  # fmt: skip
     board = EmulatedBoard(scene, core=args.core)
     faults = None if args.no_faults else LinkFaults.from_scene(scene.link)
+    if args.flash and args.core != "rp2040":
+        raise InputError("--flash: only with --core rp2040 (the emulated Pico's flash file)")
     if args.core == "qemu":
         from tactile_sim.emulator.qemu_core import image
         from tactile_sim.emulator.qemu_server import QemuServer
@@ -77,6 +86,12 @@ def run(args):
         image()  # built (or refused in one line) before the port is offered
         server = QemuServer(board, link_path=args.link, realtime=not args.fast, faults=faults)
         _exit_on_sigterm()  # so that QEMU's work directory and the --link go too
+    elif args.core == "rp2040":
+        from tactile_sim.emulator.pico_server import PicoServer
+
+        server = PicoServer(board, args.flash, args.link, not args.fast, faults)
+        server.launch()  # powered (or refused in one line) before the port is offered
+        _exit_on_sigterm()
     else:
         server = PtyServer(board, args.link, not args.fast, faults, disconnects)
     if args.pose_log:
@@ -92,6 +107,8 @@ def run(args):
         if args.core == "qemu":
             server.serve(args.duration, when_opened=not args.now)
             _qemu_ended(server)
+        elif args.core == "rp2040":
+            server.serve(args.duration)
         elif args.now:
             server.serve(args.duration)
         else:

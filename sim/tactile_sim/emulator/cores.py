@@ -11,7 +11,9 @@ Both take the same arguments and give an object with ``boot``, ``poll``, ``idle_
 ``max_rate_hz`` and the STATUS counters, so nothing above this module knows which runs;
 for the same scene and boot id the two write the same bytes (tests/test_emulator_cores.py).
 ``qemu`` (``qemu_core``) is the C core cross-compiled for a Cortex-M0 and run by QEMU on
-its own clock: served on a pty only (``qemu_server``), never stepped in process.
+its own clock: served on a pty only (``qemu_server``), never stepped in process; so is
+``rp2040`` (``pico_core``), stock MicroPython on an emulated Raspberry Pi Pico, which runs
+whatever ``tactile flash`` put on it.
 """
 
 import functools
@@ -21,7 +23,7 @@ import pathlib
 from tactile.errors import BoardError
 
 CORES = ("python", "c")  # a scene's [board] core, sim://?core=
-SERVED = (*CORES, "qemu")  # also: the C core's image in QEMU, on a pty (qemu_server)
+SERVED = (*CORES, "qemu", "rp2040")  # also on a pty only: QEMU's image, the emulated Pico
 DEFAULT_CORE = "python"
 
 
@@ -70,7 +72,19 @@ def qemu_board(buses, layout, link, clock, storage, **kw):
     return QemuBoard(buses, layout, link, clock, storage, **kw)
 
 
-BUILDERS = {"python": python_board, "c": c_board, "qemu": qemu_board}
+def pico_board(buses, layout, link, clock, storage, **kw):
+    from tactile_sim.emulator.pico_core import PicoBoard
+
+    return PicoBoard(buses, layout, link, clock, storage, **kw)
+
+
+BUILDERS = {"python": python_board, "c": c_board, "qemu": qemu_board, "rp2040": pico_board}
+
+
+def wiring(core, i):
+    """Sensor ``i``'s (bus, address block).  The Pico's firmware spreads sensors over its two
+    controllers first (docs/firmware.md); the other cores fill a bus's two blocks first."""
+    return (i % 2, i // 2) if core == "rp2040" else (i // 2, i % 2)
 
 
 def make_board(core, buses, layout, link, clock, storage, **kw):

@@ -70,7 +70,9 @@ class EmulatedBoard:
     """Firmware + simulated sensors on simulated time; see the module docstring.
 
     ``core``: ``"python"`` or ``"c"`` (``cores.CORES``); None: the scene's ``[board] core``;
-    ``"qemu"``: the hardware for ``qemu_server``, which runs the image (no ``step`` then).
+    ``"qemu"``: the hardware for ``qemu_server``, which runs the image (no ``step`` then);
+    ``"rp2040"``: the hardware around an emulated Pico for ``pico_server`` (the scene's
+    settings and calibration are not stored: the chip's flash holds what its user put there).
     """
 
     def __init__(self, scene, motion=None, boot_id=None, core=None):
@@ -101,18 +103,19 @@ class EmulatedBoard:
             max_rate_hz=override,
             boot_id=boot_id,
         )
-        board_settings(scene, self.board.max_rate_hz).save(storage)
-        for i, model in enumerate(self.models):
-            cal = calibration.Calibration(model.calibration_coefficients(), scene.sensor["cal_id"])
-            cal.save(storage, i)
+        if self.core != "rp2040":  # (a Pico's own flash holds what its user stored)
+            board_settings(scene, self.board.max_rate_hz).save(storage)
+            cal_id = scene.sensor["cal_id"]
+            for i, model in enumerate(self.models):
+                calibration.Calibration(model.calibration_coefficients(), cal_id).save(storage, i)
         self.faults = FaultSchedule.from_scene(scene, self)
-        if self.core == "qemu":
+        if self.core in ("qemu", "rp2040"):
             self.board.faults = self.faults  # applied at the board's own time
         self.board.boot()
 
     def _sensor(self, i):
-        slot, bus_index = i % 2, i // 2
-        if bus_index == len(self.buses):
+        bus_index, slot = cores.wiring(self.core, i)
+        while bus_index >= len(self.buses):
             self.buses.append(SimI2C())
         bus = self.buses[bus_index]
         model = FTModel(
