@@ -140,3 +140,22 @@ def recorded_msgs(recorded_run):
     from recorded import frames_of
 
     return frames_of(recorded_run)
+
+
+@pytest.fixture(scope="session")
+def pico_master(tmp_path_factory):
+    """Where the session's flashed emulated Picos are kept (tests/pico_target.py)."""
+    return tmp_path_factory.mktemp("pico")
+
+
+@pytest.fixture
+def pico_flashed(pico_master, tmp_path):
+    """A flash file of its own holding the firmware for one sensor: an emulated Pico flashed
+    as a user flashes one (``pico_target.serve(flash=pico_flashed)`` boots it)."""
+    import shutil
+
+    from pico_target import flash_master
+
+    out = tmp_path / "pico.flash"
+    shutil.copyfile(flash_master(pico_master), out)
+    return out

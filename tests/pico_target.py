@@ -1,0 +1,83 @@
+"""The emulated Raspberry Pi Pico for tests: what it needs, a served port, a flashed board.
+
+- ``need_pico()``: node, the npm packages (installed once) and ``../shared/rp2``; without
+  one a test is skipped with the line naming what to install, and fails instead under CI
+  (``CI=true``), where everything must be there.
+- ``serve(scene, flash)``: a ``PicoServer`` on a pty in a thread, as ``tactile emulate
+  SCENE --core rp2040 --flash FILE`` serves it; yields the server (``.path``, ``.chip``).
+- ``flash_master(dir)``: a flash file with the firmware on it, flashed once per test session
+  the way a user flashes a board (``tactile flash``); the ``pico_flashed`` fixture (conftest)
+  gives each test its own copy.
+"""
+
+import contextlib
+import os
+import threading
+
+import pytest
+
+
+def _missing(why):
+    if os.environ.get("CI") == "true":
+        pytest.fail(f"CI must have the emulated Pico: {why}", pytrace=False)
+    pytest.skip(why)
+
+
+def need_pico():
+    """Skip (fail under CI) with one line when the emulated Pico cannot run here."""
+    from tactile_sim.emulator import pico_core
+
+    try:
+        pico_core.rp2_dir()
+        pico_core.node()
+        pico_core.ensure_npm(quiet=True)
+    except pico_core.PicoUnavailable as exc:
+        _missing(str(exc))
+
+
+@contextlib.contextmanager
+def serve(scene="press", flash=None, fast=False, bus_time=True):
+    """An emulated Pico serving ``scene`` on a pty until the block ends."""
+    from tactile_sim.emulator import load_scene
+    from tactile_sim.emulator.device import EmulatedBoard
+    from tactile_sim.emulator.pico_server import PicoServer
+
+    need_pico()
+    loaded = load_scene(scene) if isinstance(scene, str) else scene
+    server = PicoServer(EmulatedBoard(loaded, core="rp2040"), flash=flash, realtime=not fast,
+                        bus_time=bus_time)  # fmt: skip
+    server.open()
+    server.launch()
+    errors = []
+
+    def run():
+        try:
+            server.serve()
+        except Exception as exc:  # reported when the block ends
+            errors.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    try:
+        yield server
+    finally:
+        server.stop = True
+        thread.join(10)
+        server.close()
+    if errors:
+        raise errors[0]
+
+
+def flash_master(session_dir, n_sensors=1):
+    """A flash file holding the firmware, flashed the way a user flashes a board (``tactile
+    flash --sensors n_sensors``), once per ``session_dir`` (the ``pico_flashed`` fixture)."""
+    from tactile import flashing
+
+    need_pico()
+    master = session_dir / f"pico-firmware-{n_sensors}.flash"
+    if not master.exists():
+        work = session_dir / f"flashing-{n_sensors}.flash"
+        with serve(flash=work) as server:
+            flashing.flash(server.path, n_sensors=n_sensors)
+        os.replace(work, master)
+    return master
