@@ -55,3 +55,51 @@ def test_a_flashed_board_answers_with_its_sensor_read_over_i2c(pico_flashed):
         requests = server.chip.requests
     assert info.n_sensors == 1 and info.sensor_model.rstrip(b"\0") == b"FT6/ADS122C04x6"
     assert requests >= 12  # RESET, CONFIG0/1 written and read back, START: six converters
+
+
+def _emulate(tmp_path, *args, env=None):
+    import os
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "tactile.cli.main", "emulate", "press", "--core", "rp2040",
+           "--flash", str(tmp_path / "board.flash"), "--duration", "0.01", *args]  # fmt: skip
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120,
+                          env=dict(os.environ, **(env or {})))  # fmt: skip
+
+
+def test_what_the_emulated_pico_lacks_is_named_in_one_line(tmp_path):
+    import shutil
+
+    no_node, no_npm = tmp_path / "bin1", tmp_path / "bin2"
+    for folder in (no_node, no_npm):
+        folder.mkdir()
+    (no_npm / "node").symlink_to(shutil.which("node"))
+    empty_cache = str(tmp_path / "cache")  # rp2040js not installed there yet
+    cases = [
+        ({"PATH": str(no_node)}, "node not found: install Node.js"),
+        ({"TACTILE_RP2_DIR": str(tmp_path)}, "no bootrom-b1.bin and micropython-rpi_pico.uf2"),
+        ({"XDG_CACHE_HOME": empty_cache, "PATH": str(no_npm)}, "npm not found"),
+    ]
+    for env, said in cases:
+        r = _emulate(tmp_path, env=env)
+        assert r.returncode == 2, (env, r.stderr)
+        assert said in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert "Traceback" not in r.stderr
+
+
+def test_a_flash_file_is_one_boards_and_must_be_a_flash(tmp_path):
+    from tactile_sim.emulator.pico_core import lock_flash
+
+    (tmp_path / "board.flash").write_bytes(b"not a flash")
+    r = _emulate(tmp_path)
+    assert r.returncode == 2 and "not an emulated Pico's flash" in r.stderr, r.stderr
+    (tmp_path / "board.flash").unlink()
+    held = lock_flash(tmp_path / "board.flash")  # another emulator has it
+    try:
+        r = _emulate(tmp_path)
+    finally:
+        import os
+
+        os.close(held)
+    assert r.returncode == 4 and "in use by another emulated Pico" in r.stderr, r.stderr

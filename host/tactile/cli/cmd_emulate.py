@@ -101,6 +101,8 @@ def run(args):
     path = server.open()
     print(path, flush=True)
     when = "now" if args.now else "when a host opens the port"
+    if args.core == "rp2040":  # a Pico powers up with its USB cable
+        when = "now, running while a host has the port open" if args.fast else "now"
     print(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
           f"starting {when}; Ctrl-C to stop", file=sys.stderr)  # fmt: skip
     try:

@@ -23,11 +23,15 @@
 // applies the operation to the flash array and to the flash file at once, then returns to
 // LR. A watchdog reset (machine.reset()) restarts the chip on the same flash.
 //
-// Time: the chip's clock is rp2040js's simulation clock (125 MHz). Real time (default):
-// while the core sleeps (WFE/WFI) its clock may jump to its next alarm only as far as the
-// wall clock has gone, so an idle board costs no CPU and never runs ahead of real time.
-// Fast: it jumps at once, and the chip holds while Python says 'P' 1 (no host, or the host
-// is not reading).
+// Time: the chip's clock is rp2040js's simulation clock (125 MHz). While the core sleeps
+// (WFE/WFI), or spins on a peripheral (the same load of the TIMER or an I2C controller again
+// within SPIN_CYCLES: a busy-wait for the bus or for a deadline), its clock jumps to its next
+// alarm (at most SPIN_MAX_NS ahead when spinning), as the instructions of the wait would have
+// taken it there; a bus wait ends exactly when the byte completes, a deadline at most
+// SPIN_MAX_NS late. Real time (default): only as far as the wall clock has gone, so an idle
+// board costs no CPU and never runs ahead of real time. Fast: at once, and the chip holds
+// while Python says 'P' 1 (no host, or the host is not reading). cfg.spin_skip false turns
+// the spin rule off (benches that count cycles).
 
 import fs from 'node:fs';
 import net from 'node:net';
@@ -48,6 +52,9 @@ const OUT = 3;
 const REPLY = 4;
 const SLICE_MS = 10; // run this long between looks at the pipe from Python
 const TIME_EVERY_NS = 1e6; // report the chip's time at least this often
+const SPIN_CYCLES = 64; // a load repeated this soon from the same instruction: a busy-wait
+const SPIN_MAX_NS = 20e3;
+const TIMER_BASE = 0x40054;
 
 // --- the pipes ----------------------------------------------------------------------------
 function send(type, payload = Buffer.alloc(0)) {
@@ -118,6 +125,7 @@ let hold = cfg.fast; // fast: no host yet
 let pendingOut = []; // the chip's armed USB OUT buffers, answered when the host has bytes
 const hostBytes = [];
 let lastTimeNs = -TIME_EVERY_NS;
+let spinning = false;
 
 function boot() {
   sim = new Simulator();
@@ -131,6 +139,10 @@ function boot() {
   };
   wireUsb();
   mcu.i2c.forEach(wireI2c);
+  if (cfg.spin_skip !== false) {
+    for (const p of [mcu.peripherals[TIMER_BASE], ...mcu.i2c]) watchSpin(p);
+  }
+  lastTimeNs = -TIME_EVERY_NS;
   mcu.core.PC = FLASH_BASE;
   pendingOut = [];
 }
@@ -177,6 +189,20 @@ function feedUsb() {
     const chunk = Uint8Array.from(hostBytes.splice(0, size));
     mcu.usbCtrl.endpointReadDone(cdc.outEndpoint, chunk);
   }
+}
+
+// A load from `peripheral` by the instruction that loaded from it SPIN_CYCLES ago or less
+// (keyed by the instruction's address) marks a busy-wait: see "Time" above.
+function watchSpin(peripheral) {
+  const read = peripheral.readUint32.bind(peripheral);
+  const last = new Map();
+  peripheral.readUint32 = (offset) => {
+    const core = mcu.core;
+    const at = last.get(core.PC);
+    if (at !== undefined && core.cycles - at <= SPIN_CYCLES) spinning = true;
+    last.set(core.PC, core.cycles);
+    return read(offset);
+  };
 }
 
 // --- I2C: transactions answered by Python ------------------------------------------------------
@@ -261,8 +287,12 @@ function slice() {
   let idleMs = 0;
   while (idleMs === 0 && performance.now() < end) {
     for (let i = 0; i < 2000; i++) {
-      if (core.waiting) {
+      if (core.waiting || spinning) {
         let step = clock.nanosToNextAlarm;
+        if (spinning) {
+          spinning = false;
+          step = step > 0 ? Math.min(step, SPIN_MAX_NS) : SPIN_MAX_NS;
+        }
         if (!cfg.fast) {
           const ahead = clock.nanos - simStart - (performance.now() - wallStart) * 1e6;
           if (ahead >= 0) {

@@ -30,7 +30,7 @@ import struct
 import subprocess
 import sys
 
-from tactile.errors import BoardError, MissingExtra
+from tactile.errors import BoardError, InputError, MissingExtra
 
 HERE = pathlib.Path(__file__).resolve().parent
 CHIP_JS = HERE / "pico_chip.mjs"
@@ -115,7 +115,7 @@ def lock_flash(path):
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         if path.exists() and (not path.is_file() or path.stat().st_size != FLASH_SIZE):
-            raise PicoError(f"{path}: not an emulated Pico's flash (a 2 MB file)")
+            raise InputError(f"{path}: not an emulated Pico's flash (a file of 2 MB)")
         fd = os.open(path.with_name(path.name + ".lock"), os.O_RDWR | os.O_CREAT, 0o644)
     except OSError as exc:
         raise PicoError(f"{path}: {exc.strerror}") from None
