@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format bench clean firmware-c
+.PHONY: demo test lint format bench clean firmware-c npm
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -16,7 +16,15 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/tactile demo
 
-test: $(STAMP)
+# The emulated Raspberry Pi Pico's npm packages (rp2040js), into the user's cache, once.
+NPM_STAMP := $(VENV)/.npm
+$(NPM_STAMP): $(STAMP) sim/tactile_sim/emulator/npm/package-lock.json
+	$(BIN)/python -c "from tactile_sim.emulator.pico_core import ensure_npm; ensure_npm()"
+	touch $(NPM_STAMP)
+
+npm: $(NPM_STAMP)
+
+test: $(STAMP) $(NPM_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/pytest

@@ -5,8 +5,13 @@ written once against a port and run on every target of the ``board`` fixture (co
 
 - ``python``: the MicroPython firmware in the emulator;
 - ``c``: the C core (``firmware/c``) in the emulator, behind the same ports;
+- ``qemu``: the C core cross-compiled for a Cortex-M0, in QEMU, served on a pty;
+- ``rp2040``: the firmware flashed onto an emulated Raspberry Pi Pico, served on a pty;
 - ``hardware``: the board on ``pytest --port /dev/ttyACM0`` (marked ``hardware``: skipped,
   with the reason, without ``--port``).
+
+``qemu`` and ``rp2040`` run their own clocks, so the suite meets them as it meets a real
+board: one board per session behind a port (``Served``), at rest on the bench.
 
 A test reaches the board through ``url`` (``sim://SCENE?core=..``, in process) or
 ``serve`` (a real pseudo-terminal, as ``tactile emulate`` serves it); on hardware both
@@ -26,7 +31,8 @@ from tactile.serial_port import open_port
 from tactile.stream_decoder import StreamDecoder
 
 EMULATED = ("python", "c")
-TARGETS = (*EMULATED, pytest.param("hardware", marks=pytest.mark.hardware))
+SERVED = ("qemu",)  # rp2040 joins with the native module (its 500 Hz CONFIG)
+TARGETS = (*EMULATED, *SERVED, pytest.param("hardware", marks=pytest.mark.hardware))
 NO_PORT = "needs a real board: run pytest --port /dev/ttyACM0 (or the board's port)"
 
 
@@ -37,13 +43,11 @@ class BoardTarget:
         self.kind = kind
         self.port = port
         self.core = kind if kind in EMULATED else None
+        self.served = kind in SERVED
 
     @property
     def emulated(self):
         return self.core is not None
-
-    def __repr__(self):
-        return f"BoardTarget({self.kind!r})"
 
     def emulated_only(self, why):
         """Skip on hardware: ``why`` names what only the emulator can script."""
@@ -126,3 +130,100 @@ def run_emulated(url, seconds):
     while port.emulator.t_us < seconds * 1e6:
         msgs += decoder.feed(port.read(8192))
     return port, msgs, decoder.counters
+
+
+class Served:
+    """The session's boards that run their own clocks, each on a pty: started on first use,
+    at rest, with the press scene's streams on (``configure``), stopped at the session's end."""
+
+    def __init__(self, session_dir):
+        self.session_dir = session_dir
+        self.servers, self.stacks = {}, []
+
+    def port(self, kind):
+        if kind not in self.servers:
+            stack = contextlib.ExitStack()
+            self.stacks.append(stack)
+            server = stack.enter_context(getattr(self, "_" + kind)())
+            self.servers[kind] = server
+            configure(server.path)
+        return self.servers[kind].path
+
+    @contextlib.contextmanager
+    def _qemu(self):
+        from tactile_sim.emulator import load_scene
+        from tactile_sim.emulator.device import EmulatedBoard
+        from tactile_sim.emulator.qemu_core import QemuUnavailable, image
+        from tactile_sim.emulator.qemu_server import QemuServer
+
+        try:
+            image()
+        except QemuUnavailable as exc:
+            missing(str(exc))
+        scene = load_scene(rest_scene(self.session_dir))
+        server = QemuServer(EmulatedBoard(scene, core="qemu"), realtime=False)  # -icount
+        server.open()
+        thread = threading.Thread(target=server.serve, kwargs={"when_opened": False},
+                                  daemon=True)  # fmt: skip
+        thread.start()
+        try:
+            yield server
+        finally:
+            server.stop = True
+            thread.join(10)
+            server.close()
+
+    @contextlib.contextmanager
+    def _rp2040(self):
+        import shutil
+
+        from pico_target import flash_master, serve
+
+        flash = self.session_dir / "suite.flash"
+        shutil.copyfile(flash_master(self.session_dir), flash)
+        with serve(rest_scene(self.session_dir), flash=flash) as server:
+            yield server
+
+    def close(self):
+        for stack in self.stacks:
+            stack.close()
+
+
+def rest_scene(folder):
+    """The press scene with nothing pressing: a board at rest, as a real one on the bench (its
+    sensor noise kept), so that every port-level test may TARE it."""
+    import re
+
+    from tactile_sim.emulator import load_scene
+
+    text = load_scene("press").path.read_text()
+    text = re.sub(r"keyframes = \[.*?\n\]", "keyframes = [[0.0, 0, 0, 0, 0, 0, 0], "
+                  "[1.0, 0, 0, 0, 0, 0, 0]]", text, flags=re.S)  # fmt: skip
+    path = folder / "rest.toml"
+    path.write_text(text.replace('name = "press"', 'name = "rest"'))
+    return path
+
+
+def missing(why):
+    """Skip with the reason, or fail under CI (``CI=true``), where every tool must be there."""
+    import os
+
+    if os.environ.get("CI") == "true":
+        pytest.fail(f"CI must have it: {why}", pytrace=False)
+    pytest.skip(why)
+
+
+def configure(path, timeout=30.0):
+    """The press scene's settings on a served board (its own flash may say otherwise): 1 kHz
+    or its ceiling, samples and contacts, streaming; nothing persisted."""
+    from tactile_protocol import constants as C
+
+    client = BoardClient(open_port(path), path)
+    try:
+        client.handshake(timeout)
+        info = client.get_info(timeout)
+        flags = C.CFG_STREAM_SAMPLES | C.CFG_STREAM_CONTACTS
+        client.configure(min(1000, info.max_rate_hz), 1.39, 1.112, 3, flags)
+        client.start()
+    finally:
+        client.close()

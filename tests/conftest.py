@@ -112,8 +112,10 @@ def board(request):
     A test that only an emulator can run parametrizes it indirectly with
     ``board_target.EMULATED``.
     """
-    from board_target import BoardTarget
+    from board_target import SERVED, BoardTarget
 
+    if request.param in SERVED:
+        return BoardTarget(request.param, request.getfixturevalue("served").port(request.param))
     if request.param == "c":
         from tactile_sim.emulator import cores
 
@@ -140,6 +142,16 @@ def recorded_msgs(recorded_run):
     from recorded import frames_of
 
     return frames_of(recorded_run)
+
+
+@pytest.fixture(scope="session")
+def served(tmp_path_factory):
+    """The session's boards served on a pty (board_target.Served: qemu, rp2040)."""
+    from board_target import Served
+
+    boards = Served(tmp_path_factory.mktemp("served"))
+    yield boards
+    boards.close()
 
 
 @pytest.fixture(scope="session")

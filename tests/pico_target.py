@@ -14,13 +14,7 @@ import contextlib
 import os
 import threading
 
-import pytest
-
-
-def _missing(why):
-    if os.environ.get("CI") == "true":
-        pytest.fail(f"CI must have the emulated Pico: {why}", pytrace=False)
-    pytest.skip(why)
+from board_target import missing
 
 
 def need_pico():
@@ -32,7 +26,7 @@ def need_pico():
         pico_core.node()
         pico_core.ensure_npm(quiet=True)
     except pico_core.PicoUnavailable as exc:
-        _missing(str(exc))
+        missing(str(exc))
 
 
 @contextlib.contextmanager
@@ -43,7 +37,7 @@ def serve(scene="press", flash=None, fast=False, bus_time=True):
     from tactile_sim.emulator.pico_server import PicoServer
 
     need_pico()
-    loaded = load_scene(scene) if isinstance(scene, str) else scene
+    loaded = load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
     server = PicoServer(EmulatedBoard(loaded, core="rp2040"), flash=flash, realtime=not fast,
                         bus_time=bus_time)  # fmt: skip
     server.open()

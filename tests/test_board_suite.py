@@ -105,8 +105,10 @@ def test_config_is_applied_and_a_refused_one_changes_nothing(board):
     finally:
         _restore(client, before)
         client.close()
-    steps = {b.timestamp_us - a.timestamp_us for a, b in zip(got, got[1:])}
-    assert len(got) == 30 and steps == {2000}  # the board's clock: 500 Hz exactly
+    steps = [b.timestamp_us - a.timestamp_us for a, b in zip(got, got[1:])]
+    jitter = 0 if board.core else 50  # us: a running clock stamps when the poll took it
+    assert len(got) == 30 and max(abs(d - 2000) for d in steps) <= jitter  # 500 Hz
+    assert abs(got[-1].timestamp_us - got[0].timestamp_us - 29 * 2000) <= jitter  # no drift
 
 
 def test_tare_takes_the_offset_out_of_the_readings(board, tmp_path):
