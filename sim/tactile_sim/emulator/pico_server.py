@@ -8,7 +8,8 @@ moves bytes between the chip's USB CDC and the pty, which a host opens as it ope
 - Real time (default): the chip powers up at once and never runs ahead of the wall clock;
   emulated, it runs slower than a real Pico while busy (docs/emulator.md).  While no host
   has the port open what it sends goes nowhere, as with a USB port nobody reads.
-- ``fast``: the chip runs only while a host has the port open, as fast as it can, and holds
+- ``fast``: the chip runs only while a host has the port open (and for ``BOOT_US`` after each
+  reset, so a host never interrupts MicroPython's own boot), as fast as it can, and holds
   while more than ``HOLD_BYTES`` wait for the host; its time never skips ahead of a host.
 
 In both, the chip holds while the host leaves more than ``HOLD_BYTES`` unread, so nothing is
@@ -24,6 +25,7 @@ from tactile_sim.emulator.pty_server import DRAINED_S, OPEN_SETTLE_S, PtyEndpoin
 
 HOLD_BYTES = 4096
 IDLE_S = 0.005
+BOOT_US = 250_000  # fast: a chip runs this long after each reset before it holds for a host
 
 
 class PicoServer:
@@ -106,8 +108,8 @@ class PicoServer:
     def _hold(self):
         present = self.endpoint.host_present
         held = len(self.to_host) > HOLD_BYTES and present
-        if not self.realtime and not present:
-            held = True
+        if not self.realtime and not present and self.chip.t_us >= BOOT_US:
+            held = True  # (after its boot, as a board plugged in before the host came)
         if held != self._held:
             self.chip.hold(held)
             self._held = held
