@@ -69,6 +69,7 @@ COMMAND_FIELDS = {
 }
 GATE_CEILING = 2**31 - 1  # the largest enter threshold (uN): what 'tare --force' gates at
 MAX_READ = 65536  # bytes per read call: bounded whatever the device claims to have
+ASK_AFTER_S = 0.2  # handshake: ask GET_INFO if no HELLO came this soon after opening
 
 
 class CommandRefused(BoardError):
@@ -206,7 +207,10 @@ class BoardClient:
         raise BoardTimeout(f"{self.name}: no answer to {name} within {timeout:g} s")
 
     def handshake(self, timeout=2.0):
-        """Wait for HELLO (asking with GET_INFO halfway); return the HELLO/INFO message."""
+        """Wait for HELLO (asking with GET_INFO after ``ASK_AFTER_S``, or half the timeout if
+        that is shorter); return the HELLO/INFO message.  A board that announces itself on
+        open (the emulator, a Linux controller) answers first; a Pico, whose USB port gives
+        no open signal, answers GET_INFO."""
         start = self.clock()
         asked = False
         self.lie = None
@@ -217,7 +221,7 @@ class BoardClient:
             if self.lie is not None:
                 raise self._lied(self.lie)
             self._check_version()
-            if not asked and self.clock() - start >= timeout / 2:
+            if not asked and self.clock() - start >= min(ASK_AFTER_S, timeout / 2):
                 self.send(C.CMD_GET_INFO)
                 asked = True
         self._check_version()
