@@ -177,11 +177,12 @@ class Served:
     def _rp2040(self):
         import shutil
 
-        from pico_target import flash_master, serve
+        from pico_target import flash_master, serve, wait_booted
 
         flash = self.session_dir / "suite.flash"
         shutil.copyfile(flash_master(self.session_dir), flash)
         with serve(rest_scene(self.session_dir), flash=flash) as server:
+            wait_booted(server)
             yield server
 
     def close(self):

@@ -62,6 +62,18 @@ def serve(scene="press", flash=None, fast=False, bus_time=True):
         raise errors[0]
 
 
+def wait_booted(server, timeout_s=60.0):
+    """Wait until the firmware on ``server``'s chip has started its sensors (its first I2C
+    transaction): a host talking to a Pico during MicroPython's own boot, before main.py
+    turns Ctrl-C off, can interrupt it, as on a real board plugged in a moment ago."""
+    import time
+
+    end = time.monotonic() + timeout_s
+    while server.chip.requests == 0:
+        assert time.monotonic() < end, "the firmware did not start its sensors"
+        time.sleep(0.02)
+
+
 def flash_master(session_dir, n_sensors=1):
     """A flash file holding the firmware, flashed the way a user flashes a board (``tactile
     flash --sensors n_sensors``), once per ``session_dir`` (the ``pico_flashed`` fixture)."""

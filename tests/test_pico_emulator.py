@@ -8,7 +8,7 @@ answering on the same port with its sensors read over the chip's own I2C control
 import time
 
 import serial
-from pico_target import serve
+from pico_target import serve, wait_booted
 
 from tactile.board_client import BoardClient
 
@@ -46,6 +46,7 @@ def test_what_the_chip_writes_to_flash_is_there_after_a_restart(tmp_path):
 
 def test_a_flashed_board_answers_with_its_sensor_read_over_i2c(pico_flashed):
     with serve(flash=pico_flashed) as server:
+        wait_booted(server)
         client = BoardClient(serial.Serial(server.path, timeout=0.05), server.path)
         try:
             client.handshake(timeout=10.0)
@@ -103,3 +104,56 @@ def test_a_flash_file_is_one_boards_and_must_be_a_flash(tmp_path):
 
         os.close(held)
     assert r.returncode == 4 and "in use by another emulated Pico" in r.stderr, r.stderr
+
+
+def test_the_same_forces_give_the_same_codes_as_on_the_other_cores(pico_flashed, tmp_path):
+    """One model behind every core: a steady, noiseless load read by the firmware on the
+    emulated Pico (its I2C answered by pico_core) and by the in-process Python core gives the
+    same integers, once both hold the same calibration."""
+    import re
+
+    from board_target import read_for
+
+    from tactile.serial_port import open_port
+    from tactile_protocol import constants as C
+    from tactile_sim.emulator import load_scene
+    from tactile_sim.emulator.device import EmulatedBoard
+
+    text = load_scene("press").path.read_text()
+    text = re.sub(r"noise_force_N = .*", "noise_force_N = [0.0, 0.0, 0.0]", text)
+    held = "[0.0, 0.8, -0.6, 2.5, 0.02, -0.01, 0.005]"
+    text = re.sub(r"keyframes = \[.*?\n\]", f"keyframes = [{held}, {held.replace('0.0', '9.0', 1)}]",
+                  text, flags=re.S)  # fmt: skip
+    scene = tmp_path / "steady.toml"
+    scene.write_text(text)
+    model = EmulatedBoard(load_scene(scene)).models[0]
+
+    def samples(client):
+        client.configure(200, 1.39, 1.112, 3, C.CFG_STREAM_SAMPLES)
+        ack = client.start()
+        got = read_for(
+            client, 20.0, until=lambda m: len([s for s in m if s.type_name == "SAMPLE"]) > 5
+        )
+        return {
+            (s.fx, s.fy, s.fz, s.tx, s.ty, s.tz)
+            for s in got
+            if s.type_name == "SAMPLE" and s.seq > ack.seq
+        }
+
+    reference = BoardClient(open_port(f"sim://{scene}"), "sim")
+    try:
+        reference.handshake(2.0)
+        python_core = samples(reference)
+    finally:
+        reference.close()
+    with serve(scene, flash=pico_flashed) as server:
+        wait_booted(server)
+        client = BoardClient(serial.Serial(server.path, timeout=0.05), server.path)
+        try:
+            client.handshake(10.0)
+            client.set_calibration(0, 7, model.calibration_coefficients(), timeout=10.0)
+            on_the_chip = samples(client)
+        finally:
+            client.close()
+    assert len(python_core) == 1 and on_the_chip == python_core  # every sample, one wrench
+    assert abs(next(iter(on_the_chip))[0] - 0.8e6) < 0.01e6  # uN: fx of the scene's load
