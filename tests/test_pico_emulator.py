@@ -121,9 +121,9 @@ def test_the_same_forces_give_the_same_codes_as_on_the_other_cores(pico_flashed,
 
     text = load_scene("press").path.read_text()
     text = re.sub(r"noise_force_N = .*", "noise_force_N = [0.0, 0.0, 0.0]", text)
-    held = "[0.0, 0.8, -0.6, 2.5, 0.02, -0.01, 0.005]"
-    text = re.sub(r"keyframes = \[.*?\n\]", f"keyframes = [{held}, {held.replace('0.0', '9.0', 1)}]",
-                  text, flags=re.S)  # fmt: skip
+    load = "0.8, -0.6, 2.5, 0.02, -0.01, 0.005"  # N, N*m from t = 0 to 9 s
+    text = re.sub(r"keyframes = \[.*?\n\]", f"keyframes = [[0.0, {load}], [9.0, {load}]]", text,
+                  flags=re.S)  # fmt: skip
     scene = tmp_path / "steady.toml"
     scene.write_text(text)
     model = EmulatedBoard(load_scene(scene)).models[0]
