@@ -75,7 +75,7 @@ function readReply(n) {
 
 function timeBytes(nanos) {
   const b = Buffer.alloc(8);
-  b.writeDoubleLE(nanos / 1000);
+  b.writeBigUInt64LE(BigInt(Math.round(nanos))); // the chip's time in ns
   return b;
 }
 

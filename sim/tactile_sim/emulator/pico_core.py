@@ -26,7 +26,6 @@ import os
 import pathlib
 import select
 import shutil
-import struct
 import subprocess
 import sys
 
@@ -189,7 +188,7 @@ class PicoChip:
     # --- to the chip ---------------------------------------------------------------------
     def _order(self, kind, payload=b""):
         try:
-            os.write(self.order_fd, kind + struct.pack("<H", len(payload)) + payload)
+            os.write(self.order_fd, kind + len(payload).to_bytes(2, "little") + payload)
         except (BrokenPipeError, OSError):
             pass  # the chip has gone: serve() says so
 
@@ -245,7 +244,7 @@ class PicoChip:
             self._at(p[2:10])
             self._write(p[0], p[10:])
         elif kind == 0x54:  # 'T'
-            self.t_us = struct.unpack("<d", p)[0]
+            self.t_us = _us(p)
         elif kind == 0x58:  # 'X': a watchdog reset
             self.resets += 1
             self.origin, self.t_us, self.configured, self._dev = None, 0.0, False, {}
@@ -259,7 +258,7 @@ class PicoChip:
 
     def _at(self, t):
         """The chip's time of a request: the models' and the faults' clock."""
-        self.t_us = struct.unpack("<d", t)[0]
+        self.t_us = _us(t)
         if self.origin is None:
             self.origin = self.t_us
         now = int(self.t_us - self.origin)
@@ -322,6 +321,11 @@ class PicoChip:
             except OSError:
                 pass
         self.proc.stderr.close()
+
+
+def _us(t):
+    """The chip's time in a message (8 bytes, ns) in microseconds."""
+    return int.from_bytes(t, "little") / 1000
 
 
 def _dup_fds(fds):
