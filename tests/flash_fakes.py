@@ -14,11 +14,22 @@ more frame.  Kinds:
 - ``late``: a board that misses everything written in its first ``late_s``, then ``repl``.
 - ``silent``: says nothing.  ``noise``: answers every write with the same text.
 - ``dies``: its writes fail as a board unplugged.
+
+``FakeSession`` is a raw REPL session on a board whose filesystem is a directory.
 """
+
+import builtins
+import contextlib
+import io
+import os
+import pathlib
+import types
 
 import serial
 from lying_device import GOOD_INFO, frame
 
+from tactile.errors import BoardError
+from tactile.raw_repl import Session
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 
@@ -111,3 +122,75 @@ class BoardPort:
         if self.kind in ("repl", "late", "firmware") and not self.running and b"\x01" in w:
             self.out += BANNER  # Ctrl-A at the REPL
             del w[: w.index(b"\x01") + 1]
+
+
+class FakeSession:
+    """``tactile.raw_repl.Session`` on a board whose filesystem is the directory ``root``:
+    the code flash sends runs here under CPython, its ``os``, ``open`` and ``sys`` the
+    board's (``sys.implementation._mpy`` is ``sys_mpy``).  ``fail_at``: the exec (counted
+    from 0) that fails as a board that stopped answering.  ``snapshots``: the files after
+    each exec."""
+
+    write_file = Session.write_file  # the real one, through ``exec`` below
+
+    def __init__(self, root, kind="repl", sys_mpy=4870, fail_at=None):
+        self.name = "/dev/ttyACM0"
+        self.root = pathlib.Path(root)
+        self.serial = BoardPort(kind)
+        self.sys_mpy, self.fail_at = sys_mpy, fail_at
+        self.execs, self.snapshots = [], []
+        self.entered = self.was_reset = self.closed = False
+        on = self._path
+        self.os = types.SimpleNamespace(
+            remove=lambda p: os.remove(on(p)),
+            listdir=lambda p: os.listdir(on(p)),
+            mkdir=lambda p: os.mkdir(on(p)),
+            rename=lambda a, b: os.rename(on(a), on(b)),
+        )
+        self.sys = types.SimpleNamespace(implementation=types.SimpleNamespace(_mpy=sys_mpy))
+
+    def _path(self, p):
+        return str(self.root / p.lstrip("/"))
+
+    def _import(self, name, *args, **kw):
+        return {"os": self.os, "sys": self.sys}.get(name) or builtins.__import__(name, *args, **kw)
+
+    def _open(self, path, mode="r"):
+        return open(self._path(path), mode)
+
+    def enter(self, seconds):
+        """A soft reset: the REPL's globals emptied (they last from one exec to the next)."""
+        self.entered = True
+        board = {**vars(builtins), "__import__": self._import, "open": self._open}
+        self.scope = {"__builtins__": board}
+
+    def exec(self, code, seconds, doing):
+        if self.fail_at is not None and len(self.execs) == self.fail_at:
+            raise BoardError(f"{self.name}: {doing}: no answer within {seconds:g} s")
+        self.execs.append((doing, code))
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            exec(code, self.scope)  # noqa: S102 - the board's part of a flash
+        self.snapshots.append(self.files())
+        return out.getvalue().encode()
+
+    def reset(self, seconds):
+        self.was_reset = True
+
+    def close(self):
+        self.closed = True
+
+    def files(self):
+        """{board path: bytes} of every file on the board."""
+        return {
+            "/" + str(p.relative_to(self.root)): p.read_bytes()
+            for p in sorted(self.root.rglob("*"))
+            if p.is_file()
+        }
+
+    def put(self, files):
+        """Put ``files`` ({board path: bytes}) on the board, as an earlier flash left them."""
+        for path, data in files.items():
+            target = self.root / path.lstrip("/")
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(data)
