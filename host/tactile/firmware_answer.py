@@ -3,10 +3,11 @@
 A Pico's USB port goes away at ``machine.reset()`` and comes back once MicroPython runs
 again; an emulator's pty stays.  ``answer`` opens the port as often as it goes away, within
 ``wait_s`` in all, and waits for the firmware's HELLO (sent at boot) or asks with GET_INFO.
-It asks at once only on a port that went and came back: there the firmware has started
-(USB enumerates after MicroPython does, and ``main.py`` turns Ctrl-C off on its first line).
-On a port that stayed it first lets HELLO come for ``ASK_STAYED_S``, since a GET_INFO's
-0x03 reaching MicroPython before ``main.py`` has run that line would stop ``main.py``.
+It asks soon (``ASK_GONE_S``) only on a port that went and came back: there the firmware
+has started (USB enumerates after MicroPython does, and ``main.py`` turns Ctrl-C off on its
+first line).  On a port that stayed (an emulator's pty, which hears the HELLO) it asks only
+``ASK_STAYED_S`` after the reset, since a GET_INFO's 0x03 reaching MicroPython before
+``main.py`` has run that line would stop ``main.py``.
 Nothing in time is one ``BoardTimeout`` line with the last thing the port said (a
 traceback's last line, when the firmware failed to start).
 """
@@ -20,7 +21,7 @@ from tactile.textout import printable
 
 SETTLE_S = 0.3  # after the reset, before looking for the port
 ASK_GONE_S = 1.0  # the port went and came back: ask after this long
-ASK_STAYED_S = 5.0  # the port stayed: let HELLO come this long after the reset first
+ASK_STAYED_S = 8.0  # the port stayed: let HELLO come this long after the reset first
 REOPEN_S = 0.2  # between tries to open a port that is not back
 REPL_LINES = (b">>>", b"MicroPython v", b'Type "help()"', b"raw REPL")
 

@@ -318,6 +318,7 @@ def flash(port, mpy=None, n_sensors=1, wdt_ms=0, wait_s=WAIT_S, progress=None, n
     try:
         session.serial.timeout = board_probe.READ_TIMEOUT_S
         board_probe.break_in(session.serial, port, PROBE_S)
+        log.info("%s: at MicroPython's raw REPL", port)
         session.serial.timeout = raw_repl.READ_TIMEOUT_S
         session.enter(STEP_S)
         board, b64 = _about(session)
@@ -333,10 +334,17 @@ def flash(port, mpy=None, n_sensors=1, wdt_ms=0, wait_s=WAIT_S, progress=None, n
         with tempfile.TemporaryDirectory() as tmp:
             contents = _contents(items, tmp, cross)
         skipped = [i.dest for i in items if i.how == "skip"]
+        log.info(
+            "%s: copying %d files, %d bytes",
+            port,
+            len(contents) + 1,
+            sum(len(d) for _, d in contents),
+        )
         removed = copy(session, contents, skipped, main_py(n_sensors, wdt_ms), b64, progress)
         for path in removed:
             log.info("%s: removed %s", port, path)
         session.reset(STEP_S)
+        log.info("%s: machine.reset(); waiting for the firmware", port)
     finally:
         session.close()
     written = [p for p, _ in contents] + ["/main.py"]
