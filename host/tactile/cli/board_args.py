@@ -1,34 +1,40 @@
-"""What the board commands (info, config, tare, calibrate, record, live) share: ``--port``
-and connecting."""
+"""What the board commands (info, config, tare, calibrate, record, live, flash) share:
+``--port`` and connecting."""
 
 import os
 
 ENV_PORT = "TACTILE_PORT"
 
 
-def add_port_argument(parser):
-    parser.add_argument(
-        "--port",
-        "-p",
-        default=os.environ.get(ENV_PORT),
-        help=f"serial device or URL (sim://SCENE for the in-process emulator); env {ENV_PORT}",
-    )
-    parser.add_argument(
-        "--wait", type=float, default=2.0, help="seconds to wait for the board's HELLO"
-    )
+PORT_HELP = "serial device or URL (sim://SCENE for the in-process emulator)"
 
 
-def connect(args):
-    """Open ``args.port`` and wait for HELLO; returns a BoardClient (the caller closes it)."""
-    from tactile.board_client import BoardClient
+def add_port_argument(
+    parser, wait=2.0, wait_help="seconds to wait for the board's HELLO", port_help=PORT_HELP
+):
+    parser.add_argument(
+        "--port", "-p", default=os.environ.get(ENV_PORT), help=f"{port_help}; env {ENV_PORT}"
+    )
+    parser.add_argument("--wait", type=float, default=wait, help=wait_help)
+
+
+def port_of(args):
+    """``args.port``, or an InputError saying none was given."""
     from tactile.errors import InputError
-    from tactile.serial_port import open_port
 
     if not args.port:
         raise InputError(
             f"--port: no port given (and {ENV_PORT} unset); 'tactile ports' lists them"
         )
-    port = open_port(args.port)
+    return args.port
+
+
+def connect(args):
+    """Open ``args.port`` and wait for HELLO; returns a BoardClient (the caller closes it)."""
+    from tactile.board_client import BoardClient
+    from tactile.serial_port import open_port
+
+    port = open_port(port_of(args))
     client = BoardClient(port, args.port)
     try:
         client.handshake(args.wait)

@@ -1,0 +1,84 @@
+"""``tactile flash`` on emulated boards, as a user runs it: the emulator's python core (the
+tactile protocol on a pty, no MicroPython behind it) ends in one line; an emulated Pico,
+new or already streaming from boot, is flashed and then answers ``tactile info``.
+
+Bounds are generous (the emulated Pico runs at about 0.2x a real one, on a shared
+machine); what is asserted is what the board and the host report."""
+
+import time
+
+import serial
+from board_target import BoardTarget
+from pico_target import serve
+
+from tactile import board_probe, flashing, raw_repl
+from tactile.board_client import BoardClient
+from tactile_protocol import constants as C
+
+
+def test_the_python_cores_pty_is_no_micropython_board_and_says_so_in_one_line(cli):
+    with BoardTarget("python").serve("press") as path:
+        start = time.monotonic()
+        code, out, err = cli("flash", "--port", path)
+        took = time.monotonic() - start
+    assert (code, out) == (4, "")
+    assert err == (
+        f"tactile flash: error: found the tactile firmware speaking its protocol on {path} "
+        "(firmware 0.1.0, no MicroPython REPL behind it)\n"
+    )
+    assert took < 30.0  # about 3 s: frames for FIRMWARE_S after the first, nothing else
+
+
+def _plant(path, files):
+    """Write ``files`` ({board path: bytes}) through the raw REPL, as an earlier flash
+    would have left them."""
+    session = raw_repl.Session(path)
+    try:
+        session.serial.timeout = board_probe.READ_TIMEOUT_S
+        board_probe.break_in(session.serial, path)
+        session.serial.timeout = raw_repl.READ_TIMEOUT_S
+        session.enter(10.0)
+        session.exec(flashing.MKDIRS.format(dirs=["/lib", "/lib/tactile_fw"]), 10.0, "mkdir")
+        for where, data in files.items():
+            session.write_file(where, data, 10.0)
+    finally:
+        session.close()
+
+
+def test_a_new_pico_is_flashed_and_answers(tmp_path, cli):
+    with serve(flash=tmp_path / "new.flash") as pico:
+        _plant(pico.path, {"/lib/tactile_fw/retired.py": b"raise ImportError('retired')\n"})
+        code, out, err = cli("flash", "--port", pico.path, "--sensors", "1")
+        assert (code, err) == (0, ""), err
+        assert out.startswith(
+            f"flashed {len(flashing.board_files()) + 1} files as .mpy v6 to {pico.path}"
+            " (1 stale removed) and reset it;"
+            " it answers: tactile firmware 0.1.0 (protocol 3), 1 sensor FT6/ADS122C04x6,"
+        )
+        code, out, err = cli("info", "--port", pico.path, "--wait", "10")
+    assert (code, err) == (0, "") and out.startswith("firmware      0.1.0  (protocol 3)")
+
+
+def test_a_pico_that_streams_from_boot_is_stopped_flashed_and_streams_again(pico_flashed, cli):
+    with serve(flash=pico_flashed) as pico:
+        client = BoardClient(serial.Serial(pico.path, timeout=0.05), pico.path)
+        try:
+            info = client.handshake(timeout=15.0)
+            flags = C.CFG_STREAM_SAMPLES | C.CFG_AUTOSTART | C.CFG_PERSIST
+            client.configure(100, 1.39, 1.112, 3, flags, timeout=5.0)
+        finally:
+            client.close()
+    assert info.fw_major == 0
+    with serve(flash=pico_flashed) as pico:  # a power cycle: it streams from boot
+        with serial.Serial(pico.path, timeout=0.05) as port:
+            client = BoardClient(port, pico.path)
+            got, end = [], time.monotonic() + 15.0
+            while time.monotonic() < end and len(got) < 3:
+                got += [m for m in client.read() if m.type_code == C.MSG_SAMPLE]
+        assert len(got) >= 3  # streaming, with no command sent
+        code, out, err = cli("flash", "--port", pico.path)
+        assert (code, err) == (0, ""), err
+        assert "it answers: tactile firmware 0.1.0" in out and ", 100 Hz (ceiling" in out
+        code, out, err = cli("info", "--port", pico.path, "--wait", "10")
+    assert code == 0, err
+    assert "streams       samples (autostart); streaming" in out
