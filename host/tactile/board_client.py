@@ -206,11 +206,13 @@ class BoardClient:
                 return reply
         raise BoardTimeout(f"{self.name}: no answer to {name} within {timeout:g} s")
 
-    def handshake(self, timeout=2.0):
-        """Wait for HELLO (asking with GET_INFO after ``ASK_AFTER_S``, or half the timeout if
-        that is shorter); return the HELLO/INFO message.  A board that announces itself on
-        open (the emulator, a Linux controller) answers first; a Pico, whose USB port gives
-        no open signal, answers GET_INFO."""
+    def handshake(self, timeout=2.0, ask_after=None):
+        """Wait for HELLO (asking with GET_INFO after ``ask_after`` s: by default
+        ``ASK_AFTER_S``, or half the timeout if that is shorter); return the HELLO/INFO
+        message.  A board that announces itself on open (the emulator, a Linux controller)
+        answers first; a Pico, whose USB port gives no open signal, answers GET_INFO."""
+        if ask_after is None:
+            ask_after = min(ASK_AFTER_S, timeout / 2)
         start = self.clock()
         asked = False
         self.lie = None
@@ -221,7 +223,7 @@ class BoardClient:
             if self.lie is not None:
                 raise self._lied(self.lie)
             self._check_version()
-            if not asked and self.clock() - start >= min(ASK_AFTER_S, timeout / 2):
+            if not asked and self.clock() - start >= ask_after:
                 self.send(C.CMD_GET_INFO)
                 asked = True
         self._check_version()

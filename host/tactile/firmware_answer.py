@@ -61,7 +61,7 @@ def answer(
                     continue
                 ask = ASK_GONE_S if gone else max(0.0, ASK_STAYED_S - (clock() - start))
             try:
-                return client.handshake(timeout=min(left, max(2 * ask, 2.0)))
+                return client.handshake(timeout=min(left, max(2 * ask, 2.0)), ask_after=ask)
             except BoardTimeout:
                 ask = ASK_GONE_S  # asked once: ask again at this pace
             except PortLost:
