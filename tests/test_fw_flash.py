@@ -62,6 +62,17 @@ def test_flash_stages_files_and_calls_mpremote(tmp_path, mocker):
     assert "main.py" in written
 
 
+def test_the_native_module_is_staged_as_shipped_with_or_without_mpy(tmp_path):
+    """The C core's .mpy goes to /lib unchanged: mpy-cross compiles Python, not it."""
+    shipped = [src for src, dest in flashing.board_files() if dest == "lib/tactile_native.mpy"]
+    assert len(shipped) == 1
+    for mpy in (False, True):
+        written = flashing.stage(tmp_path / str(mpy), mpy=mpy)
+        assert "lib/tactile_native.mpy" in written
+        staged = tmp_path / str(mpy) / "lib" / "tactile_native.mpy"
+        assert staged.read_bytes() == shipped[0].read_bytes()
+
+
 def test_mpremote_failure_is_reported(mocker):
     mocker.patch.object(flashing, "find_mpremote", return_value=["mpremote"])
     fail = types.SimpleNamespace(returncode=1, stderr="Traceback\nmpremote: failed to access a0")
