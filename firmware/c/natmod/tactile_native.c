@@ -217,8 +217,7 @@ static size_t stream_read(tn_board_obj_t *self, uint8_t *buf, size_t n)
             self->at = self->match = 0;
         } else if (self->at < 3) {
             if (self->match == self->at && b == break_in_seq[self->at]) {
-                if (++self->match == 3) {
-                    self->at = self->match = 0;
+                if (++self->match == 3) { /* (the state stays as UsbLink leaves it) */
                     nlr_raise(mp_call_function_n_kw(self->break_in, 0, 0, NULL));
                 }
             }
@@ -342,6 +341,7 @@ static mp_obj_t board_make_new(const mp_obj_type_t *type, size_t n_args, size_t 
 {
     mp_arg_check_num(n_args, n_kw, 5, 8, false);
     tn_board_obj_t *self = mp_obj_malloc(tn_board_obj_t, type);
+    memset((uint8_t *)self + sizeof(mp_obj_base_t), 0, sizeof(*self) - sizeof(mp_obj_base_t));
     mp_obj_t machine = mp_import_name(MP_QSTR_machine, mp_const_none, MP_OBJ_NEW_SMALL_INT(0));
     size_t n, k;
     mp_obj_t *items;
