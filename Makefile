@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint format bench clean firmware-c npm
+.PHONY: demo test lint format bench clean firmware-c natmod npm
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -37,6 +37,12 @@ lint: $(STAMP)
 # gcc-arm-none-eabi and libnewlib-arm-none-eabi (Debian).
 firmware-c: $(STAMP)
 	$(BIN)/python -m tactile_fw.host_only.cross build/firmware-c
+
+# The C core as a MicroPython native module for the Pico, rebuilt into the package
+# (firmware/tactile_fw/tactile_native.mpy, committed: tactile flash copies it). Needs
+# gcc-arm-none-eabi, pyelftools and ar (the test extra) and ../shared/rp2's natmod sources.
+natmod: $(STAMP)
+	$(BIN)/python -m tactile_fw.host_only.natmod
 
 bench: $(STAMP)
 	for f in bench/*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done

@@ -21,8 +21,9 @@ MICROPYTHON_MODULES = {
     "gc",
     "tactile_fw",
     "tactile_protocol",
+    "tactile_native",  # the C core as a native module, shipped beside them (test_natmod.py)
 }
-FILES = flashing.board_files()
+FILES = [(src, dest) for src, dest in flashing.board_files() if src.suffix == ".py"]
 
 
 def test_the_board_gets_firmware_and_protocol_but_not_host_ports():
@@ -30,6 +31,8 @@ def test_the_board_gets_firmware_and_protocol_but_not_host_ports():
     assert "lib/tactile_fw/board.py" in dests and "lib/tactile_protocol/framing.py" in dests
     assert "lib/tactile_fw/port_mpy.py" in dests
     assert not any("port_linux" in d for d in dests)
+    native = [d for s, d in flashing.board_files() if s.suffix != ".py"]
+    assert native == ["lib/tactile_native.mpy"]  # importable by its name
 
 
 def imports(path):

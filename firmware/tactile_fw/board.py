@@ -29,6 +29,7 @@ except ImportError:  # CPython
 
 from tactile_fw import calibration, frontend, gate, settings
 from tactile_fw.commands import dispatch
+from tactile_fw.identity import FW_VERSION, boot_id_from  # noqa: F401 (boot_id_from: re-exported)
 from tactile_fw.link import TxRing
 from tactile_fw.timing import Scheduler
 from tactile_protocol.constants import (
@@ -63,7 +64,6 @@ from tactile_protocol.constants import (
 )
 from tactile_protocol.framing import FRAME_OK, FrameAssembler, FrameEncoder
 
-FW_VERSION = (0, 1, 0)
 SENSOR_MODEL = b"FT6/ADS122C04x6"
 BACKOFF_MIN_US = const(1000)
 BACKOFF_MAX_US = const(1000000)
@@ -519,14 +519,6 @@ class Board:
         if self.tare_seq >= 0:
             self.nak(CMD_TARE, self.tare_seq, NAK_HARDWARE, NAK_DETAIL_NONE)
         self.tare_seq = -1
-
-
-def boot_id_from(entropy):
-    """Fold bytes that differ per power-up into a 32-bit boot id (FNV-1a)."""
-    h = 0x811C9DC5
-    for b in entropy:
-        h = ((h ^ b) * 0x01000193) & 0xFFFFFFFF
-    return h
 
 
 def _errno(exc):

@@ -3,6 +3,12 @@
 The only board file that imports ``machine``.  ``/main.py`` on the board is
 ``from tactile_fw.port_mpy import main`` / ``main()``.
 
+Two boards run here, the same protocol and the same bytes: the C core as a native module
+(``tactile_native.mpy`` in ``/lib``, built from ``firmware/c`` by
+``tactile_fw.host_only.natmod``), used when it is there and built from this firmware, and the
+Python ``Board`` otherwise (or when ``main(core="python")`` asks for it).  Both get the same
+buses, USB link rules, storage and boot id, and the same loop (``run``).
+
 Wiring (docs/firmware.md): I2C0 on GP4 (SDA) / GP5 (SCL), I2C1 on GP6 (SDA) /
 GP7 (SCL), 1 MHz (Fast-mode Plus; keep the bus short, 2.2 kOhm pull-ups).
 Sensor 0 on I2C0 at 0x40-0x45, sensor 1 on I2C1 at 0x40-0x45, sensors 2 and
@@ -17,13 +23,15 @@ import time
 import machine
 import micropython
 
-from tactile_fw.board import Board, boot_id_from
-from tactile_fw.frontend import make_sensor
+from tactile_fw.identity import FW_VERSION, boot_id_from
 from tactile_fw.storage import DirStorage
+from tactile_protocol.constants import PROTOCOL_VERSION
 
 I2C_PINS = ((0, 4, 5), (1, 6, 7))  # (controller, SDA GPIO, SCL GPIO)
 WATCHDOG_CTRL = 0x40058000  # RP2040 datasheet §4.7.6: machine.WDT cannot be stopped
 WATCHDOG_ENABLE = 1 << 30
+TIMERAWL = 0x40054028  # RP2040 datasheet §4.6.5: the 1 MHz timer's low word, read unlatched
+NATIVE_API = 1  # the contract with firmware/c/natmod/tactile_native.c
 
 
 # MicroPython's REPL ends a program at Ctrl-C (0x03), and every command frame holds a 0x03
@@ -95,12 +103,11 @@ class UsbLink:
         pass  # Ctrl-C stays off either way (above)
 
 
-def make_sensors(n_sensors, freq):
-    buses = [
+def make_buses(freq):
+    return [
         machine.I2C(c, sda=machine.Pin(sda), scl=machine.Pin(scl), freq=freq)
         for c, sda, scl in I2C_PINS
     ]
-    return [make_sensor(buses[i % 2], i // 2, bus_key=i % 2, bus_hz=freq) for i in range(n_sensors)]
 
 
 def boot_entropy():
@@ -113,13 +120,71 @@ def boot_entropy():
         return machine.unique_id() + bytes((t & 0xFF, (t >> 8) & 0xFF, (t >> 16) & 0xFF))
 
 
-def main(n_sensors=1, freq=1000000, wdt_ms=0):
-    sensors = make_sensors(n_sensors, freq)
-    board = Board(sensors, UsbLink(), time, DirStorage(""), boot_id=boot_id_from(boot_entropy()))
+def native_module():
+    """``tactile_native`` if it loads here and was built from this firmware, else None.
+
+    Its clock is the RP2040's timer register, so another chip never takes it; an .mpy made
+    for another MicroPython fails to import (ValueError) and the Python board runs."""
+    if "RP2040" not in sys.implementation._machine:
+        return None
+    try:
+        import tactile_native
+    except (ImportError, ValueError):
+        return None
+    mine = (NATIVE_API, FW_VERSION, PROTOCOL_VERSION)
+    if (tactile_native.API, tactile_native.FW_VERSION, tactile_native.PROTOCOL_VERSION) != mine:
+        return None
+    return tactile_native
+
+
+def make_board(n_sensors=1, freq=1000000, core="auto", max_rate_hz=0):
+    """The board for this Pico: ``core`` "native" (the C core), "python" (``Board``), or
+    "auto": native when ``native_module()`` has it.  Neither has booted yet.
+    ``max_rate_hz`` overrides the converters' and bus's ceiling (benches only)."""
+    buses = make_buses(freq)
+    storage = DirStorage("")
+    boot_id = boot_id_from(boot_entropy())
+    native = None if core == "python" else native_module()
+    if native is not None:
+        micropython.kbd_intr(-1)  # (as UsbLink does: frames hold Ctrl-C bytes)
+        layout = [(i % 2, i // 2, freq) for i in range(n_sensors)]
+        usb = (sys.stdin.buffer, sys.stdout.buffer)
+        return native.Board(buses, layout, usb, TIMERAWL, storage, boot_id, max_rate_hz, BreakIn)
+    if core == "native":
+        raise ImportError("tactile_native is not in /lib or not built from this firmware")
+    from tactile_fw.board import Board
+    from tactile_fw.frontend import make_sensor
+
+    sensors = [
+        make_sensor(buses[i % 2], i // 2, bus_key=i % 2, bus_hz=freq) for i in range(n_sensors)
+    ]
+    return Board(
+        sensors, UsbLink(), time, storage, max_rate_hz=max_rate_hz or None, boot_id=boot_id
+    )
+
+
+def run(board, feed=None, sleep_us=time.sleep_us):
+    """Poll forever, sleeping until the next sample is due; the loop survives any exception
+    (``last_error`` = its errno, else 0xFF) and feeds the watchdog each turn."""
+    while True:
+        try:
+            board.poll()
+            d = board.idle_us()
+            if d > 200:
+                sleep_us(d - 100)
+        except Exception as exc:  # the loop never dies
+            args = getattr(exc, "args", ())
+            board.last_error = args[0] & 0xFF if args and isinstance(args[0], int) else 0xFF
+        if feed is not None:
+            feed()
+
+
+def main(n_sensors=1, freq=1000000, wdt_ms=0, core="auto"):
+    board = make_board(n_sensors, freq, core)
     wdt = machine.WDT(timeout=wdt_ms) if wdt_ms else None
     try:
         board.boot()
-        board.run(feed=wdt.feed if wdt else None, sleep_us=time.sleep_us)
+        run(board, wdt.feed if wdt else None)
     finally:
         micropython.kbd_intr(3)  # the REPL's Ctrl-C again
         if wdt is not None:  # nothing feeds it now: off, or it would reset the REPL's user

@@ -53,12 +53,17 @@ def main_py(n_sensors=1, wdt_ms=0):
 
 
 def board_files():
-    """(source path, path on the board) for every module that goes on the board."""
+    """(source path, path on the board) for every module that goes on the board.
+
+    A native module shipped in a package (``tactile_fw/tactile_native.mpy``, the C core built
+    for the Pico) goes to ``/lib`` itself: it is imported by its own name."""
     out = []
     for pkg in (tactile_fw, tactile_protocol):
         src_dir = pathlib.Path(list(pkg.__path__)[0])  # also for a namespace-mode install
         for src in sorted(src_dir.glob("*.py")):  # top level only: host_only/ stays behind
             out.append((src, f"lib/{src_dir.name}/{src.name}"))
+        for src in sorted(src_dir.glob("*.mpy")):
+            out.append((src, f"lib/{src.name}"))
     return out
 
 
