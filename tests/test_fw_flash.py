@@ -16,7 +16,8 @@ from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 
 PORT = "/dev/ttyACM0"
-MODULES = [dest for _, dest in flashing.board_files()]
+SOURCES = [(src, dest) for src, dest in flashing.board_files() if src.suffix == ".py"]
+MODULES = [dest for _, dest in SOURCES]  # (the shipped native module: _with_native's tests)
 PICO = 4870  # sys.implementation._mpy of MicroPython 1.29 on a Pico: mpy 6.3, armv6m
 NATIVE_PICO = bytes([0x4D, 6, 4 << 2 | 3, 31]) + b"native code for armv6m"
 NATIVE_M4 = bytes([0x4D, 6, 6 << 2 | 3, 31]) + b"native code for armv7em"
@@ -35,6 +36,7 @@ def board(tmp_path, monkeypatch):
         return made[-1]
 
     probe = board_probe.break_in
+    monkeypatch.setattr(flashing, "board_files", lambda: list(SOURCES))
     monkeypatch.setattr(raw_repl, "Session", lambda port: made[-1])
     monkeypatch.setattr(flashing, "_check_port", lambda port: None)
     monkeypatch.setattr(
@@ -47,7 +49,7 @@ def board(tmp_path, monkeypatch):
 def _with_native(monkeypatch, tmp_path, data, dest="lib/tactile_fw/tactile_native.mpy"):
     native = tmp_path / "tactile_native.mpy"
     native.write_bytes(data)
-    files = flashing.board_files() + [(native, dest)]
+    files = list(SOURCES) + [(native, dest)]
     monkeypatch.setattr(flashing, "board_files", lambda: files)
     return "/" + dest
 
@@ -258,7 +260,9 @@ def test_dry_run_lists_every_step_in_order(cli):
     code, out, err = cli("flash", "--port", "a0", "--dry-run", "--sensors", "2")
     assert code == 0 and err == ""
     lines = out.splitlines()
-    assert len(lines) == len(MODULES) + 5
+    assert len(lines) == len(flashing.board_files()) + 5  # the native module's line too
+    assert any("tactile_native.mpy -> :lib/tactile_native.mpy (left out unless it fits" in ln
+               for ln in lines)  # fmt: skip
     assert lines[0].startswith("break in to the raw REPL on /dev/ttyACM0")  # mpremote's a0
     assert lines[1].startswith("remove :main.py") and lines[2].startswith("remove the other")
     assert any(":lib/tactile_fw/board.mpy (if it fits the board, else .py)" in ln for ln in lines)
