@@ -31,7 +31,7 @@ from tactile.serial_port import open_port
 from tactile.stream_decoder import StreamDecoder
 
 EMULATED = ("python", "c")
-SERVED = ("qemu",)  # rp2040 joins with the native module (its 500 Hz CONFIG)
+SERVED = ("qemu", "rp2040")
 TARGETS = (*EMULATED, *SERVED, pytest.param("hardware", marks=pytest.mark.hardware))
 NO_PORT = "needs a real board: run pytest --port /dev/ttyACM0 (or the board's port)"
 

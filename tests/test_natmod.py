@@ -110,6 +110,12 @@ LOADED = (
     "import sys; print(sorted(m for m in sys.modules if m.startswith('tactile')), "
     "open('cal0.bin', 'rb').read().hex())"
 )
+# the ceiling each board would report with 1 and 2 sensors: what the chip keeps with a tenth
+# of its CPU spare (port_mpy.chip_ceiling: converters, bus and the board's own CPU time)
+CEILINGS = (
+    "from tactile_fw.port_mpy import chip_ceiling as c; "
+    "print([c(n, 1000000, k) for k in ('native', 'python') for n in (1, 2)])"
+)
 
 
 def test_the_module_runs_on_the_chips_usb_i2c_timer_and_flash(pico_flashed):
@@ -136,6 +142,7 @@ def test_the_module_runs_on_the_chips_usb_i2c_timer_and_flash(pico_flashed):
         finally:
             client.close()
         said = _mpremote(server.path, "resume", "exec", LOADED)  # no soft reset
+        ceilings = _mpremote(server.path, "resume", "exec", CEILINGS)
     assert len(samples) >= 150
     steps = [(b.timestamp_us - a.timestamp_us) & 0xFFFFFFFF for a, b in zip(samples, samples[1:])]
     # (a sample's time is the poll's that took it: USB interrupts and the loop's wake-up move
@@ -145,6 +152,7 @@ def test_the_module_runs_on_the_chips_usb_i2c_timer_and_flash(pico_flashed):
     assert not any(m.flags & C.FLAG_LATE for m in samples)
     assert [b.seq - a.seq for a, b in zip(samples, samples[1:])] == [1] * len(steps)  # no STATUS
     assert all(abs(m.fz) < 2_000_000 for m in samples)  # the press scene's first 0.5 s: unloaded
-    assert info.cal_id_0 == 4242 and info.max_rate_hz == 1730
+    assert info.cal_id_0 == 4242 and info.max_rate_hz == 1100  # (the converters and bus: 1730)
+    assert ceilings.split()[-4:] == ["[1100,", "550,", "130,", "60]"]  # Hz: 1 kHz native only
     assert "'tactile_native'" in said and "'tactile_fw.board'" not in said
     assert said.split()[-1] == calibration.Calibration(cal, 4242).to_bytes(0).hex()  # as Python

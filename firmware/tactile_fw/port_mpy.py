@@ -137,10 +137,32 @@ def native_module():
     return tactile_native
 
 
+# What a sample costs this chip besides its converters: the CPU time per sensor at 125 MHz
+# of each board (bench/fw_pico_rate.py, docs/firmware.md), and the bus time, which the CPU
+# spends waiting too (machine.I2C blocks, and the two controllers take turns).
+CPU_US_PER_SENSOR = {"native": 240, "python": 5900}
+SPARE_PERCENT = 10  # of the CPU a rate leaves for USB, commands and the collector
+
+
+def chip_ceiling(n_sensors, freq, core):
+    """The highest rate (Hz, down to 10 Hz) at which ``core`` keeps ``SPARE_PERCENT`` of
+    this chip's CPU with ``n_sensors`` on I2C at ``freq``, and the converters keep up."""
+    from tactile_fw.frontend import BITS_PER_CONVERTER, N_GAUGES
+
+    bus_us = N_GAUGES * BITS_PER_CONVERTER * 1000000 // freq
+    cpu_us = CPU_US_PER_SENSOR[core] * 125000000 // machine.freq()
+    rate = (100 - SPARE_PERCENT) * 10000 // (n_sensors * (bus_us + cpu_us))
+    return min(rate, CONVERTER_SPS) // 10 * 10
+
+
+CONVERTER_SPS = 2000  # the ADS122C04 in turbo mode, one conversion per gauge a sample
+
+
 def make_board(n_sensors=1, freq=1000000, core="auto", max_rate_hz=0):
     """The board for this Pico: ``core`` "native" (the C core), "python" (``Board``), or
-    "auto": native when ``native_module()`` has it.  Neither has booted yet.
-    ``max_rate_hz`` overrides the converters' and bus's ceiling (benches only)."""
+    "auto": native when ``native_module()`` has it.  Neither has booted yet.  Its ceiling
+    (HELLO/INFO ``max_rate_hz``, CONFIG's limit) is ``chip_ceiling``'s; ``max_rate_hz``
+    overrides it (benches only)."""
     buses = make_buses(freq)
     storage = DirStorage("")
     boot_id = boot_id_from(boot_entropy())
@@ -149,7 +171,8 @@ def make_board(n_sensors=1, freq=1000000, core="auto", max_rate_hz=0):
         micropython.kbd_intr(-1)  # (as UsbLink does: frames hold Ctrl-C bytes)
         layout = [(i % 2, i // 2, freq) for i in range(n_sensors)]
         usb = (sys.stdin.buffer, sys.stdout.buffer)
-        return native.Board(buses, layout, usb, TIMERAWL, storage, boot_id, max_rate_hz, BreakIn)
+        ceiling = max_rate_hz or chip_ceiling(n_sensors, freq, "native")
+        return native.Board(buses, layout, usb, TIMERAWL, storage, boot_id, ceiling, BreakIn)
     if core == "native":
         raise ImportError("tactile_native is not in /lib or not built from this firmware")
     from tactile_fw.board import Board
@@ -158,9 +181,8 @@ def make_board(n_sensors=1, freq=1000000, core="auto", max_rate_hz=0):
     sensors = [
         make_sensor(buses[i % 2], i // 2, bus_key=i % 2, bus_hz=freq) for i in range(n_sensors)
     ]
-    return Board(
-        sensors, UsbLink(), time, storage, max_rate_hz=max_rate_hz or None, boot_id=boot_id
-    )
+    ceiling = max_rate_hz or chip_ceiling(n_sensors, freq, "python")
+    return Board(sensors, UsbLink(), time, storage, max_rate_hz=ceiling, boot_id=boot_id)
 
 
 def run(board, feed=None, sleep_us=time.sleep_us):
