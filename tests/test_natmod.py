@@ -145,10 +145,10 @@ def test_the_module_runs_on_the_chips_usb_i2c_timer_and_flash(pico_flashed):
         ceilings = _mpremote(server.path, "resume", "exec", CEILINGS)
     assert len(samples) >= 150
     steps = [(b.timestamp_us - a.timestamp_us) & 0xFFFFFFFF for a, b in zip(samples, samples[1:])]
-    # (a sample's time is the poll's that took it: USB interrupts and the loop's wake-up move
-    # it by microseconds, as on a board; the deadlines keep their phase)
-    assert all(abs(d - 1000) <= 50 for d in steps), (min(steps), max(steps))
-    assert abs(sum(steps) - 1000 * len(steps)) <= 50
+    # (a sample's time is the poll's that took it: the loop's wake-up moves it by microseconds,
+    # on the emulator up to 15 us, its busy-wait skipping; the deadlines keep their phase)
+    assert all(abs(d - 1000) <= 20 for d in steps), [d for d in steps if abs(d - 1000) > 20]
+    assert abs(sum(steps) - 1000 * len(steps)) <= 20
     assert not any(m.flags & C.FLAG_LATE for m in samples)
     assert [b.seq - a.seq for a, b in zip(samples, samples[1:])] == [1] * len(steps)  # no STATUS
     assert all(abs(m.fz) < 2_000_000 for m in samples)  # the press scene's first 0.5 s: unloaded

@@ -192,8 +192,10 @@ def run(board, feed=None, sleep_us=time.sleep_us):
         try:
             board.poll()
             d = board.idle_us()
-            if d > 200:
+            if d > 200:  # (long sleeps may end late: wake early, then wait out the rest)
                 sleep_us(d - 100)
+            elif d > 0:
+                sleep_us(d)  # (a busy-wait: on time, and no poll spent on waiting)
         except Exception as exc:  # the loop never dies
             args = getattr(exc, "args", ())
             board.last_error = args[0] & 0xFF if args and isinstance(args[0], int) else 0xFF

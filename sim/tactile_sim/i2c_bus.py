@@ -55,6 +55,10 @@ class SimI2C:
         transaction would raise it (a NACK, an injected failure)."""
         return self._device(addr, 0)
 
+    def fails_pending(self):
+        """Whether the next transactions are set to fail (``fail_next``)."""
+        return self._fail_n > 0
+
     def scan(self):
         return sorted(a for a in self.devices if a not in self.nack)
 

@@ -5,16 +5,18 @@
 // its two I2C controllers are bridged to the Python parent over three pipes:
 //   fd 3 (to Python):   'U' USB bytes from the chip, 'A'/'W'/'R' I2C, 'T' time, 'X' reset,
 //                        'C' USB configured, 'E' fatal, 'L' log line;
-//   fd 4 (from Python): the answers to 'A' (1 byte) and 'R' (1 + READ_AHEAD bytes), read
+//   fd 4 (from Python): the answers to 'A' (status, then until when the address ACKs: 9
+//                        bytes) and 'R' (the same, then READ_AHEAD bytes), read
 //                        synchronously, so the chip stands still while Python answers;
 //   fd 5 (from Python): 'H' bytes for the chip's USB OUT endpoint, 'P' hold/run, 'Q' quit.
 // Each message: type (1 byte), payload length (u16 LE), payload.
 //
-// The ADS122C04s are Python's (the same models every core uses): an I2C transaction is
-// asked for ('A': address phase at the chip's time), its written bytes sent ('W', at STOP)
-// or, before its first read byte, sent with a request for the bytes a read returns ('R').
-// A device cannot know how many bytes the controller will clock out, so the read's bytes
-// are asked for once and handed out as the controller reads them. Each bus event completes
+// The ADS122C04s are Python's (the same models every core uses). A write's address phase is
+// asked for ('A', at the chip's time) unless Python's last answer for that address said it
+// ACKs until a later time (no fault due before); its bytes go at STOP ('W'). A read's address
+// phase asks for the bytes the read returns, with the bytes written before the repeated
+// start ('R'): a device cannot know how many bytes the controller will clock out, so they are
+// asked for once and handed out as the controller reads them. Each bus event completes
 // after its bit times at the controller's own SCL period (hcnt + lcnt system clocks), so
 // the bus costs the chip what it costs on a board.
 //
@@ -25,13 +27,15 @@
 //
 // Time: the chip's clock is rp2040js's simulation clock (125 MHz). While the core sleeps
 // (WFE/WFI), or spins on a peripheral (the same load of the TIMER or an I2C controller again
-// within SPIN_CYCLES: a busy-wait for the bus or for a deadline), its clock jumps to its next
+// within SPIN_CYCLES: a busy-wait for a deadline or for the bus), its clock jumps to its next
 // alarm (at most SPIN_MAX_NS ahead when spinning), as the instructions of the wait would have
-// taken it there; a bus wait ends exactly when the byte completes, a deadline at most
-// SPIN_MAX_NS late. Real time (default): only as far as the wall clock has gone, so an idle
-// board costs no CPU and never runs ahead of real time. Fast: at once, and the chip holds
-// while Python says 'P' 1 (no host, or the host is not reading). cfg.spin_skip false turns
-// the spin rule off (benches that count cycles).
+// taken it there; a bus wait ends exactly when the byte completes, a deadline a few
+// SPIN_MAX_NS late (a loop may load the timer three times a turn). Real time (default): only as far as the wall clock has gone, so an idle
+// board costs no CPU and never runs ahead of real time. Fast: at once while the firmware
+// samples (an I2C transaction in the last SAMPLING_NS), else at real time, so a board
+// waiting for its host's next command does not run its scene ahead; the chip holds while
+// Python says 'P' 1 (no host, or the host is not reading). cfg.spin_skip false
+// ($TACTILE_PICO_SPIN=0) turns the spin rule off.
 
 import fs from 'node:fs';
 import net from 'node:net';
@@ -52,8 +56,12 @@ const OUT = 3;
 const REPLY = 4;
 const SLICE_MS = 10; // run this long between looks at the pipe from Python
 const TIME_EVERY_NS = 1e6; // report the chip's time at least this often
-const SPIN_CYCLES = 64; // a load repeated this soon from the same instruction: a busy-wait
-const SPIN_MAX_NS = 20e3;
+// A load repeated this soon by the same instruction is a busy-wait: on the TIMER (a delay
+// loop), and on an I2C controller when it also reads the same value (pico-sdk's wait for a
+// byte, its timeout check included, takes 67 cycles a turn; a status that changes is work).
+const SPIN_CYCLES = { timer: 64, i2c: 100 };
+const SPIN_MAX_NS = 5e3;
+const SAMPLING_NS = 10e6; // fast: I2C this recently means the firmware is sampling
 const TIMER_BASE = 0x40054;
 
 // --- the pipes ----------------------------------------------------------------------------
@@ -140,7 +148,8 @@ function boot() {
   wireUsb();
   mcu.i2c.forEach(wireI2c);
   if (cfg.spin_skip !== false) {
-    for (const p of [mcu.peripherals[TIMER_BASE], ...mcu.i2c]) watchSpin(p);
+    watchSpin(mcu.peripherals[TIMER_BASE], 'timer');
+    mcu.i2c.forEach((i2c) => watchSpin(i2c, 'i2c'));
   }
   lastTimeNs = -TIME_EVERY_NS;
   mcu.core.PC = FLASH_BASE;
@@ -191,43 +200,70 @@ function feedUsb() {
   }
 }
 
-// A load from `peripheral` by the instruction that loaded from it SPIN_CYCLES ago or less
-// (keyed by the instruction's address) marks a busy-wait: see "Time" above.
-function watchSpin(peripheral) {
+// A load from `peripheral` by an instruction (keyed by its address) that made the same load
+// within SPIN_CYCLES[kind] twice before in a row (a loop, not a function called twice), each
+// time with the same value for an I2C controller, marks a busy-wait: see "Time" above.
+function watchSpin(peripheral, kind) {
   const read = peripheral.readUint32.bind(peripheral);
-  const last = new Map();
+  const limit = SPIN_CYCLES[kind];
+  const last = new Map(); // instruction address -> [cycle count, value, repeats in a row]
   peripheral.readUint32 = (offset) => {
     const core = mcu.core;
-    const at = last.get(core.PC);
-    if (at !== undefined && core.cycles - at <= SPIN_CYCLES) spinning = true;
-    last.set(core.PC, core.cycles);
-    return read(offset);
+    const value = read(offset);
+    const seen = last.get(core.PC);
+    let repeats = 0;
+    if (seen && core.cycles - seen[0] <= limit && (kind === 'timer' || seen[1] === value)) {
+      repeats = seen[2] + 1;
+      if (repeats >= 2) spinning = true;
+    }
+    last.set(core.PC, [core.cycles, value, repeats]);
+    return value;
   };
 }
 
 // --- I2C: transactions answered by Python ------------------------------------------------------
 function wireI2c(i2c, bus) {
   let txn = null;
+  const approved = new Map(); // address -> the chip's time (ns) until which it ACKs, Python said
   const bitNs = () => ((i2c.sclHighPeriod + i2c.sclLowPeriod) * 1e9) / mcu.clkSys;
   const later = (bits, done) => {
     if (!cfg.bus_time) return done();
     const alarm = mcu.clock.createAlarm(done);
     alarm.schedule(bits * bitNs());
   };
-  const now = () => timeBytes(mcu.clock.nanos);
+  const ask = (kind, addr, extra, n) => {
+    send(kind, Buffer.concat([Buffer.from([bus, addr]), timeBytes(mcu.clock.nanos), extra]));
+    const reply = readReply(n);
+    approved.set(addr, reply[0] === 0 ? Number(reply.readBigUInt64LE(1)) : -1);
+    return reply;
+  };
   const flushWrite = () => {
     if (txn && txn.ack && !txn.read && txn.written.length) {
-      send('W', Buffer.concat([Buffer.from([bus, txn.addr]), now(), Buffer.from(txn.written)]));
+      const head = Buffer.from([bus, txn.addr]);
+      send('W', Buffer.concat([head, timeBytes(mcu.clock.nanos), Buffer.from(txn.written)]));
     }
   };
   i2c.onStart = () => later(1, () => i2c.completeStart());
   i2c.onConnect = (addr, mode) => {
-    if (!txn || addr !== txn.addr) {
-      flushWrite();
-      send('A', Buffer.concat([Buffer.from([bus, addr, mode]), now()]));
-      txn = { addr, ack: readReply(1)[0] === 0, written: [], read: null, at: 0 };
+    lastI2cNs = mcu.clock.nanos;
+    if (txn && addr !== txn.addr) {
+      flushWrite(); // (a repeated start to another device: the write was its own transaction)
+      txn = null;
     }
-    const ack = txn.ack;
+    let ack;
+    if (mode === 1) {
+      // A read: asked for once, with the bytes written before the repeated start.
+      const written = Buffer.from(txn ? txn.written : []);
+      const reply = ask('R', addr, written, 9 + READ_AHEAD);
+      ack = reply[0] === 0;
+      txn = { addr, ack, written: [], read: reply.subarray(9), at: 0 };
+    } else if (!txn) {
+      // A write's address phase: answered here while Python's last answer holds, else asked.
+      ack = (approved.get(addr) ?? -1) > mcu.clock.nanos || ask('A', addr, Buffer.alloc(0), 9)[0] === 0;
+      txn = { addr, ack, written: [], read: null, at: 0 };
+    } else {
+      ack = txn.ack;
+    }
     later(9, () => i2c.completeConnect(ack));
   };
   i2c.onWriteByte = (value) => {
@@ -235,11 +271,6 @@ function wireI2c(i2c, bus) {
     later(9, () => i2c.completeWrite(true));
   };
   i2c.onReadByte = () => {
-    if (!txn.read) {
-      send('R', Buffer.concat([Buffer.from([bus, txn.addr]), now(), Buffer.from(txn.written)]));
-      const reply = readReply(1 + READ_AHEAD);
-      txn.read = reply.subarray(1);
-    }
     const value = txn.at < txn.read.length ? txn.read[txn.at] : 0xff;
     txn.at += 1;
     later(9, () => i2c.completeRead(value));
@@ -275,11 +306,20 @@ input.on('data', (chunk) => {
 input.on('end', () => process.exit(0));
 
 // --- the run -----------------------------------------------------------------------------------
-const wallStart = performance.now();
-let simStart = 0;
+// Pacing: the chip's time may not pass the wall clock's since the anchor (real time: the
+// start, or a reset; fast: the moment the chip last stopped sampling, see "Time" above).
+let anchorWall = performance.now();
+let anchorSim = 0;
+let lastI2cNs = -Infinity; // the chip's time of its latest I2C transaction
 
 function slice() {
-  if (hold) return setTimeout(slice, 2);
+  if (hold) {
+    if (cfg.fast) {
+      anchorWall = performance.now(); // held time does not pass for the chip
+      anchorSim = mcu.clock.nanos;
+    }
+    return setTimeout(slice, 2);
+  }
   const core = mcu.core;
   const clock = mcu.clock;
   const cycleNs = 1e9 / mcu.clkSys;
@@ -293,8 +333,11 @@ function slice() {
           spinning = false;
           step = step > 0 ? Math.min(step, SPIN_MAX_NS) : SPIN_MAX_NS;
         }
-        if (!cfg.fast) {
-          const ahead = clock.nanos - simStart - (performance.now() - wallStart) * 1e6;
+        if (cfg.fast && clock.nanos - lastI2cNs <= SAMPLING_NS) {
+          anchorWall = performance.now(); // sampling: between samples time skips at once
+          anchorSim = clock.nanos;
+        } else {
+          const ahead = clock.nanos - anchorSim - (performance.now() - anchorWall) * 1e6;
           if (ahead >= 0) {
             idleMs = Math.min(5, Math.max(1, ahead / 1e6));
             break;
@@ -313,7 +356,9 @@ function slice() {
     }
     if (resetPending) {
       resetPending = false;
-      simStart = -(performance.now() - wallStart) * 1e6; // the new chip's clock starts at 0
+      anchorWall = performance.now(); // the new chip's clock starts at 0
+      anchorSim = 0;
+      lastI2cNs = -Infinity;
       boot();
       send('X');
       return setImmediate(slice);

@@ -28,6 +28,7 @@ import select
 import shutil
 import subprocess
 import sys
+import time
 
 from tactile.errors import BoardError, InputError, MissingExtra
 
@@ -36,6 +37,8 @@ CHIP_JS = HERE / "pico_chip.mjs"
 NPM_DIR = HERE / "npm"
 ROM, IMAGE = "bootrom-b1.bin", "micropython-rpi_pico.uf2"
 READ_AHEAD = 16  # bytes a read answers with (pico_chip.mjs)
+GAP_S = 0.0005  # a burst of I2C requests goes on while the next comes within this
+BURST_S = 0.005  # and for at most this long, before the server looks at its host again
 FLASH_SIZE = 2 * 1024 * 1024
 
 
@@ -150,6 +153,7 @@ class PicoBoard:
             "flash": str(pathlib.Path(flash).resolve()),
             "fast": bool(fast),
             "bus_time": bool(bus_time),
+            "spin_skip": os.environ.get("TACTILE_PICO_SPIN") != "0",
         }
         return PicoChip(self, [exe, str(CHIP_JS), json.dumps(cfg)], lock)
 
@@ -182,6 +186,7 @@ class PicoChip:
         self.resets = 0
         self.configured = False
         self.fatal = None
+        self.ended = False
         self._dev = {}  # bus -> the device of the transaction in progress
         self.requests = 0
 
@@ -200,24 +205,46 @@ class PicoChip:
         self._order(b"P", bytes((1 if on else 0,)))
 
     # --- from the chip -------------------------------------------------------------------
-    def serve(self, timeout_s=0.0):
-        """Handle what the chip has sent (waiting up to ``timeout_s`` for it); False once it
-        has stopped."""
-        if timeout_s > 0 and not select.select([self.fd], [], [], timeout_s)[0]:
-            return self.proc.poll() is None
-        while True:
-            try:
-                data = os.read(self.fd, 65536)
-            except BlockingIOError:
+    def serve(self, fds=(), timeout_s=0.0, burst_s=BURST_S):
+        """Handle what the chip sends, waiting up to ``timeout_s`` for it or for one of
+        ``fds`` to be readable; then answer the requests that follow within ``GAP_S`` of
+        each other (the chip asks its next I2C transaction microseconds after an answer), for
+        up to ``burst_s``.  Returns the ``fds`` found readable; ``alive()`` says whether the
+        chip still runs."""
+        ready = select.select([self.fd, *fds], [], [], timeout_s)[0]
+        if self.fd not in ready:
+            return ready
+        end = time.monotonic() + burst_s
+        while self._pump() and time.monotonic() < end:
+            if not select.select([self.fd], [], [], GAP_S)[0]:
                 break
-            if not data:
-                self._ended()
-                return False
-            self.buf += data
-            self._messages()
-            if len(data) < 65536:
-                break
-        return self.fatal is None and self.proc.poll() is None
+        return [fd for fd in ready if fd != self.fd]
+
+    def _pump(self):
+        """Handle every message waiting; False once the chip has closed its end."""
+        try:
+            data = os.read(self.fd, 65536)
+        except BlockingIOError:
+            return True
+        if not data:
+            self.ended = True
+            return False
+        self.buf += data
+        self._messages()
+        return True
+
+    def take_usb(self):
+        """The bytes the chip sent its host since the last call."""
+        data = bytes(self.usb)
+        self.usb.clear()
+        return data
+
+    def alive(self):
+        """False once the chip has stopped (``fatal`` then says why, if it failed)."""
+        if self.ended or self.proc.poll() is not None:
+            self.ended = True
+            self._ended()
+        return not self.ended and self.fatal is None
 
     def _messages(self):
         buf = self.buf
@@ -234,15 +261,17 @@ class PicoChip:
     def _handle(self, kind, p):
         if kind == 0x55:  # 'U'
             self.usb += p
-        elif kind == 0x41:  # 'A': address phase
-            self._at(p[3:11])
-            os.write(self.reply_fd, bytes((self._begin(p[0], p[1]),)))
-        elif kind == 0x52:  # 'R': written bytes, then a read
+        elif kind == 0x41:  # 'A': a write's address phase
             self._at(p[2:10])
-            os.write(self.reply_fd, self._read(p[0], p[10:]))
+            err = self._begin(p[0], p[1])
+            os.write(self.reply_fd, bytes((err,)) + self._until(p[0], p[1], err))
+        elif kind == 0x52:  # 'R': a read's address phase, after the bytes written before it
+            self._at(p[2:10])
+            err, data = self._read(p[0], p[1], p[10:])
+            os.write(self.reply_fd, bytes((err,)) + self._until(p[0], p[1], err) + data)
         elif kind == 0x57:  # 'W': a write-only transaction, at its STOP
             self._at(p[2:10])
-            self._write(p[0], p[10:])
+            self._write(p[0], p[1], p[10:])
         elif kind == 0x54:  # 'T'
             self.t_us = _us(p)
         elif kind == 0x58:  # 'X': a watchdog reset
@@ -273,7 +302,8 @@ class PicoChip:
         return 0 if self.origin is None else int(self.t_us - self.origin)
 
     def _begin(self, bus, addr):
-        """An address phase: 0 (ACK) or the errno the bus gives (NACK)."""
+        """An address phase: 0 (ACK) or the errno the bus gives (NACK); the device is kept for
+        the transaction's bytes."""
         if bus >= len(self.board.buses):
             return errno.ENODEV
         try:
@@ -283,28 +313,47 @@ class PicoChip:
             self._dev.pop(bus, None)
             return exc.errno or errno.EIO
 
-    def _write(self, bus, data):
+    def _device(self, bus, addr):
+        """The device of the transaction in progress: the one its address phase found, or
+        (the chip answered that phase itself) the bus's now; None when it NACKs."""
         dev = self._dev.pop(bus, None)
+        if dev is None and self._begin(bus, addr) == 0:
+            dev = self._dev.pop(bus)
+        return dev
+
+    def _until(self, bus, addr, err):
+        """8 bytes: the chip's time (ns) until which ``addr`` on ``bus`` ACKs with no need to
+        ask, i.e. until the scene's next fault (0: ask every time)."""
+        if err or bus >= len(self.board.buses) or self.board.buses[bus].fails_pending():
+            return bytes(8)
+        nxt = None if self.board.faults is None else self.board.faults.next_us()
+        if nxt is None:
+            return (2**63 - 1).to_bytes(8, "little")
+        return int((self.origin + nxt) * 1000).to_bytes(8, "little")
+
+    def _write(self, bus, addr, data):
+        dev = self._device(bus, addr)
         if dev is not None:
             dev.write(bytes(data))
 
-    def _read(self, bus, written):
-        dev = self._dev.pop(bus, None)
+    def _read(self, bus, addr, written):
+        """(errno, READ_AHEAD bytes): the read of a transaction, after ``written``."""
+        dev = self._device(bus, addr)
         buf = bytearray(READ_AHEAD)
         if dev is None:
-            return b"\x05" + bytes(buf)
+            return errno.EIO, bytes(buf)
         if len(written) == 1 and hasattr(dev, "read_mem_into"):
             dev.read_mem_into(written[0], buf)
         else:
             if written:
                 dev.write(bytes(written))
             dev.read_into(buf)
-        return b"\x00" + bytes(buf)
+        return 0, bytes(buf)
 
     def _ended(self):
         self.proc.wait(5)
-        said = self.proc.stderr.read().decode(errors="replace").strip().splitlines()
-        if self.fatal is None and self.proc.returncode not in (0, None):
+        if self.fatal is None and self.proc.returncode not in (0, -9):
+            said = self.proc.stderr.read().decode(errors="replace").strip().splitlines()
             self.fatal = said[-1] if said else f"node exited with status {self.proc.returncode}"
 
     def close(self):

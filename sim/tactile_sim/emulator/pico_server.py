@@ -82,7 +82,8 @@ class PicoServer:
                 break
             self._host()
             self._hold()
-            if not chip.serve(IDLE_S):
+            chip.serve([self.endpoint.master], IDLE_S)
+            if not chip.alive():
                 break
             self._to_host()
         if not self.realtime:
@@ -116,9 +117,8 @@ class PicoServer:
 
     def _to_host(self):
         chip, ep = self.chip, self.endpoint
-        if chip.usb:
-            data = bytes(chip.usb)
-            chip.usb.clear()
+        data = chip.take_usb()
+        if data:
             if self.faults is not None:
                 data = self.faults.apply(data)
             if ep.host_present:
@@ -130,9 +130,9 @@ class PicoServer:
     def _let_host_read(self):
         """Fast mode's end: the host reads what is queued before the chip goes."""
         empty_since = None
-        while self.endpoint.host_present and not self.stop:
+        while self.endpoint.host_present and not self.stop and self.chip.alive():
             self._host()
-            self.chip.serve(IDLE_S)
+            self.chip.serve([self.endpoint.master], IDLE_S)
             self._to_host()
             if self.to_host or self.endpoint.unread():
                 empty_since = None
