@@ -7,11 +7,12 @@ machine); what is asserted is what the board and the host report."""
 
 import time
 
+import numpy as np
 import serial
 from board_target import BoardTarget
 from pico_target import serve
 
-from tactile import board_probe, flashing, raw_repl
+from tactile import board_probe, flashing, load_recording, raw_repl
 from tactile.board_client import BoardClient
 from tactile_protocol import constants as C
 
@@ -56,7 +57,18 @@ def test_a_new_pico_is_flashed_and_answers(tmp_path, cli):
             " it answers: tactile firmware 0.1.0 (protocol 3), 1 sensor FT6/ADS122C04x6,"
         )
         code, out, err = cli("info", "--port", pico.path, "--wait", "10")
-    assert (code, err) == (0, "") and out.startswith("firmware      0.1.0  (protocol 3)")
+        assert (code, err) == (0, "") and out.startswith("firmware      0.1.0  (protocol 3)")
+        # then it samples at 1 kHz (the native module flash copied), every frame whole
+        code, _, err = cli("config", "--port", pico.path, "--rate", "1000", "--streams", "samples")
+        assert code == 0, err
+        code, out, err = cli("record", "--port", pico.path, "--duration", "3", "--no-tare",
+                             "-o", tmp_path / "run", "--quiet")  # fmt: skip
+    assert code == 0 and "lost 0 frames, 0 CRC errors, 0 gaps" in out, (out, err)
+    rec = load_recording(tmp_path / "run")
+    t = rec.board_time_s  # the board's clock
+    per_s = (len(t) - 1) / (t[-1] - t[0])
+    assert len(t) > 300 and abs(per_s - 1000) < 1 and not rec.is_contact.any()  # per board s
+    assert not np.any(rec.flags & C.FLAG_LATE)
 
 
 def test_a_pico_that_streams_from_boot_is_stopped_flashed_and_streams_again(pico_flashed, cli):

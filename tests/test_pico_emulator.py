@@ -69,6 +69,12 @@ def _emulate(tmp_path, *args, env=None):
                           env=dict(os.environ, **(env or {})))  # fmt: skip
 
 
+def test_tactile_emulate_core_rp2040_prints_its_pty_and_stops_at_its_duration(tmp_path):
+    r = _emulate(tmp_path)  # --duration 0.01: of the chip's time
+    assert r.returncode == 0 and r.stdout.startswith("/dev/pts/"), r.stderr
+    assert "on the rp2040 core" in r.stderr and (tmp_path / "board.flash").stat().st_size == 2**21
+
+
 def test_what_the_emulated_pico_lacks_is_named_in_one_line(tmp_path):
     import shutil
 
