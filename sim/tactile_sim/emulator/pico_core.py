@@ -54,7 +54,8 @@ class PicoError(BoardError):
 def rp2_dir():
     """The folder with the boot ROM and MicroPython's image, or PicoUnavailable."""
     env = os.environ.get("TACTILE_RP2_DIR")
-    candidates = [pathlib.Path(env)] if env else [HERE.parents[3] / "shared" / "rp2"]
+    # (a checkout's ../shared/rp2, or the same beside a folder further up)
+    candidates = [pathlib.Path(env)] if env else [d / "shared" / "rp2" for d in HERE.parents[3:]]
     for folder in candidates:
         if (folder / ROM).is_file() and (folder / IMAGE).is_file():
             return folder
