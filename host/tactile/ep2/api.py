@@ -21,9 +21,9 @@ The steps: ``patch_input`` (validation, duplicates, centring), ``centre_jet`` (t
 import numpy as np
 
 from tactile.ep2 import (
-    centre_jet,
     discontinuity,
-    jet_outcomes,
+    jet_answers,
+    local_jet,
     patch_frame,
     patch_input,
     patch_result,
@@ -91,13 +91,8 @@ def analyze_patch(
 
 def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
-    noise = (opts["noise_pos"], opts["noise_normal"])
-    fits = centre_jet.fit(
-        pts[None], nrm[None], mask, *noise, opts["max_normal_angle"], opts["intervals"]
-    )
-    (out,) = jet_outcomes.outcomes(
-        fits, opts, jet_outcomes.inputs(fits, opts["grid"]), [opts["lines"]]
-    )
+    stack = local_jet.fit(pts[None], nrm[None], mask, opts["noise_pos"], opts["noise_normal"])
+    (out,) = jet_answers.outcomes(stack, opts, [opts["lines"]])
     if isinstance(out, DataError):
         raise out
     return out

@@ -17,10 +17,10 @@ import numpy as np
 
 from tactile.ep2 import (
     api,
-    centre_jet,
     discontinuity,
     extent,
-    jet_outcomes,
+    jet_answers,
+    local_jet,
     patch_input,
     patch_result,
 )
@@ -72,11 +72,9 @@ def _chunk(patches, kw):
             m = len(prep.points)
             P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
         opts = prepared[0][1].opts
-        noise = (opts["noise_pos"], opts["noise_normal"])
-        fits = centre_jet.fit(P, N, mask, *noise, opts["max_normal_angle"], opts["intervals"])
-        pre = jet_outcomes.inputs(fits, opts["grid"])
+        stack = local_jet.fit(P, N, mask, opts["noise_pos"], opts["noise_normal"])
         lines = [prep.opts["lines"] for _, prep in prepared]
-        outcomes = jet_outcomes.outcomes(fits, opts, pre, lines)
+        outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):
             if not isinstance(res, DataError):
                 res = patch_result.from_fields(

@@ -1,0 +1,138 @@
+"""From a ``local_jet.JetStack`` to each patch's result fields, or the refusal in its place.
+
+A patch is refused only when its fit says so (too few consistent contacts, no quadric
+through them) or when the covariance of its curvature (noise and bias left, as
+``local_jet`` counts them) leaves a direction undetermined: a 95 % half-width over
+``MAX_HALF_WIDTH`` / L, named in world coordinates.  Otherwise: the headline curvature,
+intervals and label at the patch centre (``centre_result.summary_many``), the thesis's grid
+statistics (§4.8.2, ``grid_batch``) and the fields ``patch_result.from_fields`` takes.
+"""
+
+import math
+
+import numpy as np
+
+from tactile.ep2 import centre_result, grid_batch, patch_frame
+from tactile.ep2.grid_batch import DERIVS
+from tactile.ep2.local_jet import design, rows, size
+from tactile.ep2.surface_geometry import principal
+from tactile.errors import DataError
+
+MAX_HALF_WIDTH = 0.25  # of 1/L: the curvature's 95 % half-width beyond which it is unknown
+
+
+def outcomes(stack, opts, lines=None):
+    """A list per patch of ``stack``: its field dict, or the ``DataError`` refusing it."""
+    B = len(stack.scale)
+    lines = [None] * B if lines is None else lines
+    out = [None] * B
+    live = [b for b in range(B) if stack.reason[b] is None]
+    for b in range(B):
+        if stack.reason[b] is not None:
+            out[b] = DataError(_name_rows(stack.reason[b], lines[b]))
+    if live:
+        cov = stack.cov[live]
+        half = 1.96 * np.sqrt(np.maximum(np.linalg.eigvalsh(cov)[:, -1], 0.0))
+        wide = ~((half <= MAX_HALF_WIDTH) & np.all(np.isfinite(cov), axis=(1, 2)))
+        for b in np.asarray(live)[wide].tolist():
+            out[b] = DataError(undetermined(stack.cov[b], stack.axes[b], stack.scale[b]))
+    ok = np.array([b for b in live if out[b] is None], int)
+    if not len(ok):
+        return out
+    heads = centre_result.summary_many(
+        stack.t[ok], stack.cov[ok], None, stack.scale[ok], opts["intervals"],
+        stack.cov_noise[ok],
+    )  # fmt: skip
+    ch, gx, gy = channels(stack, ok, opts["grid"])
+    stats = {
+        k: np.asarray(v).tolist() for k, v in grid_batch.statistics(ch, stack.scale[ok]).items()
+    }
+    zx, zy, zxx, zxy, zyy = np.moveaxis(stack.coef[ok][:, 1:6], -1, 0)
+    d1 = np.einsum("bi,bij->bj", np.asarray(principal(zx, zy, zxx, zxy, zyy)["dir1"], float),
+                   stack.axes[ok])  # fmt: skip
+    xy = stack.xy[ok] + stack.centre[ok][:, None, :]
+    keep = stack.keep[ok][..., None]
+    box = np.concatenate([np.where(keep, xy, np.inf).min(1), np.where(keep, xy, -np.inf).max(1)],
+                         -1)[:, [0, 2, 1, 3]].tolist()  # fmt: skip
+    for k, (b, head) in enumerate(zip(ok.tolist(), heads, strict=True)):
+        head["warnings"] = [_name_rows(w, lines[b]) for w in stack.warnings[b]]
+        head.update(grid_batch.at(stats, k, float(stack.scale[b]), head["shape"] == "plane"))
+        head.update(direction1=d1[k], box=tuple(box[k]))
+        out[b] = _fields(stack, b, head, ([c[k] for c in ch], gx[k], gy[k]))
+    return out
+
+
+def undetermined(cov, axes, scale):
+    """None, or why the curvature is not determined (its worst direction, world coordinates)."""
+    w = np.linalg.eigvalsh(cov)
+    half = 1.96 * math.sqrt(max(float(w[-1]), 0.0))
+    if half <= MAX_HALF_WIDTH and np.all(np.isfinite(cov)):
+        return None
+    # curvature along u = (cos th, sin th): a cos^2 + 2 b cos sin + c sin^2; its worst th
+    th = np.linspace(0.0, np.pi, 181)[:-1]
+    u = np.stack([np.cos(th) ** 2, 2 * np.cos(th) * np.sin(th), np.sin(th) ** 2])
+    worst = th[int(np.argmax(np.einsum("in,ij,jn->n", u, np.nan_to_num(cov), u)))]
+    d = np.cos(worst) * axes[0] + np.sin(worst) * axes[1]
+    return (
+        f"curvature along {centre_result.direction_text(d)} is not determined: its 95 %"
+        f" interval is +/- {half / scale:.3g} per unit length, over {MAX_HALF_WIDTH:g}/L"
+        f" (L = {scale:.4g}); the contacts do not span that direction well: sweep across it"
+    )
+
+
+def channels(stack, idx, n):
+    """(zx, zy, zxx, zxy, zyy) of each patch's answer on an n x n grid over its contacts' box
+    (frame, / L), each (b, n^2), and the grid's x, y (b, n^2)."""
+    xy, keep, centre = stack.xy[idx], stack.keep[idx], stack.centre[idx]
+    lo = np.where(keep[..., None], xy, np.inf).min(1)
+    hi = np.where(keep[..., None], xy, -np.inf).max(1)
+    xs = np.linspace(lo[:, 0], hi[:, 0], n, axis=-1)
+    ys = np.linspace(lo[:, 1], hi[:, 1], n, axis=-1)
+    gx, gy = np.repeat(xs, n, axis=-1), np.tile(ys, (1, n))  # about the centre
+    coef = stack.coef[idx]
+    order = _order_of(coef.shape[1])
+    ch = [np.einsum("bgp,bp->bg", rows(gx, gy, order, a, c), coef) for a, c in DERIVS]
+    return ch, gx + centre[:, :1], gy + centre[:, 1:]
+
+
+def _order_of(p):
+    o = 0
+    while size(o) < p:
+        o += 1
+    return o
+
+
+def _fields(stack, b, head, grid):
+    L, axes, coef = float(stack.scale[b]), stack.axes[b], stack.coef[b]
+    centre = stack.centre[b]
+    order = _order_of(len(coef))
+    head.update(
+        order=int(stack.order[b]),
+        weighting="auto" if not any(stack.stated) else "stated",
+        model=_model_text(stack, b),
+        noise_pos=float(stack.noise[b, 0]),
+        noise_normal=float(stack.noise[b, 1]),
+        frame=patch_frame.PatchFrame(stack.origin[b], axes),
+        scale=L,
+        surface=lambda q: design(q[:, 0] - centre[0], q[:, 1] - centre[1], order)[0] @ coef,
+        grid=grid,
+    )
+    return head
+
+
+def _model_text(stack, b):
+    """One line: the jet the answer is, how far it moved from the 2-jet, what checked it."""
+    w, top = float(stack.weight[b]), int(stack.top[b])
+    hi = top - 1 if top >= 4 else top
+    moved = f", moved {w:.2f} of the way to the {hi}-jet" if hi > 2 else ""
+    return (f"2-jet of positions and normals{moved}; truncation checked against the "
+            f"{top}-jet")  # fmt: skip
+
+
+def _name_rows(why, lines):
+    """A line naming 'contact k' names its CSV line instead, where lines are known."""
+    if lines is not None and "contact " in why:
+        k = int(why.split("contact ")[1].split()[0].rstrip(":"))
+        why = why.replace(f"contact {k} ", f"line {lines[k]} ", 1)
+        why = why.replace(f"contact {k}:", f"line {lines[k]}:", 1)
+    return why

@@ -1,0 +1,464 @@
+"""The default EP2 fit: jets of positions and normals about the patch centre, for a stack.
+
+In one's head (thesis §4.5-4.6 made local; §5.1.2's frame):
+
+1. **Frame.**  Origin at the contacts' centroid, z along their mean normal (seeded at the
+   medoid normal, so one flipped normal cannot turn it), lengths in units of L, the larger
+   side of their box; the curvature is wanted at the box's middle, the patch centre.
+2. **Rows.**  Each contact gives its height z and, from its normal, two slopes
+   (-nx/nz, -ny/nz).  A jet of order m is the Taylor polynomial about the centre,
+   sum c_ij x^i y^j / (i! j!), so its coefficients are the derivatives there.  Rows are
+   weighted by their noise: positions 1/(sigma_p sqrt(1 + g^2)), slopes
+   1/(sigma_s (1 + g^2)), g the contact's slope and sigma_s^2 = sigma_n^2 + (k sigma_p)^2
+   (a point off along the surface reads the slope of another place).  A sigma not stated
+   is estimated from that row type's residuals (RSS over rows minus leverage).
+3. **Every order at once.**  One QR of the jet of the highest order the contacts
+   determine (up to ``TOP_ORDER``, columns by degree) gives every lower jet too: the
+   leading columns of a QR are the QR of the leading columns.
+4. **Outliers.**  A contact whose normal is over ``MAX_ANGLE`` from the patch's, or whose
+   three residuals jointly fail a chi^2 test at the patch's own scale, is left out and
+   named; at most ``MAX_OUTLIERS``.  Then everything is redone without it.
+5. **The answer** is the 2-jet, moved toward the jet one below the top by the evidence
+   that its curvature differs from the 2-jet's (James-Stein, ``SHRINK`` times the
+   statistic's degrees of freedom): noise keeps the 2-jet, a surface the 2-jet cannot
+   follow moves it.  Its covariance counts the noise and the bias left: what remains of
+   the 2-jet's (its difference to the higher jet, less that difference's noise), the
+   higher jet's against the top, and the order above the top, sized as a sphere or
+   cylinder of the measured curvature would size it (a circle's z6 = 5 z4^2 / z2).
+
+``fit`` returns a ``JetStack``; ``jet_answers`` turns it into results and refusals.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tactile.ep2.surface_geometry import shape_entries
+
+TOP_ORDER = 4
+MAX_ANGLE = 80.0  # deg: a normal further from the patch's is not of this patch
+MAX_OUTLIERS = 2
+SHRINK = 3.0
+FLOOR = 1e-4  # noise floor: of L for positions, rad for normals
+START_NOISE = 0.01  # the first pass's sigmas when none is stated (of L, rad)
+SLOPE_LIMIT = math.tan(math.radians(MAX_ANGLE))
+
+
+def exponents(order):
+    """(i, j) of the jet's monomials x^i y^j, by degree (the column order)."""
+    return [(i, d - i) for d in range(order + 1) for i in range(d, -1, -1)]
+
+
+def size(order):
+    return (order + 1) * (order + 2) // 2
+
+
+def rows(x, y, order, dx=0, dy=0):
+    """Rows of d^(dx+dy)/dx^dx dy^dy of the jet sum c_ij x^i y^j / (i! j!), (..., p): with
+    this scaling a derivative only shifts the exponents (zero where they would go negative),
+    and the coefficients are the jet's derivatives at the centre."""
+    px, py = _powers(x, order), _powers(y, order)
+    zero = np.zeros_like(x)
+    out = [px[i - dx] * py[j - dy] if i >= dx and j >= dy else zero for i, j in exponents(order)]
+    return np.stack(out, -1)
+
+
+def _powers(x, order):
+    """[x^k / k!] for k = 0..order."""
+    out = [np.ones_like(x)]
+    for k in range(1, order + 1):
+        out.append(out[-1] * x / k)
+    return out
+
+
+def design(x, y, order):
+    """Rows of the jet's value, d/dx and d/dy: three (..., p) arrays."""
+    return rows(x, y, order), rows(x, y, order, 1, 0), rows(x, y, order, 0, 1)
+
+
+@dataclass
+class JetStack:
+    """What ``fit`` found for each patch of a stack (B patches); lengths / L unless said."""
+
+    t: np.ndarray  # (B, 3) shape-operator entries at the centre
+    cov: np.ndarray  # (B, 3, 3) of t: noise and bias left (intervals, tests)
+    cov_noise: np.ndarray  # (B, 3, 3) of t: noise alone (debiasing)
+    coef: np.ndarray  # (B, p_top) the answer's jet (zeros beyond its order)
+    order: np.ndarray  # (B,) the jet the answer leans on (2 unless it moved over halfway)
+    top: np.ndarray  # (B,) the highest order the contacts determine
+    weight: np.ndarray  # (B,) how far the answer moved from the 2-jet to the higher jet
+    noise: np.ndarray  # (B, 2) sigma_p (input unit) and sigma_n (rad) the weights used
+    stated: tuple  # (noise_pos stated, noise_normal stated)
+    origin: np.ndarray  # (B, 3) frame origin (world)
+    axes: np.ndarray  # (B, 3, 3) rows: the frame's x, y, z in world coordinates
+    scale: np.ndarray  # (B,) L
+    centre: np.ndarray  # (B, 2) the box middle in the frame (/ L)
+    xy: np.ndarray  # (B, n, 2) contacts in the frame, about the centre (/ L)
+    keep: np.ndarray  # (B, n) contacts used
+    reason: list  # per patch: None, or why it is refused
+    warnings: list = field(default_factory=list)  # per patch: list of lines
+
+
+def fit(P, N, mask, noise_pos=None, noise_normal=None):
+    """Fit every patch of the stack: P, N (B, n, 3) world points and unit normals (rows
+    beyond a patch's contacts masked out by ``mask`` (B, n))."""
+    P, N, mask = np.asarray(P, float), np.asarray(N, float), np.asarray(mask, bool)
+    keep, warnings = _screen_normals(N, mask)
+    reason = [None] * len(P)
+    for _ in range(MAX_OUTLIERS + 1):
+        f = _fit_once(P, N, keep, noise_pos, noise_normal)
+        worst, why = _worst_contact(f, keep)
+        left = np.array([MAX_OUTLIERS - len(w) for w in warnings])
+        flag = worst >= 0
+        if not flag.any():
+            break
+        for b in np.flatnonzero(flag):
+            if left[b] <= 0:
+                reason[b] = reason[b] or (
+                    f"more than {MAX_OUTLIERS} contacts disagree with the surface the others "
+                    f"describe ({why[b]}): too few consistent contacts"
+                )
+                continue
+            keep[b, worst[b]] = False
+            warnings[b].append(f"contact {worst[b]} left out: {why[b]}")
+        if all(reason[b] is not None or left[b] <= 0 for b in np.flatnonzero(flag)):
+            break
+    return _answer(f, keep, reason, warnings, (noise_pos is not None, noise_normal is not None))
+
+
+# --- 1. screening and the frame -------------------------------------------------------------
+def _screen_normals(N, mask):
+    """Contacts whose normal is over MAX_ANGLE from the patch's mean normal (seeded at the
+    medoid: the normal closest to all others) are left out, with a warning each."""
+    cosmax = math.cos(math.radians(MAX_ANGLE))
+    dots = np.einsum("bik,bjk->bij", N, N) * mask[:, None, :]
+    medoid = np.argmax(np.where(mask, dots.sum(-1), -np.inf), axis=-1)
+    seed = N[np.arange(len(N)), medoid]
+    near = mask & (np.einsum("bnk,bk->bn", N, seed) > cosmax)
+    mean = _unit(np.einsum("bn,bnk->bk", near.astype(float), N))
+    cos = np.einsum("bnk,bk->bn", N, mean)
+    keep = mask & (cos > cosmax)
+    warnings = [[] for _ in range(len(N))]
+    for b, k in zip(*np.nonzero(mask & ~keep), strict=True):
+        angle = math.degrees(math.acos(max(-1.0, min(1.0, float(cos[b, k])))))
+        warnings[b].append(f"contact {k} left out: its normal is {angle:.0f} deg from its "
+                           "neighbours'")  # fmt: skip
+    return keep, warnings
+
+
+def _unit(v):
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def _frame(P, N, keep):
+    """(origin (B, 3), axes (B, 3, 3), L (B,), centre (B, 2)) as ``patch_frame`` builds it,
+    from the contacts kept."""
+    w = keep.astype(float)
+    z = _unit(np.einsum("bn,bnk->bk", w, N))
+    ref = np.where((np.abs(z[:, :1]) < 0.9), [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    x = _unit(ref - z * np.sum(ref * z, -1, keepdims=True))
+    axes = np.stack([x, np.cross(z, x), z], axis=1)
+    origin = np.einsum("bn,bnk->bk", w, P) / np.maximum(w.sum(-1), 1.0)[:, None]
+    q = np.einsum("bij,bnj->bni", axes, P - origin[:, None])[..., :2]
+    lo = np.where(keep[..., None], q, np.inf).min(1)
+    hi = np.where(keep[..., None], q, -np.inf).max(1)
+    L = np.max(hi - lo, -1)
+    return origin, axes, np.where(L > 0, L, 1.0), 0.5 * (lo + hi)
+
+
+# --- 2-3. rows, weights, noise and every order from one QR -----------------------------------
+def _fit_once(P, N, keep, noise_pos, noise_normal):
+    """Frame, rows, noise and the jets of every order up to the top, for the contacts kept."""
+    origin, axes, L, centre = _frame(P, N, keep)
+    q = np.einsum("bij,bnj->bni", axes, P - origin[:, None]) / L[:, None, None]
+    nn = np.einsum("bij,bnj->bni", axes, N)
+    nz = np.maximum(nn[..., 2], 1e-6)
+    sx = np.clip(-nn[..., 0] / nz, -SLOPE_LIMIT, SLOPE_LIMIT)
+    sy = np.clip(-nn[..., 1] / nz, -SLOPE_LIMIT, SLOPE_LIMIT)
+    x, y = q[..., 0] - centre[:, :1], q[..., 1] - centre[:, 1:]
+    n_kept = keep.sum(-1)
+    top_cap = max(o for o in range(2, TOP_ORDER + 1) if o == 2 or size(o) <= 3 * n_kept.max() - 2)
+    V, DX, DY = design(x, y, top_cap + 1)  # (the extra order: the top's truncation)
+    A = np.concatenate([V, DX, DY], 1)
+    b = np.concatenate([q[..., 2], sx, sy], -1)
+    g2 = sx * sx + sy * sy
+    kk = np.tile(keep, 3).astype(float)
+    stated = (noise_pos is not None, noise_normal is not None)
+    sig = np.empty((len(P), 2))
+    sig[:, 0] = noise_pos / L if stated[0] else START_NOISE
+    sig[:, 1] = noise_normal if stated[1] else START_NOISE
+    kappa = np.zeros(len(P))
+    for rnd in range(2):
+        s = np.maximum(sig, FLOOR)
+        s_slope = np.sqrt(s[:, 1:] ** 2 + (kappa[:, None] * s[:, :1]) ** 2)
+        wp = 1.0 / (s[:, :1] * np.sqrt(1.0 + g2))
+        ws = 1.0 / (s_slope * (1.0 + g2))
+        w = np.concatenate([wp, ws, ws], -1) * kk
+        f = _qr_fits(A, b, w, top_cap, n_kept)
+        if rnd == 1 or all(stated):
+            break
+        sig = _reml(f, s, stated, keep)
+        kappa = _kmax(order_fit(f, 2)[0])
+    f.update(origin=origin, axes=axes, L=L, centre=centre, xy=np.stack([x, y], -1), g2=g2,
+             sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1])  # fmt: skip
+    return f
+
+
+def _qr_fits(A, b, w, top_cap, n_kept):
+    """One QR of the weighted jet (columns by degree) and what it says of every order: the
+    residuals and leverages of order o are those of Q's first size(o) columns."""
+    Aw, bw = A * w[..., None], b * w
+    p_top = size(top_cap)
+    cn = np.linalg.norm(Aw[..., :p_top], axis=1)
+    cn = np.where(cn > 0, cn, 1.0)
+    Q, R = np.linalg.qr(Aw[..., :p_top] / cn[:, None, :])
+    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+    top = np.full(len(A), 2)
+    for o in range(3, top_cap + 1):
+        fits = (size(o) <= 3 * n_kept - 2) & (d[:, : size(o)].min(-1) > 1e-9 * d[:, 0])
+        top = np.where(fits & (top == o - 1), o, top)
+    qb = np.einsum("bmp,bm->bp", Q, bw)
+    resid, hat, r, h = {}, {}, bw, np.zeros(bw.shape)
+    for o in range(2, top_cap + 1):
+        cols = slice(size(o - 1) if o > 2 else 0, size(o))
+        r = r - np.einsum("bmp,bp->bm", Q[..., cols], qb[:, cols])
+        h = h + np.sum(Q[..., cols] ** 2, -1)
+        resid[o], hat[o] = r, h
+    return {"Q": Q, "Rinv": _upper_inverse(R, d), "cn": cn, "qb": qb, "top": top,
+            "ok2": d[:, :6].min(-1) > 1e-9 * d[:, 0], "Aw": Aw, "w": w, "p_top": p_top,
+            "resid": resid, "hat": hat}  # fmt: skip
+
+
+def _upper_inverse(R, d):
+    """Inverses of the stack's upper-triangular R, a singular diagonal taken as 1 (those
+    orders are not used)."""
+    p = R.shape[-1]
+    tiny = d < 1e-9 * d[:, :1]
+    R = R + np.eye(p) * tiny[:, None, :]
+    return np.linalg.inv(R)
+
+
+def order_fit(f, o):
+    """(coef (B, p_o), cov factor F (B, p_o, p_o): coef cov = F F^T, weighted residuals)."""
+    p = size(o)
+    cn = f["cn"][:, :p]
+    Rinv = f["Rinv"][:, :p, :p]  # (the inverse of R's leading block: its leading block)
+    coef = np.einsum("bpq,bq->bp", Rinv, f["qb"][:, :p]) / cn
+    return coef, Rinv / cn[:, :, None], f["resid"][o]
+
+
+def _reml(f, s, stated, keep):
+    """Each row type's sigma from its residuals in the top jet: RSS over (rows - leverage)."""
+    n = keep.shape[1]
+    out = s.copy()
+    r = _pick(f["resid"], f["top"])
+    h = _pick(f["hat"], f["top"])
+    kk = np.tile(keep, 3)
+    for t, cols in ((0, slice(0, n)), (1, slice(n, 3 * n))):
+        if not stated[t]:
+            rss = np.sum((r[:, cols] ** 2) * kk[:, cols], -1)
+            dof = np.sum((1.0 - h[:, cols]) * kk[:, cols], -1)
+            out[:, t] = s[:, t] * np.sqrt(np.maximum(rss, 0.0) / np.maximum(dof, 0.5))
+    return out
+
+
+def _kmax(c):
+    """|k|max of 2-jet coefficients (B, 6) (z, zx, zy, zxx, zxy, zyy), units of 1/L."""
+    a, b, cc = shape_entries(*np.moveaxis(c[:, 1:6], -1, 0))
+    m, h = 0.5 * (a + cc), np.hypot(0.5 * (a - cc), b)
+    return np.abs(m) + h
+
+
+# --- 4. outliers ------------------------------------------------------------------------------
+GROSS_POSITION = 0.05  # of L: a point off by less is not called an outlier, whatever the test
+GROSS_ANGLE = 10.0  # deg: nor a normal turned by less
+ISOLATED = 4.0  # an outlier's statistic is this many times that of the contacts after the worst
+
+
+def _worst_contact(f, keep):
+    """Per patch: the index of the contact that fails the deletion test worst (-1: none),
+    and what is wrong with it, in words.  The test: the contact's three residuals in the top
+    jet, each over (1 - its leverage), against the patch's robust scale (their median), at
+    1e-3 / n; and gross: its point GROSS_POSITION off, or its normal GROSS_ANGLE."""
+    n, top = f["n"], f["top"]
+    r, h = _pick(f["resid"], top), _pick(f["hat"], top)
+    part = r * r / (1.0 - np.minimum(h, 0.999))
+    pos, slope = part[:, :n], part[:, n : 2 * n] + part[:, 2 * n :]
+    stat = np.where(keep, pos + slope, np.nan)
+    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
+    s2 = np.nanmedian(stat, axis=-1) / 2.366  # (the median of chi^2_3)
+    if all(f["stated"]):
+        s2 = np.maximum(s2, 1.0)
+    s2 = np.where(np.isfinite(s2) & (s2 > 0), s2, 1.0)
+    z = np.where(keep, stat / s2[:, None], -1.0)
+    worst = np.argmax(z, -1)
+    idx = np.arange(len(z))
+    w = f["w"]
+    off = np.abs(r[:, :n]) / np.where(w[:, :n] > 0, w[:, :n], 1.0)  # (in L)
+    ds = np.hypot(r[:, n : 2 * n] / np.where(w[:, n : 2 * n] > 0, w[:, n : 2 * n], 1.0),
+                  r[:, 2 * n :] / np.where(w[:, 2 * n :] > 0, w[:, 2 * n :], 1.0))  # fmt: skip
+    turn = np.degrees(np.arctan(ds / (1.0 + f["g2"])))  # (a slope change, as an angle)
+    gross = (off[idx, worst] > GROSS_POSITION) | (turn[idx, worst] > GROSS_ANGLE)
+    limit = 16.27 + 2.0 * np.log(np.maximum(keep.sum(-1), 1))
+    third = -np.sort(-z, -1)[:, min(MAX_OUTLIERS, z.shape[1] - 1)]
+    alone = z[idx, worst] > ISOLATED * np.maximum(third, 1.0)  # (a misfit spreads over many)
+    bad = (z[idx, worst] > limit) & (dof >= 4) & gross & alone
+    why = [None] * len(z)
+    for b in np.flatnonzero(bad):
+        k = worst[b]
+        if pos[b, k] >= slope[b, k]:
+            why[b] = f"its point is {off[b, k] * f['L'][b]:.3g} off the surface the others describe"
+        else:
+            why[b] = f"its normal is {turn[b, k]:.0f} deg off the surface's there"
+    return np.where(bad, worst, -1), why
+
+
+# --- 5. the answer and its covariance ----------------------------------------------------------
+def _answer(f, keep, reason, warnings, stated):
+    """The ``JetStack`` of the final fit (see the module docstring, item 5)."""
+    B, top = len(keep), f["top"]
+    hi = np.where(top >= 4, top - 1, top)
+    orders = range(2, int(top.max()) + 1)
+    theta, cov, coefs = {}, {}, {}
+    resid = {}
+    for o in orders:
+        c, F, resid[o] = order_fit(f, o)
+        coefs[o], theta[o] = c, c[:, 1:6]
+        cov[o] = F[:, 1:6] @ np.swapaxes(F[:, 1:6], -1, -2)
+    rt = _pick(resid, top)
+    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
+    s2 = np.sum(rt * rt, -1) / np.maximum(dof, 1)
+    s2 = np.maximum(np.where(dof > 0, s2, 1.0), 1.0)  # (never below the weights' noise)
+    s2 = s2[:, None, None]
+    C2, Ch, Ct = cov[2] * s2, _pick(cov, hi) * s2, _pick(cov, top) * s2
+    t2, th, tt = theta[2], _pick(theta, hi), _pick(theta, top)
+    d = th - t2
+    d2, q = _wald(d, Ch - C2)
+    w = np.maximum(0.0, 1.0 - SHRINK * q / np.where(d2 > 0, d2, np.inf))
+    w = np.where(hi > 2, w, 0.0)
+    est = t2 + w[:, None] * d
+    W = w[:, None, None]
+    C_noise = (1 - W * W) * C2 + W * W * Ch
+    e = est - tt  # the answer against the top jet, and that difference's own noise
+    Ve = (1 - W) ** 2 * (Ct - C2) + (1 - (1 - W) ** 2) * (Ct - Ch)
+    T = _omitted(f, coefs, cov, top)  # (B, 5): the order above the top, at its prior size
+    T2 = (1.0 - w)[:, None] * _round_bias(f, coefs, cov)  # the 2-jet's, were it a sphere's
+    bias = _positive(e[:, :, None] * e[:, None, :] - Ve)
+    bias = np.maximum(bias, T2[:, :, None] * T2[:, None, :] * np.eye(5))  # (where unmeasured)
+    C_mse = C_noise + bias + T[:, :, None] * T[:, None, :]
+    coef = np.zeros((B, size(int(top.max()))))
+    coef[:, :6] = coefs[2]
+    ch = _pick_coef(coefs, hi, coef.shape[1])
+    coef = coef + w[:, None] * (ch - coef)
+    t, J = _entries_and_jacobian(est)
+    for b in np.flatnonzero(~f["ok2"]):
+        reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
+    cov_t = J @ C_mse @ np.swapaxes(J, -1, -2)
+    cov_noise = J @ C_noise @ np.swapaxes(J, -1, -2)
+    sig = f["sig"] * np.stack([f["L"], np.ones(B)], -1)
+    return JetStack(
+        t=t, cov=cov_t, cov_noise=cov_noise, coef=coef, order=np.where(w > 0.5, hi, 2),
+        top=top, weight=w, noise=sig, stated=stated, origin=f["origin"], axes=f["axes"],
+        scale=f["L"], centre=f["centre"], xy=f["xy"], keep=keep, reason=reason,
+        warnings=warnings,
+    )  # fmt: skip
+
+
+def _pick(by_order, which):
+    """Per patch, the entry of ``by_order`` (order -> (B, ...)) at that patch's order."""
+    out = np.array(next(iter(by_order.values())), copy=True)
+    for o, v in by_order.items():
+        sel = which == o
+        if sel.any():
+            out[sel] = v[sel]
+    return out
+
+
+def _pick_coef(coefs, which, p):
+    out = np.zeros((len(which), p))
+    for o, c in coefs.items():
+        sel = which == o
+        out[sel, : c.shape[1]] = c[sel]
+    return out
+
+
+def _wald(d, V):
+    """d^T V^+ d and V's rank, per patch (V symmetric positive semi-definite)."""
+    w, U = np.linalg.eigh(V)
+    big = w > 1e-9 * np.maximum(w[:, -1:], 1e-300)
+    proj = np.einsum("bji,bj->bi", U, d)
+    return np.sum(np.where(big, proj * proj / np.where(big, w, 1.0), 0.0), -1), big.sum(-1)
+
+
+def _positive(M):
+    """M's positive part (symmetric): its negative eigenvalues set to 0."""
+    w, U = np.linalg.eigh(0.5 * (M + np.swapaxes(M, -1, -2)))
+    return (U * np.maximum(w, 0.0)[:, None, :]) @ np.swapaxes(U, -1, -2)
+
+
+def _omitted(f, coefs, cov, top):
+    """(B, 5): how the jet's (zx, zy, zxx, zxy, zyy) would move were the order above the top
+    in the data, its coefficients as large as a sphere or cylinder of the measured
+    curvature makes them: a circle's derivatives are k, 3 k^3, 45 k^5, so the order
+    beyond 4 is 5 z4^2 / z2 (z_j: the rms of the j-th derivatives, their noise taken out)
+    and beyond 3 it is 3 z2^3."""
+    B = len(top)
+    out = np.zeros((B, 5))
+    z2 = _signal(coefs[2][:, 3:6], cov[2][:, 2:5, 2:5])
+    for o in np.unique(top):
+        sel = top == o
+        nxt = o + 1
+        cols = slice(size(o), size(nxt))
+        if o >= 4:
+            c4 = coefs[o][sel][:, size(3) : size(4)]
+            F4 = order_fit_cov(f, o, sel)[:, size(3) : size(4), size(3) : size(4)]
+            z4 = _signal(c4, F4)
+            tau = 5.0 * z4 * np.minimum(z4 / np.maximum(z2[sel], 1e-12), 12.0)
+        else:
+            tau = 3.0 * z2[sel] ** 3
+        G = _regress_omitted(f, o, cols, sel)  # (b, p_o, q)
+        out[sel] = tau[:, None] * np.sqrt(np.sum(G[:, 1:6] ** 2, -1))
+    return out
+
+
+def _round_bias(f, coefs, cov):
+    """(B, 5): how far the 2-jet's values move from a sphere's or cylinder's of the measured
+    curvature over these contacts: its 4th derivatives, 3 z2^3 (a circle's), left out."""
+    z2 = _signal(coefs[2][:, 3:6], cov[2][:, 2:5, 2:5])
+    G = _regress_omitted(f, 2, slice(size(3), size(4)), np.ones(len(z2), bool))
+    return 3.0 * z2[:, None] ** 3 * np.sqrt(np.sum(G[:, 1:6] ** 2, -1))
+
+
+def _signal(c, C):
+    """The rms of coefficients c (b, q) with their noise (cov C (b, q, q)) taken out."""
+    noise = np.trace(C, axis1=-2, axis2=-1) / c.shape[-1]
+    return np.sqrt(np.maximum(np.mean(c * c, -1) - noise, 0.0))
+
+
+def order_fit_cov(f, o, sel):
+    p = size(o)
+    F = f["Rinv"][sel][:, :p, :p] / f["cn"][sel][:, :p, None]
+    return F @ np.swapaxes(F, -1, -2)
+
+
+def _regress_omitted(f, o, cols, sel):
+    """Coefficients of the omitted columns ``cols`` regressed on the order-o jet's, (b, p_o, q):
+    how each omitted term, were it there with coefficient 1, moves the fit."""
+    p = size(o)
+    Rinv, cn = f["Rinv"][sel][:, :p, :p], f["cn"][sel]
+    X = np.einsum("bmp,bmq->bpq", f["Q"][sel][..., :p], f["Aw"][sel][..., cols])
+    return np.einsum("bpq,bqr->bpr", Rinv, X) / cn[:, :p, None]
+
+
+def _entries_and_jacobian(theta):
+    """Shape-operator entries (B, 3) of (zx, zy, zxx, zxy, zyy) and their Jacobian (B, 3, 5)
+    (complex step: exact to round-off)."""
+    t = np.stack(shape_entries(*np.moveaxis(theta, -1, 0)), -1)
+    J = np.empty((len(theta), 3, 5))
+    for k in range(5):
+        z = theta.astype(complex)
+        z[:, k] += 1e-30j
+        J[:, :, k] = np.stack(shape_entries(*np.moveaxis(z, -1, 0)), -1).imag / 1e-30
+    return t, J
