@@ -21,19 +21,21 @@ noise widens it);
 95 % intervals of S, k1, k2 by the delta method (central differences of the map from the
 five derivatives).  The label is the S band holding the whole S interval, ``plane`` when
 both k intervals hold 0, else ``uncertain``.  Patches of one size are stacked and solved
-together (``numpy.linalg.qr`` on the stack).  A patch is refused (``DataError``) only
-where the 2-jet cannot be formed: a normal beyond 80 deg of the mean (slopes unbounded) or a
-rank-deficient design.
+together (``numpy.linalg.qr`` on the stack).  No outlier handling and no refusal but a
+rank-deficient design (``DataError``): a normal far from the mean gives a steep slope
+(nz kept at least ``MIN_NZ`` in size, its sign kept) whose row the (1 + |g|^2) factor
+down-weights; a reversed normal gives its original slope back.
 """
 
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG, PatchFrame
+from tactile.ep2.patch_frame import PatchFrame
 from tactile.errors import DataError
 
 FLOOR = 1e-6  # stated sigmas below this (of L, rad) are taken as this: a weight needs one
+MIN_NZ = 1e-6  # |nz| of a normal in the patch frame, at least (slopes stay finite)
 REML_FLOOR = 1e-12  # an estimated sigma never below this (round-off of exact data)
 Z95 = 1.959963984540054
 BANDS = {
@@ -123,8 +125,7 @@ def fit_group(P, N, sig_p, sig_n, fisher=False):
     origin, rot = frames(P, N)
     p = np.einsum("bij,bnj->bni", rot, P - origin[:, None])
     nl = np.einsum("bij,bnj->bni", rot, N)
-    steep = nl[..., 2].min(axis=-1) < np.cos(np.radians(MAX_NORMAL_ANGLE_DEG))
-    nz = np.where(nl[..., 2] > 1e-3, nl[..., 2], 1e-3)
+    nz = np.where(nl[..., 2] < 0, -1.0, 1.0) * np.maximum(np.abs(nl[..., 2]), MIN_NZ)
     sx, sy = -nl[..., 0] / nz, -nl[..., 1] / nz
     lo, hi = p[..., :2].min(axis=1), p[..., :2].max(axis=1)
     L = np.max(hi - lo, axis=-1)
@@ -163,12 +164,12 @@ def fit_group(P, N, sig_p, sig_n, fisher=False):
     q[:, :2] /= L[:, None]
     qcov[:, :2, :] /= L[:, None, None]
     qcov[:, :, :2] /= L[:, None, None]
-    why = np.where(steep, "normals beyond the 2-jet's limit", np.where(ok, "", "rank deficient"))
+    why = np.where(ok, "", "the 2-jet's design is rank deficient")
     centre = origin + np.einsum("bi,bij->bj", np.column_stack([mid, coef[:, 0] * L]), rot)
     box = np.column_stack([lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]]) / L[:, None]
     return dict(
         coef=coef, cov=cov, q=q, qcov=qcov, origin=origin, rot=rot, box=box, L=L,
-        centre=centre, sig_p=sp * L, sig_n=sn, ok=~steep & ok, why=why,
+        centre=centre, sig_p=sp * L, sig_n=sn, ok=ok, why=why,
     )  # fmt: skip
 
 
