@@ -56,10 +56,10 @@ FAMILIES = (
 )
 OUTLIER_KINDS = ("flipped", "off_surface", "other_face")
 SPLITS = {  # name: (seed, cases per family, outliers)
-    "tune": (90211, 64, False),
-    "holdout": (57173, 40, False),  # FOR FINAL EVALUATION ONLY
-    "robust_tune": (31337, 24, True),
-    "robust_holdout": (86243, 24, True),  # FOR FINAL EVALUATION ONLY
+    "tune": (90211, 160, False),
+    "holdout": (57173, 80, False),  # FOR FINAL EVALUATION ONLY
+    "robust_tune": (31337, 48, True),
+    "robust_holdout": (86243, 48, True),  # FOR FINAL EVALUATION ONLY
 }
 KL_RANGE = (0.01, 1.5)
 NEAR_PLANE_KL = (1e-4, 1e-2)
