@@ -19,7 +19,7 @@ its outliers (untimed) for the last column.  Timing: CPU seconds (``time.process
 per patch of each estimator's whole run over the split's patches, best of ``--repeats``,
 the estimators in turn in one process (OPENBLAS_NUM_THREADS=1).  Tables
 (``family_score``): refusal reasons, then per family, per noise bin, per layout, per |k|max L
-bin (at the case's centre point), then family x noise bin x layout.
+bin (at the case's centre point), per family x |k| L, then family x noise bin x layout.
 """
 
 import os
@@ -144,7 +144,8 @@ def report(by_est, timing, head, robust):
             "|---|---|---|---|"]  # fmt: skip
     rows += [f"| {n} | {m} | {cpu / max(m, 1):.2e} | {cpu:.2f} |" for n, m, cpu in timing]
     parts = [head, "", *rows, "", "Refusals:", "", family_score.reasons(by_est)]
-    for keys in (("family",), ("noise",), ("layout",), ("kl",), ("family", "noise", "layout")):
+    tables = (("family",), ("noise",), ("layout",), ("kl",), ("family", "kl"))
+    for keys in (*tables, ("family", "noise", "layout")):
         parts += ["", f"By {' x '.join(keys)}:", "", family_score.table(by_est, keys, robust)]
     return "\n".join(parts)
 
