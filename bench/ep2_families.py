@@ -8,8 +8,8 @@ Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_families.py --split tune
 (``families`` module docstring).  Estimators (``ESTIMATORS``, or ``module:function`` taking a
 list of patch dicts and returning a result or an exception per patch):
 
-- ``default``: ``tactile.ep2.analyze_patches`` as it is when run (the noise stated where the
-  case says so; one call for the unstated patches, one per stated noise);
+- ``default``: ``tactile.ep2.analyze_patches`` as it is when run, in one call (each patch
+  dict with its noise where the case states it);
 - ``jet2``: the batched numpy 2-jet with normals (``tactile_studies.ep2.jet2``);
 - ``spline``: ``analyze_patches(method="spline")``, grouped as ``default``.
 
@@ -43,19 +43,14 @@ DEFAULT_TRIALS = 5
 
 
 def _library(patches, **kw):
-    """``analyze_patches`` with the noise stated per patch where ``stated``: the unstated
-    patches in one call, the stated ones in one call per (noise_pos, noise_normal)."""
-    out = [None] * len(patches)
-    groups = {}
-    for j, d in enumerate(patches):
-        key = (d["noise_pos"], d["noise_normal"]) if d["stated"] else None
-        groups.setdefault(key, []).append(j)
-    for key, idx in groups.items():
-        noise = {} if key is None else {"noise_pos": key[0], "noise_normal": key[1]}
-        todo = [{k: patches[j][k] for k in ("points", "normals", "finger")} for j in idx]
-        for j, res in zip(idx, analyze_patches(todo, **kw, **noise)):
-            out[j] = res
-    return out
+    """``analyze_patches`` in one call, each patch with its noise where ``stated``."""
+    todo = []
+    for d in patches:
+        p = {k: d[k] for k in ("points", "normals", "finger")}
+        if d["stated"]:
+            p.update(noise_pos=d["noise_pos"], noise_normal=d["noise_normal"])
+        todo.append(p)
+    return analyze_patches(todo, **kw)
 
 
 def default(patches):

@@ -32,15 +32,40 @@ CHUNK = 256  # patches per fit call (bench/ep2_speed.py, ep2_tradeoff.py: best o
 def analyze_patches(patches, *, chunk=CHUNK, **kw):
     """[PatchResult or DataError/InputError] for ``patches``, an iterable of (points,
     normals) pairs or dicts with ``points``, ``normals`` and optionally ``finger``,
-    ``lines``.  Keyword options are ``analyze_patch``'s and apply to every patch."""
-    out = []
-    todo = []
+    ``lines``, ``noise_pos``, ``noise_normal`` (the patch's own, over the keyword's).
+    Keyword options are ``analyze_patch``'s and apply to every patch.  Patches are read
+    ``WINDOW`` chunks at a time and fitted in chunks of like size (less padding)."""
+    out, todo = [], []
     for p in patches:
         todo.append(p)
-        if len(todo) == chunk:
-            out += _chunk(todo, kw)
+        if len(todo) == chunk * WINDOW:
+            out += _window(todo, chunk, kw)
             todo = []
-    return out + (_chunk(todo, kw) if todo else [])
+    return out + (_window(todo, chunk, kw) if todo else [])
+
+
+WINDOW = 16
+
+
+def _window(patches, chunk, kw):
+    """``_chunk`` over ``patches`` sorted by size, the results in the patches' order."""
+    order = sorted(range(len(patches)), key=lambda j: _size(patches[j]))
+    out = [None] * len(patches)
+    for s in range(0, len(order), chunk):
+        idx = order[s : s + chunk]
+        for j, res in zip(idx, _chunk([patches[j] for j in idx], kw), strict=True):
+            out[j] = res
+    return out
+
+
+def _size(p):
+    try:
+        return len(_unpack(p)[0])
+    except Exception:  # (malformed: ``_chunk`` says why, in its place)
+        return 0
+
+
+_OWN = ("noise_pos", "noise_normal")  # options a patch dict may set for itself
 
 
 def _unpack(p):
@@ -50,16 +75,25 @@ def _unpack(p):
     return points, normals, None, None
 
 
+def _own(p, kw):
+    """The options of patch ``p``: ``kw`` with the patch's own noise over it."""
+    if not isinstance(p, dict) or not any(k in p for k in _OWN):
+        return kw
+    return {**kw, **{k: p[k] for k in _OWN if k in p}}
+
+
 def _chunk(patches, kw):
     kw = {**_defaults(), **kw}
     maps = kw.pop("maps", False)
     if kw["method"] == "spline":
-        return [_one(p, dict(kw, maps=maps)) for p in patches]
+        return [_one(p, dict(_own(p, kw), maps=maps)) for p in patches]
     prepared, results = [], [None] * len(patches)
     unpacked = [_unpack(p) for p in patches]
-    for j, (quick, item) in enumerate(zip(_prepare_stacked(unpacked, kw), unpacked, strict=True)):
+    kws = [_own(p, kw) for p in patches]
+    quick = _prepare_stacked(unpacked, kws)
+    for j, (item, kw_j) in enumerate(zip(unpacked, kws, strict=True)):
         try:
-            prepared.append((j, quick or patch_input.prepare(*item, kw)))
+            prepared.append((j, quick[j] or patch_input.prepare(*item, kw_j)))
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:
@@ -72,7 +106,8 @@ def _chunk(patches, kw):
             m = len(prep.points)
             P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
         opts = prepared[0][1].opts
-        stack = local_jet.fit(P, N, mask, opts["noise_pos"], opts["noise_normal"])
+        noise = [[_nan(prep.opts[k]) for _, prep in prepared] for k in _OWN]
+        stack = local_jet.fit(P, N, mask, *noise)
         lines = [prep.opts["lines"] for _, prep in prepared]
         outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):
@@ -84,44 +119,58 @@ def _chunk(patches, kw):
     return results
 
 
-def _prepare_stacked(unpacked, kw):
+def _nan(v):
+    return np.nan if v is None else v
+
+
+def _prepare_stacked(unpacked, kws):
     """``patch_input.prepare`` of every patch that passes its checks as it stands (valid options,
     finite, representable spread, non-zero normals, no duplicated rows), for each group of
     patches of one size at once; None for the others, which ``patch_input.prepare`` takes one at a
     time (it refuses them, or drops their duplicates).  The same numbers either way."""
     out = [None] * len(unpacked)
-    try:  # what holds for every patch or none: the one-patch path says why not
-        patch_input.validate(np.zeros((1, 3)), np.ones((1, 3)), kw["method"], kw["weighting"])
-        patch_input.check_options(np.zeros((1, 3)), None, *(kw[k] for k in _CONSTANT_OPTIONS))
-        patch_input.check_order(kw["method"], kw["order"])
-    except (DataError, InputError):
-        return out
-    groups = {}
+    groups, sound = {}, {}
     for j, (points, normals, _, _) in enumerate(unpacked):
+        own = tuple(kws[j][k] for k in _OWN)
+        if own not in sound:
+            sound[own] = _sound_options(kws[j])
         pts, nrm = np.asarray(points, float), np.asarray(normals, float)
-        if pts.ndim == 2 and pts.shape[1] == 3 and nrm.shape == pts.shape and len(pts):
+        if sound[own] and pts.ndim == 2 and pts.shape[1] == 3 and nrm.shape == pts.shape and len(pts):
             groups.setdefault(len(pts), []).append((j, pts, nrm))
     for group in groups.values():
         idx = [j for j, _, _ in group]
-        for k, prep in zip(idx, _prepare_group(group, unpacked, kw), strict=True):
+        for k, prep in zip(idx, _prepare_group(group, unpacked, [kws[j] for j in idx]), strict=True):
             out[k] = prep
     return out
+
+
+def _sound_options(kw):
+    """Whether the options hold for any patch (else the one-patch path says why not)."""
+    try:
+        patch_input.validate(np.zeros((1, 3)), np.ones((1, 3)), kw["method"], kw["weighting"])
+        patch_input.check_options(np.zeros((1, 3)), None, *(kw[k] for k in _CONSTANT_OPTIONS))
+        patch_input.check_order(kw["method"], kw["order"])
+        if kw["noise_pos"] is not None and not np.isfinite(float(kw["noise_pos"])):
+            return False
+    except (DataError, InputError, TypeError, ValueError):
+        return False
+    return True
 
 
 _CONSTANT_OPTIONS = ("noise_normal", "grid", "segments", "max_normal_angle", "break_angle")
 
 
-def _prepare_group(group, unpacked, kw):
-    """``_prepare_stacked`` for patches of one size: [Prepared or None]."""
+def _prepare_group(group, unpacked, kws):
+    """``_prepare_stacked`` for patches of one size (their options ``kws``): [Prepared or None]."""
     P = np.stack([pts for _, pts, _ in group])
     N = np.stack([nrm for _, _, nrm in group])
     good = np.all(np.isfinite(P), axis=(1, 2)) & np.all(np.isfinite(N), axis=(1, 2))
     lo, hi = P.min(axis=1), P.max(axis=1)  # ``extent.box``
     h = (0.5 * hi - 0.5 * lo).max(axis=-1)
     good &= (h == 0.0) | ((extent.MIN_SPREAD <= 2.0 * h) & (2.0 * h <= extent.MAX_SPREAD))
-    if kw["noise_pos"] is not None:
-        top = patch_input.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
-        good &= (kw["noise_pos"] >= 0.0) & (kw["noise_pos"] <= top)
+    noise = np.array([np.nan if kw["noise_pos"] is None else kw["noise_pos"] for kw in kws])
+    top = patch_input.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
+    good &= np.isnan(noise) | ((noise >= 0.0) & (noise <= top))
     big = np.max(np.abs(N), axis=-1)  # ``patch_frame.unit_normals``
     good &= np.all(big > 0, axis=-1)
     big = np.where(good[:, None], big, 1.0)
@@ -133,9 +182,9 @@ def _prepare_group(group, unpacked, kw):
     out = [None] * len(group)
     live = np.flatnonzero(good)
     fingers = [unpacked[group[b][0]][2] for b in live.tolist()]
-    breaks = discontinuity.find_breaks_many(N[live], fingers, kw["break_angle"])
+    breaks = discontinuity.find_breaks_many(N[live], fingers, kws[0]["break_angle"])
     for b, brk in zip(live.tolist(), breaks, strict=True):
-        opts = patch_input.options(kw, unpacked[group[b][0]][3])
+        opts = patch_input.options(kws[b], unpacked[group[b][0]][3])
         out[b] = patch_input.Prepared(P[b], N[b], opts, brk, 0, middle[b])
     return out
 

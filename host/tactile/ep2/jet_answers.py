@@ -1,9 +1,10 @@
 """From a ``local_jet.JetStack`` to each patch's result fields, or the refusal in its place.
 
 A patch is refused only when its fit says so (too few consistent contacts, no quadric
-through them) or when the covariance of its curvature (noise and bias left, as
-``local_jet`` counts them) leaves a direction undetermined: a 95 % half-width over
-``MAX_HALF_WIDTH`` / L, named in world coordinates.  Otherwise: the headline curvature,
+through them) or when the noise covariance of its curvature leaves a direction
+undetermined: a 95 % half-width of the 2-jet's over ``MAX_HALF_WIDTH`` / L, named in world
+coordinates
+(the bias left widens the intervals; it is no refusal).  Otherwise: the headline curvature,
 intervals and label at the patch centre (``centre_result.summary_many``), the thesis's grid
 statistics (§4.8.2, ``grid_batch``) and the fields ``patch_result.from_fields`` takes.
 """
@@ -14,7 +15,7 @@ import numpy as np
 
 from tactile.ep2 import centre_result, grid_batch, patch_frame
 from tactile.ep2.grid_batch import DERIVS
-from tactile.ep2.local_jet import design, rows, size
+from tactile.ep2.local_jet import powers, design, exponents, size
 from tactile.ep2.surface_geometry import principal
 from tactile.errors import DataError
 
@@ -30,18 +31,20 @@ def outcomes(stack, opts, lines=None):
     for b in range(B):
         if stack.reason[b] is not None:
             out[b] = DataError(_name_rows(stack.reason[b], lines[b]))
-    if live:
-        cov = stack.cov[live]
+    if live:  # (the quadric's noise: a bias left is counted in the intervals, not a refusal)
+        cov = stack.cov_quadric[live]
         half = 1.96 * np.sqrt(np.maximum(np.linalg.eigvalsh(cov)[:, -1], 0.0))
         wide = ~((half <= MAX_HALF_WIDTH) & np.all(np.isfinite(cov), axis=(1, 2)))
         for b in np.asarray(live)[wide].tolist():
-            out[b] = DataError(undetermined(stack.cov[b], stack.axes[b], stack.scale[b]))
+            why = undetermined(stack.cov_quadric[b], stack.axes[b], stack.scale[b])
+            left = [_name_rows(w, lines[b]) for w in stack.warnings[b]]
+            out[b] = DataError(why + "".join(f"; {w}" for w in left))
     ok = np.array([b for b in live if out[b] is None], int)
     if not len(ok):
         return out
     heads = centre_result.summary_many(
         stack.t[ok], stack.cov[ok], None, stack.scale[ok], opts["intervals"],
-        stack.cov_noise[ok],
+        np.zeros_like(stack.cov[ok]),  # (k1, k2 as fitted: debiasing them cost RMS S)
     )  # fmt: skip
     ch, gx, gy = channels(stack, ok, opts["grid"])
     stats = {
@@ -91,7 +94,14 @@ def channels(stack, idx, n):
     gx, gy = np.repeat(xs, n, axis=-1), np.tile(ys, (1, n))  # about the centre
     coef = stack.coef[idx]
     order = _order_of(coef.shape[1])
-    ch = [np.einsum("bgp,bp->bg", rows(gx, gy, order, a, c), coef) for a, c in DERIVS]
+    # on a tensor grid the jet is px C py^T, C[i, j] the coefficient of x^i y^j / (i! j!)
+    C = np.zeros((len(idx), order + 3, order + 3))
+    for k, (i, j) in enumerate(exponents(order)):
+        C[:, i, j] = coef[:, k]
+    px = np.stack(powers(xs, order), -1)
+    pyT = np.swapaxes(np.stack(powers(ys, order), -1), -1, -2)
+    ch = [(px @ C[:, a : a + order + 1, c : c + order + 1] @ pyT).reshape(len(idx), -1)
+          for a, c in DERIVS]  # fmt: skip
     return ch, gx + centre[:, :1], gy + centre[:, 1:]
 
 
@@ -108,7 +118,7 @@ def _fields(stack, b, head, grid):
     order = _order_of(len(coef))
     head.update(
         order=int(stack.order[b]),
-        weighting="auto" if not any(stack.stated) else "stated",
+        weighting="stated" if stack.stated[b].any() else "auto",
         model=_model_text(stack, b),
         noise_pos=float(stack.noise[b, 0]),
         noise_normal=float(stack.noise[b, 1]),

@@ -9,22 +9,22 @@ In one's head (thesis §4.5-4.6 made local; §5.1.2's frame):
    (-nx/nz, -ny/nz).  A jet of order m is the Taylor polynomial about the centre,
    sum c_ij x^i y^j / (i! j!), so its coefficients are the derivatives there.  Rows are
    weighted by their noise: positions 1/(sigma_p sqrt(1 + g^2)), slopes
-   1/(sigma_s (1 + g^2)), g the contact's slope and sigma_s^2 = sigma_n^2 + (k sigma_p)^2
-   (a point off along the surface reads the slope of another place).  A sigma not stated
-   is estimated from that row type's residuals (RSS over rows minus leverage).
+   1/(sigma_n (1 + g^2)), g the contact's slope.  A sigma not stated is estimated from
+   that row type's residuals (RSS over rows minus leverage) in the highest jet with at
+   least ``NOISE_REDUNDANCY`` rows per term.
 3. **Every order at once.**  One QR of the jet of the highest order the contacts
    determine (up to ``TOP_ORDER``, columns by degree) gives every lower jet too: the
    leading columns of a QR are the QR of the leading columns.
 4. **Outliers.**  A contact whose normal is over ``MAX_ANGLE`` from the patch's, or whose
    three residuals jointly fail a chi^2 test at the patch's own scale, is left out and
-   named; at most ``MAX_OUTLIERS``.  Then everything is redone without it.
+   named; at most ``MAX_OUTLIERS``.  Then that patch is fitted again without it.
 5. **The answer** is the 2-jet, moved toward the jet one below the top by the evidence
    that its curvature differs from the 2-jet's (James-Stein, ``SHRINK`` times the
    statistic's degrees of freedom): noise keeps the 2-jet, a surface the 2-jet cannot
-   follow moves it.  Its covariance counts the noise and the bias left: what remains of
-   the 2-jet's (its difference to the higher jet, less that difference's noise), the
-   higher jet's against the top, and the order above the top, sized as a sphere or
-   cylinder of the measured curvature would size it (a circle's z6 = 5 z4^2 / z2).
+   follow moves it.  Its covariance counts the noise and the bias left: the answer's
+   difference to the top jet where it exceeds ``BIAS_EVIDENCE`` times that difference's
+   noise, and the order above the top, sized as a sphere or cylinder of the measured
+   curvature would size it (a circle's z6 = 5 z4^2 / z2).
 
 ``fit`` returns a ``JetStack``; ``jet_answers`` turns it into results and refusals.
 """
@@ -37,10 +37,13 @@ import numpy as np
 from tactile.ep2.surface_geometry import shape_entries
 
 TOP_ORDER = 4
+TOP_REDUNDANCY = 1.2  # an order is fitted where the rows are this many times its terms
+NOISE_REDUNDANCY = 2.0  # the noise and outlier tests use the order with this many
 MAX_ANGLE = 80.0  # deg: a normal further from the patch's is not of this patch
 MAX_OUTLIERS = 2
-SHRINK = 3.0
-FLOOR = 1e-4  # noise floor: of L for positions, rad for normals
+SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's dof
+BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noise
+FLOOR = 1e-8  # noise floor: of L for positions, rad for normals (exact data stay exact)
 START_NOISE = 0.01  # the first pass's sigmas when none is stated (of L, rad)
 SLOPE_LIMIT = math.tan(math.radians(MAX_ANGLE))
 
@@ -58,13 +61,13 @@ def rows(x, y, order, dx=0, dy=0):
     """Rows of d^(dx+dy)/dx^dx dy^dy of the jet sum c_ij x^i y^j / (i! j!), (..., p): with
     this scaling a derivative only shifts the exponents (zero where they would go negative),
     and the coefficients are the jet's derivatives at the centre."""
-    px, py = _powers(x, order), _powers(y, order)
+    px, py = powers(x, order), powers(y, order)
     zero = np.zeros_like(x)
     out = [px[i - dx] * py[j - dy] if i >= dx and j >= dy else zero for i, j in exponents(order)]
     return np.stack(out, -1)
 
 
-def _powers(x, order):
+def powers(x, order):
     """[x^k / k!] for k = 0..order."""
     out = [np.ones_like(x)]
     for k in range(1, order + 1):
@@ -83,13 +86,14 @@ class JetStack:
 
     t: np.ndarray  # (B, 3) shape-operator entries at the centre
     cov: np.ndarray  # (B, 3, 3) of t: noise and bias left (intervals, tests)
-    cov_noise: np.ndarray  # (B, 3, 3) of t: noise alone (debiasing)
+    cov_noise: np.ndarray  # (B, 3, 3) of t: noise alone
+    cov_quadric: np.ndarray  # (B, 3, 3): the 2-jet's noise alone (what the data determine)
     coef: np.ndarray  # (B, p_top) the answer's jet (zeros beyond its order)
     order: np.ndarray  # (B,) the jet the answer leans on (2 unless it moved over halfway)
     top: np.ndarray  # (B,) the highest order the contacts determine
     weight: np.ndarray  # (B,) how far the answer moved from the 2-jet to the higher jet
     noise: np.ndarray  # (B, 2) sigma_p (input unit) and sigma_n (rad) the weights used
-    stated: tuple  # (noise_pos stated, noise_normal stated)
+    stated: np.ndarray  # (B, 2) whether noise_pos, noise_normal were stated
     origin: np.ndarray  # (B, 3) frame origin (world)
     axes: np.ndarray  # (B, 3, 3) rows: the frame's x, y, z in world coordinates
     scale: np.ndarray  # (B,) L
@@ -102,29 +106,67 @@ class JetStack:
 
 def fit(P, N, mask, noise_pos=None, noise_normal=None):
     """Fit every patch of the stack: P, N (B, n, 3) world points and unit normals (rows
-    beyond a patch's contacts masked out by ``mask`` (B, n))."""
+    beyond a patch's contacts masked out by ``mask`` (B, n)).  ``noise_pos`` (input unit)
+    and ``noise_normal`` (rad): None (estimated), a number, or one per patch (NaN: estimated).
+    After an outlier is left out only the patches that lost one are fitted again."""
     P, N, mask = np.asarray(P, float), np.asarray(N, float), np.asarray(mask, bool)
+    noise = np.stack([_per_patch(noise_pos, len(P)), _per_patch(noise_normal, len(P))], -1)
     keep, warnings = _screen_normals(N, mask)
+    n_kept = keep.sum(-1).max() if len(P) else 0
+    top_cap = max([2, *(o for o in range(3, TOP_ORDER + 1) if TOP_REDUNDANCY * size(o) <= 3 * n_kept)])
     reason = [None] * len(P)
+    live = np.arange(len(P))
+    f = _fit_once(P, N, keep, noise, top_cap)
     for _ in range(MAX_OUTLIERS + 1):
-        f = _fit_once(P, N, keep, noise_pos, noise_normal)
-        worst, why = _worst_contact(f, keep)
-        left = np.array([MAX_OUTLIERS - len(w) for w in warnings])
-        flag = worst >= 0
-        if not flag.any():
-            break
-        for b in np.flatnonzero(flag):
-            if left[b] <= 0:
+        worst, why = _worst_contact(_take(f, live), keep[live])
+        again = []
+        for k in np.flatnonzero(worst >= 0):
+            b = int(live[k])
+            if len(warnings[b]) >= MAX_OUTLIERS:
                 reason[b] = reason[b] or (
                     f"more than {MAX_OUTLIERS} contacts disagree with the surface the others "
-                    f"describe ({why[b]}): too few consistent contacts"
+                    f"describe ({why[k]}): too few consistent contacts"
                 )
                 continue
-            keep[b, worst[b]] = False
-            warnings[b].append(f"contact {worst[b]} left out: {why[b]}")
-        if all(reason[b] is not None or left[b] <= 0 for b in np.flatnonzero(flag)):
+            keep[b, worst[k]] = False
+            warnings[b].append(f"contact {worst[k]} left out: {why[k]}")
+            again.append(b)
+        if not again:
             break
-    return _answer(f, keep, reason, warnings, (noise_pos is not None, noise_normal is not None))
+        live = np.array(again)
+        _put(f, live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap))
+    return _answer(f, keep, reason, warnings, np.isfinite(noise))
+
+
+def _per_patch(v, B):
+    """A noise argument as (B,) floats, NaN where not stated."""
+    if v is None:
+        return np.full(B, np.nan)
+    return np.broadcast_to(np.asarray(v, float), (B,)).copy()
+
+
+def _take(f, idx):
+    """The fit dict ``f`` of the patches ``idx`` only."""
+    out = {}
+    for k, v in f.items():
+        if isinstance(v, dict):
+            out[k] = {o: a[idx] for o, a in v.items()}
+        else:
+            out[k] = v[idx] if isinstance(v, np.ndarray) and v.ndim and k not in _SHARED else v
+    return out
+
+
+def _put(f, idx, g):
+    """Write the fit dict ``g`` of the patches ``idx`` into ``f``."""
+    for k, v in g.items():
+        if isinstance(v, dict):
+            for o, a in v.items():
+                f[k][o][idx] = a
+        elif isinstance(v, np.ndarray) and v.ndim and k not in _SHARED:
+            f[k][idx] = v
+
+
+_SHARED = ()  # fit-dict arrays that are not per patch (none yet)
 
 
 # --- 1. screening and the frame -------------------------------------------------------------
@@ -132,12 +174,12 @@ def _screen_normals(N, mask):
     """Contacts whose normal is over MAX_ANGLE from the patch's mean normal (seeded at the
     medoid: the normal closest to all others) are left out, with a warning each."""
     cosmax = math.cos(math.radians(MAX_ANGLE))
-    dots = np.einsum("bik,bjk->bij", N, N) * mask[:, None, :]
+    dots = N @ np.swapaxes(N, -1, -2) * mask[:, None, :]
     medoid = np.argmax(np.where(mask, dots.sum(-1), -np.inf), axis=-1)
     seed = N[np.arange(len(N)), medoid]
-    near = mask & (np.einsum("bnk,bk->bn", N, seed) > cosmax)
-    mean = _unit(np.einsum("bn,bnk->bk", near.astype(float), N))
-    cos = np.einsum("bnk,bk->bn", N, mean)
+    near = mask & (_mv(N, seed) > cosmax)
+    mean = _unit(_vm(near.astype(float), N))
+    cos = _mv(N, mean)
     keep = mask & (cos > cosmax)
     warnings = [[] for _ in range(len(N))]
     for b, k in zip(*np.nonzero(mask & ~keep), strict=True):
@@ -145,6 +187,16 @@ def _screen_normals(N, mask):
         warnings[b].append(f"contact {k} left out: its normal is {angle:.0f} deg from its "
                            "neighbours'")  # fmt: skip
     return keep, warnings
+
+
+def _mv(M, v):
+    """Batched matrix times vector: (B, m, p) @ (B, p) -> (B, m)."""
+    return (M @ v[..., None])[..., 0]
+
+
+def _vm(v, M):
+    """Batched vector times matrix: (B, m) @ (B, m, p) -> (B, p)."""
+    return (v[:, None, :] @ M)[:, 0]
 
 
 def _unit(v):
@@ -156,12 +208,12 @@ def _frame(P, N, keep):
     """(origin (B, 3), axes (B, 3, 3), L (B,), centre (B, 2)) as ``patch_frame`` builds it,
     from the contacts kept."""
     w = keep.astype(float)
-    z = _unit(np.einsum("bn,bnk->bk", w, N))
+    z = _unit(_vm(w, N))
     ref = np.where((np.abs(z[:, :1]) < 0.9), [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
     x = _unit(ref - z * np.sum(ref * z, -1, keepdims=True))
     axes = np.stack([x, np.cross(z, x), z], axis=1)
-    origin = np.einsum("bn,bnk->bk", w, P) / np.maximum(w.sum(-1), 1.0)[:, None]
-    q = np.einsum("bij,bnj->bni", axes, P - origin[:, None])[..., :2]
+    origin = _vm(w, P) / np.maximum(w.sum(-1), 1.0)[:, None]
+    q = (P - origin[:, None]) @ np.swapaxes(axes, -1, -2)[..., :2]
     lo = np.where(keep[..., None], q, np.inf).min(1)
     hi = np.where(keep[..., None], q, -np.inf).max(1)
     L = np.max(hi - lo, -1)
@@ -169,38 +221,33 @@ def _frame(P, N, keep):
 
 
 # --- 2-3. rows, weights, noise and every order from one QR -----------------------------------
-def _fit_once(P, N, keep, noise_pos, noise_normal):
+def _fit_once(P, N, keep, noise, top_cap):
     """Frame, rows, noise and the jets of every order up to the top, for the contacts kept."""
     origin, axes, L, centre = _frame(P, N, keep)
-    q = np.einsum("bij,bnj->bni", axes, P - origin[:, None]) / L[:, None, None]
-    nn = np.einsum("bij,bnj->bni", axes, N)
+    centre = centre / L[:, None]
+    q = (P - origin[:, None]) @ np.swapaxes(axes, -1, -2) / L[:, None, None]
+    nn = N @ np.swapaxes(axes, -1, -2)
     nz = np.maximum(nn[..., 2], 1e-6)
     sx = np.clip(-nn[..., 0] / nz, -SLOPE_LIMIT, SLOPE_LIMIT)
     sy = np.clip(-nn[..., 1] / nz, -SLOPE_LIMIT, SLOPE_LIMIT)
     x, y = q[..., 0] - centre[:, :1], q[..., 1] - centre[:, 1:]
     n_kept = keep.sum(-1)
-    top_cap = max(o for o in range(2, TOP_ORDER + 1) if o == 2 or size(o) <= 3 * n_kept.max() - 2)
     V, DX, DY = design(x, y, top_cap + 1)  # (the extra order: the top's truncation)
     A = np.concatenate([V, DX, DY], 1)
     b = np.concatenate([q[..., 2], sx, sy], -1)
     g2 = sx * sx + sy * sy
     kk = np.tile(keep, 3).astype(float)
-    stated = (noise_pos is not None, noise_normal is not None)
-    sig = np.empty((len(P), 2))
-    sig[:, 0] = noise_pos / L if stated[0] else START_NOISE
-    sig[:, 1] = noise_normal if stated[1] else START_NOISE
-    kappa = np.zeros(len(P))
+    stated = np.isfinite(noise)
+    sig = np.where(stated, noise / np.stack([L, np.ones_like(L)], -1), START_NOISE)
     for rnd in range(2):
         s = np.maximum(sig, FLOOR)
-        s_slope = np.sqrt(s[:, 1:] ** 2 + (kappa[:, None] * s[:, :1]) ** 2)
         wp = 1.0 / (s[:, :1] * np.sqrt(1.0 + g2))
-        ws = 1.0 / (s_slope * (1.0 + g2))
+        ws = 1.0 / (s[:, 1:] * (1.0 + g2))
         w = np.concatenate([wp, ws, ws], -1) * kk
         f = _qr_fits(A, b, w, top_cap, n_kept)
-        if rnd == 1 or all(stated):
+        if rnd == 1 or stated.all():
             break
         sig = _reml(f, s, stated, keep)
-        kappa = _kmax(order_fit(f, 2)[0])
     f.update(origin=origin, axes=axes, L=L, centre=centre, xy=np.stack([x, y], -1), g2=g2,
              sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1])  # fmt: skip
     return f
@@ -211,22 +258,26 @@ def _qr_fits(A, b, w, top_cap, n_kept):
     residuals and leverages of order o are those of Q's first size(o) columns."""
     Aw, bw = A * w[..., None], b * w
     p_top = size(top_cap)
-    cn = np.linalg.norm(Aw[..., :p_top], axis=1)
+    cn = np.sqrt(np.sum(Aw[..., :p_top] ** 2, axis=1))
     cn = np.where(cn > 0, cn, 1.0)
     Q, R = np.linalg.qr(Aw[..., :p_top] / cn[:, None, :])
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     top = np.full(len(A), 2)
+    quiet = np.full(len(A), 2)
     for o in range(3, top_cap + 1):
-        fits = (size(o) <= 3 * n_kept - 2) & (d[:, : size(o)].min(-1) > 1e-9 * d[:, 0])
+        det = d[:, : size(o)].min(-1) > 1e-9 * d[:, 0]
+        fits = (TOP_REDUNDANCY * size(o) <= 3 * n_kept) & det
         top = np.where(fits & (top == o - 1), o, top)
-    qb = np.einsum("bmp,bm->bp", Q, bw)
+        fits = (NOISE_REDUNDANCY * size(o) <= 3 * n_kept) & det
+        quiet = np.where(fits & (quiet == o - 1), o, quiet)
+    qb = _vm(bw, Q)
     resid, hat, r, h = {}, {}, bw, np.zeros(bw.shape)
     for o in range(2, top_cap + 1):
         cols = slice(size(o - 1) if o > 2 else 0, size(o))
-        r = r - np.einsum("bmp,bp->bm", Q[..., cols], qb[:, cols])
+        r = r - _mv(Q[..., cols], qb[:, cols])
         h = h + np.sum(Q[..., cols] ** 2, -1)
         resid[o], hat[o] = r, h
-    return {"Q": Q, "Rinv": _upper_inverse(R, d), "cn": cn, "qb": qb, "top": top,
+    return {"Q": Q, "Rinv": _upper_inverse(R, d), "cn": cn, "qb": qb, "top": top, "quiet": quiet,
             "ok2": d[:, :6].min(-1) > 1e-9 * d[:, 0], "Aw": Aw, "w": w, "p_top": p_top,
             "resid": resid, "hat": hat}  # fmt: skip
 
@@ -245,7 +296,7 @@ def order_fit(f, o):
     p = size(o)
     cn = f["cn"][:, :p]
     Rinv = f["Rinv"][:, :p, :p]  # (the inverse of R's leading block: its leading block)
-    coef = np.einsum("bpq,bq->bp", Rinv, f["qb"][:, :p]) / cn
+    coef = _mv(Rinv, f["qb"][:, :p]) / cn
     return coef, Rinv / cn[:, :, None], f["resid"][o]
 
 
@@ -253,22 +304,15 @@ def _reml(f, s, stated, keep):
     """Each row type's sigma from its residuals in the top jet: RSS over (rows - leverage)."""
     n = keep.shape[1]
     out = s.copy()
-    r = _pick(f["resid"], f["top"])
-    h = _pick(f["hat"], f["top"])
+    r = _pick(f["resid"], f["quiet"])
+    h = _pick(f["hat"], f["quiet"])
     kk = np.tile(keep, 3)
     for t, cols in ((0, slice(0, n)), (1, slice(n, 3 * n))):
-        if not stated[t]:
-            rss = np.sum((r[:, cols] ** 2) * kk[:, cols], -1)
-            dof = np.sum((1.0 - h[:, cols]) * kk[:, cols], -1)
-            out[:, t] = s[:, t] * np.sqrt(np.maximum(rss, 0.0) / np.maximum(dof, 0.5))
+        rss = np.sum((r[:, cols] ** 2) * kk[:, cols], -1)
+        dof = np.sum((1.0 - h[:, cols]) * kk[:, cols], -1)
+        est = s[:, t] * np.sqrt(np.maximum(rss, 0.0) / np.maximum(dof, 0.5))
+        out[:, t] = np.where(stated[:, t], s[:, t], est)
     return out
-
-
-def _kmax(c):
-    """|k|max of 2-jet coefficients (B, 6) (z, zx, zy, zxx, zxy, zyy), units of 1/L."""
-    a, b, cc = shape_entries(*np.moveaxis(c[:, 1:6], -1, 0))
-    m, h = 0.5 * (a + cc), np.hypot(0.5 * (a - cc), b)
-    return np.abs(m) + h
 
 
 # --- 4. outliers ------------------------------------------------------------------------------
@@ -282,15 +326,14 @@ def _worst_contact(f, keep):
     and what is wrong with it, in words.  The test: the contact's three residuals in the top
     jet, each over (1 - its leverage), against the patch's robust scale (their median), at
     1e-3 / n; and gross: its point GROSS_POSITION off, or its normal GROSS_ANGLE."""
-    n, top = f["n"], f["top"]
-    r, h = _pick(f["resid"], top), _pick(f["hat"], top)
+    n = f["n"]
+    r, h = _pick(f["resid"], f["quiet"]), _pick(f["hat"], f["quiet"])
     part = r * r / (1.0 - np.minimum(h, 0.999))
     pos, slope = part[:, :n], part[:, n : 2 * n] + part[:, 2 * n :]
     stat = np.where(keep, pos + slope, np.nan)
-    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
+    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in f["quiet"]])
     s2 = np.nanmedian(stat, axis=-1) / 2.366  # (the median of chi^2_3)
-    if all(f["stated"]):
-        s2 = np.maximum(s2, 1.0)
+    s2 = np.where(f["stated"].all(-1), np.maximum(s2, 1.0), s2)
     s2 = np.where(np.isfinite(s2) & (s2 > 0), s2, 1.0)
     z = np.where(keep, stat / s2[:, None], -1.0)
     worst = np.argmax(z, -1)
@@ -345,7 +388,7 @@ def _answer(f, keep, reason, warnings, stated):
     Ve = (1 - W) ** 2 * (Ct - C2) + (1 - (1 - W) ** 2) * (Ct - Ch)
     T = _omitted(f, coefs, cov, top)  # (B, 5): the order above the top, at its prior size
     T2 = (1.0 - w)[:, None] * _round_bias(f, coefs, cov)  # the 2-jet's, were it a sphere's
-    bias = _positive(e[:, :, None] * e[:, None, :] - Ve)
+    bias = _positive(e[:, :, None] * e[:, None, :] - BIAS_EVIDENCE * Ve)
     bias = np.maximum(bias, T2[:, :, None] * T2[:, None, :] * np.eye(5))  # (where unmeasured)
     C_mse = C_noise + bias + T[:, :, None] * T[:, None, :]
     coef = np.zeros((B, size(int(top.max()))))
@@ -357,9 +400,10 @@ def _answer(f, keep, reason, warnings, stated):
         reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
     cov_t = J @ C_mse @ np.swapaxes(J, -1, -2)
     cov_noise = J @ C_noise @ np.swapaxes(J, -1, -2)
+    cov_quadric = J @ C2 @ np.swapaxes(J, -1, -2)
     sig = f["sig"] * np.stack([f["L"], np.ones(B)], -1)
     return JetStack(
-        t=t, cov=cov_t, cov_noise=cov_noise, coef=coef, order=np.where(w > 0.5, hi, 2),
+        t=t, cov=cov_t, cov_noise=cov_noise, cov_quadric=cov_quadric, coef=coef, order=np.where(w > 0.5, hi, 2),
         top=top, weight=w, noise=sig, stated=stated, origin=f["origin"], axes=f["axes"],
         scale=f["L"], centre=f["centre"], xy=f["xy"], keep=keep, reason=reason,
         warnings=warnings,
@@ -388,7 +432,7 @@ def _wald(d, V):
     """d^T V^+ d and V's rank, per patch (V symmetric positive semi-definite)."""
     w, U = np.linalg.eigh(V)
     big = w > 1e-9 * np.maximum(w[:, -1:], 1e-300)
-    proj = np.einsum("bji,bj->bi", U, d)
+    proj = _vm(d, U)
     return np.sum(np.where(big, proj * proj / np.where(big, w, 1.0), 0.0), -1), big.sum(-1)
 
 
@@ -448,8 +492,8 @@ def _regress_omitted(f, o, cols, sel):
     how each omitted term, were it there with coefficient 1, moves the fit."""
     p = size(o)
     Rinv, cn = f["Rinv"][sel][:, :p, :p], f["cn"][sel]
-    X = np.einsum("bmp,bmq->bpq", f["Q"][sel][..., :p], f["Aw"][sel][..., cols])
-    return np.einsum("bpq,bqr->bpr", Rinv, X) / cn[:, :p, None]
+    X = np.swapaxes(f["Q"][sel][..., :p], -1, -2) @ f["Aw"][sel][..., cols]
+    return Rinv @ X / cn[:, :p, None]
 
 
 def _entries_and_jacobian(theta):
