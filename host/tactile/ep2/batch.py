@@ -135,11 +135,19 @@ def _prepare_stacked(unpacked, kws):
         if own not in sound:
             sound[own] = _sound_options(kws[j])
         pts, nrm = np.asarray(points, float), np.asarray(normals, float)
-        if sound[own] and pts.ndim == 2 and pts.shape[1] == 3 and nrm.shape == pts.shape and len(pts):
+        if (
+            sound[own]
+            and pts.ndim == 2
+            and pts.shape[1] == 3
+            and nrm.shape == pts.shape
+            and len(pts)
+        ):
             groups.setdefault(len(pts), []).append((j, pts, nrm))
     for group in groups.values():
         idx = [j for j, _, _ in group]
-        for k, prep in zip(idx, _prepare_group(group, unpacked, [kws[j] for j in idx]), strict=True):
+        for k, prep in zip(
+            idx, _prepare_group(group, unpacked, [kws[j] for j in idx]), strict=True
+        ):
             out[k] = prep
     return out
 

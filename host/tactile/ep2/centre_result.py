@@ -149,17 +149,20 @@ def _one_path_plane(w, v, mean_axes, scale, sigma):
     )
 
 
-def summary(t, cov, bias, scale, intervals=True, cov_noise=None):
+def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zero=False):
     """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside).
 
     ``cov`` (floored, widened) sets the intervals and the tests; the anisotropy is debiased
     with ``cov_noise``, the estimate's own scatter (default ``cov``): a floor meant to keep
-    intervals honest must not pull a low-noise estimate's k1 and k2 together."""
+    intervals honest must not pull a low-noise estimate's k1 and k2 together.
+    ``plane_holds_zero``: "plane" only where the k1 and k2 intervals both hold 0 (the
+    spline's: its model bias widens the flatness test beyond its intervals)."""
     one = [None if v is None else np.asarray(v, float)[None] for v in (t, cov, bias, cov_noise)]
-    return summary_many(one[0], one[1], one[2], np.array([scale], float), intervals, one[3])[0]
+    scale = np.array([scale], float)
+    return summary_many(one[0], one[1], one[2], scale, intervals, one[3], plane_holds_zero)[0]
 
 
-def summary_many(t, cov, bias, scale, intervals=True, cov_noise=None):
+def summary_many(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zero=False):
     """``summary`` of every patch of a stack: t (B, 3), cov and cov_noise (B, 3, 3), bias
     (B, 3), scale (B,); a list of dicts.  The linear algebra runs on the whole stack."""
     d2 = classify.flatness_distance(t, cov)
@@ -168,15 +171,31 @@ def summary_many(t, cov, bias, scale, intervals=True, cov_noise=None):
     _, h, _ = uncertainty.anisotropy_many(t, cov if cov_noise is None else cov_noise)
     r = np.sqrt(0.5 * (k1s * k1s + k2s * k2s))
     plane = (r <= classify.R_TOL) | (d2 < classify.CHI2_3_999)  # ``classify.is_plane``
+    raw = np.hypot(0.5 * (t[:, 0] - t[:, 2]), t[:, 1])
     # no debiasing where the curvature itself is not resolved
-    h = np.where(plane, np.hypot(0.5 * (t[:, 0] - t[:, 2]), t[:, 1]), h)
-    iv = uncertainty.intervals_many(t, cov, m, h, lam, bias) if intervals else None
+    iv = (
+        uncertainty.intervals_many(t, cov, m, np.where(plane, raw, h), lam, bias)
+        if intervals
+        else None
+    )
+    if iv is not None and plane_holds_zero:
+        curved = (r > classify.R_TOL) & _excludes_zero(iv)
+        if np.any(plane & curved):
+            plane &= ~curved
+            iv = uncertainty.intervals_many(t, cov, m, np.where(plane, raw, h), lam, bias)
+    h = np.where(plane, raw, h)
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
     m, h, scale, c = (np.asarray(v, float).tolist() for v in (m, h, scale, c))
     iv = None if iv is None else {k: np.asarray(v).tolist() for k, v in iv.items()}
     flat = zip(r.tolist(), d2.tolist(), plane.tolist(), strict=True)
     return [_summary_one(i, m, h, iv, f, scale, c) for i, f in enumerate(flat)]
+
+
+def _excludes_zero(iv):
+    """(B,) whether the k1 or the k2 interval leaves out 0."""
+    k1, k2 = iv["k1"], iv["k2"]
+    return (k1[:, 0] > 0) | (k1[:, 1] < 0) | (k2[:, 0] > 0) | (k2[:, 1] < 0)
 
 
 def _summary_one(i, m, h, iv, flat, scale, c):

@@ -61,6 +61,8 @@ def plane_confidence(r_mean, d2):
     if r_mean <= R_TOL or d2 is None:
         return 1.0
     x = float(d2)
+    if not x < 1400.0:  # (beyond: 0 to double precision; NaN or inf: a singular covariance)
+        return 0.0
     return float(math.erfc(math.sqrt(x / 2)) + math.sqrt(2 * x / math.pi) * math.exp(-x / 2))
 
 

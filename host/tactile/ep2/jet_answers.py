@@ -1,25 +1,22 @@
 """From a ``local_jet.JetStack`` to each patch's result fields, or the refusal in its place.
 
-A patch is refused only when its fit says so (too few consistent contacts, no quadric
-through them) or when the noise covariance of its curvature leaves a direction
-undetermined: a 95 % half-width of the 2-jet's over ``MAX_HALF_WIDTH`` / L, named in world
-coordinates
-(the bias left widens the intervals; it is no refusal).  Otherwise: the headline curvature,
+A patch is refused only when its fit says so (too few consistent contacts, one line, no
+quadric through them) or when the noise covariance of its 2-jet's curvature leaves a
+direction undetermined, named in world coordinates: a 95 % half-width over
+``MAX_HALF_WIDTH`` / L.  The bias left widens the intervals; it refuses nothing.  Otherwise: the headline curvature,
 intervals and label at the patch centre (``centre_result.summary_many``), the thesis's grid
 statistics (§4.8.2, ``grid_batch``) and the fields ``patch_result.from_fields`` takes.
 """
-
-import math
 
 import numpy as np
 
 from tactile.ep2 import centre_result, grid_batch, patch_frame
 from tactile.ep2.grid_batch import DERIVS
-from tactile.ep2.local_jet import powers, design, exponents, size
+from tactile.ep2.local_jet import design, exponents, powers, size
 from tactile.ep2.surface_geometry import principal
 from tactile.errors import DataError
 
-MAX_HALF_WIDTH = 0.25  # of 1/L: the curvature's 95 % half-width beyond which it is unknown
+MAX_HALF_WIDTH = 0.25  # of 1/L: the 2-jet's noise half-width (95 %) beyond which k is unknown
 
 
 def outcomes(stack, opts, lines=None):
@@ -31,12 +28,9 @@ def outcomes(stack, opts, lines=None):
     for b in range(B):
         if stack.reason[b] is not None:
             out[b] = DataError(_name_rows(stack.reason[b], lines[b]))
-    if live:  # (the quadric's noise: a bias left is counted in the intervals, not a refusal)
-        cov = stack.cov_quadric[live]
-        half = 1.96 * np.sqrt(np.maximum(np.linalg.eigvalsh(cov)[:, -1], 0.0))
-        wide = ~((half <= MAX_HALF_WIDTH) & np.all(np.isfinite(cov), axis=(1, 2)))
-        for b in np.asarray(live)[wide].tolist():
-            why = undetermined(stack.cov_quadric[b], stack.axes[b], stack.scale[b])
+    if live:
+        for b in np.asarray(live)[_wide(stack, live)].tolist():
+            why = undetermined(stack, b)
             left = [_name_rows(w, lines[b]) for w in stack.warnings[b]]
             out[b] = DataError(why + "".join(f"; {w}" for w in left))
     ok = np.array([b for b in live if out[b] is None], int)
@@ -65,17 +59,27 @@ def outcomes(stack, opts, lines=None):
     return out
 
 
-def undetermined(cov, axes, scale):
-    """None, or why the curvature is not determined (its worst direction, world coordinates)."""
-    w = np.linalg.eigvalsh(cov)
-    half = 1.96 * math.sqrt(max(float(w[-1]), 0.0))
-    if half <= MAX_HALF_WIDTH and np.all(np.isfinite(cov)):
-        return None
+def _half_widths(cov):
+    """(B,) the 95 % half-width of the curvature in its worst direction (cov (B, 3, 3))."""
+    finite = np.all(np.isfinite(cov), axis=(1, 2))
+    w = np.linalg.eigvalsh(np.where(finite[:, None, None], cov, 0.0))[:, -1]
+    return np.where(finite, 1.96 * np.sqrt(np.maximum(w, 0.0)), np.inf)
+
+
+def _wide(stack, idx):
+    """(b,) whether the noise of the 2-jet leaves a direction's curvature undetermined."""
+    return _half_widths(stack.cov_quadric[idx]) > MAX_HALF_WIDTH
+
+
+def undetermined(stack, b):
+    """Why patch b's curvature is not determined (its worst direction, world coordinates)."""
+    cov, scale = stack.cov_quadric[b], float(stack.scale[b])
+    half = _half_widths(cov[None])[0]
     # curvature along u = (cos th, sin th): a cos^2 + 2 b cos sin + c sin^2; its worst th
     th = np.linspace(0.0, np.pi, 181)[:-1]
     u = np.stack([np.cos(th) ** 2, 2 * np.cos(th) * np.sin(th), np.sin(th) ** 2])
     worst = th[int(np.argmax(np.einsum("in,ij,jn->n", u, np.nan_to_num(cov), u)))]
-    d = np.cos(worst) * axes[0] + np.sin(worst) * axes[1]
+    d = np.cos(worst) * stack.axes[b][0] + np.sin(worst) * stack.axes[b][1]
     return (
         f"curvature along {centre_result.direction_text(d)} is not determined: its 95 %"
         f" interval is +/- {half / scale:.3g} per unit length, over {MAX_HALF_WIDTH:g}/L"

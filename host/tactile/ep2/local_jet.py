@@ -44,6 +44,7 @@ MAX_OUTLIERS = 2
 SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's dof
 BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noise
 FLOOR = 1e-8  # noise floor: of L for positions, rad for normals (exact data stay exact)
+LINE_WIDTH = 0.01  # of L: contacts spread less across their line are on one line
 START_NOISE = 0.01  # the first pass's sigmas when none is stated (of L, rad)
 SLOPE_LIMIT = math.tan(math.radians(MAX_ANGLE))
 
@@ -113,7 +114,9 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None):
     noise = np.stack([_per_patch(noise_pos, len(P)), _per_patch(noise_normal, len(P))], -1)
     keep, warnings = _screen_normals(N, mask)
     n_kept = keep.sum(-1).max() if len(P) else 0
-    top_cap = max([2, *(o for o in range(3, TOP_ORDER + 1) if TOP_REDUNDANCY * size(o) <= 3 * n_kept)])
+    top_cap = max(
+        [2, *(o for o in range(3, TOP_ORDER + 1) if TOP_REDUNDANCY * size(o) <= 3 * n_kept)]
+    )
     reason = [None] * len(P)
     live = np.arange(len(P))
     f = _fit_once(P, N, keep, noise, top_cap)
@@ -396,6 +399,12 @@ def _answer(f, keep, reason, warnings, stated):
     ch = _pick_coef(coefs, hi, coef.shape[1])
     coef = coef + w[:, None] * (ch - coef)
     t, J = _entries_and_jacobian(est)
+    width = _width(f["xy"], keep)
+    for b in np.flatnonzero(width < LINE_WIDTH):
+        reason[b] = reason[b] or (
+            f"the contacts lie on one line (their spread across it is {width[b]:.2g} of the patch"
+            " size): the curvature across it is not determined; sweep across it"
+        )
     for b in np.flatnonzero(~f["ok2"]):
         reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
     cov_t = J @ C_mse @ np.swapaxes(J, -1, -2)
@@ -408,6 +417,14 @@ def _answer(f, keep, reason, warnings, stated):
         scale=f["L"], centre=f["centre"], xy=f["xy"], keep=keep, reason=reason,
         warnings=warnings,
     )  # fmt: skip
+
+
+def _width(xy, keep):
+    """(B,) the rms spread of the kept contacts across their main line, / L."""
+    w = keep.astype(float)
+    n = np.maximum(w.sum(-1), 1.0)[:, None]
+    d = (xy - _vm(w, xy)[:, None, :] / n[..., None]) * w[..., None]
+    return np.sqrt(np.maximum(np.linalg.eigvalsh(np.swapaxes(d, -1, -2) @ d)[:, 0], 0.0) / n[:, 0])
 
 
 def _pick(by_order, which):

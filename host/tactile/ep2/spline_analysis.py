@@ -102,7 +102,7 @@ def _centre(fit, p, grid_xy, scale, s2, intervals):
         bias = np.zeros(3)
         if intervals and fit.data_map is not None:
             bias = model_bias.bias(fit, p[:, :2], centre, t, lambda c: _tensor(rows, c))
-        out = centre_result.summary(t, cov, bias, scale, intervals)
+        out = centre_result.summary(t, cov, bias, scale, intervals, plane_holds_zero=True)
     d = principal(*(v[0] for v in channels))["dir1"]
     out["direction1_patch"] = np.asarray(d, float)
     out["centre"] = centre
