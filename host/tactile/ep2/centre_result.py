@@ -22,7 +22,6 @@ patch alone or in a batch), in order:
 import math
 
 import numpy as np
-from scipy.special import fdtri
 
 from tactile.ep2 import classify, grid_batch, jet_basis, uncertainty
 from tactile.ep2.shape_index import curvedness_c, curvedness_r, hk_labels, s_region_map, shape_index
@@ -36,6 +35,8 @@ PATH_PLANE_DEG = 45.0  # contacts in one plane tilted further than this from the
 def widen(nu, q=3, p=0.95):
     """Factor on Cov for a noise estimated with ``nu`` degrees of freedom: q F(q, nu) / chi^2_q
     (1 for a stated noise, nu = inf).  ``nu`` a number or an array."""
+    from scipy.special import fdtri  # (here: only the spline needs it, 0.2 s to import)
+
     nu = np.asarray(nu, float)
     chi2 = {1: uncertainty.CHI2_1_95, 2: uncertainty.CHI2_2_95, 3: uncertainty.CHI2_3_95}[q]
     finite = np.isfinite(nu)

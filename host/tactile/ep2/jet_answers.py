@@ -3,8 +3,9 @@
 A patch is refused only when its fit says so (too few consistent contacts, one line, no
 quadric through them) or when the noise covariance of its 2-jet's curvature leaves a
 direction undetermined, named in world coordinates: a 95 % half-width over
-``MAX_HALF_WIDTH`` / L.  The bias left widens the intervals; it refuses nothing.  Otherwise: the headline curvature,
-intervals and label at the patch centre (``centre_result.summary_many``), the thesis's grid
+``MAX_HALF_WIDTH`` / L.  The bias left widens the intervals; it refuses nothing.
+Otherwise: the headline curvature, intervals and label at the patch centre
+(``centre_result.summary_many``), the thesis's grid
 statistics (§4.8.2, ``grid_batch``) and the fields ``patch_result.from_fields`` takes.
 """
 

@@ -412,8 +412,9 @@ def _answer(f, keep, reason, warnings, stated):
     cov_quadric = J @ C2 @ np.swapaxes(J, -1, -2)
     sig = f["sig"] * np.stack([f["L"], np.ones(B)], -1)
     return JetStack(
-        t=t, cov=cov_t, cov_noise=cov_noise, cov_quadric=cov_quadric, coef=coef, order=np.where(w > 0.5, hi, 2),
-        top=top, weight=w, noise=sig, stated=stated, origin=f["origin"], axes=f["axes"],
+        t=t, cov=cov_t, cov_noise=cov_noise, cov_quadric=cov_quadric, coef=coef,
+        order=np.where(w > 0.5, hi, 2), top=top, weight=w, noise=sig, stated=stated,
+        origin=f["origin"], axes=f["axes"],
         scale=f["L"], centre=f["centre"], xy=f["xy"], keep=keep, reason=reason,
         warnings=warnings,
     )  # fmt: skip
