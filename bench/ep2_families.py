@@ -11,7 +11,9 @@ list of patch dicts and returning a result or an exception per patch):
 - ``default``: ``tactile.ep2.analyze_patches`` as it is when run, in one call (each patch
   dict with its noise where the case states it);
 - ``jet2``: the batched numpy 2-jet with normals (``tactile_studies.ep2.jet2``);
-- ``spline``: ``analyze_patches(method="spline")``, grouped as ``default``.
+- ``spline``: ``analyze_patches(method="spline")``, in one call as ``default``;
+- ``jet2_positions``: the quadric jet of the heights alone (``jet2.positions``);
+- ``fitpack``: scipy's bicubic smoothing spline of the heights (``fitpack_peer``).
 
 Every estimator gets the same draws.  A noise-free case without outliers is drawn once, any
 other ``--trials`` times.  In the robust splits each estimator also gets each patch without
@@ -37,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_args import positive_int  # noqa: E402
 
 from tactile.ep2 import analyze_patches  # noqa: E402
-from tactile_studies.ep2 import families, family_score, jet2  # noqa: E402
+from tactile_studies.ep2 import families, family_score, fitpack_peer, jet2  # noqa: E402
 
 DEFAULT_TRIALS = 5
 
@@ -61,7 +63,13 @@ def spline(patches):
     return _library(patches, method="spline")
 
 
-ESTIMATORS = {"default": default, "jet2": jet2.analyze, "spline": spline}
+ESTIMATORS = {
+    "default": default,
+    "jet2": jet2.analyze,
+    "jet2_positions": jet2.positions,
+    "fitpack": lambda patches: fitpack_peer.analyze(patches),
+    "spline": spline,
+}
 
 
 def resolve(spec):

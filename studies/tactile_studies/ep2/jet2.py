@@ -114,7 +114,7 @@ def _weighted_solve(A, b, w):
     return coef, R_safe, b - np.einsum("bri,bi->br", A, coef), ok, Q
 
 
-def fit_group(P, N, sig_p, sig_n, fisher=False):
+def fit_group(P, N, sig_p, sig_n, fisher=False, positions_only=False):
     """The 2-jet of a stack of patches of one size (B, n, 3); ``sig_p`` (data unit) and
     ``sig_n`` (rad) per patch, NaN where not stated.  ``fisher``: Cov without the
     chi^2/dof factor (the information the rows carry at that noise).  Returns a dict of
@@ -137,6 +137,8 @@ def fit_group(P, N, sig_p, sig_n, fisher=False):
     b = np.concatenate([z, sx, sy], axis=1)
     g2 = 1.0 + sx * sx + sy * sy
     fp, fn = np.sqrt(g2), g2  # d(height)/d(position noise), d(slope)/d(angle)
+    if positions_only:  # the classic quadric jet: heights alone (slopes weighted 0)
+        fn = np.full_like(fn, np.inf)
     stated = np.isfinite(sig_p) & np.isfinite(sig_n)
     sp = np.where(stated, np.maximum(np.nan_to_num(sig_p) / L, FLOOR), 1.0)
     sn = np.where(stated, np.maximum(np.nan_to_num(sig_n), FLOOR), 1.0)
@@ -148,7 +150,7 @@ def fit_group(P, N, sig_p, sig_n, fisher=False):
         rss_p, lev_p = rw[:, :n].sum(-1), lev[:, :n].sum(-1)
         rss_n, lev_n = rw[:, n:].sum(-1), lev[:, n:].sum(-1)
         est_p = np.sqrt(rss_p / np.maximum(n - lev_p, 1.0))
-        est_n = np.sqrt(rss_n / np.maximum(2 * n - lev_n, 1.0))
+        est_n = np.sqrt(rss_n / np.maximum(2 * n - lev_n, 1.0)) if not positions_only else 1.0
         floored = ~stated & ((est_p < REML_FLOOR) | (est_n < REML_FLOOR))
         sp = np.where(stated, sp, np.maximum(est_p, REML_FLOOR))
         sn = np.where(stated, sn, np.maximum(est_n, REML_FLOOR))
@@ -156,7 +158,8 @@ def fit_group(P, N, sig_p, sig_n, fisher=False):
     w = np.concatenate([1 / (sp[:, None] * fp), 1 / (sn[:, None] * fn), 1 / (sn[:, None] * fn)], 1)
     coef, R, r, ok, _ = _weighted_solve(A, b, w)
     chi2 = np.sum((r * w) ** 2, axis=-1)
-    s2 = chi2 / (3 * n - 6)
+    dof = (n if positions_only else 3 * n) - 6
+    s2 = chi2 / dof if dof > 0 else np.full(B, np.inf)
     s2 = np.ones(B) if fisher else np.where(stated, np.maximum(s2, 1.0), s2)
     Rinv = np.linalg.inv(R)
     cov = s2[:, None, None] * Rinv @ np.swapaxes(Rinv, -1, -2)
@@ -196,9 +199,10 @@ def label(S, S_iv, k1_iv, k2_iv):
     return "uncertain"
 
 
-def analyze(patches):
+def analyze(patches, positions_only=False):
     """[Jet2Result or DataError] for dicts with ``points``, ``normals`` and optionally
-    ``noise_pos``, ``noise_normal`` (used when ``stated`` is true)."""
+    ``noise_pos``, ``noise_normal`` (used when ``stated`` is true).  ``positions_only``:
+    the quadric jet of the heights alone (the usual jet fit, no normals)."""
     out = [None] * len(patches)
     groups = {}
     for j, d in enumerate(patches):
@@ -209,15 +213,15 @@ def analyze(patches):
         told = [patches[j].get("stated", False) for j in idx]
         sp = np.array([patches[j]["noise_pos"] if t else np.nan for j, t in zip(idx, told)])
         sn = np.array([patches[j]["noise_normal"] if t else np.nan for j, t in zip(idx, told)])
-        f = fit_group(P, N, sp, sn)
+        f = fit_group(P, N, sp, sn, positions_only=positions_only)
         for b, j in enumerate(idx):
             out[j] = _result(f, b)
     return out
 
 
 def _result(f, b):
-    if not f["ok"][b]:
-        return DataError(f"2-jet: {f['why'][b]}")
+    if not f["ok"][b] or not np.all(np.isfinite(f["qcov"][b])):
+        return DataError(f"2-jet: {f['why'][b] or 'no spare rows for its noise'}")
     q, sd = f["q"][b], np.sqrt(np.maximum(np.diagonal(f["qcov"][b]), 0.0))
     k1_iv = (q[0] - Z95 * sd[0], q[0] + Z95 * sd[0])
     k2_iv = (q[1] - Z95 * sd[1], q[1] + Z95 * sd[1])
@@ -241,3 +245,8 @@ def worst_halfwidth(P, N, sig_p, sig_n):
     w = np.stack([np.cos(t) ** 2, 2 * np.cos(t) * np.sin(t), np.sin(t) ** 2], axis=-1)
     var = np.einsum("ti,bij,tj->bt", w, f["cov"][:, 3:, 3:], w)
     return Z95 * np.sqrt(var.max(axis=-1))
+
+
+def positions(patches):
+    """``analyze`` of the heights alone: the quadric jet without normals."""
+    return analyze(patches, positions_only=True)
