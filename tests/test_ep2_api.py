@@ -31,8 +31,9 @@ def test_noise_free_objects_get_their_label_and_s(kind, rotation):
     if s is None:
         assert res.S is None and res.C is None and res.radius is None and res.S_mean is None
     else:
-        assert res.S == pytest.approx(s, abs=1e-3)  # noise-free, at the centre
-        assert res.S_mean == pytest.approx(s, abs=0.01)  # the thesis's grid mean
+        assert res.S == pytest.approx(s, abs=3e-3)  # noise-free, at the centre (3-jet truncation)
+        assert res.S_interval[0] <= s <= res.S_interval[1]
+        assert res.S_mean == pytest.approx(s, abs=0.02)  # the thesis's grid mean, of the jet
         assert res.confidence > 0.95
 
 
@@ -187,8 +188,9 @@ def test_bad_inputs_raise_the_right_errors():
         analyze_patch(d["points"], nrm)
     nrm = d["normals"].copy()
     nrm[7] = [1.0, 0.0, -0.2]
-    with pytest.raises(DataError, match="deg from the mean normal"):
-        analyze_patch(d["points"], nrm)
+    res = analyze_patch(d["points"], nrm)  # one wild normal: left out, with a warning
+    assert any("contact 7 left out" in w and "deg from" in w for w in res.warnings)
+    assert res.shape == analyze_patch(d["points"], d["normals"]).shape
     one = d["finger"] == 1
     with pytest.raises(DataError, match="one line"):
         analyze_patch(d["points"][one], d["normals"][one])

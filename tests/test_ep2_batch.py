@@ -30,6 +30,8 @@ def _mixture():
 def _same(a, b):
     if a is None or b is None:
         return a is None and b is None
+    if isinstance(a, tuple | list):  # an interval with an open (None) end
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
     return np.allclose(a, b, rtol=1e-9, atol=1e-12)
 
 

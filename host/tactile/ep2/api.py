@@ -92,7 +92,7 @@ def analyze_patch(
 def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
     stack = local_jet.fit(pts[None], nrm[None], mask, opts["noise_pos"], opts["noise_normal"])
-    (out,) = jet_answers.outcomes(stack, opts, [opts["lines"]])
+    (out,) = jet_answers.outcomes(stack, opts, [opts["names"]])
     if isinstance(out, DataError):
         raise out
     return out

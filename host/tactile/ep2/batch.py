@@ -108,7 +108,7 @@ def _chunk(patches, kw):
         opts = prepared[0][1].opts
         noise = [[_nan(prep.opts[k]) for _, prep in prepared] for k in _OWN]
         stack = local_jet.fit(P, N, mask, *noise)
-        lines = [prep.opts["lines"] for _, prep in prepared]
+        lines = [prep.opts["names"] for _, prep in prepared]
         outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):
             if not isinstance(res, DataError):
@@ -192,7 +192,8 @@ def _prepare_group(group, unpacked, kws):
     fingers = [unpacked[group[b][0]][2] for b in live.tolist()]
     breaks = discontinuity.find_breaks_many(N[live], fingers, kws[0]["break_angle"])
     for b, brk in zip(live.tolist(), breaks, strict=True):
-        opts = patch_input.options(kws[b], unpacked[group[b][0]][3])
+        lines = unpacked[group[b][0]][3]
+        opts = dict(patch_input.options(kws[b], lines), names=patch_input.row_names(lines))
         out[b] = patch_input.Prepared(P[b], N[b], opts, brk, 0, middle[b])
     return out
 

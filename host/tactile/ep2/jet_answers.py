@@ -21,7 +21,8 @@ MAX_HALF_WIDTH = 0.25  # of 1/L: the 2-jet's noise half-width (95 %) beyond whic
 
 
 def outcomes(stack, opts, lines=None):
-    """A list per patch of ``stack``: its field dict, or the ``DataError`` refusing it."""
+    """A list per patch of ``stack``: its field dict, or the ``DataError`` refusing it.
+    ``lines``: per patch, how to name its contacts (``patch_input.row_names``) or None."""
     B = len(stack.scale)
     lines = [None] * B if lines is None else lines
     out = [None] * B
@@ -144,10 +145,11 @@ def _model_text(stack, b):
             f"{top}-jet")  # fmt: skip
 
 
-def _name_rows(why, lines):
-    """A line naming 'contact k' names its CSV line instead, where lines are known."""
-    if lines is not None and "contact " in why:
+def _name_rows(why, names):
+    """A line naming 'contact k' (k as fitted) names it as the user numbered it: ``names``
+    (``patch_input.row_names``) or, None, as it is."""
+    if names is not None and "contact " in why:
         k = int(why.split("contact ")[1].split()[0].rstrip(":"))
-        why = why.replace(f"contact {k} ", f"line {lines[k]} ", 1)
-        why = why.replace(f"contact {k}:", f"line {lines[k]}:", 1)
+        why = why.replace(f"contact {k} ", f"{names[k]} ", 1)
+        why = why.replace(f"contact {k}:", f"{names[k]}:", 1)
     return why

@@ -208,8 +208,8 @@ def _unit(v):
 
 
 def _frame(P, N, keep):
-    """(origin (B, 3), axes (B, 3, 3), L (B,), centre (B, 2)) as ``patch_frame`` builds it,
-    from the contacts kept."""
+    """(origin (B, 3), axes (B, 3, 3), L (B,), centre (B, 2), spread (B,): L, 0 for one point)
+    as ``patch_frame`` builds it, from the contacts kept."""
     w = keep.astype(float)
     z = _unit(_vm(w, N))
     ref = np.where((np.abs(z[:, :1]) < 0.9), [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
@@ -220,13 +220,13 @@ def _frame(P, N, keep):
     lo = np.where(keep[..., None], q, np.inf).min(1)
     hi = np.where(keep[..., None], q, -np.inf).max(1)
     L = np.max(hi - lo, -1)
-    return origin, axes, np.where(L > 0, L, 1.0), 0.5 * (lo + hi)
+    return origin, axes, np.where(L > 0, L, 1.0), 0.5 * (lo + hi), L
 
 
 # --- 2-3. rows, weights, noise and every order from one QR -----------------------------------
 def _fit_once(P, N, keep, noise, top_cap):
     """Frame, rows, noise and the jets of every order up to the top, for the contacts kept."""
-    origin, axes, L, centre = _frame(P, N, keep)
+    origin, axes, L, centre, spread = _frame(P, N, keep)
     centre = centre / L[:, None]
     q = (P - origin[:, None]) @ np.swapaxes(axes, -1, -2) / L[:, None, None]
     nn = N @ np.swapaxes(axes, -1, -2)
@@ -252,7 +252,7 @@ def _fit_once(P, N, keep, noise, top_cap):
             break
         sig = _reml(f, s, stated, keep)
     f.update(origin=origin, axes=axes, L=L, centre=centre, xy=np.stack([x, y], -1), g2=g2,
-             sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1])  # fmt: skip
+             sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1], spread=spread)  # fmt: skip
     return f
 
 
@@ -261,6 +261,10 @@ def _qr_fits(A, b, w, top_cap, n_kept):
     residuals and leverages of order o are those of Q's first size(o) columns."""
     Aw, bw = A * w[..., None], b * w
     p_top = size(top_cap)
+    short = p_top - Aw.shape[1]  # fewer rows than the top jet's terms: zero rows, so R is square
+    if short > 0:
+        Aw = np.concatenate([Aw, np.zeros((len(Aw), short, Aw.shape[2]))], 1)
+        bw, w = (np.concatenate([v, np.zeros((len(v), short))], 1) for v in (bw, w))
     cn = np.sqrt(np.sum(Aw[..., :p_top] ** 2, axis=1))
     cn = np.where(cn > 0, cn, 1.0)
     Q, R = np.linalg.qr(Aw[..., :p_top] / cn[:, None, :])
@@ -400,10 +404,14 @@ def _answer(f, keep, reason, warnings, stated):
     coef = coef + w[:, None] * (ch - coef)
     t, J = _entries_and_jacobian(est)
     width = _width(f["xy"], keep)
+    for b in np.flatnonzero(f["spread"] == 0.0):
+        reason[b] = reason[b] or (
+            "all contacts at one point: the patch needs contacts spread in two directions"
+        )
     for b in np.flatnonzero(width < LINE_WIDTH):
         reason[b] = reason[b] or (
-            f"the contacts lie on one line (their spread across it is {width[b]:.2g} of the patch"
-            " size): the curvature across it is not determined; sweep across it"
+            f"the contacts lie on one line or path (their spread across it is {width[b]:.2g} of "
+            "the patch size): the curvature across it is not determined; sweep across it"
         )
     for b in np.flatnonzero(~f["ok2"]):
         reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
@@ -421,11 +429,19 @@ def _answer(f, keep, reason, warnings, stated):
 
 
 def _width(xy, keep):
-    """(B,) the rms spread of the kept contacts across their main line, / L."""
+    """(B,) the rms spread of the kept contacts across their path, / L: their distance from the
+    parabola v = a + b u + c u^2 along their main line u (a straight finger path projects to a
+    bent one where the frame's normal leans out of the path's plane; across such a path only
+    the model, not the data, gives a curvature)."""
     w = keep.astype(float)
     n = np.maximum(w.sum(-1), 1.0)[:, None]
     d = (xy - _vm(w, xy)[:, None, :] / n[..., None]) * w[..., None]
-    return np.sqrt(np.maximum(np.linalg.eigvalsh(np.swapaxes(d, -1, -2) @ d)[:, 0], 0.0) / n[:, 0])
+    _, vecs = np.linalg.eigh(np.swapaxes(d, -1, -2) @ d)
+    u, v = (d @ vecs[..., 1:])[..., 0], (d @ vecs[..., :1])[..., 0]
+    V = np.stack([w, u, u * u], -1)
+    Q, _ = np.linalg.qr(V)
+    r = v - _mv(Q, _vm(v, Q))
+    return np.sqrt(np.sum(r * r * w, -1) / n[:, 0])
 
 
 def _pick(by_order, which):
@@ -487,10 +503,22 @@ def _omitted(f, coefs, cov, top):
 
 def _round_bias(f, coefs, cov):
     """(B, 5): how far the 2-jet's values move from a sphere's or cylinder's of the measured
-    curvature over these contacts: its 4th derivatives, 3 z2^3 (a circle's), left out."""
-    z2 = _signal(coefs[2][:, 3:6], cov[2][:, 2:5, 2:5])
+    curvature over these contacts, its quartic left out.  A circle of curvature k = 2c has
+    quartic coefficient c^3, a sphere c^3 (1, 0, 2, 0, 1) in (x^4, x^3y, ..., y^4), of norm
+    sqrt(6) c^3: 3 c^3 times each entry's regression norm bounds either, c the largest
+    principal coefficient."""
+    z2 = _largest(coefs[2][:, 3:6], cov[2][:, 2:5, 2:5])
     G = _regress_omitted(f, 2, slice(size(3), size(4)), np.ones(len(z2), bool))
     return 3.0 * z2[:, None] ** 3 * np.sqrt(np.sum(G[:, 1:6] ** 2, -1))
+
+
+def _largest(c, C):
+    """The largest |principal coefficient| (half the largest |k| L) of the 2-jet's
+    (x^2, xy, y^2) coefficients c (b, 3), its noise (cov C) taken out."""
+    a, b, d = c[:, 0], 0.5 * c[:, 1], c[:, 2]
+    lam = 0.5 * np.abs(a + d) + np.hypot(0.5 * (a - d), b)
+    noise = np.trace(C, axis1=-2, axis2=-1) / 3.0
+    return np.sqrt(np.maximum(lam * lam - noise, 0.0))
 
 
 def _signal(c, C):

@@ -40,13 +40,24 @@ def prepare(points, normals, finger, lines, kw):
         pts, noise_pos, noise_normal, kw["grid"], kw["segments"], kw["max_normal_angle"],
         kw["break_angle"],
     )  # fmt: skip
-    pts, nrm, finger, lines, dropped = _drop_duplicates(pts, nrm, finger, lines)
+    rows = np.arange(len(pts))
+    pts, nrm, finger, lines, rows, dropped = _drop_duplicates(pts, nrm, finger, lines, rows)
     pts, middle = extent.centred(
         pts
     )  # the frame's origin moves back in ``patch_result.from_fields``
     breaks = discontinuity.find_breaks(nrm, finger, kw["break_angle"])
     check_order(method, order)
-    return Prepared(pts, nrm, options(kw, lines), breaks, dropped, middle)
+    opts = options(kw, lines)
+    opts["names"] = row_names(lines, rows if dropped else None)
+    return Prepared(pts, nrm, opts, breaks, dropped, middle)
+
+
+def row_names(lines, rows=None):
+    """How messages name the fitted contacts: their CSV lines, their row numbers in the input
+    (where duplicates were dropped) or None (as numbered)."""
+    if lines is not None:
+        return [f"line {n}" for n in lines]
+    return None if rows is None else [f"contact {int(n)}" for n in rows]
 
 
 def check_order(method, order):
@@ -106,14 +117,13 @@ def check_options(pts, noise_pos, noise_normal, grid, segments, max_angle, break
         raise refuse("segments", f"a whole number in 1..{MAX_SEGMENTS}", segments)
 
 
-def _drop_duplicates(pts, nrm, finger, lines):
+def _drop_duplicates(pts, nrm, finger, lines, rows):
     """Rows repeated exactly (same position and normal) carry no new information: keep the
-    first of each, so they cannot narrow the intervals.  Returns the count dropped."""
-    rows = np.column_stack([pts, nrm])
-    _, first = np.unique(rows, axis=0, return_index=True)
-    if first.size == len(rows):
-        return pts, nrm, finger, lines, 0
+    first of each, so they cannot narrow the intervals.  Returns the count dropped last."""
+    _, first = np.unique(np.column_stack([pts, nrm]), axis=0, return_index=True)
+    if first.size == len(pts):
+        return pts, nrm, finger, lines, rows, 0
     keep = np.sort(first)
     finger = None if finger is None else [finger[i] for i in keep]
     lines = None if lines is None else [lines[i] for i in keep]
-    return pts[keep], nrm[keep], finger, lines, len(rows) - keep.size
+    return pts[keep], nrm[keep], finger, lines, rows[keep], len(pts) - keep.size
