@@ -91,7 +91,14 @@ def analyze_patch(
 
 def _analyze_jet(pts, nrm, opts):
     mask = np.ones((1, len(pts)), bool)
-    stack = local_jet.fit(pts[None], nrm[None], mask, opts["noise_pos"], opts["noise_normal"])
+    stack = local_jet.fit(
+        pts[None],
+        nrm[None],
+        mask,
+        opts["noise_pos"],
+        opts["noise_normal"],
+        opts["max_normal_angle"],
+    )
     (out,) = jet_answers.outcomes(stack, opts, [opts["names"]])
     if isinstance(out, DataError):
         raise out

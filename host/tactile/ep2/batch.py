@@ -107,7 +107,7 @@ def _chunk(patches, kw):
             P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
         opts = prepared[0][1].opts
         noise = [[_nan(prep.opts[k]) for _, prep in prepared] for k in _OWN]
-        stack = local_jet.fit(P, N, mask, *noise)
+        stack = local_jet.fit(P, N, mask, *noise, opts["max_normal_angle"])
         lines = [prep.opts["names"] for _, prep in prepared]
         outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):

@@ -11,7 +11,7 @@ statistics (§4.8.2, ``grid_batch``) and the fields ``patch_result.from_fields``
 
 import numpy as np
 
-from tactile.ep2 import centre_result, grid_batch, patch_frame
+from tactile.ep2 import centre_result, consistency, grid_batch, patch_frame
 from tactile.ep2.grid_batch import DERIVS
 from tactile.ep2.local_jet import design, exponents, powers, size
 from tactile.ep2.surface_geometry import principal
@@ -26,15 +26,15 @@ def outcomes(stack, opts, lines=None):
     B = len(stack.scale)
     lines = [None] * B if lines is None else lines
     out = [None] * B
+    _refuse_disagreeing(stack)
     live = [b for b in range(B) if stack.reason[b] is None]
     for b in range(B):
         if stack.reason[b] is not None:
-            out[b] = DataError(_name_rows(stack.reason[b], lines[b]))
+            out[b] = DataError(_name_rows(stack.reason[b], lines[b]) + _left(stack, b, lines[b]))
     if live:
         for b in np.asarray(live)[_wide(stack, live)].tolist():
             why = undetermined(stack, b)
-            left = [_name_rows(w, lines[b]) for w in stack.warnings[b]]
-            out[b] = DataError(why + "".join(f"; {w}" for w in left))
+            out[b] = DataError(why + _left(stack, b, lines[b]))
     ok = np.array([b for b in live if out[b] is None], int)
     if not len(ok):
         return out
@@ -59,6 +59,27 @@ def outcomes(stack, opts, lines=None):
         head.update(direction1=d1[k], box=tuple(box[k]))
         out[b] = _fields(stack, b, head, ([c[k] for c in ch], gx[k], gy[k]))
     return out
+
+
+def _left(stack, b, names, most=2):
+    """'; ' and the contacts patch b left out (the first ``most``, then how many more)."""
+    left = [_name_rows(w, names) for w in stack.warnings[b]]
+    more = f"; and {len(left) - most} more left out" if len(left) > most + 1 else ""
+    return "".join(f"; {w}" for w in left[: most if more else None]) + more
+
+
+def _refuse_disagreeing(stack):
+    """Patches whose positions and normals describe different surfaces are refused
+    (``consistency``)."""
+    live = np.array([b for b, why in enumerate(stack.reason) if why is None], int)
+    if not len(live):
+        return
+    whys = consistency.disagreements(
+        stack.xy[live], stack.heights[live], stack.slopes[live], stack.keep[live],
+        stack.axes[live], stack.scale[live],
+    )  # fmt: skip
+    for b, why in zip(live.tolist(), whys, strict=True):
+        stack.reason[b] = why
 
 
 def _half_widths(cov):

@@ -46,7 +46,6 @@ BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noi
 FLOOR = 1e-8  # noise floor: of L for positions, rad for normals (exact data stay exact)
 LINE_WIDTH = 0.01  # of L: contacts spread less across their line are on one line
 START_NOISE = 0.01  # the first pass's sigmas when none is stated (of L, rad)
-SLOPE_LIMIT = math.tan(math.radians(MAX_ANGLE))
 
 
 def exponents(order):
@@ -100,26 +99,30 @@ class JetStack:
     scale: np.ndarray  # (B,) L
     centre: np.ndarray  # (B, 2) the box middle in the frame (/ L)
     xy: np.ndarray  # (B, n, 2) contacts in the frame, about the centre (/ L)
+    heights: np.ndarray  # (B, n) their heights in the frame (/ L)
+    slopes: np.ndarray  # (B, n, 2) their slopes from the normals
     keep: np.ndarray  # (B, n) contacts used
     reason: list  # per patch: None, or why it is refused
     warnings: list = field(default_factory=list)  # per patch: list of lines
 
 
-def fit(P, N, mask, noise_pos=None, noise_normal=None):
+def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     """Fit every patch of the stack: P, N (B, n, 3) world points and unit normals (rows
     beyond a patch's contacts masked out by ``mask`` (B, n)).  ``noise_pos`` (input unit)
-    and ``noise_normal`` (rad): None (estimated), a number, or one per patch (NaN: estimated).
+    and ``noise_normal`` (rad): None (estimated), a number, or one per patch (NaN: estimated);
+    ``max_angle`` (deg): a normal further from the patch's is left out.
     After an outlier is left out only the patches that lost one are fitted again."""
     P, N, mask = np.asarray(P, float), np.asarray(N, float), np.asarray(mask, bool)
     noise = np.stack([_per_patch(noise_pos, len(P)), _per_patch(noise_normal, len(P))], -1)
-    keep, warnings = _screen_normals(N, mask)
+    keep, warnings = _screen_normals(N, mask, max_angle)
+    limit = math.tan(math.radians(min(max_angle, 89.9)))
     n_kept = keep.sum(-1).max() if len(P) else 0
     top_cap = max(
         [2, *(o for o in range(3, TOP_ORDER + 1) if TOP_REDUNDANCY * size(o) <= 3 * n_kept)]
     )
     reason = [None] * len(P)
     live = np.arange(len(P))
-    f = _fit_once(P, N, keep, noise, top_cap)
+    f = _fit_once(P, N, keep, noise, top_cap, limit)
     for _ in range(MAX_OUTLIERS + 1):
         worst, why = _worst_contact(_take(f, live), keep[live])
         again = []
@@ -137,7 +140,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None):
         if not again:
             break
         live = np.array(again)
-        _put(f, live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap))
+        _put(f, live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap, limit))
     return _answer(f, keep, reason, warnings, np.isfinite(noise))
 
 
@@ -173,10 +176,10 @@ _SHARED = ()  # fit-dict arrays that are not per patch (none yet)
 
 
 # --- 1. screening and the frame -------------------------------------------------------------
-def _screen_normals(N, mask):
+def _screen_normals(N, mask, max_angle):
     """Contacts whose normal is over MAX_ANGLE from the patch's mean normal (seeded at the
     medoid: the normal closest to all others) are left out, with a warning each."""
-    cosmax = math.cos(math.radians(MAX_ANGLE))
+    cosmax = math.cos(math.radians(max_angle))
     dots = N @ np.swapaxes(N, -1, -2) * mask[:, None, :]
     medoid = np.argmax(np.where(mask, dots.sum(-1), -np.inf), axis=-1)
     seed = N[np.arange(len(N)), medoid]
@@ -187,8 +190,10 @@ def _screen_normals(N, mask):
     warnings = [[] for _ in range(len(N))]
     for b, k in zip(*np.nonzero(mask & ~keep), strict=True):
         angle = math.degrees(math.acos(max(-1.0, min(1.0, float(cos[b, k])))))
-        warnings[b].append(f"contact {k} left out: its normal is {angle:.0f} deg from its "
-                           "neighbours'")  # fmt: skip
+        warnings[b].append(
+            f"contact {k} left out: its normal is {angle:.0f} deg from its neighbours' "
+            f"(limit {max_angle:g} deg, --max-normal-angle)"
+        )
     return keep, warnings
 
 
@@ -224,15 +229,15 @@ def _frame(P, N, keep):
 
 
 # --- 2-3. rows, weights, noise and every order from one QR -----------------------------------
-def _fit_once(P, N, keep, noise, top_cap):
+def _fit_once(P, N, keep, noise, top_cap, limit):
     """Frame, rows, noise and the jets of every order up to the top, for the contacts kept."""
     origin, axes, L, centre, spread = _frame(P, N, keep)
     centre = centre / L[:, None]
     q = (P - origin[:, None]) @ np.swapaxes(axes, -1, -2) / L[:, None, None]
     nn = N @ np.swapaxes(axes, -1, -2)
     nz = np.maximum(nn[..., 2], 1e-6)
-    sx = np.clip(-nn[..., 0] / nz, -SLOPE_LIMIT, SLOPE_LIMIT)
-    sy = np.clip(-nn[..., 1] / nz, -SLOPE_LIMIT, SLOPE_LIMIT)
+    sx = np.clip(-nn[..., 0] / nz, -limit, limit)
+    sy = np.clip(-nn[..., 1] / nz, -limit, limit)
     x, y = q[..., 0] - centre[:, :1], q[..., 1] - centre[:, 1:]
     n_kept = keep.sum(-1)
     V, DX, DY = design(x, y, top_cap + 1)  # (the extra order: the top's truncation)
@@ -252,7 +257,8 @@ def _fit_once(P, N, keep, noise, top_cap):
             break
         sig = _reml(f, s, stated, keep)
     f.update(origin=origin, axes=axes, L=L, centre=centre, xy=np.stack([x, y], -1), g2=g2,
-             sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1], spread=spread)  # fmt: skip
+             sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1], spread=spread,
+             heights=q[..., 2], slopes=np.stack([sx, sy], -1))  # fmt: skip
     return f
 
 
@@ -403,15 +409,16 @@ def _answer(f, keep, reason, warnings, stated):
     ch = _pick_coef(coefs, hi, coef.shape[1])
     coef = coef + w[:, None] * (ch - coef)
     t, J = _entries_and_jacobian(est)
-    width = _width(f["xy"], keep)
+    width, across = _width(f["xy"], keep)
     for b in np.flatnonzero(f["spread"] == 0.0):
         reason[b] = reason[b] or (
             "all contacts at one point: the patch needs contacts spread in two directions"
         )
     for b in np.flatnonzero(width < LINE_WIDTH):
+        v = ", ".join(f"{c:.2f}" for c in across[b] @ f["axes"][b][:2])
         reason[b] = reason[b] or (
             f"the contacts lie on one line or path (their spread across it is {width[b]:.2g} of "
-            "the patch size): the curvature across it is not determined; sweep across it"
+            f"the patch size): the curvature across ({v}) is not determined; sweep across it"
         )
     for b in np.flatnonzero(~f["ok2"]):
         reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
@@ -423,16 +430,17 @@ def _answer(f, keep, reason, warnings, stated):
         t=t, cov=cov_t, cov_noise=cov_noise, cov_quadric=cov_quadric, coef=coef,
         order=np.where(w > 0.5, hi, 2), top=top, weight=w, noise=sig, stated=stated,
         origin=f["origin"], axes=f["axes"],
-        scale=f["L"], centre=f["centre"], xy=f["xy"], keep=keep, reason=reason,
+        scale=f["L"], centre=f["centre"], xy=f["xy"], heights=f["heights"],
+        slopes=f["slopes"], keep=keep, reason=reason,
         warnings=warnings,
     )  # fmt: skip
 
 
 def _width(xy, keep):
-    """(B,) the rms spread of the kept contacts across their path, / L: their distance from the
+    """((B,) the rms spread of the kept contacts across their path, / L: their distance from the
     parabola v = a + b u + c u^2 along their main line u (a straight finger path projects to a
     bent one where the frame's normal leans out of the path's plane; across such a path only
-    the model, not the data, gives a curvature)."""
+    the model, not the data, gives a curvature); (B, 2) the direction across, in the frame)."""
     w = keep.astype(float)
     n = np.maximum(w.sum(-1), 1.0)[:, None]
     d = (xy - _vm(w, xy)[:, None, :] / n[..., None]) * w[..., None]
@@ -441,7 +449,7 @@ def _width(xy, keep):
     V = np.stack([w, u, u * u], -1)
     Q, _ = np.linalg.qr(V)
     r = v - _mv(Q, _vm(v, Q))
-    return np.sqrt(np.sum(r * r * w, -1) / n[:, 0])
+    return np.sqrt(np.sum(r * r * w, -1) / n[:, 0]), vecs[..., 0]
 
 
 def _pick(by_order, which):

@@ -140,6 +140,7 @@ def records(case, draws, results, clean_results=None):
         if isinstance(res, BaseException):
             rec["refused"] = True
             rec["reason"] = str(res).split(":")[0][:60]
+            rec["message"] = str(res)
             out.append(rec)
             continue
         rec["answered"] = True
