@@ -10,10 +10,10 @@ patch's share of the call.
 
 Cases come from ``tactile_studies.ep2.cases`` (tune / holdout / holdout2-5 / degenerate;
 a holdout split is for final evaluation only).  Per case, on the SAME draws: RMS S error of the
-estimator and of the peer ``tactile.ep2.peers.jet(..., with_normals=True)`` (given the
-true noise, floored at 1e-6 of the base unit; curvature at the patch centre) and their
-paired ratio with a bootstrap 95 % interval (``ep2_peers.paired_ratio``); max |S error|
-on noise-free cases; coverage of the S, k1, k2 intervals; confidently wrong labels;
+estimator and of the peer ``tactile_studies.ep2.peers.jet(..., with_normals=True)`` (given
+the true noise, floored at 1e-6 of the base unit; curvature at the patch centre) and their
+paired ratio with a bootstrap 95 % interval (``paired_ratio``); max |S error| on
+noise-free cases; coverage of the S, k1, k2 intervals; confidently wrong labels;
 null S and refusals with their reasons; us per patch of both.  Truth is the true
 surface's curvature at the patch centre (``tactile_studies.ep2.truth``).
 
@@ -46,16 +46,13 @@ import re  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from collections import Counter  # noqa: E402
-from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from ep2_peers import paired_ratio, rms  # noqa: E402
-
-from tactile.ep2 import analyze_patch, analyze_patches, peers  # noqa: E402
+from tactile.ep2 import analyze_patch, analyze_patches  # noqa: E402
 from tactile.errors import DataError  # noqa: E402
 from tactile_studies.ep2 import cases as casegen  # noqa: E402
+from tactile_studies.ep2 import peers  # noqa: E402
 
 BANDS = {  # shape_index.S_REGIONS: sphere > 0.75 > cylinder > 0.25 > saddle > -0.25 > ...
     "sphere": (0.75, 1.0),
@@ -135,6 +132,18 @@ def resolve(spec):
 
 def _inside(iv, v):
     return iv is not None and iv[0] <= v <= iv[1]
+
+
+def rms(v):
+    return float(np.sqrt(np.mean(np.square(v))))
+
+
+def paired_ratio(a, b, n_boot=400):
+    """RMS(a) / RMS(b) over paired trials, with a bootstrap 95 % interval."""
+    rng = np.random.default_rng(0)
+    idx = rng.integers(0, a.size, (n_boot, a.size))
+    boot = np.sqrt(np.mean(a[idx] ** 2, axis=1) / np.mean(b[idx] ** 2, axis=1))
+    return rms(a) / rms(b), np.percentile(boot, [2.5, 97.5])
 
 
 def wrong_label(out, tr, inconsistent=False):

@@ -101,25 +101,14 @@ def test_stacked_preparation_equals_one_patch_at_a_time():
     assert isinstance(batch[3], DataError) and "contact 2" in str(batch[3])
 
 
-def test_the_peers_bench_scores_this_library_batched_as_one_at_a_time():
-    """``bench/ep2_peers.py`` runs this library's estimators through ``analyze_patches``
-    (``--loop``: one ``analyze_patch`` each): the same errors to round-off, grid maps and
-    splines included; the peers are untouched."""
-    from conftest import load_bench
-
-    bench = load_bench("ep2_peers")
-    batch, _ = bench.run(0.01, 6)
-    loop, _ = bench.run(0.01, 6, loop=True)
-    assert batch.keys() == loop.keys() and len(batch) == 10
-    for name in batch:
-        for key in ("S", "k1"):
-            np.testing.assert_allclose(batch[name][key], loop[name][key], rtol=1e-8, atol=1e-12)
-        assert list(batch[name]["obj"]) == list(loop[name]["obj"])
-
-
 @pytest.mark.parametrize(
     ("script", "flag"),
-    [("ep2_peers.py", "--trials"), ("ep2_speed.py", "--n"), ("ep2_floor.py", "--n")],
+    [
+        ("ep2_families.py", "--trials"),
+        ("ep2_families.py", "--per-family"),
+        ("ep2_breakdown.py", "--trials"),
+        ("ep2_breakdown.py", "--per-family"),
+    ],
 )
 @pytest.mark.parametrize("value", ["0", "x"])
 def test_the_ep2_benches_refuse_a_count_below_one_in_one_line(script, flag, value):

@@ -195,10 +195,5 @@ def test_bench_figures_are_paper_ready(tmp_path, figures):
         for rtol in wp.RTOLS
     ]
     wp.plot(results, tmp_path / "wp.png")
-    trade = load_bench("ep2_tradeoff")
-    ms = (41.8, 38.2, 46.4, 40.7, 3.4, 3.3, 2.7, 2.6)  # a run's spread: 2.5 to 47 ms
-    rows = [(name, 0.005 * (i + 1), ms[i], ms[i] / 9 if i < 4 else None, 0) for i, (name, *_) in
-            enumerate(trade.VARIANTS)]  # fmt: skip
-    trade.plot(rows, 0.01, tmp_path / "t.png")
-    for fig in figures():
-        assert paper_problems(fig) == []
+    (fig,) = figures()
+    assert paper_problems(fig) == []

@@ -1,4 +1,4 @@
-"""From a centre-jet fit (``centre_jet``) to what a user is told: or why nothing is told.
+"""From a centre-jet fit (``local_jet``) to what a user is told: or why nothing is told.
 
 Per patch (each step runs on a whole stack of patches, with the same numbers for a
 patch alone or in a batch), in order:
@@ -11,7 +11,7 @@ patch alone or in a batch), in order:
    direction unsampled fails here and is refused (``DataError``, exit 3)
    naming that direction.  No geometric special case: the covariance carries it.
 2. **Consistent?**  The positions and the normals must describe one surface
-   (``agreement``, tested before 1.).
+   (``consistency``, tested before 1.).
 3. **Intervals and label** (``uncertainty``, ``classify``): Cov is widened by
    the F quantile for its estimated noise (Satterthwaite degrees of
    freedom), the anisotropy is debiased where the curvature is resolved, and

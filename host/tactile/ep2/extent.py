@@ -1,6 +1,6 @@
 """The coordinates EP2 can represent, and contacts moved to where their arithmetic is safe.
 
-Both fits work in a frame scaled by the patch size L (``centre_jet``, ``spline_analysis``),
+Both fits work in a frame scaled by the patch size L (``local_jet``, ``spline_analysis``),
 so the fit itself does not care about the length unit.  What does care is the way in and
 the way out: a centroid of coordinates near 1e308 overflows, and so does a curvature of
 1/L for L = 1e-310, or a Gaussian curvature 1/L^2 beyond L ~ 1e+-154.  So:

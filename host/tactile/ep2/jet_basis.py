@@ -82,16 +82,10 @@ def hessian(coef):
 def round_excess(x, y, H):
     """(excess z, its x-slope, its y-slope) of the constant-curvature surface over the quadric.
 
-    x, y: (..., n); H: (..., 2, 2).  Q2 is clamped below ``ROUND_MAX_Q2``
-    (past the surface's rim; ``round_valid`` reports it).
+    x, y: (..., n); H: (..., 2, 2).  Q2 is clamped below ``ROUND_MAX_Q2`` (past the
+    surface's rim).  With u = a x + b y, v = b x + c y (H d = (u, v)): Q1 = x u + y v,
+    Q2 = u^2 + v^2, H^2 d = (a u + b v, b u + c v).
     """
-    return _round_parts(x, y, H)[0]
-
-
-def _round_parts(x, y, H):
-    """``round_excess`` and the intermediates its Jacobian reuses.  With u = a x + b y,
-    v = b x + c y (H d = (u, v)): Q1 = x u + y v, Q2 = u^2 + v^2, H^2 d = (a u + b v,
-    b u + c v)."""
     a, b, c = (H[..., 0, 0, None], H[..., 0, 1, None], H[..., 1, 1, None])
     u, v = a * x + b * y, b * x + c * y
     q1, q2 = x * u + y * v, u * u + v * v
@@ -102,59 +96,7 @@ def _round_parts(x, y, H):
     wx, wy = a * u + b * v, b * u + c * v
     zx = 2 * u * inv + 2 * k * wx
     zy = 2 * v * inv + 2 * k * wy
-    excess = (q1 * inv - 0.5 * q1, zx - u, zy - v)
-    return excess, (a, b, c, u, v, q1, q2, root, inv, k, wx, wy)
-
-
-def max_q2(x, y, H, mask):
-    """Largest Q2 = |H d|^2 over the used contacts: how close they come to the closed form's
-    rim (Q2 = 1, where the surface turns vertical)."""
-    h2 = H @ H
-    q2 = h2[..., 0, 0, None] * x * x + 2 * h2[..., 0, 1, None] * x * y + h2[..., 1, 1, None] * y * y
-    return np.max(np.where(mask, q2, 0.0), axis=-1)
-
-
-def round_valid(x, y, H, mask):
-    """True where every used contact lies inside the closed form's rim (Q2 < ROUND_MAX_Q2)."""
-    return max_q2(x, y, H, mask) < ROUND_MAX_Q2
-
-
-def round_rows(x, y, H):
-    """Stacked rows (positions, x-slopes, y-slopes) of ``round_excess``: (..., 3 n)."""
-    return np.concatenate(round_excess(x, y, H), axis=-1)
-
-
-def round_jacobian(x, y, H):
-    """d round_rows / d(H_xx, H_xy, H_yy): (..., 3 n, 3) (``round_rows_jacobian``)."""
-    return round_rows_jacobian(x, y, H)[1]
-
-
-def round_rows_jacobian(x, y, H):
-    """(``round_rows`` (..., 3 n), its derivative in (H_xx, H_xy, H_yy) (..., 3 n, 3)), in
-    closed form by the chain rule through u, v, Q1, Q2, s (``_round_parts``; checked against
-    complex steps and differences in tests/test_ep2_jet_basis.py).  Where Q2 is clamped the
-    surface does not move with Q2 (as the clamp says)."""
-    (ez, ex, ey), (a, b, c, u, v, q1, q2, s, inv, k, wx, wy) = _round_parts(x, y, H)
-    zero = np.zeros_like(x)
-    du = (x, y, zero)  # d u / d(a, b, c)
-    dv = (zero, x, y)
-    dq1 = (x * x, 2 * x * y, y * y)
-    free = q2 < ROUND_MAX_Q2
-    half_s = np.where(free, 0.5 / s, 0.0)  # d s = -d Q2 / (2 s)
-    da = ((1, 0, 0), (0, 1, 0), (0, 0, 1))  # d(a, b, c) / d(a, b, c)
-    cols = []
-    for i in range(3):
-        dq2 = 2 * u * du[i] + 2 * v * dv[i]
-        ds = -dq2 * half_s
-        dinv = -inv * inv * ds
-        dk = (dq1[i] * inv * inv + 2 * q1 * inv * dinv) * (0.5 / s) - k * ds / s
-        dwx = da[i][0] * u + da[i][1] * v + a * du[i] + b * dv[i]
-        dwy = da[i][1] * u + da[i][2] * v + b * du[i] + c * dv[i]
-        dz = dq1[i] * (inv - 0.5) + q1 * dinv
-        dzx = 2 * du[i] * inv + 2 * u * dinv + 2 * dk * wx + 2 * k * dwx - du[i]
-        dzy = 2 * dv[i] * inv + 2 * v * dinv + 2 * dk * wy + 2 * k * dwy - dv[i]
-        cols.append(np.concatenate([dz, dzx, dzy], axis=-1))
-    return np.concatenate([ez, ex, ey], axis=-1), np.stack(cols, axis=-1)
+    return q1 * inv - 0.5 * q1, zx - u, zy - v
 
 
 def round_second(x, y, H):

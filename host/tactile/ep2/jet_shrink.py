@@ -14,7 +14,7 @@ q the number of excess terms, d^2 the Wald statistic of the excess (chi^2_q
 when the excess is zero) and s^2 the fit's variance factor.  The result is
 c = c_jet + w (c_full - c_jet), with c_jet the least-squares fit constrained to
 the 2-jet span.  Clean data (d^2 >> q) keep the full patch (w -> 1); noisy
-data approach the quadric.  bench/ep2_peers.py measures the gain.
+data approach the quadric.
 
 Everything uses the full fit's precision factor R = F^-1 (R^T R = A^T A, F the
 covariance factor), so the weighted rows are not revisited.  With w held fixed,

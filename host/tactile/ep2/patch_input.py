@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import centre_jet, discontinuity, extent, patch_frame
+from tactile.ep2 import discontinuity, extent, patch_frame
 from tactile.errors import InputError
 
 METHODS = ("jet", "spline")
@@ -17,6 +17,7 @@ MAX_GRID = 256  # analysis grid N x N: memory grows as N^2
 MAX_SEGMENTS = 64  # spline segments per direction
 MAX_NOISE_SPREADS = 1e6  # a position noise beyond this many spreads leaves no shape to fit
 WEIGHTINGS = ("auto", "tangent", "position")
+JET_ORDER = 2  # the jet order of the default (--order is for method spline)
 
 
 @dataclass
@@ -61,8 +62,8 @@ def row_names(lines, rows=None):
 
 
 def check_order(method, order):
-    if method != "spline" and order not in (None, centre_jet.ORDER):
-        raise InputError(f"the jet order is {centre_jet.ORDER}; --order is for method spline")
+    if method != "spline" and order not in (None, JET_ORDER):
+        raise InputError(f"the jet order is {JET_ORDER}; --order is for method spline")
 
 
 def options(kw, lines):

@@ -2,7 +2,7 @@
 
 Kept to reproduce chapters 4-5 (``--order 3 --weighting tangent`` is the
 thesis's bicubic at 100:1, §4.9), not the default: on the held-out grid the
-centre jet (``centre_jet``) is more accurate.  Frame and units as there; the
+centre jet (``local_jet``) is more accurate.  Frame and units as there; the
 fit is ``bspline_patch``; weights are the thesis's fixed ratios or, for
 ``auto``, per-row-type noise (REML, ``VC_PASSES`` passes); ``jet_shrink``
 shrinks the tensor-product excess toward the 2-jet; ``model_bias`` adds the

@@ -12,7 +12,7 @@ k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
 - **Debiased anisotropy.**  E|v_hat|^2 = |v|^2 + tr Cov(v), so the plug-in h is
   biased up: a noisy sphere always looks anisotropic (S < 1, k2 < k1).  The
   estimate uses h^2 = max(|v_hat|^2 - tr Cov(v), 0) (the Rician bias correction);
-  it cuts the sphere's RMS S error by ~40 % (bench/ep2_peers.py).
+  it cuts the sphere's RMS S error by ~40 % (measured by a peers bench since removed).
 - **Intervals** by projecting the confidence ellipsoid
   {t : (t - t_hat)^T Cov^-1 (t - t_hat) <= c} onto each quantity (its range over
   the ellipsoid, boundary sampled plus the points where the umbilic axis

@@ -6,7 +6,7 @@ case's ``id`` and the trial number) and the truth at the patch centre
 (``truth.at_centre``).  Splits:
 
 - ``tune_cases()``: the grid estimators MAY be tuned on (three fingers, 4 x 4
-  patch, apex at the patch centre, unit 1, no tilt; like bench/ep2_peers.py).
+  patch, apex at the patch centre, unit 1, no tilt).
 - ``holdout_cases()``: FOR FINAL EVALUATION ONLY.  Never tune on it, never look
   at its per-case numbers while designing.  Its radii, rotations and noises are
   drawn from continuous ranges (fixed seed) and share no value with the tune
@@ -399,7 +399,7 @@ def split(name):
     estimate's cycling, issue 13, lay outside every split), judged its bracketed root.
     ``holdout4``, a fourth draw of holdout3's recipe, judged the 2-jet shrinkage designed
     while looking at holdout3's worst cases.  ``holdout5``, a fifth draw of the same recipe,
-    judged the round model's truncation view (``centre_jet._truncation``) designed while
+    judged the previous default's truncation view of its round model, designed while
     looking at holdout4's worst quadrics."""
     table = {
         "tune": tune_cases,

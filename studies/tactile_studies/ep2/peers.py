@@ -1,4 +1,4 @@
-"""Peer estimators for the benchmark (bench/ep2_peers.py), on the same contacts.
+"""Peer estimators for the benchmarks, on the same contacts.
 
 - ``fitpack``: scipy FITPACK ``bisplrep`` smoothing spline on positions only
   (s = n sigma_pos^2), curvature averaged over the same N x N grid.
