@@ -350,9 +350,6 @@ def test_two_doubled_finger_lines_over_a_noisy_cylinder_are_not_confidently_plan
     assert not BENCH.wrong_label(_bench_out(res), tr)
 
 
-@pytest.mark.xfail(
-    strict=True, reason="a single noisy line over a quadric is answered ('plane', confidence 0.04)"
-)
 def test_three_fingers_on_one_turned_line_over_a_noisy_quadric_are_refused():
     """Found by the first property: three fingers at x = 0 (one line, sweep turned 16 deg,
     7 stops along 1, each read twice) over a quadric k = (-0.1, 0), noise 1/64."""

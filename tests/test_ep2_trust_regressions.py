@@ -422,18 +422,7 @@ def test_noise_free_repeats_do_not_narrow_the_intervals():
 # -- two fingers, row order (found while writing these tests) ------------------------------
 
 
-@pytest.mark.parametrize(
-    "radius",
-    [
-        pytest.param(
-            4.0,
-            marks=pytest.mark.xfail(
-                strict=True, reason="called uncertain: known miss, docs/ep2.md 'Limits'"
-            ),
-        ),
-        9.0,
-    ],
-)
+@pytest.mark.parametrize("radius", [4.0, 9.0])
 def test_two_fingers_over_a_noise_free_cylinder_are_answered(radius):
     """Fingers at x = 0 and 4 across a cylinder: their normals fix the curvature across."""
     d = sweep(make("cylinder", radius), fingers=2, spacing=4.0, length=2.0, samples=12, repeats=1)
@@ -593,17 +582,7 @@ def _emulated_contacts(tmp_path, seed, noiseless=False):
     return motion, points, normals, finger
 
 
-EMULATED = [(seed, False) for seed in (11, 21, 28, 1, 2, 3, 4, 5)] + [
-    pytest.param(
-        11,
-        True,
-        marks=pytest.mark.xfail(
-            strict=True,
-            reason="noise-free F/T: the radius interval reaches 1.52 R: known "
-            "miss, docs/ep2.md 'Limits'",
-        ),
-    )
-]
+EMULATED = [(seed, False) for seed in (11, 21, 28, 1, 2, 3, 4, 5)] + [(11, True)]
 
 
 @pytest.mark.parametrize("seed,noiseless", EMULATED)

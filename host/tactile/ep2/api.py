@@ -1,12 +1,13 @@
 """EP2 in one call: contacts and normals in, curvature at the patch centre with a label out.
 
 ``analyze_patch(points, normals)`` runs the thesis's algorithm (§4.1) with the
-default estimator ``method="jet"`` (``centre_jet``, ``centre_result``): a local
-jet about the patch centre whose model (quadric, or the closed form exact for
-spheres and cylinders) the data choose, curvature reported AT THE CENTRE with
-95 % intervals, refused (``DataError``) where the data do not determine it or
-where positions and normals disagree.  ``method="spline"`` is the thesis's
-B-spline patch (``spline_analysis``), kept to reproduce chapters 4-5.
+default estimator ``method="jet"`` (``local_jet``, ``jet_answers``): jets of
+positions and normals about the patch centre, the 2-jet moved toward the 3-jet on
+evidence, bad contacts left out by name, curvature reported AT THE CENTRE with
+95 % intervals that count the model's truncation, refused (``DataError``) where
+the data do not determine it or where positions and normals disagree.
+``method="spline"`` is the thesis's B-spline patch (``spline_analysis``), kept to
+reproduce chapters 4-5.
 
 One definition everywhere (table, JSON, plots): ``S``, ``k1``, ``k2``,
 ``radius`` and ``C`` are at the patch centre (the middle of the contacts'
@@ -14,8 +15,9 @@ bounding box in the patch frame); ``S_mean``, ``S_std``, ``R_mean``,
 ``C_mean``, ``k1_mean`` ... are the thesis's statistics over the N x N grid
 (§4.8.2).  Lengths are in the input unit, curvatures in 1/unit.
 
-The steps: ``patch_input`` (validation, duplicates, centring), ``centre_jet`` (the fit),
-``jet_outcomes`` (tests, intervals, labels), ``patch_result`` (the ``PatchResult``).
+The steps: ``patch_input`` (validation, duplicates, centring), ``local_jet`` (the fit),
+``jet_answers`` and ``consistency`` (refusals, intervals, labels), ``patch_result``
+(the ``PatchResult``).
 """
 
 import numpy as np

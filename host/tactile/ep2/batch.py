@@ -1,11 +1,11 @@
-"""Many patches at once: ``analyze_patches`` (issue 13).
+"""Many patches at once: ``analyze_patches``.
 
 Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring;
 patches of one size together, ``_prepare_stacked``), then a chunk of patches is fitted by
-one ``centre_jet.fit`` call on a padded stack with a row mask (the fit is batch-first: the
+one ``local_jet.fit`` call on a padded stack with a row mask (the fit is batch-first: the
 stack equals each patch alone, tested), and the analysis after the fit
 (positions-versus-normals test, determination, intervals, label, grid statistics:
-``jet_outcomes.outcomes``) runs on the whole stack too; only the assembly of each patch's
+``jet_answers.outcomes``) runs on the whole stack too; only the assembly of each patch's
 result is per patch.  The result per patch equals ``analyze_patch``'s to round-off; a
 patch that is refused or malformed gives its exception in its place and the others still
 come out.
@@ -26,7 +26,7 @@ from tactile.ep2 import (
 )
 from tactile.errors import DataError, InputError
 
-CHUNK = 256  # patches per fit call (bench/ep2_speed.py, ep2_tradeoff.py: best of 16-1024)
+CHUNK = 256  # patches per fit call
 
 
 def analyze_patches(patches, *, chunk=CHUNK, **kw):

@@ -45,6 +45,8 @@ SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's 
 BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noise
 FLOOR = 1e-8  # noise floor: of L for positions, rad for normals (exact data stay exact)
 LINE_WIDTH = 0.01  # of L: contacts spread less across their line are on one line
+LINE_NOISE = 3.0  # ... as are contacts within this many position sigmas of a line
+LINE_THIN = 0.05  # (of L) where that is also this thin (an outlier left in inflates sigma)
 START_NOISE = 0.01  # the first pass's sigmas when none is stated (of L, rad)
 
 
@@ -409,12 +411,15 @@ def _answer(f, keep, reason, warnings, stated):
     ch = _pick_coef(coefs, hi, coef.shape[1])
     coef = coef + w[:, None] * (ch - coef)
     t, J = _entries_and_jacobian(est)
-    width, across = _width(f["xy"], keep)
+    width, line, across = _width(f["xy"], keep)
+    thin = line < np.minimum(LINE_NOISE * f["sig"][:, 0], LINE_THIN)
+    width = np.where(thin, np.minimum(width, line), width)
     for b in np.flatnonzero(f["spread"] == 0.0):
         reason[b] = reason[b] or (
             "all contacts at one point: the patch needs contacts spread in two directions"
         )
-    for b in np.flatnonzero(width < LINE_WIDTH):
+    one_line = (width < LINE_WIDTH) | thin
+    for b in np.flatnonzero(one_line):
         v = ", ".join(f"{c:.2f}" for c in across[b] @ f["axes"][b][:2])
         reason[b] = reason[b] or (
             f"the contacts lie on one line or path (their spread across it is {width[b]:.2g} of "
@@ -437,10 +442,11 @@ def _answer(f, keep, reason, warnings, stated):
 
 
 def _width(xy, keep):
-    """((B,) the rms spread of the kept contacts across their path, / L: their distance from the
-    parabola v = a + b u + c u^2 along their main line u (a straight finger path projects to a
-    bent one where the frame's normal leans out of the path's plane; across such a path only
-    the model, not the data, gives a curvature); (B, 2) the direction across, in the frame)."""
+    """(B,) spreads of the kept contacts across their path, / L: about the parabola
+    v = a + b u + c u^2 along their main line u (a straight finger path projects to a bent
+    one where the frame's normal leans out of the path's plane; across such a path only the
+    model, not the data, gives a curvature) and about the line itself (rms); (B, 2) the
+    direction across, in the frame."""
     w = keep.astype(float)
     n = np.maximum(w.sum(-1), 1.0)[:, None]
     d = (xy - _vm(w, xy)[:, None, :] / n[..., None]) * w[..., None]
@@ -449,7 +455,8 @@ def _width(xy, keep):
     V = np.stack([w, u, u * u], -1)
     Q, _ = np.linalg.qr(V)
     r = v - _mv(Q, _vm(v, Q))
-    return np.sqrt(np.sum(r * r * w, -1) / n[:, 0]), vecs[..., 0]
+    curve = np.sqrt(np.sum(r * r * w, -1) / np.maximum(n[:, 0] - 3.0, 1.0))
+    return curve, np.sqrt(np.sum(v * v, -1) / n[:, 0]), vecs[..., 0]
 
 
 def _pick(by_order, which):
@@ -510,14 +517,23 @@ def _omitted(f, coefs, cov, top):
 
 
 def _round_bias(f, coefs, cov):
-    """(B, 5): how far the 2-jet's values move from a sphere's or cylinder's of the measured
-    curvature over these contacts, its quartic left out.  A circle of curvature k = 2c has
-    quartic coefficient c^3, a sphere c^3 (1, 0, 2, 0, 1) in (x^4, x^3y, ..., y^4), of norm
-    sqrt(6) c^3: 3 c^3 times each entry's regression norm bounds either, c the largest
-    principal coefficient."""
-    z2 = _largest(coefs[2][:, 3:6], cov[2][:, 2:5, 2:5])
-    G = _regress_omitted(f, 2, slice(size(3), size(4)), np.ones(len(z2), bool))
-    return 3.0 * z2[:, None] ** 3 * np.sqrt(np.sum(G[:, 1:6] ** 2, -1))
+    """(B, 5): how far the 2-jet's values move from those of the surface whose shape operator
+    is the measured Hessian H everywhere, its quartic left out: to fourth order that surface
+    is z = p + p r / 8, p = x^T H x, r = x^T H^2 x (exact for spheres and cylinders; the
+    spline's ``model_bias`` uses the same surface).  Its quartic, mapped through the 2-jet's
+    regression on the omitted columns, is the shift."""
+    zxx, zxy, zyy = np.moveaxis(coefs[2][:, 3:6], -1, 0)
+    p20, p11, p02 = zxx, 2.0 * zxy, zyy
+    r20, r11, r02 = zxx * zxx + zxy * zxy, 2.0 * zxy * (zxx + zyy), zxy * zxy + zyy * zyy
+    quartic = np.stack([  # derivatives at 0 (x^i y^j / (i! j!) columns) of p r / 8
+        24.0 * p20 * r20, 6.0 * (p20 * r11 + p11 * r20),
+        4.0 * (p20 * r02 + p11 * r11 + p02 * r20), 6.0 * (p11 * r02 + p02 * r11),
+        24.0 * p02 * r02,
+    ], -1) / 8.0  # fmt: skip
+    G = _regress_omitted(f, 2, slice(size(3), size(4)), np.ones(len(zxx), bool))
+    if G.shape[-1] < 5:  # (too few contacts for a 3-jet: no quartic columns built)
+        return np.zeros((len(zxx), 5))
+    return np.abs(_mv(G[:, 1:6], quartic))
 
 
 def _largest(c, C):
