@@ -25,6 +25,7 @@ import threading
 import time
 
 import pytest
+from toolchain import missing
 
 from tactile.board_client import BoardClient
 from tactile.serial_port import open_port
@@ -203,15 +204,6 @@ def rest_scene(folder):
     path = folder / "rest.toml"
     path.write_text(text.replace('name = "press"', 'name = "rest"'))
     return path
-
-
-def missing(why):
-    """Skip with the reason, or fail under CI (``CI=true``), where every tool must be there."""
-    import os
-
-    if os.environ.get("CI") == "true":
-        pytest.fail(f"CI must have it: {why}", pytrace=False)
-    pytest.skip(why)
 
 
 def configure(path, timeout=30.0):

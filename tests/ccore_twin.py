@@ -7,8 +7,8 @@ both, and the bytes each board wrote are compared after every step.
 
 import pathlib
 
-import pytest
 from fw_rig import Rig
+from toolchain import missing
 
 from tactile_fw.host_only import ccore
 
@@ -20,7 +20,7 @@ def build_or_skip(out_dir, **kw):
     try:
         return ccore.build(out_dir, **kw)
     except ccore.NoCompiler as exc:
-        pytest.skip(str(exc))
+        missing(str(exc))
 
 
 def c_rig(lib, n=1, storage=None, **board_kw):

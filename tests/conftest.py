@@ -117,12 +117,14 @@ def board(request):
     if request.param in SERVED:
         return BoardTarget(request.param, request.getfixturevalue("served").port(request.param))
     if request.param == "c":
+        from toolchain import missing
+
         from tactile_sim.emulator import cores
 
         try:
             cores.c_library()
         except cores.CoreUnavailable as exc:
-            pytest.skip(str(exc))
+            missing(str(exc))
     return BoardTarget(request.param, request.config.getoption("--port"))
 
 

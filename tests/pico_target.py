@@ -14,7 +14,7 @@ import contextlib
 import os
 import threading
 
-from board_target import missing
+from toolchain import missing
 
 
 def need_pico():

@@ -14,6 +14,7 @@ import subprocess
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from toolchain import arm_gcc, arm_tool, missing
 
 from tactile_fw.host_only import ccore
 from tactile_protocol import constants as C
@@ -246,9 +247,9 @@ def test_the_core_calls_no_allocator(tmp_path):
     try:
         cc = ccore.compiler()
     except ccore.NoCompiler as exc:
-        pytest.skip(str(exc))
+        missing(str(exc))
     if nm is None:
-        pytest.skip("nm (binutils) not installed")
+        missing("nm: apt-get install binutils")
     for src in ccore.sources():
         obj = tmp_path / (src.stem + ".o")
         subprocess.run([cc, *ccore.CFLAGS, "-c", str(src), "-o", str(obj)], check=True)
@@ -275,9 +276,7 @@ def test_a_refused_configuration_is_an_error_not_a_crash(ccore_lib):
 
 def test_the_core_compiles_for_a_cortex_m0plus(tmp_path):
     """arm-none-eabi-gcc -mcpu=cortex-m0plus -Os, warnings as errors (skipped without it)."""
-    cc = shutil.which("arm-none-eabi-gcc")
-    if cc is None:
-        pytest.skip("arm-none-eabi-gcc not installed (apt-get install gcc-arm-none-eabi)")
+    cc = arm_gcc()
     flags = ["-std=c99", "-mcpu=cortex-m0plus", "-mthumb", "-Os", "-Wall", "-Wextra"]
     flags += ["-Wpedantic", "-Wconversion", "-Werror", "-I", str(ccore.SRC)]
     for src in ccore.sources():
@@ -289,9 +288,7 @@ def test_the_core_compiles_as_a_micropython_native_module_would(tmp_path):
     Thumb-1), the core needs from outside only libgcc's helpers and memcpy/memset/memcmp; it
     has no BSS, and its one initialised object in a writable section is the message table,
     whose pointers the loader relocates (docs/firmware.md, "Flashing a Pico")."""
-    cc, ld, nm = (shutil.which("arm-none-eabi-" + t) for t in ("gcc", "ld", "nm"))
-    if None in (cc, ld, nm):
-        pytest.skip("arm-none-eabi binutils not installed (apt-get install gcc-arm-none-eabi)")
+    cc, ld, nm = arm_gcc(), arm_tool("ld"), arm_tool("nm")
     flags = ["-std=c99", "-mthumb", "-mcpu=cortex-m0", "-Os", "-fpic", "-fno-common"]
     flags += ["-Wall", "-Werror", "-I", str(ccore.SRC)]
     objs = []

@@ -18,6 +18,7 @@ from conftest import FUZZ_SCALE
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_ccore_diff import framed, hostile, sensible
+from toolchain import missing
 
 from tactile.stream_decoder import StreamDecoder
 from tactile_fw.host_only import ccore
@@ -29,13 +30,14 @@ def harness(tmp_path_factory):
     try:
         cc = ccore.compiler()
     except ccore.NoCompiler as exc:
-        pytest.skip(str(exc))
+        missing(str(exc))
     exe = tmp_path_factory.mktemp("fuzz") / "fuzz_harness"
     cmd = [cc, "-std=c99", "-Wall", "-Wextra", "-Werror", *ccore.SANITIZE, "-I", str(ccore.SRC)]
     cmd += [str(ccore.SRC / "host" / "fuzz_harness.c"), *map(str, ccore.sources()), "-o", str(exe)]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0 and "asan" in r.stderr.lower():
-        pytest.skip(f"{cc} has no AddressSanitizer runtime: {r.stderr.splitlines()[-1]}")
+        last = r.stderr.splitlines()[-1]
+        missing(f"{cc} has no AddressSanitizer runtime (apt-get install gcc): {last}")
     assert r.returncode == 0, r.stderr
     proc = subprocess.Popen(
         [str(exe)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE

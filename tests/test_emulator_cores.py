@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import pytest
+from toolchain import missing
 
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
@@ -42,7 +43,7 @@ def c_core():
     try:
         return cores.c_library()
     except cores.CoreUnavailable as exc:
-        pytest.skip(str(exc))
+        missing(str(exc))
 
 
 def _scene(tmp_path, base, extra="", board=""):

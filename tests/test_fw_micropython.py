@@ -12,6 +12,7 @@ import subprocess
 import sys
 
 import pytest
+from toolchain import missing
 
 from tactile import flashing
 
@@ -25,7 +26,7 @@ SIM = pathlib.Path(__file__).resolve().parents[1] / "sim" / "tactile_sim"
 def micropython_mjs():
     node, npm = shutil.which("node"), shutil.which("npm")
     if not node or not npm:
-        pytest.skip("node/npm not installed: MicroPython's WebAssembly port cannot run")
+        missing("node and npm, for MicroPython's WebAssembly port: apt-get install nodejs npm")
     cache = pathlib.Path(os.environ.get("XDG_CACHE_HOME", pathlib.Path.home() / ".cache"))
     prefix = cache / "tactile" / f"micropython-wasm-{MP_VERSION}"
     mjs = prefix / "node_modules" / MP_PACKAGE / "micropython.mjs"
@@ -46,7 +47,7 @@ def micropython_mjs():
             timeout=300,
         )
         if r.returncode != 0 or not mjs.exists():
-            pytest.skip(f"npm could not install {MP_PACKAGE}: {r.stderr.strip()[-200:]}")
+            missing(f"npm could not install {MP_PACKAGE}: {r.stderr.strip()[-200:]}")
     return mjs
 
 

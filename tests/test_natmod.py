@@ -11,16 +11,15 @@
   host's break-in gets the REPL.
 """
 
-import os
 import pathlib
 import subprocess
 import sys
 import time
 
 import fw_mpy_pico_scenario
-import pytest
 import serial
 from pico_target import serve, wait_booted
+from toolchain import missing
 
 from tactile.board_client import BoardClient
 from tactile.stream_decoder import decode_bytes
@@ -33,19 +32,13 @@ SIM = HERE.parent / "sim" / "tactile_sim"
 MPY_OF_THE_IMAGE = 4870  # sys.implementation._mpy of the Pico image (../shared/rp2/NOTES.md)
 
 
-def _missing(why):
-    if os.environ.get("CI") == "true":
-        pytest.fail(f"CI must build the native module: {why}", pytrace=False)
-    pytest.skip(why)
-
-
 def test_the_shipped_module_is_what_firmware_c_builds_today(tmp_path):
     """Rebuilt from firmware/c with MicroPython's natmod build: the same bytes as the .mpy that
     ``tactile flash`` copies (after a change to firmware/c: ``make natmod``)."""
     try:
         built = natmod.build(tmp_path)
     except natmod.NoToolchain as exc:
-        _missing(str(exc))
+        missing(str(exc))
     assert built.read_bytes() == natmod.SHIPPED.read_bytes(), (
         "firmware/tactile_fw/tactile_native.mpy is not built from the current firmware/c: "
         "run 'make natmod' and commit it"

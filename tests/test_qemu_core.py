@@ -17,6 +17,7 @@ import time
 
 import pytest
 import serial
+from toolchain import arm_gcc, missing
 
 from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
@@ -61,11 +62,12 @@ def elf():
     from tactile_sim.emulator.qemu_core import QEMU, QemuUnavailable, image
 
     if shutil.which(QEMU) is None:
-        pytest.skip(f"no {QEMU}: apt-get install qemu-system-arm")
+        missing(f"{QEMU}: apt-get install qemu-system-arm")
+    arm_gcc()  # (the micro:bit image is cross-compiled against newlib)
     try:
         return image()
     except QemuUnavailable as exc:
-        pytest.skip(str(exc))
+        missing(str(exc))
 
 
 def _scene(tmp_path, text, name="scene"):
