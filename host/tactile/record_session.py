@@ -52,6 +52,7 @@ class Stats:
     def __init__(self):
         self.frames = 0
         self.samples = 0  # SAMPLE and CONTACT frames (one per sensor reading sent)
+        self.late_samples = 0  # ... of them flagged late by the board (it missed a period)
         self.contacts_begun = 0
         self.contacts_ended = 0
         self.first_ts = None
@@ -63,6 +64,7 @@ class Stats:
             self.frames += 1
             if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
                 self.samples += 1
+                self.late_samples += bool(m.flags & C.FLAG_LATE)
                 self.first_ts = m.timestamp_us if self.first_ts is None else self.first_ts
                 self.last_ts = m.timestamp_us
             elif m.type_code == C.MSG_STATUS:
@@ -323,6 +325,7 @@ class Session:
             "tared": self.want_tare,
             "frames": s.frames,
             "samples": s.samples,
+            "late_samples": s.late_samples,
             "contacts_begun": s.contacts_begun,
             "contacts_ended": s.contacts_ended,
             "device_time_s": _span_s(s.first_ts, s.last_ts),

@@ -31,6 +31,7 @@ from tactile.errors import InputError
 SUMMED = (
     "frames",
     "samples",
+    "late_samples",
     "contacts_begun",
     "contacts_ended",
     "bytes",

@@ -141,10 +141,12 @@ def summary(meta, out):
         _count(len(meta["gaps"]), "gap"),
     ]
     refused = f", {_count(invalid, 'invalid frame')} refused" if invalid else ""
+    late = meta.get("late_samples", 0)
+    late = f"; {_count(late, 'reading')} late (the board missed its rate)" if late else ""
     got = f"{_count(meta['samples'], 'reading')}, {_count(meta['contacts_ended'], 'contact')}"
     return (
         f"recorded {got} in {meta['elapsed_s']:.1f} s (stopped by {ended});"
-        f" lost {', '.join(lost)}{refused} -> {out}"
+        f" lost {', '.join(lost)}{refused}{late} -> {out}"
     )
 
 

@@ -17,7 +17,11 @@ announced (so the host sees the scene from its start), while the pty is full,
 and before a scripted unplug and the end of the run until the host has read
 what is in flight (so a host that reads loses nothing the scene does not
 take away).  In real time the board runs regardless and a slow or absent host
-makes it drop frames, as a real board does.
+makes it drop frames, as a real board does.  An emulator that falls more than
+``BEHIND_S`` behind the wall clock (a loaded machine, a heavy scene) does what
+an overloaded board does: the polls it had no time for are skipped, its clock
+catches up, and the firmware counts the missed periods as overruns and sets the
+sample-late flag on the next samples, so the host can tell.
 """
 
 import errno
@@ -38,6 +42,7 @@ FAST_TICK_S = 0.02  # as fast as possible: fewer, larger writes and polls
 FULL_WAIT_S = 0.0005  # as fast as possible, pty full: wait this long for the host to read
 HOST_WAIT_S = 0.005  # as fast as possible, no host yet: look again after this long
 DRAINED_S = 0.01  # ... the host has read all once the pty's input queue stays empty this long
+BEHIND_S = 0.05  # real time: this far behind the wall clock, skip ahead (the samples are late)
 
 
 class PtyEndpoint:
@@ -117,8 +122,11 @@ class PtyEndpoint:
 class PtyServer:
     """Run ``board`` (an EmulatedBoard) behind a pty until ``stop`` or the duration."""
 
-    def __init__(self, board, link_path=None, realtime=True, faults=None, disconnects=()):
+    def __init__(
+        self, board, link_path=None, realtime=True, faults=None, disconnects=(), clock=None
+    ):
         self.board = board
+        self.clock = clock or time.monotonic  # the wall clock real time follows (tests inject)
         self.link_path = link_path
         self.realtime = realtime
         self.faults = faults
@@ -127,6 +135,7 @@ class PtyServer:
         self._out = b""
         self._present_since = None
         self.reconnects = 0
+        self.skipped = 0  # times the board fell BEHIND_S behind and skipped ahead
         self.stop = False
 
     @property
@@ -166,7 +175,7 @@ class PtyServer:
         if self.endpoint is None:
             self.open()
         board = self.board
-        start = time.monotonic()
+        start = self.clock()
         end_us = None if duration_s is None else int(duration_s * 1e6)
         while not self.stop and (end_us is None or board.t_us < end_us):
             replug = self._unplugged(board.t_us)
@@ -176,10 +185,12 @@ class PtyServer:
                 self._disconnect(replug)
                 continue
             if self.realtime:
-                ahead = board.t_us / 1e6 - (time.monotonic() - start)
+                ahead = board.t_us / 1e6 - (self.clock() - start)
                 if ahead > 0:  # never run ahead of the wall clock
                     self._exchange(min(ahead, OPEN_SETTLE_S / 2))
                     continue
+                if ahead < -BEHIND_S:  # behind: skip the polls there was no time for
+                    self._skip(board.t_us - int(ahead * 1e6), end_us)
             elif not self.endpoint.host_present:  # nobody to stream to: time holds
                 self._pump()  # (what the board said before is discarded by _exchange)
                 time.sleep(HOST_WAIT_S)  # (poll() returns at once while nobody has it open)
@@ -203,6 +214,14 @@ class PtyServer:
         self._pump()
         if not self.realtime:
             self._let_host_read()  # the end of the run reaches the host too
+
+    def _skip(self, t_us, end_us):
+        """Move the board's clock to ``t_us`` without polling (before an unplug or the end)."""
+        for limit in (end_us, self._next_unplug(self.board.t_us)):
+            if limit is not None:
+                t_us = min(t_us, limit)
+        self.board.skip_to(t_us)
+        self.skipped += 1
 
     def _let_host_read(self):
         """As fast as possible: wait while the host (if any) reads what is queued or in flight."""
