@@ -246,7 +246,14 @@ def test_recorded_sweep_normals_follow_the_noise_and_analyse_as_a_sphere(tmp_pat
     assert main(argv) == 0
     capsys.readouterr()
     assert main(["ep2", "analyze", str(out / "contacts.csv"), "--json"]) == 0
-    assert json.loads(capsys.readouterr().out.splitlines()[0])["shape"] == "sphere"
+    rec = json.loads(capsys.readouterr().out.splitlines()[0])
+    # F/T-localised contacts carry errors that vary over the sweep: where the 4-jet sees
+    # them, the intervals widen and the label may be 'uncertain' (docs/ep2.md, Limits)
+    assert (
+        rec["shape"] in ("sphere", "uncertain")
+        and max(rec["votes"], key=rec["votes"].get) == "sphere"
+    )
+    assert rec["S_interval"][0] <= 1.0 <= rec["S_interval"][1]
 
     frames = np.genfromtxt(out / "frames.csv", delimiter=",", names=True, dtype=None,
                            skip_header=1, encoding="utf-8")  # fmt: skip
@@ -308,7 +315,9 @@ def test_saddle_sweep_analyses_as_a_saddle(tmp_path):
     motion, t, sensor, wrench, _, _ = _record("sim://ep2_sweep_saddle")
     points, normals, finger, report = _world(motion, tmp_path, t, sensor, wrench)
     res = analyze_patch(points, normals, finger=finger)
-    assert res.shape == "saddle" and abs(res.S) < 0.05
+    assert res.shape in ("saddle", "uncertain") and abs(res.S) < 0.05
+    assert max(res.votes, key=res.votes.get) == "saddle"  # (uncertain: docs/ep2.md, Limits)
+    assert res.S_interval[0] <= 0.0 <= res.S_interval[1]
     # A quadric saddle's curvature falls off the apex: compare with the same analysis of the
     # simulator's exact contacts (seeds 1-12: within 6 %), not with 1/R at the apex.
     k = motion.points.shape[1]
