@@ -24,7 +24,7 @@ import pathlib
 
 import numpy as np
 import pytest
-from conftest import load_bench
+from conftest import FUZZ_SCALE, load_bench
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
@@ -165,7 +165,7 @@ def _finite_everywhere(obj, path="record"):
 # -- analyze_patch --------------------------------------------------------------------------
 
 
-@settings(max_examples=800, **SETTINGS)
+@settings(max_examples=300 * FUZZ_SCALE, **SETTINGS)
 @given(scenes())
 def test_answers_are_finite_and_never_confidently_wrong_and_lines_are_refused(scene):
     made = contacts(scene)
