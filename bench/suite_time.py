@@ -39,7 +39,7 @@ def main():
     ap.add_argument("--serial", action="store_true", help="also run it in one process")
     ap.add_argument("pytest_args", nargs="*", help="after --: passed to pytest")
     args = ap.parse_args()
-    rows = [("make test (-n auto)", ["-n", "auto", *args.pytest_args])]
+    rows = [("make test (-n auto)", ["-n", "auto", "--dist", "worksteal", *args.pytest_args])]
     if args.serial:
         rows.append(("one process", args.pytest_args))
     print(f"{os.cpu_count()} CPUs")
