@@ -26,6 +26,27 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow],
 )
 FUZZ = os.environ.get("TACTILE_FUZZ", "ci")
+
+
+def _import_every_module():
+    """Hypothesis draws constants from every project module loaded when it generates; a
+    test's examples then depend on which tests ran before it in its process (xdist, -k).
+    Loaded all at once here, the examples are the same however the suite is cut."""
+    import importlib
+    import pkgutil
+
+    for name in ("tactile_protocol", "tactile_fw", "tactile", "tactile_sim", "tactile_studies"):
+        package = importlib.import_module(name)
+        for info in pkgutil.walk_packages(package.__path__, name + "."):
+            if info.name.endswith("__main__"):
+                continue
+            try:
+                importlib.import_module(info.name)
+            except ModuleNotFoundError:  # (the board's own modules: machine, rp2 ...)
+                pass
+
+
+_import_every_module()
 settings.load_profile("long" if FUZZ == "long" else "ci")
 FUZZ_SCALE = 50 if FUZZ == "long" else 1  # multiply a campaign's CI example count by this
 

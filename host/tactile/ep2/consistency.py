@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from tactile.ep2.local_jet import design, size
+from tactile.ep2.jet_terms import design, mv, size
 
 REDUNDANCY = 1.5  # rows per term of each fit alone
 MIN_RATIO = 5.0  # the positions' rms gap to the normals' surface, in its expected sizes
@@ -39,7 +39,7 @@ def disagreements(xy, heights, slopes, keep, axes, scale):
     tp, _, rp, okp = _fit(V * w[..., None], z * w)
     A = np.concatenate([DX, DY], 1)[..., 1:] * np.tile(w, 2)[..., None]
     tn, Cn, _, okn = _fit(A, np.concatenate([s[..., 0], s[..., 1]], 1) * np.tile(w, 2))
-    pred = _mv(V[..., 1:], tn)  # the normals' surface at the contacts, up to a constant
+    pred = mv(V[..., 1:], tn)  # the normals' surface at the contacts, up to a constant
     gap = (z - pred) * w
     gap = (gap - (gap.sum(-1) / n_kept[idx])[:, None]) * w
     var_p = np.sum(rp * rp, -1) / np.maximum(n_kept[idx] - size(2), 1)
@@ -52,10 +52,6 @@ def disagreements(xy, heights, slopes, keep, axes, scale):
     return out
 
 
-def _mv(M, v):
-    return (M @ v[..., None])[..., 0]
-
-
 def _fit(A, b):
     """(coef[first 5 after any constant], cov of all coefs, residuals, determined) of
     least squares A c = b for a stack; the noise from the residuals."""
@@ -66,12 +62,12 @@ def _fit(A, b):
     tiny = ~(d > 1e-9 * d.max(-1, keepdims=True))
     R = R + np.eye(R.shape[-1]) * tiny[:, None, :]  # (a patch not determined: not compared)
     qb = (b[:, None, :] @ Q)[:, 0]
-    resid = b - _mv(Q, qb)
+    resid = b - mv(Q, qb)
     rows = np.sum(A != 0, -1) > 0
     dof = np.maximum(rows.sum(-1) - A.shape[2], 1)
     s2 = np.sum(resid * resid, -1) / dof
     Rinv = np.linalg.inv(R) / cn[:, :, None]
-    coef = _mv(Rinv, qb)
+    coef = mv(Rinv, qb)
     cov = Rinv @ np.swapaxes(Rinv, -1, -2) * s2[:, None, None]
     lo = A.shape[2] - 5
     return coef[:, lo:], cov[:, lo:, lo:], resid, ~tiny.any(-1)

@@ -13,7 +13,7 @@ import numpy as np
 
 from tactile.ep2 import centre_result, consistency, grid_batch, patch_frame
 from tactile.ep2.grid_batch import DERIVS
-from tactile.ep2.local_jet import design, exponents, powers, size
+from tactile.ep2.jet_terms import design, exponents, powers, size
 from tactile.ep2.surface_geometry import principal
 from tactile.errors import DataError
 

@@ -34,13 +34,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tactile.ep2 import jet_bias, jet_outliers
+from tactile.ep2.jet_outliers import MAX_OUTLIERS
+from tactile.ep2.jet_terms import design, mv, pick, size, unit, vm
 from tactile.ep2.surface_geometry import shape_entries
 
 TOP_ORDER = 4
 TOP_REDUNDANCY = 1.2  # an order is fitted where the rows are this many times its terms
 NOISE_REDUNDANCY = 2.0  # the noise and outlier tests use the order with this many
 MAX_ANGLE = 80.0  # deg: a normal further from the patch's is not of this patch
-MAX_OUTLIERS = 2
 SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's dof
 BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noise
 FLOOR = 1e-8  # noise floor: of L for positions, rad for normals (exact data stay exact)
@@ -48,38 +50,6 @@ LINE_WIDTH = 0.01  # of L: contacts spread less across their line are on one lin
 LINE_NOISE = 3.0  # ... as are contacts within this many position sigmas of a line
 LINE_THIN = 0.05  # (of L) where that is also this thin (an outlier left in inflates sigma)
 START_NOISE = 0.01  # the first pass's sigmas when none is stated (of L, rad)
-
-
-def exponents(order):
-    """(i, j) of the jet's monomials x^i y^j, by degree (the column order)."""
-    return [(i, d - i) for d in range(order + 1) for i in range(d, -1, -1)]
-
-
-def size(order):
-    return (order + 1) * (order + 2) // 2
-
-
-def rows(x, y, order, dx=0, dy=0):
-    """Rows of d^(dx+dy)/dx^dx dy^dy of the jet sum c_ij x^i y^j / (i! j!), (..., p): with
-    this scaling a derivative only shifts the exponents (zero where they would go negative),
-    and the coefficients are the jet's derivatives at the centre."""
-    px, py = powers(x, order), powers(y, order)
-    zero = np.zeros_like(x)
-    out = [px[i - dx] * py[j - dy] if i >= dx and j >= dy else zero for i, j in exponents(order)]
-    return np.stack(out, -1)
-
-
-def powers(x, order):
-    """[x^k / k!] for k = 0..order."""
-    out = [np.ones_like(x)]
-    for k in range(1, order + 1):
-        out.append(out[-1] * x / k)
-    return out
-
-
-def design(x, y, order):
-    """Rows of the jet's value, d/dx and d/dy: three (..., p) arrays."""
-    return rows(x, y, order), rows(x, y, order, 1, 0), rows(x, y, order, 0, 1)
 
 
 @dataclass
@@ -116,7 +86,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     After an outlier is left out only the patches that lost one are fitted again."""
     P, N, mask = np.asarray(P, float), np.asarray(N, float), np.asarray(mask, bool)
     noise = np.stack([_per_patch(noise_pos, len(P)), _per_patch(noise_normal, len(P))], -1)
-    keep, warnings = _screen_normals(N, mask, max_angle)
+    keep, warnings = jet_outliers.screen_normals(N, mask, max_angle)
     limit = math.tan(math.radians(min(max_angle, 89.9)))
     n_kept = keep.sum(-1).max() if len(P) else 0
     top_cap = max(
@@ -126,7 +96,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     live = np.arange(len(P))
     f = _fit_once(P, N, keep, noise, top_cap, limit)
     for _ in range(MAX_OUTLIERS + 1):
-        worst, why = _worst_contact(_take(f, live), keep[live])
+        worst, why = jet_outliers.worst_contact(_take(f, live), keep[live])
         again = []
         for k in np.flatnonzero(worst >= 0):
             b = int(live[k])
@@ -178,51 +148,15 @@ _SHARED = ()  # fit-dict arrays that are not per patch (none yet)
 
 
 # --- 1. screening and the frame -------------------------------------------------------------
-def _screen_normals(N, mask, max_angle):
-    """Contacts whose normal is over MAX_ANGLE from the patch's mean normal (seeded at the
-    medoid: the normal closest to all others) are left out, with a warning each."""
-    cosmax = math.cos(math.radians(max_angle))
-    dots = N @ np.swapaxes(N, -1, -2) * mask[:, None, :]
-    medoid = np.argmax(np.where(mask, dots.sum(-1), -np.inf), axis=-1)
-    seed = N[np.arange(len(N)), medoid]
-    near = mask & (_mv(N, seed) > cosmax)
-    mean = _unit(_vm(near.astype(float), N))
-    cos = _mv(N, mean)
-    keep = mask & (cos > cosmax)
-    warnings = [[] for _ in range(len(N))]
-    for b, k in zip(*np.nonzero(mask & ~keep), strict=True):
-        angle = math.degrees(math.acos(max(-1.0, min(1.0, float(cos[b, k])))))
-        warnings[b].append(
-            f"contact {k} left out: its normal is {angle:.0f} deg from its neighbours' "
-            f"(limit {max_angle:g} deg, --max-normal-angle)"
-        )
-    return keep, warnings
-
-
-def _mv(M, v):
-    """Batched matrix times vector: (B, m, p) @ (B, p) -> (B, m)."""
-    return (M @ v[..., None])[..., 0]
-
-
-def _vm(v, M):
-    """Batched vector times matrix: (B, m) @ (B, m, p) -> (B, p)."""
-    return (v[:, None, :] @ M)[:, 0]
-
-
-def _unit(v):
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
-
-
 def _frame(P, N, keep):
     """(origin (B, 3), axes (B, 3, 3), L (B,), centre (B, 2), spread (B,): L, 0 for one point)
     as ``patch_frame`` builds it, from the contacts kept."""
     w = keep.astype(float)
-    z = _unit(_vm(w, N))
+    z = unit(vm(w, N))
     ref = np.where((np.abs(z[:, :1]) < 0.9), [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    x = _unit(ref - z * np.sum(ref * z, -1, keepdims=True))
+    x = unit(ref - z * np.sum(ref * z, -1, keepdims=True))
     axes = np.stack([x, np.cross(z, x), z], axis=1)
-    origin = _vm(w, P) / np.maximum(w.sum(-1), 1.0)[:, None]
+    origin = vm(w, P) / np.maximum(w.sum(-1), 1.0)[:, None]
     q = (P - origin[:, None]) @ np.swapaxes(axes, -1, -2)[..., :2]
     lo = np.where(keep[..., None], q, np.inf).min(1)
     hi = np.where(keep[..., None], q, -np.inf).max(1)
@@ -285,11 +219,11 @@ def _qr_fits(A, b, w, top_cap, n_kept):
         top = np.where(fits & (top == o - 1), o, top)
         fits = (NOISE_REDUNDANCY * size(o) <= 3 * n_kept) & det
         quiet = np.where(fits & (quiet == o - 1), o, quiet)
-    qb = _vm(bw, Q)
+    qb = vm(bw, Q)
     resid, hat, r, h = {}, {}, bw, np.zeros(bw.shape)
     for o in range(2, top_cap + 1):
         cols = slice(size(o - 1) if o > 2 else 0, size(o))
-        r = r - _mv(Q[..., cols], qb[:, cols])
+        r = r - mv(Q[..., cols], qb[:, cols])
         h = h + np.sum(Q[..., cols] ** 2, -1)
         resid[o], hat[o] = r, h
     return {"Q": Q, "Rinv": _upper_inverse(R, d), "cn": cn, "qb": qb, "top": top, "quiet": quiet,
@@ -311,7 +245,7 @@ def order_fit(f, o):
     p = size(o)
     cn = f["cn"][:, :p]
     Rinv = f["Rinv"][:, :p, :p]  # (the inverse of R's leading block: its leading block)
-    coef = _mv(Rinv, f["qb"][:, :p]) / cn
+    coef = mv(Rinv, f["qb"][:, :p]) / cn
     return coef, Rinv / cn[:, :, None], f["resid"][o]
 
 
@@ -319,8 +253,8 @@ def _reml(f, s, stated, keep):
     """Each row type's sigma from its residuals in the top jet: RSS over (rows - leverage)."""
     n = keep.shape[1]
     out = s.copy()
-    r = _pick(f["resid"], f["quiet"])
-    h = _pick(f["hat"], f["quiet"])
+    r = pick(f["resid"], f["quiet"])
+    h = pick(f["hat"], f["quiet"])
     kk = np.tile(keep, 3)
     for t, cols in ((0, slice(0, n)), (1, slice(n, 3 * n))):
         rss = np.sum((r[:, cols] ** 2) * kk[:, cols], -1)
@@ -328,49 +262,6 @@ def _reml(f, s, stated, keep):
         est = s[:, t] * np.sqrt(np.maximum(rss, 0.0) / np.maximum(dof, 0.5))
         out[:, t] = np.where(stated[:, t], s[:, t], est)
     return out
-
-
-# --- 4. outliers ------------------------------------------------------------------------------
-GROSS_POSITION = 0.05  # of L: a point off by less is not called an outlier, whatever the test
-GROSS_ANGLE = 10.0  # deg: nor a normal turned by less
-ISOLATED = 4.0  # an outlier's statistic is this many times that of the contacts after the worst
-
-
-def _worst_contact(f, keep):
-    """Per patch: the index of the contact that fails the deletion test worst (-1: none),
-    and what is wrong with it, in words.  The test: the contact's three residuals in the top
-    jet, each over (1 - its leverage), against the patch's robust scale (their median), at
-    1e-3 / n; and gross: its point GROSS_POSITION off, or its normal GROSS_ANGLE."""
-    n = f["n"]
-    r, h = _pick(f["resid"], f["quiet"]), _pick(f["hat"], f["quiet"])
-    part = r * r / (1.0 - np.minimum(h, 0.999))
-    pos, slope = part[:, :n], part[:, n : 2 * n] + part[:, 2 * n :]
-    stat = np.where(keep, pos + slope, np.nan)
-    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in f["quiet"]])
-    s2 = np.nanmedian(stat, axis=-1) / 2.366  # (the median of chi^2_3)
-    s2 = np.where(f["stated"].all(-1), np.maximum(s2, 1.0), s2)
-    s2 = np.where(np.isfinite(s2) & (s2 > 0), s2, 1.0)
-    z = np.where(keep, stat / s2[:, None], -1.0)
-    worst = np.argmax(z, -1)
-    idx = np.arange(len(z))
-    w = f["w"]
-    off = np.abs(r[:, :n]) / np.where(w[:, :n] > 0, w[:, :n], 1.0)  # (in L)
-    ds = np.hypot(r[:, n : 2 * n] / np.where(w[:, n : 2 * n] > 0, w[:, n : 2 * n], 1.0),
-                  r[:, 2 * n :] / np.where(w[:, 2 * n :] > 0, w[:, 2 * n :], 1.0))  # fmt: skip
-    turn = np.degrees(np.arctan(ds / (1.0 + f["g2"])))  # (a slope change, as an angle)
-    gross = (off[idx, worst] > GROSS_POSITION) | (turn[idx, worst] > GROSS_ANGLE)
-    limit = 16.27 + 2.0 * np.log(np.maximum(keep.sum(-1), 1))
-    third = -np.sort(-z, -1)[:, min(MAX_OUTLIERS, z.shape[1] - 1)]
-    alone = z[idx, worst] > ISOLATED * np.maximum(third, 1.0)  # (a misfit spreads over many)
-    bad = (z[idx, worst] > limit) & (dof >= 4) & gross & alone
-    why = [None] * len(z)
-    for b in np.flatnonzero(bad):
-        k = worst[b]
-        if pos[b, k] >= slope[b, k]:
-            why[b] = f"its point is {off[b, k] * f['L'][b]:.3g} off the surface the others describe"
-        else:
-            why[b] = f"its normal is {turn[b, k]:.0f} deg off the surface's there"
-    return np.where(bad, worst, -1), why
 
 
 # --- 5. the answer and its covariance ----------------------------------------------------------
@@ -385,15 +276,15 @@ def _answer(f, keep, reason, warnings, stated):
         c, F, resid[o] = order_fit(f, o)
         coefs[o], theta[o] = c, c[:, 1:6]
         cov[o] = F[:, 1:6] @ np.swapaxes(F[:, 1:6], -1, -2)
-    rt = _pick(resid, top)
+    rt = pick(resid, top)
     dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
     s2 = np.sum(rt * rt, -1) / np.maximum(dof, 1)
     s2 = np.maximum(np.where(dof > 0, s2, 1.0), 1.0)  # (never below the weights' noise)
     s2 = s2[:, None, None]
-    C2, Ch, Ct = cov[2] * s2, _pick(cov, hi) * s2, _pick(cov, top) * s2
-    t2, th, tt = theta[2], _pick(theta, hi), _pick(theta, top)
+    C2, Ch, Ct = cov[2] * s2, pick(cov, hi) * s2, pick(cov, top) * s2
+    t2, th, tt = theta[2], pick(theta, hi), pick(theta, top)
     d = th - t2
-    d2, q = _wald(d, Ch - C2)
+    d2, q = jet_bias.wald(d, Ch - C2)
     w = np.maximum(0.0, 1.0 - SHRINK * q / np.where(d2 > 0, d2, np.inf))
     w = np.where(hi > 2, w, 0.0)
     est = t2 + w[:, None] * d
@@ -401,9 +292,9 @@ def _answer(f, keep, reason, warnings, stated):
     C_noise = (1 - W * W) * C2 + W * W * Ch
     e = est - tt  # the answer against the top jet, and that difference's own noise
     Ve = (1 - W) ** 2 * (Ct - C2) + (1 - (1 - W) ** 2) * (Ct - Ch)
-    T = _omitted(f, coefs, cov, top)  # (B, 5): the order above the top, at its prior size
-    T2 = (1.0 - w)[:, None] * _round_bias(f, coefs, cov)  # the 2-jet's, were it a sphere's
-    bias = _positive(e[:, :, None] * e[:, None, :] - BIAS_EVIDENCE * Ve)
+    T = jet_bias.omitted(f, coefs, cov, top)  # (B, 5): the order above the top, at its prior size
+    T2 = (1.0 - w)[:, None] * jet_bias.round_bias(f, coefs, cov)  # the 2-jet's, were it a sphere's
+    bias = jet_bias.positive(e[:, :, None] * e[:, None, :] - BIAS_EVIDENCE * Ve)
     bias = np.maximum(bias, T2[:, :, None] * T2[:, None, :] * np.eye(5))  # (where unmeasured)
     C_mse = C_noise + bias + T[:, :, None] * T[:, None, :]
     coef = np.zeros((B, size(int(top.max()))))
@@ -449,24 +340,14 @@ def _width(xy, keep):
     direction across, in the frame."""
     w = keep.astype(float)
     n = np.maximum(w.sum(-1), 1.0)[:, None]
-    d = (xy - _vm(w, xy)[:, None, :] / n[..., None]) * w[..., None]
+    d = (xy - vm(w, xy)[:, None, :] / n[..., None]) * w[..., None]
     _, vecs = np.linalg.eigh(np.swapaxes(d, -1, -2) @ d)
     u, v = (d @ vecs[..., 1:])[..., 0], (d @ vecs[..., :1])[..., 0]
     V = np.stack([w, u, u * u], -1)
     Q, _ = np.linalg.qr(V)
-    r = v - _mv(Q, _vm(v, Q))
+    r = v - mv(Q, vm(v, Q))
     curve = np.sqrt(np.sum(r * r * w, -1) / np.maximum(n[:, 0] - 3.0, 1.0))
     return curve, np.sqrt(np.sum(v * v, -1) / n[:, 0]), vecs[..., 0]
-
-
-def _pick(by_order, which):
-    """Per patch, the entry of ``by_order`` (order -> (B, ...)) at that patch's order."""
-    out = np.array(next(iter(by_order.values())), copy=True)
-    for o, v in by_order.items():
-        sel = which == o
-        if sel.any():
-            out[sel] = v[sel]
-    return out
 
 
 def _pick_coef(coefs, which, p):
@@ -475,95 +356,6 @@ def _pick_coef(coefs, which, p):
         sel = which == o
         out[sel, : c.shape[1]] = c[sel]
     return out
-
-
-def _wald(d, V):
-    """d^T V^+ d and V's rank, per patch (V symmetric positive semi-definite)."""
-    w, U = np.linalg.eigh(V)
-    big = w > 1e-9 * np.maximum(w[:, -1:], 1e-300)
-    proj = _vm(d, U)
-    return np.sum(np.where(big, proj * proj / np.where(big, w, 1.0), 0.0), -1), big.sum(-1)
-
-
-def _positive(M):
-    """M's positive part (symmetric): its negative eigenvalues set to 0."""
-    w, U = np.linalg.eigh(0.5 * (M + np.swapaxes(M, -1, -2)))
-    return (U * np.maximum(w, 0.0)[:, None, :]) @ np.swapaxes(U, -1, -2)
-
-
-def _omitted(f, coefs, cov, top):
-    """(B, 5): how the jet's (zx, zy, zxx, zxy, zyy) would move were the order above the top
-    in the data, its coefficients as large as a sphere or cylinder of the measured
-    curvature makes them: a circle's derivatives are k, 3 k^3, 45 k^5, so the order
-    beyond 4 is 5 z4^2 / z2 (z_j: the rms of the j-th derivatives, their noise taken out)
-    and beyond 3 it is 3 z2^3."""
-    B = len(top)
-    out = np.zeros((B, 5))
-    z2 = _signal(coefs[2][:, 3:6], cov[2][:, 2:5, 2:5])
-    for o in np.unique(top):
-        sel = top == o
-        nxt = o + 1
-        cols = slice(size(o), size(nxt))
-        if o >= 4:
-            c4 = coefs[o][sel][:, size(3) : size(4)]
-            F4 = order_fit_cov(f, o, sel)[:, size(3) : size(4), size(3) : size(4)]
-            z4 = _signal(c4, F4)
-            tau = 5.0 * z4 * np.minimum(z4 / np.maximum(z2[sel], 1e-12), 12.0)
-        else:
-            tau = 3.0 * z2[sel] ** 3
-        G = _regress_omitted(f, o, cols, sel)  # (b, p_o, q)
-        out[sel] = tau[:, None] * np.sqrt(np.sum(G[:, 1:6] ** 2, -1))
-    return out
-
-
-def _round_bias(f, coefs, cov):
-    """(B, 5): how far the 2-jet's values move from those of the surface whose shape operator
-    is the measured Hessian H everywhere, its quartic left out: to fourth order that surface
-    is z = p + p r / 8, p = x^T H x, r = x^T H^2 x (exact for spheres and cylinders; the
-    spline's ``model_bias`` uses the same surface).  Its quartic, mapped through the 2-jet's
-    regression on the omitted columns, is the shift."""
-    zxx, zxy, zyy = np.moveaxis(coefs[2][:, 3:6], -1, 0)
-    p20, p11, p02 = zxx, 2.0 * zxy, zyy
-    r20, r11, r02 = zxx * zxx + zxy * zxy, 2.0 * zxy * (zxx + zyy), zxy * zxy + zyy * zyy
-    quartic = np.stack([  # derivatives at 0 (x^i y^j / (i! j!) columns) of p r / 8
-        24.0 * p20 * r20, 6.0 * (p20 * r11 + p11 * r20),
-        4.0 * (p20 * r02 + p11 * r11 + p02 * r20), 6.0 * (p11 * r02 + p02 * r11),
-        24.0 * p02 * r02,
-    ], -1) / 8.0  # fmt: skip
-    G = _regress_omitted(f, 2, slice(size(3), size(4)), np.ones(len(zxx), bool))
-    if G.shape[-1] < 5:  # (too few contacts for a 3-jet: no quartic columns built)
-        return np.zeros((len(zxx), 5))
-    return np.abs(_mv(G[:, 1:6], quartic))
-
-
-def _largest(c, C):
-    """The largest |principal coefficient| (half the largest |k| L) of the 2-jet's
-    (x^2, xy, y^2) coefficients c (b, 3), its noise (cov C) taken out."""
-    a, b, d = c[:, 0], 0.5 * c[:, 1], c[:, 2]
-    lam = 0.5 * np.abs(a + d) + np.hypot(0.5 * (a - d), b)
-    noise = np.trace(C, axis1=-2, axis2=-1) / 3.0
-    return np.sqrt(np.maximum(lam * lam - noise, 0.0))
-
-
-def _signal(c, C):
-    """The rms of coefficients c (b, q) with their noise (cov C (b, q, q)) taken out."""
-    noise = np.trace(C, axis1=-2, axis2=-1) / c.shape[-1]
-    return np.sqrt(np.maximum(np.mean(c * c, -1) - noise, 0.0))
-
-
-def order_fit_cov(f, o, sel):
-    p = size(o)
-    F = f["Rinv"][sel][:, :p, :p] / f["cn"][sel][:, :p, None]
-    return F @ np.swapaxes(F, -1, -2)
-
-
-def _regress_omitted(f, o, cols, sel):
-    """Coefficients of the omitted columns ``cols`` regressed on the order-o jet's, (b, p_o, q):
-    how each omitted term, were it there with coefficient 1, moves the fit."""
-    p = size(o)
-    Rinv, cn = f["Rinv"][sel][:, :p, :p], f["cn"][sel]
-    X = np.swapaxes(f["Q"][sel][..., :p], -1, -2) @ f["Aw"][sel][..., cols]
-    return Rinv @ X / cn[:, :p, None]
 
 
 def _entries_and_jacobian(theta):
