@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def run(extra):
-    """(wall s, CPU s, exit code, pytest's last line) of one pytest run."""
+    """(wall s, CPU s, exit code, pytest's count line) of one pytest run."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.monotonic()
     proc = subprocess.run(
@@ -30,8 +30,8 @@ def run(extra):
     wall = time.monotonic() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    lines = [ln for ln in proc.stdout.splitlines() if ln.strip()]
-    return wall, cpu, proc.returncode, lines[-1] if lines else ""
+    said = [ln for ln in proc.stdout.splitlines() if " passed" in ln or " failed" in ln]
+    return wall, cpu, proc.returncode, said[-1] if said else ""
 
 
 def main():
