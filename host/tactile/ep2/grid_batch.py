@@ -9,33 +9,11 @@ the same numbers (tested).
 
 import numpy as np
 
-from tactile.ep2 import jet_basis
 from tactile.ep2.shape_index import curvedness_c, curvedness_r, shape_index
 from tactile.ep2.surface_geometry import eigen, shape_entries
 
 DERIVS = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
 KEYS = ("R_mean", "R_std", "k1_mean", "k2_mean", "k1_std", "k2_std", "S_mean", "S_std", "C_mean")
-
-
-def channels(coef, model, xy, mask, n):
-    """([zx, zy, zxx, zxy, zyy] each (B, N^2), gx, gy (B, N^2)) of every fit of the stack:
-    coef (B, p), model (B,) (1: the round closed form added), xy (B, m, 2), mask (B, m)."""
-    lo = np.where(mask[..., None], xy, np.inf).min(axis=1)
-    hi = np.where(mask[..., None], xy, -np.inf).max(axis=1)
-    xs = np.linspace(lo[:, 0], hi[:, 0], n, axis=-1)
-    ys = np.linspace(lo[:, 1], hi[:, 1], n, axis=-1)
-    gx = np.repeat(xs, n, axis=-1)  # meshgrid 'ij', raveled: x slow, y fast
-    gy = np.tile(ys, (1, n))
-    rows = jet_basis.design(gx, gy, jet_basis.order_of(coef.shape[-1]), DERIVS)
-    ch = list(np.split((rows @ coef[..., None])[..., 0], 5, axis=-1))
-    round_ = np.asarray(model) == 1
-    if round_.any():
-        H = jet_basis.hessian(coef[round_])
-        _, ex, ey = jet_basis.round_excess(gx[round_], gy[round_], H)
-        exx, exy, eyy = jet_basis.round_second(gx[round_], gy[round_], H)
-        for c, extra in zip(ch, (ex, ey, exx, exy, eyy)):
-            c[round_] += extra
-    return ch, gx, gy
 
 
 def moments(ch):
