@@ -10,6 +10,7 @@ import pytest
 import serial
 
 from tactile.stream_decoder import StreamDecoder
+from tactile_protocol import constants as C
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.pty_server import PtyServer
@@ -48,11 +49,14 @@ def test_ten_seconds_at_1khz_lose_nothing():
         thread.join(5)
         server.close()
     samples = [m for m in msgs if m.type_name == "SAMPLE"]
-    assert len(samples) >= 9000
     seqs = [m.seq for m in msgs]
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))  # contiguous: nothing lost
-    times = [m.timestamp_us for m in samples]
-    assert all(b - a == 1000 for a, b in zip(times, times[1:]))
+    # Every millisecond has its sample, except where the emulator fell behind the wall clock
+    # (a loaded machine): then it skipped ahead, as an overloaded board does, and the sample
+    # after the gap says so (FLAG_LATE), so the host can tell.
+    for a, b in zip(samples, samples[1:]):
+        assert b.timestamp_us - a.timestamp_us == 1000 or b.flags & C.FLAG_LATE, (a, b)
+    assert samples[-1].timestamp_us - samples[0].timestamp_us >= 9_000_000
     assert decoder.counters.lost_frames == 0 and decoder.counters.damaged == 0
 
 
