@@ -128,6 +128,7 @@ def test_on_a_steady_load_it_reports_the_python_firmwares_integers(elf, tmp_path
     samples = [m for m in msgs if m.type_name == "SAMPLE"]
     assert msgs[0].type_name == "HELLO" and msgs[0].boot_id == 5
     assert counters.lost_frames == 0 and len(samples) > 250
+    assert samples[-1].timestamp_us >= 299_000  # the run's end reached the host, however loaded
     times = [m.timestamp_us for m in samples[10:101]]
     steps = {b - a for a, b in zip(times, times[1:])}
     assert steps <= {999, 1000, 1001}  # TIMER0's microseconds: the poll after the WFI wakes

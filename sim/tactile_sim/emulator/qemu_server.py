@@ -14,8 +14,10 @@ answers the image's device channel.  As with ``PtyServer``:
   TX ring drop and count frames, as on a board;
 - ``fast``: QEMU counts instructions (``-icount``, time skips WFI), and the device channel
   is not answered while more than ``HOLD_BYTES`` wait for the host, so the board's time
-  holds until the host reads; at the end the server waits for the host to read it all
-  (QEMU itself would discard unread bytes when it exits).
+  holds until the host reads.  At the end the board runs on until a frame stamped at or
+  after the end has left its UART (what its TX ring still held when its clock passed the
+  end would otherwise die with QEMU: how much depends on the host machine's load), then
+  the server waits for the host to read it all.
 
 Disconnect windows are not served (the UART is QEMU's): ``qemu_server`` refuses a scene
 that has them.
@@ -31,6 +33,8 @@ from tactile_sim.emulator.pty_server import DRAINED_S, OPEN_SETTLE_S, PtyEndpoin
 from tactile_sim.emulator.qemu_core import connect_uart
 
 HOLD_BYTES = 4096  # fast: bytes for the host beyond which the board's time holds
+RUN_OUT_US = 500_000  # fast, at the end: board time allowed for the TX ring to empty
+RUN_OUT_S = 10.0  # ... and wall time
 CONNECT_TIMEOUT_S = 10.0
 IDLE_S = 0.005
 
@@ -48,6 +52,8 @@ class QemuServer:
         self.to_host, self.to_board = bytearray(), bytearray()
         self.stop = False
         self.exit_status = None
+        self._tail = None  # fast, at the end: (decoder, end_us) watching for the last frame
+        self._tail_done = False
 
     @property
     def path(self):
@@ -74,13 +80,29 @@ class QemuServer:
         self._launch()
         end_us = None if duration_s is None else int(duration_s * 1e6)
         try:
-            while not self.stop and (end_us is None or self.board.t_us < end_us):
-                if not self._step():
-                    break
+            running = True
+            while running and not self.stop and (end_us is None or self.board.t_us < end_us):
+                running = self._step()
             if not self.realtime:
+                if running and end_us is not None:
+                    self._run_out(end_us)
                 self._let_host_read()
         finally:
             self._halt()
+
+    def _run_out(self, end_us):
+        """Fast mode's end: run the board until a frame stamped ``end_us`` or later has left
+        its UART, so the frames its TX ring held at the end reach the host."""
+        from tactile.stream_decoder import StreamDecoder
+
+        self._tail = (StreamDecoder(), end_us)
+        deadline = time.monotonic() + RUN_OUT_S
+        try:
+            while not (self._tail_done or self.stop) and time.monotonic() < deadline:
+                if self.board.t_us >= end_us + RUN_OUT_US or not self._step():
+                    return
+        finally:
+            self._tail = None
 
     def _wait_for_host(self):
         since = None
@@ -136,6 +158,10 @@ class QemuServer:
             return False
         if self.faults is not None:
             data = self.faults.apply(data)
+        if self._tail is not None:
+            decoder, end_us = self._tail
+            stamps = (getattr(m, "timestamp_us", -1) for m in decoder.feed(data))
+            self._tail_done = self._tail_done or max(stamps, default=-1) >= end_us
         if self.endpoint.host_present or not self.realtime:
             self.to_host += data  # (real time, nobody there: the bytes go nowhere, as on USB)
         return True
