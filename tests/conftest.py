@@ -194,3 +194,9 @@ def pico_flashed(pico_master, tmp_path):
     out = tmp_path / "pico.flash"
     shutil.copyfile(flash_master(pico_master), out)
     return out
+
+
+def pytest_collection_modifyitems(items):
+    """Tests marked ``slow`` first (the order is otherwise kept): under xdist they spread
+    over the workers, and a run does not end on one worker finishing a long test alone."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

@@ -12,20 +12,26 @@ from tactile_sim.urlhandler import register
 register()
 
 
-def _session(scene, tare):
-    port = serial.serial_for_url(f"sim://{scene}", timeout=0.005)
+def _session(scene, tare, core="python", contacts=None):
+    """The scene's stream to its end (or until ``contacts`` contacts have ended)."""
+    port = serial.serial_for_url(f"sim://{scene}?core={core}", timeout=0.005)
     decoder, msgs = StreamDecoder(), []
     if tare:
         port.write(bytes(FrameEncoder().encode(C.CMD_TARE, 0, (C.SENSOR_ALL, 64))))
     end = port.emulator.motion.duration_s * 1e6
-    while port.emulator.t_us < end:
-        msgs += decoder.feed(port.read(65536))
+    ended = 0
+    while port.emulator.t_us < end and (contacts is None or ended < contacts):
+        got = decoder.feed(port.read(65536))
+        ended += sum(1 for m in got if m.type_name == "CONTACT" and m.phase == C.PHASE_END)
+        msgs += got
     return port, msgs, decoder.counters
 
 
-@pytest.mark.parametrize("kind, expect", [("convex", 36), ("concave", 36)])
-def test_each_probed_point_is_one_contact(kind, expect):
-    port, msgs, counters = _session(f"ch5_{kind}", tare=True)
+# (one scene on each firmware core: the scene is what is tested, both cores run it)
+@pytest.mark.slow
+@pytest.mark.parametrize("kind, core, expect", [("convex", "python", 36), ("concave", "c", 36)])
+def test_each_probed_point_is_one_contact(kind, core, expect):
+    port, msgs, counters = _session(f"ch5_{kind}", tare=True, core=core)
     acks = [m for m in msgs if m.type_name == "ACK" and m.cmd_type == C.CMD_TARE]
     assert len(acks) == 1
     begins = [m for m in msgs if m.type_name == "CONTACT" and m.phase == C.PHASE_BEGIN]
@@ -42,8 +48,9 @@ def test_each_probed_point_is_one_contact(kind, expect):
 
 @pytest.mark.parametrize("tare", [False, True])
 def test_tare_removes_the_transducer_bias(tare):
-    """Measured load at each contact minus the scene's true load: the bias, or ~0 after TARE."""
-    port, msgs, _ = _session("ch5_plane", tare=tare)
+    """Measured load at each contact minus the scene's true load: the bias, or ~0 after TARE
+    (over the first eight probed points)."""
+    port, msgs, _ = _session("ch5_plane", tare=tare, contacts=8)
     emu = port.emulator
     model = emu.models[0]
     contacts = [m for m in msgs if m.type_name == "CONTACT"]

@@ -325,7 +325,7 @@ def test_bench_batch_scores_as_the_loop(tmp_path, capsys, estimator):
     got = {}
     for flag in ([], ["--batch"]):
         path = tmp_path / f"out{len(flag)}.json"
-        args = ["--split", "tune", "--families", "cylinder", "sphere", "--match", "rot=30 sweep"]
+        args = ["--split", "tune", "--families", "cylinder", "--match", "r=200 rot=30 sweep"]
         args += ["--trials", "3", "--jobs", "1", "--estimator", estimator, "--json", str(path)]
         assert bench.main(args + flag) == 0
         got[bool(flag)] = json.loads(path.read_text())["cases"]

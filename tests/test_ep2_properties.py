@@ -165,6 +165,7 @@ def _finite_everywhere(obj, path="record"):
 # -- analyze_patch --------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @settings(max_examples=300 * FUZZ_SCALE, **SETTINGS)
 @given(scenes())
 def test_answers_are_finite_and_never_confidently_wrong_and_lines_are_refused(scene):

@@ -114,6 +114,7 @@ def scattered_files(draw):
     return (eol.join(lines) + eol).encode()
 
 
+@pytest.mark.slow
 @FUZZ
 @given(data=st.data(), block=st.sampled_from([16, 64, 300, 1 << 20]))
 def test_scattered_files_give_the_whole_table_readers_answer(tmp_path, monkeypatch, data, block):

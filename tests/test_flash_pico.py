@@ -8,6 +8,7 @@ machine); what is asserted is what the board and the host report."""
 import time
 
 import numpy as np
+import pytest
 import serial
 from board_target import BoardTarget
 from pico_target import serve
@@ -46,6 +47,7 @@ def _plant(path, files):
         session.close()
 
 
+@pytest.mark.slow
 def test_a_new_pico_is_flashed_and_answers(tmp_path, cli):
     with serve(flash=tmp_path / "new.flash") as pico:
         _plant(pico.path, {"/lib/tactile_fw/retired.py": b"raise ImportError('retired')\n"})
@@ -71,6 +73,7 @@ def test_a_new_pico_is_flashed_and_answers(tmp_path, cli):
     assert not np.any(rec.flags & C.FLAG_LATE)
 
 
+@pytest.mark.slow
 def test_a_pico_that_streams_from_boot_is_stopped_flashed_and_streams_again(pico_flashed, cli):
     with serve(flash=pico_flashed) as pico:
         client = BoardClient(serial.Serial(pico.path, timeout=0.05), pico.path)

@@ -3,6 +3,7 @@
 import math
 import tracemalloc
 
+import pytest
 from fw_rig import Rig
 
 from tactile_protocol.constants import CFG_STREAM_CONTACTS, CFG_STREAM_SAMPLES, CMD_START
@@ -21,6 +22,7 @@ class DiscardLink:
         return False
 
 
+@pytest.mark.slow
 def test_ten_thousand_samples_leave_no_allocation_behind():
     rig = Rig()
     rig.board.boot()

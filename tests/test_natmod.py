@@ -17,6 +17,7 @@ import sys
 import time
 
 import fw_mpy_pico_scenario
+import pytest
 import serial
 from pico_target import serve, wait_booted
 from toolchain import missing
@@ -32,6 +33,7 @@ SIM = HERE.parent / "sim" / "tactile_sim"
 MPY_OF_THE_IMAGE = 4870  # sys.implementation._mpy of the Pico image (../shared/rp2/NOTES.md)
 
 
+@pytest.mark.slow
 def test_the_shipped_module_is_what_firmware_c_builds_today(tmp_path):
     """Rebuilt from firmware/c with MicroPython's natmod build: the same bytes as the .mpy that
     ``tactile flash`` copies (after a change to firmware/c: ``make natmod``)."""
@@ -67,6 +69,7 @@ PICKS = (
 )
 
 
+@pytest.mark.slow
 def test_both_boards_send_the_same_bytes_on_the_emulated_pico(pico_flashed):
     """What this proves: the module's armv6m code, loaded by stock MicroPython on the RP2040,
     gives for the same commands, clock and converter answers the same frames, counters and
@@ -111,6 +114,7 @@ CEILINGS = (
 )
 
 
+@pytest.mark.slow
 def test_the_module_runs_on_the_chips_usb_i2c_timer_and_flash(pico_flashed):
     """The firmware as flashed (main.py, the module in /lib) streams at 1 kHz on the chip's
     own I2C controller at 1 MHz, with the emulator charging each byte its bus time: every

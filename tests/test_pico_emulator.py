@@ -7,6 +7,7 @@ answering on the same port with its sensors read over the chip's own I2C control
 
 import time
 
+import pytest
 import serial
 from pico_target import serve, wait_booted
 
@@ -112,6 +113,7 @@ def test_a_flash_file_is_one_boards_and_must_be_a_flash(tmp_path):
     assert r.returncode == 4 and "in use by another emulated Pico" in r.stderr, r.stderr
 
 
+@pytest.mark.slow
 def test_the_same_forces_give_the_same_codes_as_on_the_other_cores(pico_flashed, tmp_path):
     """One model behind every core: a steady, noiseless load read by the firmware on the
     emulated Pico (its I2C answered by pico_core) and by the in-process Python core gives the

@@ -73,6 +73,7 @@ def two_patches(tmp_path):
     return write_csv(tmp_path / "scan.csv", {"cyl": cylinder(), "sph": sphere()})
 
 
+@pytest.mark.slow
 def test_cli_writes_one_valid_png_per_figure_and_patch(two_patches, tmp_path, cli):
     out = tmp_path / "figs"
     code, stdout, stderr = cli("plot", two_patches, "-o", out)

@@ -98,6 +98,7 @@ def _damage(frame, kind, data):
 @settings(
     max_examples=300 * FUZZ_SCALE, deadline=None, suppress_health_check=[HealthCheck.too_slow]
 )
+@pytest.mark.slow
 @given(st.data())
 def test_damage_loses_only_damaged_frames(data):
     """Garbage between frames and damaged frames: never raises, delivers every intact frame.

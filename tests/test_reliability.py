@@ -10,6 +10,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import reliability  # noqa: E402
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("area", reliability.areas())
 def test_every_probe_holds(area):
     title, rows = reliability.run_area(area)

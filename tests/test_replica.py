@@ -1,6 +1,9 @@
 """The chapter 5 replica through the emulator's serial path (issue 7, in part)."""
 
+import pytest
 
+
+@pytest.mark.slow
 def test_demo_prints_the_replica_beside_the_thesis(cli, tmp_path):
     code, out, err = cli("demo", "--object", "cylinder", "-o", tmp_path)
     assert code == 0 and err == ""
@@ -17,6 +20,7 @@ def test_demo_prints_the_replica_beside_the_thesis(cli, tmp_path):
         assert (tmp_path / "cylinder" / name).stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_demo_takes_the_old_object_names_with_a_note(cli, tmp_path):
     code, out, err = cli("demo", "--object", "concave", "--via", "sim", "-o", tmp_path)
     assert code == 0, err

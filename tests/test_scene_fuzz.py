@@ -133,6 +133,7 @@ def _timeout(signum, frame):
     raise TimeoutError(f"a scene took over {budget} s of {what} time to load, build and run")
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("error")  # a numpy warning on the terminal counts as a failure
 @settings(max_examples=EXAMPLES * FUZZ_SCALE)
 @given(mutated_scenes())

@@ -149,6 +149,7 @@ def test_figs_33_and_34_draw_mean_s_with_its_std_as_bars(tmp_path, figures, plot
     assert [t.get_text() for t in ticks] == [f"{r:g}" for r in ep2.RADII]
 
 
+@pytest.mark.slow
 def test_ep2_study_runs_print_exactly_what_they_wrote(tmp_path, cli, figures):
     code, stdout, stderr = cli("study", "ep2-rotation", "--out", tmp_path / "rot")
     assert (code, stderr) == (0, "")

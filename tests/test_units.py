@@ -194,6 +194,7 @@ def _analyze(capsys, path, *argv):
     return json.loads(out)
 
 
+@pytest.mark.slow  # (the scara run: the ch5 convex scene through the emulator)
 def test_scara_contacts_are_metres_and_the_cm_file_gives_the_same_shape(
     scara_run, tmp_path, capsys
 ):
@@ -229,6 +230,7 @@ def test_scara_contacts_are_metres_and_the_cm_file_gives_the_same_shape(
     assert 0.04 < in_m["radius"] < 0.09  # the ch5 convex cylinder, R 6.6 cm
 
 
+@pytest.mark.slow
 def test_the_replica_compares_with_the_thesis_in_cm(scara_run):
     _, _, results = scara_run
     assert results["tangent"].shape == "cylinder"
