@@ -109,7 +109,10 @@ def pytest_addoption(parser):
 
 
 def pytest_collection_modifyitems(config, items):
-    """Without --port, tests marked ``hardware`` are skipped and say why."""
+    """Tests marked ``slow`` first (the order is otherwise kept): under xdist they spread
+    over the workers, and a run does not end on one worker finishing a long test alone.
+    Without --port, tests marked ``hardware`` are skipped and say why."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
     if config.getoption("--port"):
         return
     from board_target import NO_PORT
@@ -194,9 +197,3 @@ def pico_flashed(pico_master, tmp_path):
     out = tmp_path / "pico.flash"
     shutil.copyfile(flash_master(pico_master), out)
     return out
-
-
-def pytest_collection_modifyitems(items):
-    """Tests marked ``slow`` first (the order is otherwise kept): under xdist they spread
-    over the workers, and a run does not end on one worker finishing a long test alone."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
