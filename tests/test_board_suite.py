@@ -26,6 +26,8 @@ from tactile_protocol import constants as C
 from tactile_sim.emulator import load_scene
 from tactile_sim.urlhandler import register
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 register()
 emulated = pytest.mark.parametrize("board", EMULATED, indirect=True)
 

@@ -24,6 +24,8 @@ from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.pty_server import PtyServer
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 WRENCH = np.array([3.2, 2.4, -1.0, 0.01, -0.02, 0.005])  # N, N*m
 SCENE = """
 [scene]

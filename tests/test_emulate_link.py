@@ -13,6 +13,8 @@ from tactile_sim.emulator import load_scene, pty_link
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.pty_server import PtyServer
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 
 def _make(kind, path, tmp_path):
     if kind == "file":

@@ -16,6 +16,8 @@ import serial
 
 from tactile.stream_decoder import StreamDecoder
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 IDLE_S = 1.5
 MAX_FRACTION = 0.10
 

@@ -15,6 +15,8 @@ from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.pty_server import PtyServer
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 
 def _serve(server, duration):
     thread = threading.Thread(target=server.serve, args=(duration,), daemon=True)

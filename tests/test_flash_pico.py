@@ -17,6 +17,8 @@ from tactile import board_probe, flashing, load_recording, raw_repl
 from tactile.board_client import BoardClient
 from tactile_protocol import constants as C
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 
 def test_the_python_cores_pty_is_no_micropython_board_and_says_so_in_one_line(cli):
     with BoardTarget("python").serve("press") as path:

@@ -28,6 +28,8 @@ from tactile_fw import calibration
 from tactile_fw.host_only import natmod
 from tactile_protocol import constants as C
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 HERE = pathlib.Path(__file__).parent
 SIM = HERE.parent / "sim" / "tactile_sim"
 MPY_OF_THE_IMAGE = 4870  # sys.implementation._mpy of the Pico image (../shared/rp2/NOTES.md)

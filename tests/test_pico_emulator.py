@@ -13,6 +13,8 @@ from pico_target import serve, wait_booted
 
 from tactile.board_client import BoardClient
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 
 def _read_until(port, marker, seconds):
     out, end = b"", time.monotonic() + seconds

@@ -14,6 +14,8 @@ import serial
 from tactile.stream_decoder import decode_bytes
 from tactile_sim.emulator.dying import DyingBoard
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 NO_DATA = (
     "device reports readiness to read but returned no data "
     "(device disconnected or multiple access on port?)"

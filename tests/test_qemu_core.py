@@ -24,6 +24,8 @@ from tactile_protocol import constants as C
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 STEADY = """
 [scene]
 name = "steady"

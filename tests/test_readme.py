@@ -35,6 +35,8 @@ from pathlib import Path
 import pytest
 from conftest import ROOT
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 README = ROOT / "README.md"
 MAKE = ["make demo", "make test"]
 SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere"}

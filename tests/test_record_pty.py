@@ -16,6 +16,8 @@ from tactile_sim.emulator.host_wait import serve_when_opened
 from tactile_sim.emulator.pty_server import PtyServer
 from tactile_studies import replica
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 EXPECTED = {"plane": "plane", "convex": "cylinder", "concave": "concave_cylinder"}
 
 

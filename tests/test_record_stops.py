@@ -13,6 +13,8 @@ from tactile.record_session import Session
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import build_motion
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 
 def _scene(tmp_path, extra=""):
     path = tmp_path / "sweep.toml"

@@ -23,6 +23,8 @@ from tactile.log_clock import CLOCKS, log_end
 from tactile.record_session import Session
 from tactile_sim.emulator import load_scene
 
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+
 UTC0 = 1_765_000_000.0  # UTC minus the simulated monotonic clock
 PERIOD_S = 1 / 500  # the sweep's sample period
 
