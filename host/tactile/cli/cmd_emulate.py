@@ -25,7 +25,13 @@ def add_arguments(parser):
     parser.add_argument(
         "--fast", action="store_true", help="as fast as possible (default: real time)"
     )
-    parser.add_argument("--duration", type=float, help="stop after this many simulated seconds")
+    parser.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="stop at this scene time, in seconds, whether or not a host reads (--fast holds "
+        "for a host that is gone or not reading at most a few seconds at a time)",
+    )
     parser.add_argument("--no-faults", action="store_true", help="ignore the scene's [link] faults")
     parser.add_argument(
         "--cal-file",

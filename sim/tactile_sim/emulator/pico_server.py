@@ -13,17 +13,27 @@ moves bytes between the chip's USB CDC and the pty, which a host opens as it ope
   while more than ``HOLD_BYTES`` wait for the host; its time never skips ahead of a host.
 
 In both, the chip holds while the host leaves more than ``HOLD_BYTES`` unread, so nothing is
-lost between the chip and a host that reads.  The pty stays when the chip resets (a real
-Pico's port would drop and come back); the scene restarts with the chip's clock.
+lost between the chip and a host that reads.  A hold (for a host that is not there, or
+does not read) lasts at most ``HOLD_LIMIT_S`` (pty_server) in a row, so a run always ends
+at its duration: then the chip runs on, and what the host leaves beyond ``KEEP_BYTES`` is
+dropped and counted (``dropped``).  The pty stays when the chip resets (a real Pico's port
+would drop and come back); the scene restarts with the chip's clock.
 """
 
 import time
 
 from tactile_sim.emulator import pty_link
 from tactile_sim.emulator.pico_core import PicoError, default_flash
-from tactile_sim.emulator.pty_server import DRAINED_S, OPEN_SETTLE_S, PtyEndpoint
+from tactile_sim.emulator.pty_server import (
+    DRAINED_S,
+    OPEN_SETTLE_S,
+    HoldLimit,
+    PtyEndpoint,
+    Stalled,
+)
 
 HOLD_BYTES = 4096
+KEEP_BYTES = 1 << 20  # bytes kept for a host that does not read (then dropped, counted)
 IDLE_S = 0.005
 BOOT_US = 250_000  # fast: a chip runs this long after each reset before it holds for a host
 
@@ -43,6 +53,8 @@ class PicoServer:
         self.stop = False
         self._present_since = None
         self._held = None
+        self._limit = HoldLimit()  # a hold for the host lasts at most HOLD_LIMIT_S
+        self.dropped = 0  # bytes for a host that did not read, beyond KEEP_BYTES
         self.board_us = 0.0  # the chip's time powered, over its resets
 
     @property
@@ -108,9 +120,10 @@ class PicoServer:
 
     def _hold(self):
         present = self.endpoint.host_present
-        held = len(self.to_host) > HOLD_BYTES and present
+        want = len(self.to_host) > HOLD_BYTES and present
         if not self.realtime and not present and self.chip.t_us >= BOOT_US:
-            held = True  # (after its boot, as a board plugged in before the host came)
+            want = True  # (after its boot, as a board plugged in before the host came)
+        held = self._limit(want)
         if held != self._held:
             self.chip.hold(held)
             self._held = held
@@ -121,20 +134,25 @@ class PicoServer:
         if data:
             if self.faults is not None:
                 data = self.faults.apply(data)
-            if ep.host_present:
+            if ep.host_present and len(self.to_host) < KEEP_BYTES:
                 self.to_host += data  # (nobody there: the bytes go nowhere, as on USB)
+            elif ep.host_present:
+                self.dropped += len(data)
         if self.to_host and ep.host_present:
             n = ep.write(bytes(self.to_host))
             del self.to_host[:n]
 
     def _let_host_read(self):
         """Fast mode's end: the host reads what is queued before the chip goes."""
-        empty_since = None
+        empty_since, stalled = None, Stalled()
         while self.endpoint.host_present and not self.stop and self.chip.alive():
             self._host()
             self.chip.serve([self.endpoint.master], IDLE_S)
             self._to_host()
-            if self.to_host or self.endpoint.unread():
+            state = (len(self.to_host), self.endpoint.unread())
+            if stalled(state):
+                return
+            if any(state):
                 empty_since = None
             elif empty_since is None:
                 empty_since = time.monotonic()

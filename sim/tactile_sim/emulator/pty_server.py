@@ -16,8 +16,11 @@ ticks and only while a host is there to read: it holds until a host is
 announced (so the host sees the scene from its start), while the pty is full,
 and before a scripted unplug and the end of the run until the host has read
 what is in flight (so a host that reads loses nothing the scene does not
-take away).  In real time the board runs regardless and a slow or absent host
-makes it drop frames, as a real board does.  An emulator that falls more than
+take away), each for at most ``HOLD_LIMIT_S`` at a time: a host that is gone or
+stopped reading for longer (or none, with ``--now``) does not stop the run, which goes
+on and ends at its duration, the firmware dropping and counting what nobody reads.  In
+real time the board runs regardless and a slow or absent host makes it drop frames, as
+a real board does.  An emulator that falls more than
 ``BEHIND_S`` behind the wall clock (a loaded machine, a heavy scene) does what
 an overloaded board does: the polls it had no time for are skipped, its clock
 catches up, and the firmware counts the missed periods as overruns and sets the
@@ -43,6 +46,7 @@ FULL_WAIT_S = 0.0005  # as fast as possible, pty full: wait this long for the ho
 HOST_WAIT_S = 0.005  # as fast as possible, no host yet: look again after this long
 DRAINED_S = 0.01  # ... the host has read all once the pty's input queue stays empty this long
 BEHIND_S = 0.05  # real time: this far behind the wall clock, skip ahead (the samples are late)
+HOLD_LIMIT_S = 3.0  # as fast as possible: hold for an absent or stalled host at most this long
 
 
 class PtyEndpoint:
@@ -119,6 +123,36 @@ class PtyEndpoint:
         os.close(self.master)
 
 
+class HoldLimit:
+    """As fast as possible: ``limit(want)`` says whether time may hold for the host now, for
+    at most ``HOLD_LIMIT_S`` in a row (``want`` false ends a hold)."""
+
+    def __init__(self, clock=time.monotonic):
+        self.clock, self.since = clock, None
+
+    def __call__(self, want):
+        if not want:
+            self.since = None
+            return False
+        now = self.clock()
+        if self.since is None:
+            self.since = now
+        return now - self.since < HOLD_LIMIT_S
+
+
+class Stalled:
+    """A host that takes nothing: ``stalled(state)`` turns true once ``state`` (what waits
+    for the host) has not changed for ``HOLD_LIMIT_S``."""
+
+    def __init__(self, clock=time.monotonic):
+        self.clock, self.last, self.moved = clock, None, clock()
+
+    def __call__(self, state):
+        if state != self.last:
+            self.last, self.moved = state, self.clock()
+        return self.clock() - self.moved >= HOLD_LIMIT_S
+
+
 class PtyServer:
     """Run ``board`` (an EmulatedBoard) behind a pty until ``stop`` or the duration."""
 
@@ -136,6 +170,7 @@ class PtyServer:
         self._present_since = None
         self.reconnects = 0
         self.skipped = 0  # times the board fell BEHIND_S behind and skipped ahead
+        self._held = HoldLimit(self.clock)  # as fast as possible: time held for the host
         self.stop = False
 
     @property
@@ -191,14 +226,8 @@ class PtyServer:
                     continue
                 if ahead < -BEHIND_S:  # behind: skip the polls there was no time for
                     self._skip(board.t_us - int(ahead * 1e6), end_us)
-            elif not self.endpoint.host_present:  # nobody to stream to: time holds
-                self._pump()  # (what the board said before is discarded by _exchange)
-                time.sleep(HOST_WAIT_S)  # (poll() returns at once while nobody has it open)
-                self._exchange(0.0)
-                continue
-            elif self._out:  # the host has not taken the last tick yet: time holds
-                self._exchange(FULL_WAIT_S)
-                self._pump()
+            elif self._held(not self.endpoint.host_present or bool(self._out)):
+                self._wait_for_host()  # nobody there, or the last tick not taken: time holds
                 continue
             target = board.t_us + int((tick_s or (TICK_S if self.realtime else FAST_TICK_S)) * 1e6)
             if end_us is not None:
@@ -215,6 +244,15 @@ class PtyServer:
         if not self.realtime:
             self._let_host_read()  # the end of the run reaches the host too
 
+    def _wait_for_host(self):
+        if not self.endpoint.host_present:
+            self._pump()  # (what the board said before is discarded by _exchange)
+            time.sleep(HOST_WAIT_S)  # (poll() returns at once while nobody has it open)
+            self._exchange(0.0)
+        else:
+            self._exchange(FULL_WAIT_S)
+            self._pump()
+
     def _skip(self, t_us, end_us):
         """Move the board's clock to ``t_us`` without polling (before an unplug or the end)."""
         for limit in (end_us, self._next_unplug(self.board.t_us)):
@@ -224,12 +262,16 @@ class PtyServer:
         self.skipped += 1
 
     def _let_host_read(self):
-        """As fast as possible: wait while the host (if any) reads what is queued or in flight."""
-        empty_since = None
+        """As fast as possible: wait while the host (if any) reads what is queued or in flight,
+        and gives up on one that takes nothing for ``HOLD_LIMIT_S``."""
+        empty_since, stalled = None, Stalled(self.clock)
         while self.endpoint.host_present and not self.stop:
             self._exchange(FULL_WAIT_S)
             self._pump()
-            if self._out or self.endpoint.unread():
+            state = (len(self._out), self.endpoint.unread())
+            if stalled(state):
+                return
+            if any(state):
                 empty_since = None
             elif empty_since is None:
                 empty_since = time.monotonic()

@@ -14,10 +14,12 @@ answers the image's device channel.  As with ``PtyServer``:
   TX ring drop and count frames, as on a board;
 - ``fast``: QEMU counts instructions (``-icount``, time skips WFI), and the device channel
   is not answered while more than ``HOLD_BYTES`` wait for the host, so the board's time
-  holds until the host reads.  At the end the board runs on until a frame stamped at or
-  after the end has left its UART (what its TX ring still held when its clock passed the
-  end would otherwise die with QEMU: how much depends on the host machine's load), then
-  the server waits for the host to read it all.
+  holds until the host reads, for at most ``HOLD_LIMIT_S`` (pty_server) in a row: then it
+  runs on, and what the host leaves beyond ``KEEP_BYTES`` is dropped and counted
+  (``dropped``).  At the end the board runs on until a frame stamped at or after the end
+  has left its UART (what its TX ring still held when its clock passed the end would
+  otherwise die with QEMU: how much depends on the host machine's load), then the server
+  waits for the host to read it all.
 
 Disconnect windows are not served (the UART is QEMU's): ``qemu_server`` refuses a scene
 that has them.
@@ -29,10 +31,17 @@ import tempfile
 import time
 
 from tactile_sim.emulator import pty_link
-from tactile_sim.emulator.pty_server import DRAINED_S, OPEN_SETTLE_S, PtyEndpoint
+from tactile_sim.emulator.pty_server import (
+    DRAINED_S,
+    OPEN_SETTLE_S,
+    HoldLimit,
+    PtyEndpoint,
+    Stalled,
+)
 from tactile_sim.emulator.qemu_core import connect_uart
 
 HOLD_BYTES = 4096  # fast: bytes for the host beyond which the board's time holds
+KEEP_BYTES = 1 << 20  # fast: bytes kept for a host that does not read (then dropped, counted)
 RUN_OUT_US = 500_000  # fast, at the end: board time allowed for the TX ring to empty
 RUN_OUT_S = 10.0  # ... and wall time
 CONNECT_TIMEOUT_S = 10.0
@@ -53,6 +62,8 @@ class QemuServer:
         self.stop = False
         self.exit_status = None
         self._tail = None  # fast, at the end: (decoder, end_us) watching for the last frame
+        self._held = HoldLimit()
+        self.dropped = 0  # fast: bytes for a host that did not read, beyond KEEP_BYTES
         self._tail_done = False
 
     @property
@@ -129,7 +140,7 @@ class QemuServer:
         ep.host_present = present
         if readable:
             self.to_board += ep.read()
-        held = not self.realtime and len(self.to_host) > HOLD_BYTES
+        held = self._held(not self.realtime and len(self.to_host) > HOLD_BYTES)
         poller = select.poll()
         poller.register(self.uart, select.POLLIN | (select.POLLOUT if self.to_board else 0))
         if device and not held:
@@ -162,8 +173,12 @@ class QemuServer:
             decoder, end_us = self._tail
             stamps = (getattr(m, "timestamp_us", -1) for m in decoder.feed(data))
             self._tail_done = self._tail_done or max(stamps, default=-1) >= end_us
-        if self.endpoint.host_present or not self.realtime:
-            self.to_host += data  # (real time, nobody there: the bytes go nowhere, as on USB)
+        if not (self.endpoint.host_present or not self.realtime):
+            return True  # (real time, nobody there: the bytes go nowhere, as on USB)
+        if len(self.to_host) < KEEP_BYTES:
+            self.to_host += data
+        else:
+            self.dropped += len(data)
         return True
 
     def _to_board(self):
@@ -180,11 +195,14 @@ class QemuServer:
 
     def _let_host_read(self):
         """Fast mode's end: the host reads what is queued or in flight before QEMU goes."""
-        empty_since = None
+        empty_since, stalled = None, Stalled()
         while self.endpoint.host_present and not self.stop:
             if not self._step(device=False):
                 return
-            if self.to_host or self.endpoint.unread():
+            state = (len(self.to_host), self.endpoint.unread())
+            if stalled(state):
+                return
+            if any(state):
                 empty_since = None
             elif empty_since is None:
                 empty_since = time.monotonic()

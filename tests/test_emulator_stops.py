@@ -1,0 +1,79 @@
+"""An emulator stops when told: ``--duration`` ends the run at that scene time whether or not
+a host reads, in real time and as fast as possible, and a full pty never holds it forever."""
+
+import itertools
+import subprocess
+import sys
+import threading
+
+import pytest
+import serial
+from toolchain import missing
+
+from tactile.stream_decoder import StreamDecoder
+from tactile_sim.emulator import load_scene
+from tactile_sim.emulator.device import EmulatedBoard
+from tactile_sim.emulator.pty_server import HOLD_LIMIT_S, PtyServer
+
+pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
+BOUND_S = 60  # far beyond what each run takes (HOLD_LIMIT_S and a second of scene)
+
+
+def _emulate(*argv):
+    """``tactile emulate`` with nobody on its pty: (exit code, stderr) once it ends."""
+    proc = subprocess.run(
+        [sys.executable, "-m", "tactile.cli.main", "emulate", *argv],
+        capture_output=True, text=True, timeout=BOUND_S,
+    )  # fmt: skip
+    return proc.returncode, proc.stderr
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_a_run_nobody_reads_ends_at_its_duration(fast):
+    code, err = _emulate("press", "--duration", "1", "--now", *(["--fast"] if fast else []))
+    assert code == 0 and "Traceback" not in err, err
+
+
+def test_a_qemu_run_nobody_reads_ends_at_its_duration():
+    from tactile_sim.emulator.qemu_core import QemuUnavailable, image
+
+    try:
+        image()
+    except QemuUnavailable as exc:
+        missing(str(exc))
+    code, err = _emulate("press", "--core", "qemu", "--fast", "--duration", "1", "--now")
+    assert code == 0 and "Traceback" not in err, err
+
+
+def test_a_host_that_stops_reading_holds_a_fast_run_for_a_bounded_time():
+    """The host opens the port, reads a little and stops: time holds for it (the pty and
+    the board's ring fill), then the board runs on to the end, dropping and counting what
+    nobody read; the host finds the frames it left as lost, not a hang."""
+    ticks = itertools.count(step=HOLD_LIMIT_S / 4)  # each look at the clock: a quarter hold
+    server = PtyServer(EmulatedBoard(load_scene("press")), realtime=False,
+                       clock=lambda: next(ticks))  # fmt: skip
+    path = server.open()
+    port = serial.Serial(path, timeout=0.2)
+    try:
+        decoder = StreamDecoder()
+        thread = threading.Thread(target=server.serve, args=(2.0,))
+        thread.start()
+        first = decoder.feed(port.read(2000))  # then nothing more is read
+        thread.join(BOUND_S)
+        assert not thread.is_alive(), "the run held for a host that stopped reading"
+        assert server.board.t_us >= 2_000_000
+        rest = decoder.feed(port.read(port.in_waiting or 1))
+    finally:
+        port.close()
+        server.close()
+    assert first and first[0].type_name == "HELLO"
+    assert rest  # what the pty held is still there for the host
+
+
+def test_emulate_help_says_duration_ends_the_run(capsys):
+    from tactile.cli import main as cli_main
+
+    with pytest.raises(SystemExit) as done:
+        cli_main.main(["emulate", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert done.value.code == 0 and "stop at this scene time, in seconds, whether or not" in out
