@@ -137,8 +137,8 @@ class Served:
     """The session's boards that run their own clocks, each on a pty: started on first use,
     at rest, with the press scene's streams on (``configure``), stopped at the session's end."""
 
-    def __init__(self, session_dir):
-        self.session_dir = session_dir
+    def __init__(self, session_dir, flash_dir):
+        self.session_dir, self.flash_dir = session_dir, flash_dir
         self.servers, self.stacks = {}, []
 
     def port(self, kind):
@@ -181,7 +181,7 @@ class Served:
         from pico_target import flash_master, serve, wait_booted
 
         flash = self.session_dir / "suite.flash"
-        shutil.copyfile(flash_master(self.session_dir), flash)
+        shutil.copyfile(flash_master(self.flash_dir), flash)
         with serve(rest_scene(self.session_dir), flash=flash) as server:
             wait_booted(server)
             yield server

@@ -171,19 +171,23 @@ def recorded_msgs(recorded_run):
 
 
 @pytest.fixture(scope="session")
-def served(tmp_path_factory):
+def served(tmp_path_factory, pico_master):
     """The session's boards served on a pty (board_target.Served: qemu, rp2040)."""
     from board_target import Served
 
-    boards = Served(tmp_path_factory.mktemp("served"))
+    boards = Served(tmp_path_factory.mktemp("served"), pico_master)
     yield boards
     boards.close()
 
 
 @pytest.fixture(scope="session")
 def pico_master(tmp_path_factory):
-    """Where the session's flashed emulated Picos are kept (tests/pico_target.py)."""
-    return tmp_path_factory.mktemp("pico")
+    """Where the run's flashed emulated Picos are kept (tests/pico_target.py): one directory
+    for every xdist worker, so a run flashes each firmware once, not once per worker."""
+    root = tmp_path_factory.getbasetemp()
+    folder = (root.parent if os.environ.get("PYTEST_XDIST_WORKER") else root) / "pico-shared"
+    folder.mkdir(exist_ok=True)
+    return folder
 
 
 @pytest.fixture

@@ -11,6 +11,7 @@
 """
 
 import contextlib
+import fcntl
 import os
 import threading
 
@@ -76,14 +77,17 @@ def wait_booted(server, timeout_s=60.0):
 
 def flash_master(session_dir, n_sensors=1):
     """A flash file holding the firmware, flashed the way a user flashes a board (``tactile
-    flash --sensors n_sensors``), once per ``session_dir`` (the ``pico_flashed`` fixture)."""
+    flash --sensors n_sensors``), once per ``session_dir`` (``pico_master``: every xdist
+    worker of a run shares it)."""
     from tactile import flashing
 
     need_pico()
     master = session_dir / f"pico-firmware-{n_sensors}.flash"
-    if not master.exists():
-        work = session_dir / f"flashing-{n_sensors}.flash"
-        with serve(flash=work) as server:
-            flashing.flash(server.path, n_sensors=n_sensors)
-        os.replace(work, master)
+    with open(session_dir / f"pico-firmware-{n_sensors}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # (xdist's workers share the directory: one flashes)
+        if not master.exists():
+            work = session_dir / f"flashing-{n_sensors}.flash"
+            with serve(flash=work) as server:
+                flashing.flash(server.path, n_sensors=n_sensors)
+            os.replace(work, master)
     return master

@@ -110,7 +110,8 @@ def test_config_is_applied_and_a_refused_one_changes_nothing(board):
     steps = [b.timestamp_us - a.timestamp_us for a, b in zip(got, got[1:])]
     # A running clock stamps a sample when its poll took it: a command handled in the same
     # poll (the refused CONFIGs above) moves it by a fraction of the period, never the phase.
-    jitter = 0 if board.core else 250  # us
+    # (On a chip, when a command lands in a poll depends on the host: up to a quarter.)
+    jitter = 0 if board.core else 2000 // 4  # us
     assert len(got) == 30 and max(abs(d - 2000) for d in steps) <= jitter  # 500 Hz
     assert abs(got[-1].timestamp_us - got[0].timestamp_us - 29 * 2000) <= jitter  # no drift
 
