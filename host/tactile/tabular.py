@@ -14,10 +14,9 @@ project's own larger files (a recording's frames.csv) may raise the byte and row
 import contextlib
 import csv
 import math
-import os
-import stat
 from array import array
 
+from tactile import bounded
 from tactile.errors import InputError, where
 
 __all__ = [
@@ -41,6 +40,7 @@ MAX_WHOLE = 2**53  # the largest whole-number value a column may hold (floats ar
 SHOW_CHARS = 40  # of a cell or header quoted in a message
 
 _CHUNK = 1 << 16
+_SPLIT = "the limit for one file; split it"
 _BOM = b"\xef\xbb\xbf"
 
 
@@ -204,31 +204,13 @@ def comment_lines(path):
 
 def _open(path, max_bytes=None):
     """A binary handle on a regular file within ``max_bytes`` (default ``MAX_FILE_BYTES``),
-    or ``InputError``.
-
-    Opened non-blocking, so a FIFO is refused instead of waiting for a writer."""
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    or ``InputError`` (``tactile.bounded``: a FIFO is refused without waiting for a writer)."""
     max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
-    info = os.fstat(fd)
-    if not stat.S_ISREG(info.st_mode):
-        os.close(fd)
-        what = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
-        raise InputError(f"{path}: {what} (a CSV must be a regular file)")
-    if info.st_size > max_bytes:
-        os.close(fd)
-        raise InputError(_too_big(path, max_bytes))
-    return os.fdopen(fd, "rb")
+    return bounded.open_regular(path, max_bytes, "a CSV", _SPLIT)
 
 
 def _too_big(path, max_bytes):
-    return f"{path}: larger than {_size(max_bytes)} (the limit for one file; split it)"
-
-
-def _size(n_bytes):
-    return f"{n_bytes // 2**30} GiB" if n_bytes >= 2**30 else f"{n_bytes // 2**20} MiB"
+    return bounded.too_big(path, max_bytes, _SPLIT)
 
 
 def _text_lines(path, max_bytes=None):
