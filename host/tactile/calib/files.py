@@ -20,6 +20,7 @@ from collections import namedtuple
 
 from tactile import bounded, tabular
 from tactile.calib import units as U
+from tactile.csv_dialect import DECIMAL, number
 from tactile.errors import InputError, where
 
 __all__ = ["MatrixFile", "read", "ROWS", "GAUGES", "MAX_BYTES", "MAX_ID"]
@@ -79,16 +80,6 @@ def _cell_place(path, line, r, j):
     return f"{where(path, line)}: row {r + 1} ({ROWS[r]}), column {j + 1} ({GAUGES[j]})"
 
 
-def _number(text, place):
-    try:
-        v = float(text)
-    except ValueError:
-        raise InputError(f"{place}: not a number: {tabular.show(text)}") from None
-    if not math.isfinite(v):
-        raise InputError(f"{place}: not a finite number: {tabular.show(text)}")
-    return v
-
-
 # --- CSV -------------------------------------------------------------------------------------
 
 
@@ -101,12 +92,12 @@ def _csv(path):
             continue
         if key == "id":
             try:
-                number = int(value.strip())
+                whole = int(value.strip())
             except ValueError:
                 raise InputError(
                     f"{where(path, line)}: id: not a whole number: {tabular.show(value.strip())}"
                 ) from None
-            cal_id = check_id(number, f"{where(path, line)}: id")
+            cal_id = check_id(whole, f"{where(path, line)}: id")
             id_from = f"line {line}"
         else:
             try:
@@ -132,7 +123,7 @@ def _csv(path):
             place = _cell_place(path, line, r, j)
             if r == 0 and j == 0 and not _is_number(cell):
                 place += " (a calibration CSV has no header row)"
-            row.append(_number(cell.strip(), place))
+            row.append(number(cell.strip(), place))
         matrix.append(row)
         places.append(f"{where(path, line)}: row {r + 1} ({ROWS[r]})")
     if len(matrix) < 6:
@@ -145,11 +136,7 @@ def _csv(path):
 
 
 def _is_number(text):
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    return DECIMAL.fullmatch(text.strip()) is not None
 
 
 # --- JSON ------------------------------------------------------------------------------------
