@@ -170,7 +170,9 @@ def main(argv=None):
             if undo is not None:
                 undo()
     except TactileError as exc:
-        print(f"tactile {name}: error: {exc}", file=sys.stderr)
+        from tactile.textout import printable  # a message may quote a file's text
+
+        print(f"tactile {name}: error: {printable(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         print(f"tactile {name}: interrupted", file=sys.stderr)
