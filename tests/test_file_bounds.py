@@ -151,3 +151,14 @@ def test_parse_json_limits(tmp_path):
             bounded.parse_json("f", data)
         assert says in str(exc.value)
     assert bounded.parse_json("f", b"-" + b"1" * 400) == -int("1" * 400)
+
+
+@pytest.mark.parametrize("value", ["x", [], -5, 1.5, 1e300, True])
+def test_a_damaged_time_base_field_is_one_line(tmp_path, cli, value):
+    out = recording(tmp_path, cli)
+    meta = json.loads((out / "meta.json").read_text())
+    meta["time_base"]["segments"][0]["first_row"] = value
+    meta["sessions"] = [dict(meta, sessions=None)]
+    (out / "meta.json").write_text(json.dumps(meta))
+    code, _, err = cli("export", out, "-o", tmp_path / "x.mcap")
+    one_line(code, err, "meta.json: time_base segment 0 field 'first_row': not a whole number")
