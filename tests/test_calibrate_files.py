@@ -8,7 +8,6 @@ against the definitions the code multiplies out; the ATI sample is read a second
 import json
 import pathlib
 import re
-import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -424,41 +423,3 @@ def test_emulate_cal_file_that_cannot_be_written_is_one_line_exit_2(tmp_path, cl
     code, out, err = cli("emulate", "press", "--cal-file", tmp_path / "no" / "FT1.cal")
     assert code == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
     assert "--cal-file: cannot write" in err
-
-
-# --- judged in float32, as sent ------------------------------------------------------------
-
-IDENTITY = np.eye(6)
-
-
-@pytest.mark.parametrize(
-    "scale, says",
-    [
-        (1e-200, r"1e-200 N per count underflows float32 .*so does every non-zero coefficient"),
-        (1e200, r"1e\+200 N per count overflows float32 .*so does every non-zero coefficient"),
-    ],
-)
-def test_a_matrix_beyond_float32_is_named_so_without_a_numpy_warning(tmp_path, cli, scale, says):
-    path = _write(tmp_path, "m.json", json.dumps({"id": 1, "matrix": (IDENTITY * scale).tolist()}))
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a numpy RuntimeWarning would fail here
-        msg = _refused(path, says)
-        code, _, err = cli("calibrate", "--dry-run", path)
-    assert "singular" not in msg and "rank" not in msg
-    assert code == 2 and err.count("\n") == 1 and "Warning" not in err
-
-
-@pytest.mark.parametrize("scale", [1e-30, 1e30, 1.0])
-def test_any_scale_float32_holds_is_judged_by_its_shape_alone(tmp_path, scale):
-    path = _write(tmp_path, "m.json", json.dumps({"id": 1, "matrix": (IDENTITY * scale).tolist()}))
-    bm = convert.to_board(files.read(path))
-    assert bm.condition == pytest.approx(1.0)
-
-
-def test_rows_that_differ_only_below_float32_are_the_same_row_as_sent(tmp_path):
-    m = np.array(GOOD)
-    m[4] = m[1] * (1 + 1e-9)  # in float64 condition ~1e9 (was: ill-conditioned); float32: equal
-    assert (np.float32(m[4]) == np.float32(m[1])).all()
-    _refused(
-        _write(tmp_path, "m.csv", _csv_text(m.tolist())), r"singular \(rank 5 of 6\)", cal_id=1
-    )
