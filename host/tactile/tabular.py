@@ -9,6 +9,8 @@ at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most ``MAX_R
 rows.  UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; lines end in
 LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.  A reader of the
 project's own larger files (a recording's frames.csv) may raise the byte and row limits.
+Files are opened by ``tactile.bounded``; the dialect (quotes, ``# units:`` lines, columns
+named twice, ASCII decimal numbers) is ``tactile.csv_dialect``'s.
 """
 
 import contextlib
