@@ -198,7 +198,7 @@ VARIANTS = (
     Variant("duplicate key", raw=b"[board]\nrate_hz = 1\nrate_hz = 2\n", says="(at line 3"),
     Variant("not UTF-8", raw=b'[scene]\nname = "x"\n# \xff\n', line=3, says="not UTF-8 text"),
     Variant("an empty file", raw=b"", where="[motion]", says="required"),
-    Variant("a 2 MB file", raw=b"#" * (2 << 20), says="not a scene: over 1 MB"),
+    Variant("a 2 MB file", raw=b"#" * (2 << 20), says="larger than 1 MiB"),
 )
 # fmt: on
 

@@ -301,7 +301,7 @@ def test_a_streamed_file_may_exceed_the_whole_file_limits(tmp_path, monkeypatch)
     _contiguous(path, [20] * 30)
     monkeypatch.setattr(tabular, "MAX_FILE_BYTES", 4096)
     monkeypatch.setattr(tabular, "MAX_ROWS", 100)
-    with pytest.raises(InputError, match="larger than 0 MiB"):
+    with pytest.raises(InputError, match="larger than 4 KiB"):
         read_contacts(path)
     assert len(ContactsFile(path)) == 30
     monkeypatch.setattr(contacts_csv, "MAX_ROWS", 100)

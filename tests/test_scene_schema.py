@@ -116,7 +116,8 @@ def test_a_scene_that_is_no_file_is_refused_before_reading(cli, tmp_path, where)
     if where == "fifo":
         os.mkfifo(path)  # reading it would block for ever
     code, _, err = cli("emulate", path)
+    kind = "a directory" if where == "dir" else "not a regular file"
     assert (
         code == 2
-        and err == f"tactile emulate: error: {path}: not a scene file (a directory or a device)\n"
+        and err == f"tactile emulate: error: {path}: {kind} (a scene must be a regular file)\n"
     )

@@ -28,6 +28,7 @@ from tactile import board_settings
 from tactile.errors import DataError, InputError
 from tactile_protocol import constants as C
 
+MAX_CAPTURE_BYTES = 2 * 2**30  # read whole: a long recording's capture.bin
 SCARA_PER_CONTACT = 2  # §5.1: two samples per probed point
 
 
@@ -87,18 +88,18 @@ def _gate(meta):
 
 def derive(outdir, pose_log, per_contact=None):
     """Write contacts.csv or probes.csv into ``outdir``; return lines to print."""
-    import json
-
+    from tactile import bounded
     from tactile.localize.pose_log import log_columns
+    from tactile.recording_meta import read_meta
     from tactile.stream_decoder import decode_bytes
 
     outdir = pathlib.Path(outdir)
     columns = log_columns(pose_log)
     try:
-        data = (outdir / "capture.bin").read_bytes()
-        meta = json.loads((outdir / "meta.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{outdir}: not a complete recording: {exc}") from None
+        data = bounded.read_bytes(outdir / "capture.bin", MAX_CAPTURE_BYTES, "a capture")
+        meta = read_meta(outdir / "meta.json")
+    except InputError as exc:
+        raise InputError(f"{exc} (not a complete recording)") from None
     clock = _log_clock(pose_log, columns)
     if clock == "board":
         messages, _ = decode_bytes(data)

@@ -12,6 +12,8 @@ names what the ``finger`` labels count: fingers (the simulator's three-finger sw
 passes (the ch. 5 rig moves one finger in passes).
 """
 
+import functools
+
 import numpy as np
 
 from tactile.ep2 import extent
@@ -44,6 +46,30 @@ MAPS_REF = "cf. thesis fig. 50"
 def require_matplotlib():
     """Return ``matplotlib.pyplot`` on the Agg backend, or raise ``MissingExtra``."""
     return pyplot()
+
+
+def plain_text(text):
+    """``text`` from a file, as a label drawn as written: non-printable characters escaped
+    as on the terminal (``tactile.textout``), characters the font has no glyph for as
+    ``\\uXXXX`` (matplotlib would warn and draw a box), ``$`` not starting mathtext."""
+    from tactile.textout import printable
+
+    have = _glyphs()
+    text = printable(str(text))
+    text = "".join(c if ord(c) in have else c.encode("unicode_escape").decode() for c in text)
+    return text.replace("$", r"\$")
+
+
+@functools.cache
+def _glyphs():
+    """The code points the default font draws (printable ASCII if that cannot be told)."""
+    try:
+        from matplotlib import font_manager, ft2font
+
+        path = font_manager.findfont(font_manager.FontProperties())
+        return frozenset(ft2font.FT2Font(path).get_charmap())
+    except Exception:  # any failure here only makes labels more escaped
+        return frozenset(range(0x20, 0x7F))
 
 
 def _contacts(points, normals):
@@ -156,7 +182,8 @@ def _contacts_3d(ax, points, normals, finger, length, group="finger"):
     for n, (label, rows) in enumerate(groups):
         colour = f"C{n % 10}"
         p, v = points[rows], normals[rows] * length
-        ax.scatter(*p.T, color=colour, s=10, depthshade=False, label=label and f"{group} {label}")
+        name = label and plain_text(f"{group} {label}")
+        ax.scatter(*p.T, color=colour, s=10, depthshade=False, label=name)
         ax.quiver(*p.T, *v.T, color=colour, linewidth=0.8, arrow_length_ratio=0.25)
 
 
@@ -180,7 +207,7 @@ def plot_contacts(points, normals, path, finger=None, title=None, unit=None, gro
     if finger is not None:
         ax.legend(**LEGEND)
     ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels("xyz", unit), strict=True)))
-    first = title or f"{len(pts)} contacts and normals"
+    first = plain_text(title) if title else f"{len(pts)} contacts and normals"
     ax.set_title(f"{first}\n({CONTACTS_REF})", fontsize=10)
     _thin_ticks(fig, ax)
     return _save(plt, fig, path)
@@ -223,7 +250,8 @@ def plot_patch(result, points, normals, path, finger=None, title=None, unit=None
     ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels(names, unit), strict=True)))
     if ax.get_legend_handles_labels()[0]:
         ax.legend(**LEGEND)
-    ax.set_title(f"{title or _summary(result, unit)}\n({patch_reference(result)})", fontsize=10)
+    first = plain_text(title) if title else _summary(result, unit)
+    ax.set_title(f"{first}\n({patch_reference(result)})", fontsize=10)
     _thin_ticks(fig, ax)
     return _save(plt, fig, path)
 
@@ -295,7 +323,7 @@ def plot_maps(result, path, points=None, title=None, unit=None):
         ax.set_title(name, fontsize=10)
         ax.set(xlabel=xlabel, ylabel=ylabel)
     n = x.shape[0]
-    first = title or f"S and C on the {n}x{n} grid; {_summary(result, unit)}"
+    first = plain_text(title) if title else f"S and C on the {n}x{n} grid; {_summary(result, unit)}"
     dots = "" if xy is None else "; dots: contacts"
     fig.suptitle(f"{first}\n({MAPS_REF}{dots})", fontsize=10)
     return _save(plt, fig, path)

@@ -120,6 +120,7 @@ def load_recording(path):
     if not path.is_dir():
         raise InputError(f"{path}: not a directory (expected 'tactile record -o {path}')")
     meta = read_meta(path / META)
+    _check_segments(path / META, meta)
     table = read_frames(path / FRAMES)
     col = table.columns
     n = len(table)
@@ -171,6 +172,27 @@ def _time_segments(meta):
         segs = base.get("segments") if isinstance(base, dict) else None
         out += [s for s in segs or () if isinstance(s, dict) and s.get("first_row") is not None]
     return out
+
+
+SEGMENT_WHOLE = ("first_row", "board_ref_us")  # whole numbers >= 0
+SEGMENT_REAL = ("drift_ppm", "host_monotonic_ref_s", "host_utc_ref_s")  # finite numbers
+
+
+def _check_segments(path, meta):
+    """``InputError`` naming the first ``time_base`` segment field that is not the number it
+    must be (meta.json is a file like any other: it may have been edited or damaged)."""
+    for k, e in enumerate(_time_segments(meta)):
+        names = SEGMENT_WHOLE + (SEGMENT_REAL if e.get("usable") and "board_ref_us" in e else ())
+        for name in names:
+            v = e.get(name, 0)
+            real = isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
+            whole = real and v == int(v) and 0 <= v < 2**63
+            if not (whole if name in SEGMENT_WHOLE else real and abs(v) < 1e300):
+                raise InputError(
+                    f"{path}: time_base segment {k} field {name!r}: not a"
+                    f" {'whole number >= 0' if name in SEGMENT_WHOLE else 'finite number'}:"
+                    f" {str(v)[:40]!r}"
+                )
 
 
 def _unwrap(raw):

@@ -24,9 +24,12 @@ entry), an entry ``{"unrecorded": true, ...}`` holds the difference, so the tota
 match the files.
 """
 
-import json
+import math
 
+from tactile import bounded
 from tactile.errors import InputError
+
+MAX_META_BYTES = 64 * 2**20  # meta.json: a few kB, more with many gaps
 
 SUMMED = (
     "frames",
@@ -53,34 +56,48 @@ LATEST = (
 
 def count_rows(path, header=True):
     """Lines in ``path`` (less its header and the ``#`` lines before it: the units line),
-    read in bounded chunks; 0 if it does not exist."""
+    read in bounded chunks; 0 if it does not exist; ``InputError`` if it is not a regular
+    file."""
     try:
-        with open(path, "rb") as fh:
-            comments = 0
-            while header and fh.read(1) == b"#":
-                comments += 1
-                fh.readline()
-            fh.seek(0)
-            lines = sum(chunk.count(b"\n") for chunk in iter(lambda: fh.read(1 << 20), b""))
-    except FileNotFoundError:
+        fh = bounded.open_regular(path, None, "a recording's frames.csv")
+    except bounded.Missing:
         return 0
+    with fh:
+        comments = 0
+        while header and fh.read(1) == b"#":
+            comments += 1
+            _skip_line(fh)
+        fh.seek(0)
+        lines = sum(chunk.count(b"\n") for chunk in iter(lambda: fh.read(1 << 20), b""))
     return max(0, lines - 1 - comments) if header else lines
+
+
+def _skip_line(fh):
+    """Read past the next line break, a chunk at a time (a line may be any length)."""
+    while chunk := fh.read(1 << 16):
+        end = chunk.find(b"\n")
+        if end >= 0:
+            fh.seek(end + 1 - len(chunk), 1)
+            return
 
 
 def previous_sessions(path, capture_bytes, rows):
     """The session entries of the meta.json at ``path`` for a recording being appended to,
     plus an ``unrecorded`` entry for bytes and rows of the files that they miss."""
     try:
-        old = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
+        old = bounded.read_json(path, MAX_META_BYTES, "a recording's meta.json")
+    except bounded.Missing:
         old = {"sessions": []}
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{path}: cannot append: unreadable ({exc}); move it away") from None
+    except InputError as exc:
+        raise InputError(f"{path}: cannot append: {exc}; move it away") from None
     if not isinstance(old, dict):
         raise InputError(f"{path}: cannot append: not a recording's meta.json; move it away")
-    sessions = list(old.get("sessions", [old]))
-    missing_bytes = capture_bytes - sum(s.get("bytes") or 0 for s in sessions)
-    missing_rows = rows - sum(s.get("samples") or 0 for s in sessions)
+    sessions = old.get("sessions", [old])
+    if not isinstance(sessions, list) or not all(isinstance(s, dict) for s in sessions):
+        raise InputError(f"{path}: cannot append: 'sessions' is not a list of objects")
+    sessions = list(sessions)
+    missing_bytes = capture_bytes - sum(_count(s, "bytes") for s in sessions)
+    missing_rows = rows - sum(_count(s, "samples") for s in sessions)
     if missing_bytes or missing_rows:
         sessions.append(
             {
@@ -93,8 +110,15 @@ def previous_sessions(path, capture_bytes, rows):
     return sessions
 
 
+def _count(session, key):
+    """A session's count ``key``, 0 when absent or not a finite number (a hostile file)."""
+    v = session.get(key)
+    ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+    return v if ok else 0
+
+
 def _decoder_totals(sessions):
-    counters = [s["decoder"] for s in sessions if s.get("decoder")]
+    counters = [s["decoder"] for s in sessions if isinstance(s.get("decoder"), dict)]
     if not counters:
         return None
     out = {}
@@ -116,9 +140,9 @@ def document(sessions):
     doc["device"] = devices[-1] if devices else None
     doc["device_status"] = latest.get("device_status", [])
     for k in SUMMED:
-        total = sum(s.get(k) or 0 for s in sessions)
+        total = sum(_count(s, k) for s in sessions)
         doc[k] = round(total, 3) if isinstance(total, float) else total
-    doc["gaps"] = [g for s in sessions for g in s.get("gaps", [])]
+    doc["gaps"] = [g for s in sessions if isinstance(s.get("gaps"), list) for g in s["gaps"]]
     doc["decoder"] = _decoder_totals(sessions)
     doc["sessions"] = sessions
     return doc
@@ -127,11 +151,9 @@ def document(sessions):
 def read_meta(path):
     """The meta.json document at ``path`` (a dict), or ``InputError`` naming what is wrong."""
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
+        doc = bounded.read_json(path, MAX_META_BYTES, "a recording's meta.json")
+    except bounded.Missing:
         raise InputError(f"{path}: no such file (not a 'tactile record' directory?)") from None
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{path}: unreadable: {exc}") from None
     if not isinstance(doc, dict):
         raise InputError(f"{path}: not a recording's meta.json (not a JSON object)")
     return doc
@@ -141,4 +163,6 @@ def sessions_of(doc):
     """The session entries of a meta.json document, oldest first (an older single-run
     document is its own one session)."""
     sessions = doc.get("sessions")
-    return list(sessions) if isinstance(sessions, list) and sessions else [doc]
+    if not isinstance(sessions, list) or not sessions:
+        return [doc]
+    return [s for s in sessions if isinstance(s, dict)]

@@ -9,15 +9,16 @@ at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most ``MAX_R
 rows.  UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; lines end in
 LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.  A reader of the
 project's own larger files (a recording's frames.csv) may raise the byte and row limits.
+Files are opened by ``tactile.bounded``; the dialect (quotes, ``# units:`` lines, columns
+named twice, ASCII decimal numbers) is ``tactile.csv_dialect``'s.
 """
 
 import contextlib
 import csv
-import math
-import os
-import stat
 from array import array
 
+from tactile import bounded
+from tactile.csv_dialect import UnitsRule, csv_error, number, show
 from tactile.errors import InputError, where
 
 __all__ = [
@@ -38,9 +39,9 @@ MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_ROWS = 1_000_000
 NAN = float("nan")
 MAX_WHOLE = 2**53  # the largest whole-number value a column may hold (floats are exact to it)
-SHOW_CHARS = 40  # of a cell or header quoted in a message
 
 _CHUNK = 1 << 16
+_SPLIT = "the limit for one file; split it"
 _BOM = b"\xef\xbb\xbf"
 
 
@@ -92,16 +93,6 @@ class Table:
                 f" {low}..{high}, got {float(v[i])!r}"
             )
         return v.astype(np.int64)
-
-
-def show(text, limit=SHOW_CHARS, quote=True):
-    """``text`` for a one-line message: quoted (or, with ``quote=False``, left bare when it
-    is printable), control characters escaped, long text cut."""
-    cut = len(text) > limit
-    text = text[:limit]
-    if quote or not text.isprintable():
-        text = repr(text)
-    return text + ("..." if cut else "")
 
 
 def read_csv(
@@ -204,31 +195,13 @@ def comment_lines(path):
 
 def _open(path, max_bytes=None):
     """A binary handle on a regular file within ``max_bytes`` (default ``MAX_FILE_BYTES``),
-    or ``InputError``.
-
-    Opened non-blocking, so a FIFO is refused instead of waiting for a writer."""
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
+    or ``InputError`` (``tactile.bounded``: a FIFO is refused without waiting for a writer)."""
     max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
-    info = os.fstat(fd)
-    if not stat.S_ISREG(info.st_mode):
-        os.close(fd)
-        what = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
-        raise InputError(f"{path}: {what} (a CSV must be a regular file)")
-    if info.st_size > max_bytes:
-        os.close(fd)
-        raise InputError(_too_big(path, max_bytes))
-    return os.fdopen(fd, "rb")
+    return bounded.open_regular(path, max_bytes, "a CSV", _SPLIT)
 
 
 def _too_big(path, max_bytes):
-    return f"{path}: larger than {_size(max_bytes)} (the limit for one file; split it)"
-
-
-def _size(n_bytes):
-    return f"{n_bytes // 2**30} GiB" if n_bytes >= 2**30 else f"{n_bytes // 2**20} MiB"
+    return bounded.too_big(path, max_bytes, _SPLIT)
 
 
 def _text_lines(path, max_bytes=None):
@@ -308,24 +281,21 @@ def _decode(path, line_no, raw):
 # --- lines into rows and cells -------------------------------------------------------------
 
 
-def skipped(row):
-    """A CSV row no reader takes as data: empty, only blanks, or a ``#`` comment."""
-    return not row or not "".join(row).strip() or row[0].lstrip().startswith("#")
-
-
 def _rows(path, max_bytes=None):
     """Yield (line number, cells) of the header and data rows; blank and ``#`` lines skipped."""
     with contextlib.closing(_text_lines(path, max_bytes)) as lines:
         numbered = _Numbered(lines)
-        reader = csv.reader(numbered)
+        reader = csv.reader(numbered, strict=True)
+        comments = UnitsRule(path)
         while True:
+            start = numbered.line + 1  # where the next record begins
             try:
                 row = next(reader)
             except StopIteration:
                 return
             except csv.Error as exc:
-                raise InputError(f"{where(path, numbered.line)}: not valid CSV: {exc}") from None
-            if not skipped(row):
+                raise csv_error(path, numbered.line, start, exc) from None
+            if comments.data(numbered.line, row):
                 yield numbered.line, row
 
 
@@ -353,10 +323,16 @@ def _parse_one(path, line_no, text):
 
 def header_index(path, line_no, header, required):
     """{column name: index} of a header row; ``InputError`` naming a required column
-    that is missing."""
+    that is missing or a column named twice."""
     index = {}
     for i, name in enumerate(header):
-        index.setdefault(name.strip(), i)
+        name = name.strip()
+        if name and name in index:
+            raise InputError(
+                f"{where(path, line_no, name)}: named twice in the header (columns"
+                f" {index[name] + 1} and {i + 1})"
+            )
+        index[name] = i
     missing = [c for c in required if c not in index]
     if missing:
         names = ", ".join(show(h.strip(), 20, quote=False) for h in header[:20])
@@ -378,10 +354,4 @@ def cell_at(path, line_no, name, row, i):
 def number_at(path, line_no, name, row, i):
     """Cell ``i`` as a float; ``InputError`` naming file, line and column otherwise."""
     text = cell_at(path, line_no, name, row, i)
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"{where(path, line_no, name)}: not a number: {show(text)}") from None
-    if not math.isfinite(value):
-        raise InputError(f"{where(path, line_no, name)}: not a finite number: {show(text)}")
-    return value
+    return number(text, where(path, line_no, name))

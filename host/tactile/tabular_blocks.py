@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tactile.csv_dialect import UnitsRule, csv_error
 from tactile.errors import InputError, where
 from tactile.tabular import (
     MAX_LINE_BYTES,
@@ -32,7 +33,6 @@ from tactile.tabular import (
     line_text,
     no_header,
     number_at,
-    skipped,
 )
 
 BLOCK_BYTES = 1 << 18  # bytes of text a block: ~3,500 rows of contacts (as fast as 1 MiB)
@@ -63,7 +63,8 @@ class CsvBlocks:
 
     def __iter__(self):
         feed = self._feed = _Feed(self.path, line_blocks(self.path, self.max_bytes, BLOCK_BYTES))
-        reader = csv.reader(feed)
+        reader = csv.reader(feed, strict=True)
+        comments = UnitsRule(self.path)
         slow = None  # rows parsed one at a time, from the header on
         while True:
             if feed.at_end_of_run():
@@ -77,13 +78,14 @@ class CsvBlocks:
                     yield fast
                     continue
                 feed.start(*run)
+            start = feed.first + feed.i  # the line the next record begins on
             try:
                 row = next(reader)
             except StopIteration:
                 break
             except csv.Error as exc:
-                raise InputError(f"{where(self.path, feed.line)}: not valid CSV: {exc}") from None
-            if skipped(row):
+                raise csv_error(self.path, feed.line, start, exc) from None
+            if not comments.data(feed.line, row):
                 continue
             if slow is not None:
                 slow.add(feed.line, row)

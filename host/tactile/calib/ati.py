@@ -31,6 +31,7 @@ from xml.parsers import expat
 
 from tactile.calib import units as U
 from tactile.calib.files import MAX_ID, MatrixFile
+from tactile.csv_dialect import DECIMAL
 from tactile.errors import InputError, where
 
 __all__ = ["parse", "format_cal", "AXES"]
@@ -189,17 +190,19 @@ def _values(path, el):
         if v is None:
             raise InputError(
                 f"{el.at(path, 'values')}: number {j + 1} (gauge {j}): {text[:40]!r} is not a"
-                " finite number"
+                " finite number in ASCII decimals (digits 0-9, '.', 'e')"
             )
         out.append(v)
     return out
 
 
 def _float(text):
-    try:
-        v = float(text)
-    except ValueError:
+    """``text`` as a finite float written in ASCII decimal (``tactile.csv_dialect``), else
+    None: ``1_0`` and digits of other scripts, which ``float`` takes, are not numbers here."""
+    text = text.strip()
+    if not DECIMAL.fullmatch(text):
         return None
+    v = float(text)
     return v if math.isfinite(v) else None
 
 

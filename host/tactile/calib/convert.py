@@ -11,11 +11,14 @@ The firmware computes F/T = C (g - bias) with ``g`` the six ADC codes of a senso
 
 (ATI calibrates in volts, so an ATI matrix needs ``volts_per_count``, docs/calibration.md).
 
-Refused: a matrix whose rows, each scaled to unit length, have a condition number above
-``MAX_CONDITION`` (or are singular), and a coefficient that float32 (SET_CAL's type) cannot
-hold.  Scaling the rows first makes the number independent of the units (N or lbf, N*m or
-N*mm) and of ``v``; real ATI matrices come out near 1 to 3 (docs/calibration.md).  Above
-1e4, float32's relative rounding (2^-24) can already grow to 6e-4 of a reading.
+The matrix is judged as sent, in float32 (SET_CAL's type).  Refused: a coefficient that
+overflows float32 or, non-zero, underflows it (a matrix times 1e-200 would arrive as
+zeros); then a matrix whose rows, each scaled to unit length, have a condition number above
+``MAX_CONDITION`` or a rank below 6 (singular values above 6 float32 eps of the largest,
+so the tolerance follows the matrix's own scale).  Scaling the rows first makes the number
+independent of the units (N or lbf, N*m or N*mm) and of ``v``; real ATI matrices come out
+near 1 to 3 (docs/calibration.md).  Above 1e4, float32's relative rounding (2^-24) can
+already grow to 6e-4 of a reading.
 """
 
 from collections import namedtuple
@@ -32,6 +35,7 @@ __all__ = ["BoardMatrix", "MAX_CONDITION", "to_board", "condition"]
 MAX_CONDITION = 1e4
 FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32
 FLOAT32_MAX = float(np.finfo(np.float32).max)
+FLOAT32_EPS = float(np.finfo(np.float32).eps)
 
 BoardMatrix = namedtuple("BoardMatrix", "cal_id coeffs crc condition source")
 BoardMatrix.__doc__ = """What SET_CAL sends: ``coeffs`` are 36 float32 values (as Python
@@ -42,15 +46,13 @@ floats, row-major, N or N*m per count), ``crc`` their ``cal_checksum`` (INFO's c
 def condition(matrix):
     """(condition number of ``matrix`` with rows scaled to unit length, rank).
 
-    Singular values by SVD; rank counts those above 6 eps times the largest.  A zero row is
-    rank deficient (its condition number is returned as None, as for any singular matrix).
-    """
+    Singular values by SVD of the row-scaled matrix (a zero row stays zero); rank counts
+    those above 6 float32 eps (2^-23) times the largest, float32 being what the board
+    holds.  A rank below 6 gives None for the condition number."""
     a = np.asarray(matrix, dtype=float)
     norms = np.linalg.norm(a, axis=1)
-    if not np.all(norms > 0):
-        return None, int(np.linalg.matrix_rank(a))
-    s = np.linalg.svd(a / norms[:, None], compute_uv=False)
-    rank = int(np.sum(s > s[0] * 6 * np.finfo(float).eps))
+    s = np.linalg.svd(a / np.where(norms > 0, norms, 1.0)[:, None], compute_uv=False)
+    rank = int(np.sum(s > s[0] * 6 * FLOAT32_EPS)) if s[0] > 0 else 0
     if rank < 6:
         return None, rank
     return float(s[0] / s[-1]), rank
@@ -74,7 +76,8 @@ def si_per_count(mf, volts_per_count=None):
         raise InputError("--volts-per-count: must be a positive, finite number of volts")
     rows = [U.force_factor(mf.units.force)] * 3 + [U.torque_factor(mf.units.torque)] * 3
     per_gauge = 1.0 if gauge_v is None else gauge_v * volts_per_count
-    return np.asarray(mf.matrix, dtype=float) * np.asarray(rows)[:, None] * per_gauge
+    with np.errstate(over="ignore", under="ignore"):  # as_float32 names what float32 refuses
+        return np.asarray(mf.matrix, dtype=float) * np.asarray(rows)[:, None] * per_gauge
 
 
 def to_board(mf, volts_per_count=None, cal_id=None):
@@ -85,7 +88,8 @@ def to_board(mf, volts_per_count=None, cal_id=None):
         raise InputError(f"--id: needed: {mf.path} carries no calibration id")
     else:
         cal_id = mf.cal_id
-    kappa, rank = condition(mf.matrix)
+    f32 = as_float32(mf, si_per_count(mf, volts_per_count))
+    kappa, rank = condition(f32)  # judged as sent
     if kappa is None:
         raise InputError(f"{mf.path}: the matrix is singular (rank {rank} of 6): refused")
     if kappa > MAX_CONDITION:
@@ -93,20 +97,34 @@ def to_board(mf, volts_per_count=None, cal_id=None):
             f"{mf.path}: the matrix is ill-conditioned: condition number {kappa:.3g} (rows"
             f" scaled to unit length) is above {MAX_CONDITION:g}: refused"
         )
-    si = si_per_count(mf, volts_per_count)
-    with np.errstate(over="ignore"):
-        f32 = si.astype(np.float32)
-    for r in range(6):
-        for j in range(6):
-            v, w = float(si[r, j]), float(f32[r, j])
-            if abs(w) > FLOAT32_MAX or (v != 0 and abs(w) < FLOAT32_TINY):
-                unit = "N" if r < 3 else "N*m"
-                raise InputError(
-                    f"{mf.places[r]}, column {j + 1} ({GAUGES[j]}): {v:.3g} {unit} per count"
-                    " is outside float32's range (SET_CAL's type)"
-                )
     coeffs = tuple(float(v) for v in f32.ravel())
     return BoardMatrix(cal_id, coeffs, cal_checksum(coeffs), kappa, mf)
+
+
+def as_float32(mf, si):
+    """``si`` (N and N*m per count) rounded to float32, SET_CAL's type; ``InputError``
+    naming the first coefficient that overflows it (above 3.4e38) or underflows it
+    (non-zero, below 1.2e-38), and saying when every non-zero one does."""
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        f32 = si.astype(np.float32)
+    nonzero = si != 0
+    over = ~np.isfinite(f32)
+    under = nonzero & (np.abs(f32) < FLOAT32_TINY)
+    for bad, word, limit in (
+        (over, "overflows", f"above {FLOAT32_MAX:.3g}"),
+        (under, "underflows", f"non-zero below {FLOAT32_TINY:.3g}"),
+    ):
+        if bad.any():
+            r, j = (int(k) for k in np.argwhere(bad)[0])
+            v = float(si[r, j])
+            value = f"{v:.3g}" if np.isfinite(v) else "beyond 1.8e308"
+            unit = "N" if r < 3 else "N*m"
+            every = "; so does every non-zero coefficient" if bad.sum() == nonzero.sum() else ""
+            raise InputError(
+                f"{mf.places[r]}, column {j + 1} ({GAUGES[j]}): {value} {unit} per count"
+                f" {word} float32 ({limit}, SET_CAL's type){every}: refused"
+            )
+    return f32.astype(float)
 
 
 def table(coeffs):

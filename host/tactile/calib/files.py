@@ -16,12 +16,11 @@ other keys.
 
 import json
 import math
-import os
-import stat
 from collections import namedtuple
 
-from tactile import tabular
+from tactile import bounded, tabular
 from tactile.calib import units as U
+from tactile.csv_dialect import DECIMAL, number
 from tactile.errors import InputError, where
 
 __all__ = ["MatrixFile", "read", "ROWS", "GAUGES", "MAX_BYTES", "MAX_ID"]
@@ -61,20 +60,8 @@ def read(path, index=None):
 
 
 def read_bounded(path, limit=MAX_BYTES):
-    """The bytes of a regular file of at most ``limit`` bytes (non-blocking: a FIFO is refused)."""
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read: {exc.strerror}") from None
-    info = os.fstat(fd)
-    if not stat.S_ISREG(info.st_mode):
-        os.close(fd)
-        what = "a directory" if stat.S_ISDIR(info.st_mode) else "not a regular file"
-        raise InputError(f"{path}: {what} (a calibration must be a regular file)")
-    with os.fdopen(fd, "rb") as fh:
-        data = fh.read(limit + 1)
-    if len(data) > limit:
-        raise InputError(f"{path}: larger than {limit // 1024} KiB (a calibration is a few kB)")
+    """The bytes of a regular file of at most ``limit`` bytes (``tactile.bounded``)."""
+    data = bounded.read_bytes(path, limit, "a calibration", "a calibration is a few kB")
     if not data.strip():
         raise InputError(f"{path}: empty file")
     return data
@@ -93,16 +80,6 @@ def _cell_place(path, line, r, j):
     return f"{where(path, line)}: row {r + 1} ({ROWS[r]}), column {j + 1} ({GAUGES[j]})"
 
 
-def _number(text, place):
-    try:
-        v = float(text)
-    except ValueError:
-        raise InputError(f"{place}: not a number: {tabular.show(text)}") from None
-    if not math.isfinite(v):
-        raise InputError(f"{place}: not a finite number: {tabular.show(text)}")
-    return v
-
-
 # --- CSV -------------------------------------------------------------------------------------
 
 
@@ -115,12 +92,12 @@ def _csv(path):
             continue
         if key == "id":
             try:
-                number = int(value.strip())
+                whole = int(value.strip())
             except ValueError:
                 raise InputError(
                     f"{where(path, line)}: id: not a whole number: {tabular.show(value.strip())}"
                 ) from None
-            cal_id = check_id(number, f"{where(path, line)}: id")
+            cal_id = check_id(whole, f"{where(path, line)}: id")
             id_from = f"line {line}"
         else:
             try:
@@ -146,7 +123,7 @@ def _csv(path):
             place = _cell_place(path, line, r, j)
             if r == 0 and j == 0 and not _is_number(cell):
                 place += " (a calibration CSV has no header row)"
-            row.append(_number(cell.strip(), place))
+            row.append(number(cell.strip(), place))
         matrix.append(row)
         places.append(f"{where(path, line)}: row {r + 1} ({ROWS[r]})")
     if len(matrix) < 6:
@@ -159,31 +136,14 @@ def _csv(path):
 
 
 def _is_number(text):
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    return DECIMAL.fullmatch(text.strip()) is not None
 
 
 # --- JSON ------------------------------------------------------------------------------------
 
 
 def _json(path, data):
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[: exc.start].count(b"\n") + 1
-        bad = data[exc.start]
-        raise InputError(f"{where(path, line)}: not UTF-8 text (byte 0x{bad:02x})") from None
-    try:
-        doc = json.loads(text, parse_constant=_no_constant(path), object_pairs_hook=_no_dupes(path))
-    except json.JSONDecodeError as exc:
-        raise InputError(
-            f"{where(path, exc.lineno)}: column {exc.colno}: not valid JSON: {exc.msg}"
-        ) from None
-    except RecursionError:
-        raise InputError(f"{path}: JSON nested too deeply to be a calibration") from None
+    doc = bounded.parse_json(path, data, object_pairs_hook=_no_dupes(path), parse_int=_json_int)
     if not isinstance(doc, dict):
         raise InputError(f"{path}: the JSON must be an object with 'matrix' (and 'id', 'units')")
     extra = [k for k in doc if k not in JSON_KEYS]
@@ -224,10 +184,7 @@ def _json_matrix(path, m):
             place = f"{path}: field matrix[{r}][{j}] ({ROWS[r]}, {GAUGES[j]})"
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise InputError(f"{place}: not a number: {tabular.show(json.dumps(v))}")
-            try:
-                v = float(v)
-            except OverflowError:  # a JSON integer beyond any float
-                v = math.inf
+            v = float(v)
             if not math.isfinite(v):
                 raise InputError(f"{place}: not a finite number")
             values.append(v)
@@ -239,11 +196,10 @@ def _count(items, noun):
     return f"{len(items)} {noun}{'s' * (len(items) != 1)}"
 
 
-def _no_constant(path):
-    def reject(name):
-        raise InputError(f"{path}: {name} is not a finite number (JSON's NaN and Infinity)")
-
-    return reject
+def _json_int(digits):
+    """A JSON integer: as an int when short, else as a float (inf beyond float's range,
+    refused as not finite at its field), never through Python's integer digit limit."""
+    return int(digits) if len(digits) <= 20 else float(digits)
 
 
 def _no_dupes(path):

@@ -25,17 +25,20 @@ def add_arguments(parser):
 def run(args):
     from tactile.calib import convert, files, install
     from tactile.calib.units import describe
+    from tactile.textout import printable  # the label and notes quote the file
 
     mf = files.read(args.file, args.index)
     bm = convert.to_board(mf, args.volts_per_count, args.id)
     scale = f"; {args.volts_per_count:.6g} V per count" if args.volts_per_count else ""
-    print(f"{args.file}: {mf.label}{scale}")
+    print(printable(f"{args.file}: {mf.label}{scale}"))
     for note in mf.notes:
-        print(f"note: {note}")
+        print(printable(f"note: {note}"))
     print(
-        f"id {bm.cal_id} ({'--id' if args.id is not None else mf.id_from});"
-        f" condition number {bm.condition:.3g} (rows scaled to unit length; refused above"
-        f" {convert.MAX_CONDITION:g}); checksum 0x{bm.crc:04x}"
+        printable(
+            f"id {bm.cal_id} ({'--id' if args.id is not None else mf.id_from});"
+            f" condition number {bm.condition:.3g} (rows scaled to unit length; refused above"
+            f" {convert.MAX_CONDITION:g}); checksum 0x{bm.crc:04x}"
+        )
     )
     if args.dry_run:
         print(f"would send (from {describe(mf.units)}):")

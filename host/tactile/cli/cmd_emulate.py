@@ -65,6 +65,7 @@ def add_arguments(parser):
 
 def run(args):
     from tactile.errors import InputError
+    from tactile.textout import printable
     from tactile_sim.emulator import load_scene
     from tactile_sim.emulator.device import EmulatedBoard
     from tactile_sim.emulator.host_wait import serve_when_opened
@@ -109,8 +110,8 @@ def run(args):
     when = "now" if args.now else "when a host opens the port"
     if args.core == "rp2040":  # a Pico powers up with its USB cable
         when = "now, running while a host has the port open" if args.fast else "now"
-    print(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
-          f"starting {when}; Ctrl-C to stop", file=sys.stderr)  # fmt: skip
+    print(printable(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
+                    f"starting {when}; Ctrl-C to stop"), file=sys.stderr)  # fmt: skip
     try:
         if args.core == "qemu":
             server.serve(args.duration, when_opened=not args.now)

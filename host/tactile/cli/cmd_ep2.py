@@ -179,6 +179,7 @@ class _Printer:
 
     def records(self, records):
         from tactile.ep2.record_units import in_unit
+        from tactile.textout import printable
 
         records = [in_unit(r, self.unit, self.scale) for r in records]
         if self.as_json:
@@ -189,7 +190,7 @@ class _Printer:
             lines = [] if self.started else [_head(self.unit)]
             self.started = True
             for r in records:
-                lines.extend(_rows(r))
+                lines.extend(printable(line) for line in _rows(r))  # patch ids are the file's
         print("\n".join(lines), flush=True)
 
     def close(self):

@@ -178,12 +178,12 @@ def _display(csv_path, shown):
 def _group_word(source):
     """'pass' for a recording from a one-sensor board (its finger column counts passes),
     else 'finger'."""
-    import json
+    from tactile.errors import InputError
+    from tactile.recording_meta import read_meta
 
     try:
-        meta = json.loads((source / "meta.json").read_text(encoding="utf-8"))
-        sensors = meta["device"]["n_sensors"]
-    except (OSError, ValueError, KeyError, TypeError):
+        sensors = read_meta(source / "meta.json")["device"]["n_sensors"]
+    except (InputError, KeyError, TypeError):
         return "finger"
     return "pass" if sensors == 1 else "finger"
 

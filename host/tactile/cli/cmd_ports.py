@@ -10,6 +10,7 @@ def run(args):
 
     from tactile.jsonout import dumps
     from tactile.serial_port import list_ports
+    from tactile.textout import printable
 
     rows = list_ports()
     if not rows:
@@ -28,5 +29,5 @@ def run(args):
             print(dumps(rec))
         else:
             note = "" if usb else "  (no USB id: unlikely to be a board)"
-            print(f"{device:<20} {description:<32} {hwid}{note}")
+            print(printable(f"{device:<20} {description:<32} {hwid}{note}"))  # a device's words
     return 0

@@ -41,6 +41,7 @@ def add_arguments(parser):
 def run(args):
     from tactile.errors import InputError
     from tactile.record_session import Session
+    from tactile.textout import printable
 
     if args.duration is not None and not args.duration > 0:
         raise InputError(f"--duration: {args.duration} is not a positive number of seconds")
@@ -92,7 +93,8 @@ def run(args):
         from tactile.derive import derive
 
         for line in derive(args.out, args.pose_log, per_contact=args.per_contact):
-            print(line, file=sys.stderr if line.startswith("warning:") else sys.stdout)
+            out = sys.stderr if line.startswith("warning:") else sys.stdout
+            print(printable(line), file=out)  # a line may quote the pose log
     return 0
 
 

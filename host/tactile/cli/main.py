@@ -6,6 +6,7 @@ Modules only parse, call and print; the work lives in the library.
 
 import argparse
 import importlib
+import re
 import sys
 
 from tactile import __version__
@@ -37,10 +38,28 @@ COMMANDS = {
 }
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse as the CLI's errors want it: a bad option value is one line (no usage
+    block), exit 2; a value that looks like a negative number, exponent and all
+    (``--volts-per-count -3e-9``), is a value, not an option.  Subparsers are of this
+    class too (argparse makes them of their parent's)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+# argparse's own pattern takes -3 and -.5 but not -3e-9, which it then reads as an option
+NEGATIVE_NUMBER = re.compile(r"^-(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
+
+
 def _top_parser(positional=True):
     width = max(map(len, COMMANDS))
     lines = [f"  {name:<{width}}  {help_}" for name, (_, help_) in COMMANDS.items()]
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="tactile",
         description="Tactile shape exploration: board, emulator, EP1 and EP2.",
         epilog="commands:\n" + "\n".join(lines) + "\n\n'tactile COMMAND --help' for details.",
@@ -69,9 +88,7 @@ class _Help(argparse.HelpFormatter):
 def _command_parser(name, module, help_, parser=None):
     """``tactile NAME``'s parser: the module's options and -v/--verbose."""
     if parser is None:
-        parser = argparse.ArgumentParser(
-            prog=f"tactile {name}", description=help_, formatter_class=_Help
-        )
+        parser = Parser(prog=f"tactile {name}", description=help_, formatter_class=_Help)
     module.add_arguments(parser)
     parser.add_argument(
         "-v", "--verbose", action="count", default=0, help="log progress (-vv: each frame)"
@@ -153,7 +170,9 @@ def main(argv=None):
             if undo is not None:
                 undo()
     except TactileError as exc:
-        print(f"tactile {name}: error: {exc}", file=sys.stderr)
+        from tactile.textout import printable  # a message may quote a file's text
+
+        print(f"tactile {name}: error: {printable(str(exc))}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         print(f"tactile {name}: interrupted", file=sys.stderr)

@@ -11,6 +11,7 @@ one-line ``SceneError`` (exit 2) naming the file, section and key:
 import pathlib
 import tomllib
 
+from tactile import bounded
 from tactile.errors import InputError
 from tactile_sim.emulator import scene_schema
 from tactile_sim.emulator.toml_keys import Bad
@@ -75,15 +76,10 @@ def resolve(name):
 def load_scene(name):
     """The scene ``name`` (a path or a shipped name), read and validated; or a SceneError."""
     path = resolve(name)
-    if not path.is_file():  # a directory, /dev/zero, a FIFO that would block the read
-        raise SceneError(f"{path}: not a scene file (a directory or a device)")
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read(MAX_SCENE_BYTES + 1)
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if len(raw) > MAX_SCENE_BYTES:
-        raise SceneError(f"{path}: not a scene: over {MAX_SCENE_BYTES >> 20} MB")
+    try:  # a directory, /dev/zero or a FIFO (which would block the read) is refused
+        raw = bounded.read_bytes(path, MAX_SCENE_BYTES, "a scene", "a scene is a page of TOML")
+    except InputError as exc:
+        raise SceneError(str(exc)) from None
     try:
         data = tomllib.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:
@@ -91,4 +87,6 @@ def load_scene(name):
         raise SceneError(f"{path}:{line}: not UTF-8 text ({exc.reason})") from None
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{path}: {exc}") from None
+    except RecursionError:  # arrays or tables nested deeper than Python recurses
+        raise SceneError(f"{path}: nested too deeply to be a scene") from None
     return Scene(path, data)
