@@ -289,3 +289,27 @@ def test_any_hello_through_record_keeps_everything(hello):
     else:
         assert_one_line_error(code, out, err)
         assert meta["ended"] == "error" and meta["decoder"]["invalid"] >= 1
+
+
+class _SilentAfterHello(LyingPort):
+    """A firmware hung after its HELLO and setup: no frame, no reply to PING."""
+
+    def write(self, data):
+        if any(m.type_code == C.CMD_PING for m in StreamDecoder(check_limits=False).feed(data)):
+            return len(data)
+        return super().write(data)
+
+
+def test_record_gives_up_on_a_board_silent_after_hello_with_exit_4(tmp_path, monkeypatch):
+    import tactile.record_session as session
+
+    monkeypatch.setattr(session, "SILENT_S", 1.0)
+    out_dir = tmp_path / "run"
+    with lying_ports(_SilentAfterHello):
+        code, out, err = run("record", "--port", "lie", "--duration", "30", "-o", out_dir,
+                             "--no-tare", "--quiet")  # fmt: skip
+    assert_one_line_error(code, out, err, exit_code=4)
+    assert "lie: the board said nothing for 1 s, not even to PING" in err
+    meta = json.loads((out_dir / "meta.json").read_text())
+    assert meta["ended"] == "board silent" and meta["samples"] == 0
+    assert meta["bytes"] == len((out_dir / "capture.bin").read_bytes()) > 0  # its HELLO kept

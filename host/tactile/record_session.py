@@ -14,6 +14,8 @@ host fit of ``tactile.timebase.RecordingClock``; frames.csv gets each row's host
 fit stands, and is rewritten with the final fit at the end; meta.json holds the mapping.
 
 A board silent for half a second is PINGed: its ACK's stamp is a point of the fit too.
+One that answers nothing for ``SILENT_S`` (a firmware hung after its HELLO) ends the run:
+a ``BoardError`` (exit 4) saying so, ``ended`` "board silent", everything received kept.
 ``until`` = (clock, us, how): stop once that time of the pose log's clock has passed (the
 board's as its frames say, or the host's own clocks).
 """
@@ -31,6 +33,7 @@ from tactile_protocol import constants as C
 
 META_EVERY_S = 1.0
 PING_AFTER_S = 0.5  # silence after which the board is PINGed for its clock
+SILENT_S = 5.0  # silence, PINGs unanswered, after which the board is given up on (exit 4)
 REFIT_EVERY_S = 1.0  # and at least 100 fit durations
 
 
@@ -140,6 +143,7 @@ class Session:
                 f"this host speaks {C.PROTOCOL_VERSION}"
             )
         self._prepare()
+        self._heard_at = self.clock()  # (its HELLO and the replies just now)
 
     def _prepare(self):
         if self.want_tare:
@@ -302,6 +306,12 @@ class Session:
         if now - self._fit_at >= max(REFIT_EVERY_S, 100 * self.timing.fit_s):
             self._fit_at = now
             self.timing.refit()
+        if now - self._heard_at >= SILENT_S:
+            self.ended = "board silent"
+            raise BoardError(
+                f"{self.port_name}: the board said nothing for {SILENT_S:g} s, not even to PING"
+                f" (a hung firmware? everything received is in {self.rec.dir})"
+            )
         silent = now - max(self._heard_at, self._pinged_at or self._heard_at)
         if silent >= PING_AFTER_S:
             self._pinged_at = now
