@@ -32,6 +32,7 @@ import itertools
 import json
 import os
 import pathlib
+import stat
 
 import numpy as np
 
@@ -250,6 +251,8 @@ def cut_torn(path):
     or a kill); return the bytes cut.  Truncating needs no free space."""
     try:
         with open(path, "r+b") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                return 0
             end = fh.seek(0, os.SEEK_END)
             pos = end
             while pos > 0:

@@ -25,6 +25,8 @@ match the files.
 """
 
 import json
+import os
+import stat
 
 from tactile.errors import InputError
 
@@ -53,9 +55,11 @@ LATEST = (
 
 def count_rows(path, header=True):
     """Lines in ``path`` (less its header and the ``#`` lines before it: the units line),
-    read in bounded chunks; 0 if it does not exist."""
+    read in bounded chunks; 0 if it does not exist or is not a regular file (a device)."""
     try:
         with open(path, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                return 0
             comments = 0
             while header and fh.read(1) == b"#":
                 comments += 1

@@ -53,13 +53,16 @@ def meta_of(path):
     a stand-in ``{"ended": None, "rebuilt": why}`` and a note; else ``InputError``."""
     meta_path = pathlib.Path(path) / META
     try:
-        return read_meta(meta_path), []
+        meta = read_meta(meta_path)
     except InputError:
         if not _capture_size(path):
             raise
-    why = "unreadable" if meta_path.exists() else "missing"
-    note = f"{meta_path}: {why} (the run was cut short): read from capture.bin alone"
-    return {"ended": None, "rebuilt": f"meta.json {why}"}, [note]
+        why = "unreadable" if meta_path.exists() else "missing"
+        note = f"{meta_path}: {why} (the run was cut short): read from capture.bin alone"
+        return {"ended": None, "rebuilt": f"meta.json {why}"}, [note]
+    if meta.get("ended") == "running":
+        return meta, [f"{meta_path}: says 'running': the run was cut short (or still records)"]
+    return meta, []
 
 
 def frames_of(path, meta):
