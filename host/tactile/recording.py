@@ -59,7 +59,9 @@ class WriteFailed(HostFileError):
     def __init__(self, path, exc):
         self.path = pathlib.Path(path)
         self.ended = WRITE_ENDS.get(exc.errno, "write failed")
-        super().__init__(f"{path}: {self.ended} ({exc.strerror or exc})")
+        why = exc.strerror or str(exc)
+        same = why.lower() == self.ended
+        super().__init__(f"{path}: {self.ended}" + ("" if same else f" ({why})"))
 
 
 def _put(fh, text, path):
