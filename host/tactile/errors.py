@@ -8,6 +8,8 @@
 - ``BoardError`` (IOError, 4): talking to a board or emulator failed;
   ``BoardTimeout``, ``ProtocolVersionError`` and ``PortError`` refine it;
   ``PortLost`` (a ``PortError``) is a port that stopped working once open.
+- ``HostFileError`` (5): writing the host's own files failed (a full disk, a file-size
+  limit, an I/O error); the message names the file and what was kept.
 """
 
 
@@ -29,6 +31,10 @@ class DataError(TactileError):
 
 class BoardError(TactileError, IOError):
     exit_code = 4
+
+
+class HostFileError(TactileError):
+    exit_code = 5
 
 
 class BoardTimeout(BoardError):

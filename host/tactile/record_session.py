@@ -9,6 +9,11 @@ rebooted (the decoder sees a new boot id) is counted in ``reboots``, not as
 lost frames, and TAREd again.  Ctrl-C ends the recording
 normally.  Port and clock are injectable for tests.
 
+A write that fails (a full disk) ends the run: the files are settled (torn rows cut, the
+counts taken from the files: ``Recording.settle``), meta.json says how it ended (``disk
+full``, ``file too large`` or ``write failed``) if it can still be written, and ``run``
+raises ``HostFileError`` (exit 5): one line naming the file and what was kept.
+
 Time: every frame's arrival (the ``clock`` reading as its read returned) feeds the board ->
 host fit of ``tactile.timebase.RecordingClock``; frames.csv gets each row's host time as the
 fit stands, and is rewritten with the final fit at the end; meta.json holds the mapping.
@@ -25,8 +30,8 @@ from datetime import UTC, datetime
 
 from tactile import __version__
 from tactile.board_client import BoardClient, info_dict
-from tactile.errors import BoardError, PortError, PortLost
-from tactile.recording import Recording
+from tactile.errors import BoardError, HostFileError, PortError, PortLost
+from tactile.recording import Recording, WriteFailed
 from tactile.serial_port import open_port
 from tactile.timebase import RecordingClock
 from tactile_protocol import constants as C
@@ -110,7 +115,12 @@ class Session:
         self.sleep = sleep
         self.on_progress = on_progress or (lambda session: None)
         self.stop_when = stop_when or (lambda session: None)
-        self.rec = Recording(outdir, append)
+        try:
+            self.rec = Recording(outdir, append)
+        except WriteFailed as exc:
+            raise HostFileError(f"{exc}: nothing recorded") from None
+        self.failed = None  # the WriteFailed that ended the run
+        self._meta_failed = None  # ... and the one that kept meta.json from saying so
         self.stats = Stats()
         self.gaps = []
         self.ended = "running"
@@ -239,21 +249,56 @@ class Session:
         self.started_at = datetime.now(UTC).isoformat(timespec="seconds")
         self.timing.utc_minus_mono = self.utc() - self.clock()
         try:
-            self._connect()
-            self._write_meta()
-            self._loop()
-        except KeyboardInterrupt:
-            self.ended = "interrupted"
+            try:
+                self._connect()
+                self._write_meta()
+                self._loop()
+            except KeyboardInterrupt:
+                self.ended = "interrupted"
+            except WriteFailed as exc:
+                self._fail(exc)
         finally:
-            if self.ended == "running":
-                self.ended = "error"
-            self._keep_backlog()
-            self._final_times()
-            self._write_meta()
-            if self.client is not None:
-                self._close_port()
-            self.rec.close()
+            self._finish()
+        if self.failed is not None:
+            raise HostFileError(self._kept()) from None
         return self.meta()
+
+    def _fail(self, exc):
+        if self.failed is None:
+            self.failed, self.ended = exc, exc.ended
+
+    def _finish(self):
+        """Keep the backlog, rewrite the host times, write meta.json, close: after a failed
+        write, the files are settled first and nothing more is attempted but meta.json."""
+        if self.ended == "running":
+            self.ended = "error"
+        try:
+            self._keep_backlog()
+        except WriteFailed as exc:
+            self._fail(exc)
+        self._final_times(rewrite=self.failed is None)
+        if self.failed is not None:
+            self.rec.settle()
+        try:
+            self._write_meta()
+        except WriteFailed as exc:
+            self._meta_failed = exc
+            self._fail(exc)
+        if self.client is not None:
+            self._close_port()
+        self.rec.close()
+
+    def _kept(self):
+        """The one line of a run a failed write ended: the file, what was kept, meta.json."""
+        rec = self.rec
+        kept = (
+            f"{self.failed}: recording stopped after {self.clock() - self.started:.1f} s; this"
+            f" run kept {rec.rows:,} readings (frames.csv) and {rec.bytes:,} bytes (capture.bin)"
+            f" in {rec.dir}"
+        )
+        if self._meta_failed is None:
+            return kept + f"; meta.json says ended '{self.ended}'"
+        return kept + "; meta.json not updated (tactile.load_recording reads capture.bin)"
 
     def _keep_backlog(self):
         """Frames decoded while a command waited (a TARE the port died during) into the files:
@@ -263,11 +308,13 @@ class Session:
             self.rec.messages(msgs, self.timing.take(msgs, times))
             self.stats.add(msgs)
 
-    def _final_times(self):
+    def _final_times(self, rewrite=True):
         """The final fit; this session's frames.csv rows rewritten with it.  A failed rewrite
         (a full disk) keeps the rows as written, and meta.json says which they hold."""
         self.timing.refit()
         self.timing.utc_minus_mono_end = self.utc() - self.clock()
+        if not rewrite:
+            return
         if not self.timing.rows:
             self.timing.final = True  # nothing to rewrite
             return
@@ -334,7 +381,7 @@ class Session:
             "device": info_dict(info) if info is not None else None,
             "tared": self.want_tare,
             "frames": s.frames,
-            "samples": s.samples,
+            "samples": self.rec.rows,  # = s.samples, or what frames.csv kept of a failed write
             "late_samples": s.late_samples,
             "contacts_begun": s.contacts_begun,
             "contacts_ended": s.contacts_ended,

@@ -13,22 +13,32 @@ Files (``tactile record -o DIR``):
 - ``meta.json``: device INFO, configuration, calibration ids, counters, gaps;
   replaced atomically (write, fsync, rename) every second and at the end.
 
-A directory that already holds a capture is refused unless ``append`` is set;
-then the new bytes follow the old ones and nothing is ever truncated, and
-meta.json keeps one entry per session with totals over them
-(``tactile.recording_meta``).
+A write that fails (a full disk) raises ``WriteFailed`` naming the file; ``settle`` then
+leaves every file readable: frames.csv and device.jsonl cut back to their last whole line
+(a torn row's reading is in capture.bin), the counts taken from the files.  meta.json that
+cannot be replaced is overwritten in place, without indentation, when that fits the
+file's length (no new space needed); otherwise the old one stays.  No temporary is left behind.
+
+A directory that already holds a capture is refused unless ``append`` is set; then the
+new bytes follow the old ones and nothing recorded is ever lost: a run cut short has its
+torn last row cut and frames.csv completed from capture.bin first
+(``tactile.recording_recover``), and meta.json keeps one entry per session with totals
+over them (``tactile.recording_meta``).
 """
 
+import contextlib
+import errno
 import itertools
 import json
 import os
 import pathlib
+import stat
 
 import numpy as np
 
 from tactile import units
 from tactile.board_settings import wrench_si
-from tactile.errors import InputError
+from tactile.errors import HostFileError, InputError
 from tactile.jsonout import clean, dumps
 from tactile.recording_meta import count_rows, document, previous_sessions
 from tactile_protocol import constants as C
@@ -39,6 +49,28 @@ FRAME_COLUMNS = (
 )
 REWRITE_ROWS = 65536  # rows per chunk when the host times are rewritten
 CAPTURE, FRAMES, DEVICE, META = "capture.bin", "frames.csv", "device.jsonl", "meta.json"
+# meta.json's ``ended`` for a write that failed, by errno (anything else: "write failed")
+WRITE_ENDS = {errno.ENOSPC: "disk full", errno.EDQUOT: "disk full", errno.EFBIG: "file too large"}
+
+
+class WriteFailed(HostFileError):
+    """Writing ``path`` failed: ``ended`` is meta.json's word for it ("disk full", ...)."""
+
+    def __init__(self, path, exc):
+        self.path = pathlib.Path(path)
+        self.ended = WRITE_ENDS.get(exc.errno, "write failed")
+        why = exc.strerror or str(exc)
+        same = why.lower() == self.ended
+        super().__init__(f"{path}: {self.ended}" + ("" if same else f" ({why})"))
+
+
+def _put(fh, text, path):
+    """Write and flush, or ``WriteFailed`` naming ``path``."""
+    try:
+        fh.write(text)
+        fh.flush()
+    except OSError as exc:
+        raise WriteFailed(path, exc) from None
 
 
 def _host_cells(host):
@@ -57,24 +89,48 @@ def _frame_row(m, host=None):
     )
 
 
+def _refuse_pipe(path):
+    """A recording's file may be a regular file or a device (/dev/null, or /dev/full to try
+    a full disk); a FIFO, socket or directory there would hang or fail: refused at once."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode) or stat.S_ISDIR(mode):
+        raise InputError(f"{path}: not a regular file (a recording's files must be files)")
+
+
 class Recording:
     """The open files of one recording directory; see the module docstring."""
 
     def __init__(self, outdir, append=False):
         self.dir = pathlib.Path(outdir)
+        for name in (CAPTURE, FRAMES, DEVICE):
+            _refuse_pipe(self.dir / name)
         capture = self.dir / CAPTURE
         if not append and capture.exists() and capture.stat().st_size > 0:
             raise InputError(
                 f"{outdir}: already holds a recording (choose another -o, or --append to add to it)"
             )
         self.capture_offset = capture.stat().st_size if capture.exists() else 0
-        self.rows_offset = count_rows(self.dir / FRAMES)
+        if self.capture_offset:
+            from tactile.recording_recover import complete_frames
+
+            _check_columns(self.dir / FRAMES)
+            complete_frames(self.dir)  # a torn or short frames.csv made whole first
+        self.rows_offset = count_rows(self.dir / FRAMES, strict=False)
         self.previous = []  # the sessions already in the directory (--append)
         if self.capture_offset or self.rows_offset:
             _check_columns(self.dir / FRAMES)
             self.previous = previous_sessions(
                 self.dir / META, self.capture_offset, self.rows_offset
             )
+        self._open_files(outdir)
+        self.frames_offset = (self.dir / FRAMES).stat().st_size  # where this session's rows go
+        self.rows = 0  # rows written by this session
+        self.bytes = 0
+
+    def _open_files(self, outdir):
         try:
             self.dir.mkdir(parents=True, exist_ok=True)
             self._capture = open(self.dir / CAPTURE, "ab")
@@ -84,16 +140,16 @@ class Recording:
         except OSError as exc:
             raise InputError(f"{outdir}: cannot write the recording: {exc.strerror}") from None
         if new:
-            self._frames.write(units.line(units.FRAMES) + FRAME_COLUMNS + "\n")
-            self._frames.flush()
-        self.frames_offset = (self.dir / FRAMES).stat().st_size  # where this session's rows go
-        self.rows = 0  # rows written by this session
-        self.bytes = 0
+            try:
+                head = units.line(units.FRAMES) + FRAME_COLUMNS + "\n"
+                _put(self._frames, head, self.dir / FRAMES)
+            except WriteFailed:
+                self.settle()
+                raise
 
     def raw(self, data):
         """Append raw bytes (before anything else looks at them) and flush."""
-        self._capture.write(data)
-        self._capture.flush()
+        _put(self._capture, data, self.dir / CAPTURE)
         self.bytes += len(data)
 
     def messages(self, msgs, host=None):
@@ -106,12 +162,10 @@ class Recording:
             elif m.type_code != C.MSG_ACK:
                 other.append(dumps(m.to_dict()) + "\n")
         if rows:
-            self._frames.write("".join(rows))
-            self._frames.flush()
+            _put(self._frames, "".join(rows), self.dir / FRAMES)
             self.rows += len(rows)
         if other:
-            self._device.write("".join(other))
-            self._device.flush()
+            _put(self._device, "".join(other), self.dir / DEVICE)
 
     def rewrite_host(self, host_of):
         """Rewrite the host-time cells of this session's rows with ``host_of(rows,
@@ -134,6 +188,9 @@ class Recording:
                 dst.flush()
                 os.fsync(dst.fileno())
             os.replace(tmp, path)
+        except OSError:
+            tmp.unlink(missing_ok=True)
+            raise
         finally:
             self._frames = open(path, "a", encoding="utf-8")
 
@@ -141,17 +198,91 @@ class Recording:
         """Replace meta.json (the sessions before this one, then ``session``) atomically:
         a reader never sees half a file."""
         path = self.dir / META
-        tmp = path.with_suffix(".json.tmp")
-        doc = document(self.previous + [session])
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(json.dumps(clean(doc), indent=2, allow_nan=False) + "\n")
+        doc = clean(document(self.previous + [session]))
+        try:
+            _replace(path, (json.dumps(doc, indent=2, allow_nan=False) + "\n").encode())
+        except OSError as exc:
+            compact = (json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n").encode()
+            if exc.errno not in WRITE_ENDS or not _overwrite(path, compact):
+                raise WriteFailed(path, exc) from None
+
+    def settle(self):
+        """After a failed write: close the files (a flush that fails again is let go), cut
+        frames.csv and device.jsonl back to their last whole line, and count this session's
+        bytes and rows from the files."""
+        self.close()
+        for name in (FRAMES, DEVICE):
+            cut_torn(self.dir / name)
+        self.bytes = _size(self.dir / CAPTURE) - self.capture_offset
+        self.rows = count_rows(self.dir / FRAMES, strict=False) - self.rows_offset
+
+    def close(self):
+        """Close every file; a flush that fails is let go (``settle`` counts what landed)."""
+        for fh in (self._capture, self._frames, self._device):
+            with contextlib.suppress(OSError):
+                fh.close()
+
+
+def _size(path):
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0
+
+
+def _replace(path, data):
+    """Write ``data`` beside ``path``, fsync, rename over it; no temporary is left."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        raise
 
-    def close(self):
-        for fh in (self._capture, self._frames, self._device):
-            fh.close()
+
+def _overwrite(path, data):
+    """A full disk's last resort: ``data`` (meta.json without indentation, shorter than
+    the indented one) written over ``path`` in place, padded with spaces to its length, so
+    no new space is needed; True when it was written."""
+    try:
+        with open(path, "r+b") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if len(data) > size:
+                return False
+            fh.write(data[:-1] + b" " * (size - len(data)) + b"\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError:
+        return False
+    return True
+
+
+def cut_torn(path):
+    """Cut ``path`` back to the end of its last whole line (a write torn by a full disk
+    or a kill); return the bytes cut.  Truncating needs no free space."""
+    try:
+        with open(path, "r+b") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                return 0
+            end = fh.seek(0, os.SEEK_END)
+            pos = end
+            while pos > 0:
+                start = max(0, pos - 4096)
+                fh.seek(start)
+                k = fh.read(pos - start).rfind(b"\n")
+                if k >= 0:
+                    pos = start + k + 1
+                    break
+                pos = start
+            if pos < end:
+                fh.truncate(pos)
+            return end - pos
+    except FileNotFoundError:
+        return 0
 
 
 def _copy_bytes(src, dst, n):
@@ -210,9 +341,10 @@ MAX_FRAMES_BYTES = 2 * 2**30
 MAX_FRAME_ROWS = 10_000_000
 
 
-def read_frames(path):
+def read_frames(path, end=None):
     """frames.csv as a ``tabular.Table`` (``FRAME_NUMBERS``, ``FRAME_BLANKS`` as NaN where
-    empty, ``type`` as text), after checking that a ``# units:`` line names SI units."""
+    empty, ``type`` as text), after checking that a ``# units:`` line names SI units;
+    ``end``: only its first ``end`` bytes."""
     from tactile.tabular import read_csv
 
     units.check_stated(path, units.FRAME_WORDS, "frames.csv holds N, N*m, us and s (SI)")
@@ -223,4 +355,5 @@ def read_frames(path):
         blank_float=FRAME_BLANKS,
         max_bytes=MAX_FRAMES_BYTES,
         max_rows=MAX_FRAME_ROWS,
+        end=end,
     )

@@ -11,7 +11,10 @@ It reads what the recorder wrote, through the modules that own each file:
 - ``contacts.csv`` when there is one (the EP2 contacts CSV, ``tactile.ep2.contacts_csv``):
   world points, converted to metres by its ``# units:`` line, and unit normals.
 
-``capture.bin`` holds the same frames as frames.csv; it is not read.
+``capture.bin`` holds the same frames as frames.csv; it is read only for a run cut short
+(``tactile.recording_recover``): meta.json missing or unreadable, frames.csv missing, torn
+or short of what capture.bin holds.  The readings taken from it follow frames.csv's whole
+rows, and ``notes`` says what was rebuilt, one sentence each.
 
 **Board time.**  The board's 32-bit microsecond clock wraps every 71.6 min and restarts when
 the board reboots (PROTOCOL.md §3).  Rows are cut into *segments*, one per run of that clock:
@@ -32,13 +35,14 @@ unwrapped from its first row (a step back of under half the wrap is a frame out 
 
 import pathlib
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from tactile.errors import InputError
-from tactile.recording import FRAMES, META, read_frames
-from tactile.recording_meta import read_meta, sessions_of
+from tactile.recording import META
+from tactile.recording_meta import sessions_of
+from tactile.recording_recover import frames_of, meta_of
 from tactile_protocol import constants as C
 
 __all__ = ["Contacts", "RecordingData", "load_recording"]
@@ -72,8 +76,9 @@ class RecordingData:
     segment, s), ``sensor``, ``is_contact`` (CONTACT, else SAMPLE), ``phase`` and
     ``contact_id`` (-1 on a SAMPLE), ``flags``, ``force_N`` and ``torque_Nm`` (n, 3),
     ``host_utc_s`` and ``host_monotonic_s`` (or None; see the module docstring) and
-    ``lines`` (its line in frames.csv).  ``contacts`` is contacts.csv (or None, and
-    ``contacts_why`` says why); ``meta`` is meta.json as a dict.
+    ``lines`` (its line in frames.csv; -1: rebuilt from capture.bin).  ``contacts`` is
+    contacts.csv (or None, and ``contacts_why`` says why); ``meta`` is meta.json as a dict
+    (a stand-in with ``rebuilt`` when it is missing); ``notes`` what was rebuilt, and why.
     """
 
     path: pathlib.Path
@@ -96,6 +101,7 @@ class RecordingData:
     contacts_why: str | None
     meta: dict
     lines: np.ndarray
+    notes: list = field(default_factory=list)
 
     def __len__(self):
         return len(self.seq)
@@ -119,9 +125,9 @@ def load_recording(path):
     path = pathlib.Path(path)
     if not path.is_dir():
         raise InputError(f"{path}: not a directory (expected 'tactile record -o {path}')")
-    meta = read_meta(path / META)
+    meta, notes = meta_of(path)
     _check_segments(path / META, meta)
-    table = read_frames(path / FRAMES)
+    table, more = frames_of(path, meta)
     col = table.columns
     n = len(table)
     raw = table.whole("timestamp_us", 0, WRAP - 1)
@@ -150,6 +156,7 @@ def load_recording(path):
         contacts_why=contacts_why,
         meta=meta,
         lines=np.frombuffer(table.lines, dtype=np.int64).copy(),
+        notes=notes + more,
     )
 
 

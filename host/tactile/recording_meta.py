@@ -54,13 +54,18 @@ LATEST = (
 )
 
 
-def count_rows(path, header=True):
+def count_rows(path, header=True, strict=True):
     """Lines in ``path`` (less its header and the ``#`` lines before it: the units line),
-    read in bounded chunks; 0 if it does not exist; ``InputError`` if it is not a regular
-    file."""
+    read in bounded chunks; 0 if it does not exist (or, ``strict`` false, is not a regular
+    file: a recording file on a device such as /dev/full); else ``InputError`` if it is not a
+    regular file."""
     try:
         fh = bounded.open_regular(path, None, "a recording's frames.csv")
     except bounded.Missing:
+        return 0
+    except InputError:
+        if strict:
+            raise
         return 0
     with fh:
         comments = 0

@@ -104,16 +104,18 @@ def read_csv(
     *,
     max_bytes=None,
     max_rows=None,
+    end=None,
 ):
     """Read ``path``: header row, ``#`` comment lines, unknown columns ignored.
 
     ``required`` and ``optional_float`` columns must be finite numbers; ``blank_float``
     columns (optional) too, but an empty cell there is NaN (a value not known);
     ``optional_text`` columns are kept as stripped strings.  ``max_bytes`` and ``max_rows``
-    replace ``MAX_FILE_BYTES`` and ``MAX_ROWS`` for this file.
+    replace ``MAX_FILE_BYTES`` and ``MAX_ROWS`` for this file; ``end`` reads only the
+    file's first ``end`` bytes (whole lines: a torn last row left out).
     """
     max_rows = MAX_ROWS if max_rows is None else max_rows
-    with contextlib.closing(_rows(path, max_bytes)) as rows:
+    with contextlib.closing(_rows(path, max_bytes, end)) as rows:
         try:
             header_line, header = next(rows)
         except StopIteration:
@@ -204,29 +206,29 @@ def _too_big(path, max_bytes):
     return bounded.too_big(path, max_bytes, _SPLIT)
 
 
-def _text_lines(path, max_bytes=None):
+def _text_lines(path, max_bytes=None, end=None):
     """Yield (line number, text with its line ending) of every physical line, decoded.
 
     At most ``MAX_LINE_BYTES`` per line and ``max_bytes`` in all are ever held or read.
     """
-    for first, block in line_blocks(path, max_bytes):
+    for first, block in line_blocks(path, max_bytes, end=end):
         for line_no, raw in enumerate(block.splitlines(keepends=True), first):
             yield line_no, line_text(path, line_no, raw)
 
 
-def line_blocks(path, max_bytes=None, size=_CHUNK):
+def line_blocks(path, max_bytes=None, size=_CHUNK, end=None):
     """Yield (number of its first line, bytes) of runs of whole lines, in file order: each
     run ends at a line break (LF, CR LF or CR) or at the end of the file.
 
     About ``size`` bytes a run; a line longer than ``MAX_LINE_BYTES`` is refused at its
-    line number before more of it is read."""
+    line number before more of it is read.  ``end``: stop after that many bytes."""
     max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
     with _open(path, max_bytes) as fh:
         carry, line_no, total = b"", 0, 0
         while True:
             if len(carry) > MAX_LINE_BYTES + 1:
                 raise InputError(_too_long(path, line_no + 1))
-            chunk = fh.read(size)
+            chunk = fh.read(size if end is None else max(0, min(size, end - total)))
             total += len(chunk)
             if total > max_bytes:
                 raise InputError(_too_big(path, max_bytes))
@@ -281,9 +283,9 @@ def _decode(path, line_no, raw):
 # --- lines into rows and cells -------------------------------------------------------------
 
 
-def _rows(path, max_bytes=None):
+def _rows(path, max_bytes=None, end=None):
     """Yield (line number, cells) of the header and data rows; blank and ``#`` lines skipped."""
-    with contextlib.closing(_text_lines(path, max_bytes)) as lines:
+    with contextlib.closing(_text_lines(path, max_bytes, end)) as lines:
         numbered = _Numbered(lines)
         reader = csv.reader(numbered, strict=True)
         comments = UnitsRule(path)

@@ -4,7 +4,9 @@
 the ``export`` extra.  ``parquet``: the frames (and contacts) as tables with units
 (``tactile.export_parquet``) for pandas and Arrow; it needs the ``parquet`` extra.  Without
 its extra the command prints the install line and exits 2.  The one-line summary names the
-file(s), what they hold and the clock of the stamps.
+file(s), what they hold and the clock of the stamps.  A run cut short (killed, a full disk)
+is read with what capture.bin holds (``tactile.recording_recover``); one ``note:`` line on
+stderr says what was rebuilt.
 """
 
 FORMATS = ("mcap", "parquet")
@@ -45,7 +47,12 @@ def run(args):
         raise InputError(f"{run_dir}: not a directory (expected 'tactile record -o {run_dir}')")
     name = f"{run_dir.resolve().name}.{args.format}"
     out = pathlib.Path(args.out) if args.out else run_dir / name
-    summary = write(load_recording(run_dir), out)
+    rec = load_recording(run_dir)
+    if rec.notes:
+        import sys
+
+        print(f"tactile export: note: {'; '.join(rec.notes)}", file=sys.stderr, flush=True)
+    summary = write(rec, out)
     print(line(summary) if args.format == "mcap" else parquet_line(summary), flush=True)
     return 0
 
