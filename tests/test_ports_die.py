@@ -90,7 +90,9 @@ def test_record_whose_board_dies_mid_stream_waits_then_keeps_everything(cli, tmp
     capture = (tmp_path / "capture.bin").read_bytes()
     messages, _ = decode_bytes(capture)
     rows = (tmp_path / "frames.csv").read_text().splitlines()[2:]  # below units, header
-    assert len(rows) == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages) > 300
+    assert len(rows) == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages) > 0
+    stamps = [m.timestamp_us for m in messages if m.type_name == "SAMPLE"]
+    assert stamps[-1] - stamps[0] >= 450_000  # half a second of the board's stream, all kept
 
 
 # -- the table: every board command x every way pyserial reports a dead port -------------
