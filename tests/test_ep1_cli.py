@@ -152,7 +152,7 @@ def test_sim_ep1_bad_inputs_exit_2(capsys):
 
 def test_study_commands_write_csv_and_png(tmp_path, capsys):
     for name in ("ep1-noise", "ep1-arclength"):
-        argv = ["study", name, "--out", str(tmp_path), "--trials", "3", "--no-progress"]
+        argv = ["study", name, "--out", str(tmp_path), "--trials", "3", "--quiet"]
         assert main(argv) == 0
         assert (tmp_path / f"{name}.csv").stat().st_size > 100
         assert (tmp_path / f"{name}.png").stat().st_size > 1000

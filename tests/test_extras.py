@@ -47,7 +47,7 @@ def test_a_study_without_matplotlib_keeps_its_csv_and_says_why_no_figure(
     tmp_path, cli, monkeypatch
 ):
     _block(monkeypatch, "matplotlib", "matplotlib.pyplot")
-    code, out, err = cli("study", "ep1-dtheta", "--out", tmp_path, "--trials", "1", "--no-progress")
+    code, out, err = cli("study", "ep1-dtheta", "--out", tmp_path, "--trials", "1", "--quiet")
     assert code == 2
     assert err == f"tactile study: error: {PLOT_HINT}\n"
     assert (tmp_path / "ep1-dtheta.csv").stat().st_size > 0

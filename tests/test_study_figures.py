@@ -103,7 +103,7 @@ def test_ep1_resolution_prints_exactly_the_files_it_wrote(tmp_path, cli, monkeyp
     small = functools.partial(ep1.study_resolution, grid=SMALL_RESOLUTION)
     monkeypatch.setattr(ep1, "study_resolution", small)
     code, stdout, stderr = cli(
-        "study", "ep1-resolution", "--out", tmp_path, "--trials", "1", "--no-progress"
+        "study", "ep1-resolution", "--out", tmp_path, "--trials", "1", "--quiet"
     )
     assert (code, stderr) == (0, "")
     assert sorted(stdout.split()) == only_files(tmp_path)

@@ -13,7 +13,10 @@ def add_port_argument(
     parser, wait=2.0, wait_help="seconds to wait for the board's HELLO", port_help=PORT_HELP
 ):
     parser.add_argument(
-        "--port", "-p", default=os.environ.get(ENV_PORT), help=f"{port_help}; env {ENV_PORT}"
+        "-p",
+        "--port",
+        default=os.environ.get(ENV_PORT) or None,
+        help=f"{port_help}; env {ENV_PORT}",
     )
     parser.add_argument("--wait", type=float, default=wait, help=wait_help)
 

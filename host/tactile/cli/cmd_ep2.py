@@ -1,5 +1,7 @@
 """``tactile ep2 analyze FILE.csv``: fit a patch to contacts and normals, label its shape."""
 
+from tactile.cli.words import add_quiet
+
 METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")
 
@@ -62,6 +64,7 @@ def add_arguments(parser):
         metavar="N",
         help="analyse patches in N processes (default 1); the output is the same, in file order",
     )
+    add_quiet(p)
 
 
 def run(args):
@@ -83,7 +86,7 @@ def run(args):
             raise InputError(f"--file-units: {exc}") from None
     file_unit = units.stated_length(args.file, args.file_units)
     shown, scale = units.display(file_unit, args.units)
-    groups = _checked(args.file)  # read again, patch by patch, as they are analysed
+    groups = _checked(args.file, args.quiet)  # read again, patch by patch, as they are analysed
     if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
         raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
     opts = dict(
@@ -101,7 +104,7 @@ def run(args):
     named = ((g, patch_id(g.patch)) for g in groups)
     out = _Printer(args.json, shown, scale, file_unit is not None)
     failed = []
-    bar = _progress(len(groups))
+    bar = None if args.quiet else _progress(len(groups))
     try:
         for done in outcomes(named, opts, split=args.split, jobs=args.jobs):
             if done.input_error is not None:
@@ -132,7 +135,7 @@ PROGRESS_FROM = 2000  # patches: a bar on stderr (a terminal only) for files lar
 CHECK_BAR_FROM = 64 * 2**20  # bytes: a bar for the checking pass of a file larger than this
 
 
-def _checked(path):
+def _checked(path, quiet=False):
     """``ContactsFile(path)``: the whole file checked, with a bar for a large one."""
     import os
 
@@ -142,7 +145,7 @@ def _checked(path):
         size = os.path.getsize(path)
     except OSError:
         size = 0  # ContactsFile says why
-    bar = _bar(size, CHECK_BAR_FROM, unit="B", unit_scale=True, desc="ep2 check")
+    bar = None if quiet else _bar(size, CHECK_BAR_FROM, unit="B", unit_scale=True, desc="ep2 check")
     if bar is None:
         return ContactsFile(path)
     try:

@@ -5,6 +5,7 @@ holds no MicroPython REPL, a step on the board fails, or the firmware does not a
 import sys
 
 from tactile.cli.board_args import add_port_argument, port_of
+from tactile.cli.words import add_quiet
 
 
 def add_arguments(parser):
@@ -28,6 +29,7 @@ def add_arguments(parser):
     kind.add_argument("--no-mpy", dest="mpy", action="store_false", help="copy .py sources")
     parser.add_argument("--sensors", type=int, default=1, help="F/T sensors wired (1-4)")
     parser.add_argument("--wdt-ms", type=int, default=0, help="watchdog timeout (0: off)")
+    add_quiet(parser)
 
 
 def run(args):
@@ -38,7 +40,7 @@ def run(args):
         for line in flashing.plan(port, args.mpy, args.sensors, args.wdt_ms):
             print(line)
         return 0
-    bar = _Bar()
+    bar = _Bar(args.quiet)
     try:
         done = flashing.flash(
             port, args.mpy, args.sensors, args.wdt_ms, args.wait, progress=bar, note=_note
@@ -59,11 +61,11 @@ def _note(line):
 
 
 class _Bar:
-    """A tqdm bar of the bytes copied on a terminal (stderr); nothing otherwise."""
+    """A tqdm bar of the bytes copied on a terminal (stderr); nothing otherwise or quiet."""
 
-    def __init__(self):
+    def __init__(self, quiet=False):
         self.bar = None
-        self.quiet = not sys.stderr.isatty()
+        self.quiet = quiet or not sys.stderr.isatty()
 
     def __call__(self, done, total):
         if self.quiet:

@@ -12,6 +12,7 @@ board -> host time base (``tactile.timebase``); ``warning:`` lines go to stderr.
 import sys
 
 from tactile.cli.board_args import add_port_argument
+from tactile.cli.words import add_quiet
 
 
 def add_arguments(parser):
@@ -35,7 +36,7 @@ def add_arguments(parser):
     parser.add_argument(
         "--reconnect", type=float, default=30.0, help="seconds to wait for a lost port (30)"
     )
-    parser.add_argument("--quiet", action="store_true", help="no progress display")
+    add_quiet(parser)
 
 
 def run(args):

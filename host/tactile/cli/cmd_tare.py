@@ -10,7 +10,7 @@ from tactile.cli.board_args import add_port_argument, connect
 
 def add_arguments(parser):
     add_port_argument(parser)
-    parser.add_argument("--sensor", default="all", help="sensor index or 'all' (default)")
+    parser.add_argument("--sensor", default="all", help="sensor index 0..3, or 'all'")
     parser.add_argument("--samples", type=int, default=64, help="readings averaged (default 64)")
     parser.add_argument(
         "--force",

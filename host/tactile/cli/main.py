@@ -22,7 +22,10 @@ COMMANDS = {
     "calibrate": ("tactile.cli.cmd_calibrate", "load a 6x6 calibration matrix onto a sensor"),
     "record": ("tactile.cli.cmd_record", "record a stream: raw capture, contacts CSV, metadata"),
     "live": ("tactile.cli.cmd_live", "terminal view of force/torque and contact state"),
-    "decode": ("tactile.cli.cmd_decode", "decode a raw byte capture into JSON lines"),
+    "decode": (
+        "tactile.cli.cmd_decode",
+        "decode a raw byte capture: one message per line (text or --json)",
+    ),
     "export": (
         "tactile.cli.cmd_export",
         "write a recording as MCAP (ROS 2) or Parquet for other tools",
@@ -72,28 +75,51 @@ def _top_parser(positional=True):
 
 
 class _Help(argparse.HelpFormatter):
-    """Help that shows each option's default, where it has one worth showing."""
+    """Help that shows each option's default once, where it has one worth showing: not
+    when the help already speaks of its default."""
 
     def _get_help_string(self, action):
         text = action.help or ""
         default = action.default
-        shown = default not in (None, False, argparse.SUPPRESS) and "%(default)" not in text
-        if shown and action.option_strings and not isinstance(default, bool | list):
-            said = {str(default)} | ({f"{default:g}"} if isinstance(default, float) else set())
-            if not any(f"({v}" in text or f"default {v}" in text for v in said):
-                text += " (default: %(default)s)"
-        return text
+        if default is None or default is argparse.SUPPRESS or isinstance(default, bool | list):
+            return text  # (`is`: a default of 0 is shown, though 0 == False)
+        if isinstance(action, argparse._CountAction) or not action.option_strings:
+            return text
+        if "default" in text:
+            return text
+        said = {str(default)} | ({f"{default:g}"} if isinstance(default, float) else set())
+        if any(f"({v}" in text for v in said):
+            return text  # "readings averaged (64)"
+        shown = " ".join(map(str, default)) if isinstance(default, tuple) else str(default)
+        return f"{text} (default: {shown.replace('%', '%%')})"
+
+
+VERBOSE_HELP = "log progress (-vv: each frame)"
 
 
 def _command_parser(name, module, help_, parser=None):
-    """``tactile NAME``'s parser: the module's options and -v/--verbose."""
+    """``tactile NAME``'s parser: the module's options, and -v/--verbose on it and on each
+    of its subcommands, so that -v goes anywhere after the command."""
     if parser is None:
         parser = Parser(prog=f"tactile {name}", description=help_, formatter_class=_Help)
     module.add_arguments(parser)
-    parser.add_argument(
-        "-v", "--verbose", action="count", default=0, help="log progress (-vv: each frame)"
-    )
+    parser.add_argument("-v", "--verbose", action="count", default=0, help=VERBOSE_HELP)
+    for sub in _subparsers(parser):
+        sub.formatter_class = _Help
+        # SUPPRESS: a subcommand without -v keeps what was given before its name
+        sub.add_argument(
+            "-v", "--verbose", action="count", default=argparse.SUPPRESS, help=VERBOSE_HELP
+        )
     return parser
+
+
+def _subparsers(parser):
+    """Every subcommand's parser below ``parser``, subcommands of subcommands included."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                yield sub
+                yield from _subparsers(sub)
 
 
 def full_parser():

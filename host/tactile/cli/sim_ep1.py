@@ -21,7 +21,7 @@ PARAMS = {
     "sphere": {"radius": "radius"},
     "cylinder": {"radius": "radius"},
     "concave_cylinder": {"radius": "radius"},
-    "paraboloid": {"C": "C"},
+    "paraboloid": {"coef": "C"},
     "ellipsoid": {"a": "a", "b": "b", "c": "c"},
     "saddle": {"a": "a", "b": "b"},
     "torus": {"major": "R", "minor": "r"},
@@ -37,7 +37,9 @@ def add_arguments(parser):
         type=renamed({"concave-cylinder": "concave_cylinder"}, "tactile sim ep1"),
     )
     parser.add_argument("--radius", type=float, default=1.0, help="sphere/cylinder radius")
-    parser.add_argument("--C", type=float, default=1.0, help="paraboloid z = -C (u^2 + v^2)")
+    parser.add_argument(
+        "--coef", type=float, default=1.0, metavar="C", help="paraboloid z = -C (u^2 + v^2)"
+    )
     parser.add_argument("--a", type=float, default=1.0, help="ellipsoid/saddle parameter a")
     parser.add_argument("--b", type=float, default=1.0, help="ellipsoid/saddle parameter b")
     parser.add_argument("--c", type=float, default=1.0, help="ellipsoid parameter c")

@@ -6,7 +6,7 @@ Each writes NAME.csv and NAME.png (fig. 20: NAME_SENSOR.png, one per sensor mode
 
 import os
 
-from tactile.cli.words import add_out
+from tactile.cli.words import add_out, add_quiet
 from tactile.errors import InputError
 
 
@@ -16,7 +16,7 @@ def _common(parser):
     parser.add_argument("--trials", type=int, default=100, help="Monte-Carlo trials per cell")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--no-plot", action="store_true", help="CSV only")
-    parser.add_argument("--no-progress", action="store_true")
+    add_quiet(parser)
 
 
 def _setup(args):
@@ -28,9 +28,12 @@ def _setup(args):
         os.makedirs(args.out, exist_ok=True)
     except OSError as exc:
         raise InputError(f"--out: cannot create {args.out}: {exc.strerror}") from None
-    if args.no_progress:
+    if args.quiet:
         return lambda it, **_: it
-    from tqdm import tqdm
+    try:
+        from tqdm import tqdm
+    except ImportError:  # no bar without the 'progress' extra
+        return lambda it, **_: it
 
     return lambda it, desc="": tqdm(list(it), desc=desc, unit="step")
 

@@ -1,8 +1,10 @@
-"""The CLI's one vocabulary (issue 15): ``-o/--out`` for every output path, and old
-spellings kept working as hidden aliases that say once, on stderr, what replaced them.
+"""The CLI's one vocabulary (issues 15, 31): ``-o/--out`` for every output path,
+``-q/--quiet`` for "no progress display", and old spellings kept working as hidden aliases
+that say once, on stderr, what replaced them.
 
-``add_out`` adds ``-o/--out`` (plus hidden old long options); ``renamed`` maps an old
-choice value (``concave-cylinder``) to its one spelling (``concave_cylinder``).
+``add_out`` adds ``-o/--out`` (plus hidden old long options); ``add_quiet`` adds
+``-q/--quiet``; ``renamed`` maps an old choice value (``concave-cylinder``) to its one
+spelling (``concave_cylinder``).
 """
 
 import argparse
@@ -43,6 +45,11 @@ def add_out(parser, help, old=(), required=False, **kwargs):
             metavar=action.metavar,
         )
     return action
+
+
+def add_quiet(parser):
+    """``-q/--quiet`` (dest ``quiet``): no progress display on stderr."""
+    return parser.add_argument("-q", "--quiet", action="store_true", help="no progress display")
 
 
 def renamed(old_to_new, prog=""):
