@@ -28,7 +28,7 @@ import time
 import numpy as np
 import serial
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_sim.emulator.cores import CORES
 from tactile_sim.emulator.device import EmulatedBoard

@@ -23,9 +23,9 @@ import time
 import numpy as np
 import serial
 
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.ep1.estimator import estimate
 from tactile.ep1.from_ft import probes_from_frames, read_probe_log
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR
 from tactile_sim.urlhandler import register

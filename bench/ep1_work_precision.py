@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from tactile.plots import log_ticks
+from tactile.output.plots import log_ticks
 from tactile_sim.ep1 import surfaces as S
 from tactile_sim.ep1.rolling import roll, sphere_on_sphere
 

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 def main():
     import test_fw_micropython as t
 
-    from tactile import flashing
+    from tactile.board import flashing
 
     mjs = (
         pathlib.Path.home()

@@ -143,7 +143,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--run-ms", type=int, default=250, help="chip time per measured run")
     args = ap.parse_args(argv)
-    from tactile import flashing
+    from tactile.board import flashing
     from tactile.errors import TactileError
     from tactile_sim.emulator import pico_core
 

@@ -57,7 +57,7 @@ def stream(server, rate, seconds):
     """(chip s per wall s, samples per wall s, late samples, largest |step - period| in us)."""
     import serial
 
-    from tactile.board_client import BoardClient
+    from tactile.board.client import BoardClient
     from tactile_protocol import constants as C
 
     client = BoardClient(serial.Serial(server.path, timeout=0.05), server.path)
@@ -85,7 +85,7 @@ def main(argv=None):
     p.add_argument("--rates", default="250,500,1000", help="Hz, comma list")
     args = p.parse_args(argv)
     sys.path.insert(0, str(ROOT / "tests"))
-    from tactile import flashing
+    from tactile.board import flashing
 
     rates = [int(r) for r in args.rates.split(",")]
     with tempfile.TemporaryDirectory() as tmp:

@@ -9,7 +9,7 @@ reads a serial port typically returns, set against the link limits.
 import statistics
 import time
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import cobs_codec
 from tactile_protocol.constants import MSG_SAMPLE
 from tactile_protocol.framing import FrameEncoder

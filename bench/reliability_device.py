@@ -20,8 +20,8 @@ import traceback
 import tty
 from pathlib import Path
 
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.cli.main import main
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
 from tactile_protocol.messages import BY_NAME

@@ -27,7 +27,7 @@ RECORD = ("record", "--port", "sim://press", "--quiet")
 
 
 def _readings(out):
-    from tactile.stream_decoder import decode_bytes
+    from tactile.board.stream_decoder import decode_bytes
 
     messages, _ = decode_bytes((out / "capture.bin").read_bytes())
     return [(m.seq, m.timestamp_us) for m in messages if m.type_name in ("SAMPLE", "CONTACT")]

@@ -67,7 +67,7 @@ def one_line(code, err, want):
 def recording_complete(out):
     """'' when meta.json's totals match capture.bin and frames.csv, and the capture decodes
     to exactly the rows written; else why."""
-    from tactile.stream_decoder import decode_bytes
+    from tactile.board.stream_decoder import decode_bytes
 
     meta = json.loads((out / "meta.json").read_text())
     capture = (out / "capture.bin").read_bytes()

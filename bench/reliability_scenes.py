@@ -104,7 +104,7 @@ def _idle():
         return probe, promise, "FAILED: needs Linux /proc"
     import serial
 
-    from tactile.stream_decoder import StreamDecoder
+    from tactile.board.stream_decoder import StreamDecoder
 
     cmd = [sys.executable, "-m", "tactile.cli.main", "emulate", "press"]
     quiet = {"stderr": subprocess.DEVNULL, "text": True, "env": _env()}

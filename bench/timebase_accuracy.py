@@ -3,7 +3,7 @@
 A board streams at ``rate`` Hz with its crystal ``drift`` ppm off the host's; USB delivers
 each frame up to ``jitter`` late (uniform, in order: a late frame holds back the ones after
 it); the host stamps arrivals.  For each case the mapping's largest error over the run is
-measured for the fit ``tactile.timefit`` uses and for two simpler ones:
+measured for the fit ``tactile.recording.timefit`` uses and for two simpler ones:
 
 - offset: host - board of the first frame, no drift;
 - least squares: the line through all arrivals (the mean delay shifts it);
@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from tactile.timefit import BinMinima, fit
+from tactile.recording.timefit import BinMinima, fit
 
 CASES = [  # rate Hz, drift ppm, jitter ms, seconds, frames per second sent (contacts: fewer)
     (500, 50, 5, 60),
@@ -77,8 +77,8 @@ def rewrite_cost(rows=1_000_000):
     """Seconds to rewrite the host times of ``rows`` frames.csv rows (the end of a record)."""
     import tempfile
 
-    from tactile.recording import Recording
-    from tactile.timebase import RecordingClock
+    from tactile.recording.files import Recording
+    from tactile.recording.timebase import RecordingClock
 
     with tempfile.TemporaryDirectory() as tmp:
         rec = Recording(tmp)

@@ -241,7 +241,7 @@ def stream_cases():
 
 
 def decode_case(data):
-    from tactile.stream_decoder import StreamDecoder  # the oracle (host package)
+    from tactile.board.stream_decoder import StreamDecoder  # the oracle (host package)
 
     whole = StreamDecoder()
     got = whole.feed(data)

@@ -27,9 +27,9 @@ import time
 import pytest
 from toolchain import missing
 
-from tactile.board_client import BoardClient
-from tactile.serial_port import open_port
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.client import BoardClient
+from tactile.board.serial_port import open_port
+from tactile.board.stream_decoder import StreamDecoder
 
 EMULATED = ("python", "c")
 SERVED = ("qemu", "rp2040")

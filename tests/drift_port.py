@@ -1,6 +1,6 @@
 """An emulated board behind a USB link with a drifting clock and jittery delivery.
 
-``DriftingPort`` is a pyserial-like port for ``tactile.record_session.Session``.  Its host
+``DriftingPort`` is a pyserial-like port for ``tactile.recording.session.Session``.  Its host
 clock ``now`` is simulated; the board's runs ``drift_ppm`` fast against it (board s =
 (host s - ``host0``) * (1 + drift)); every frame reaches the host
 ``jitter_s`` late at most after the instant its stamp names (uniform; in order, as USB

@@ -28,9 +28,9 @@ import types
 import serial
 from lying_device import GOOD_INFO, frame
 
+from tactile.board.raw_repl import Session
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import BoardError
-from tactile.raw_repl import Session
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 
 BANNER = b"raw REPL; CTRL-B to exit\r\n>"
@@ -125,7 +125,7 @@ class BoardPort:
 
 
 class FakeSession:
-    """``tactile.raw_repl.Session`` on a board whose filesystem is the directory ``root``:
+    """``tactile.board.raw_repl.Session`` on a board whose filesystem is the directory ``root``:
     the code flash sends runs here under CPython, its ``os``, ``open`` and ``sys`` the
     board's (``sys.implementation._mpy`` is ``sys_mpy``).  ``fail_at``: the exec (counted
     from 0) that fails as a board that stopped answering.  ``snapshots``: the files after

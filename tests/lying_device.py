@@ -11,8 +11,8 @@ import contextlib
 import time
 from unittest import mock
 
-import tactile.record_session  # noqa: F401 - imported before patching (see lying_ports)
-from tactile.stream_decoder import StreamDecoder
+import tactile.recording.session  # noqa: F401 - imported before patching (see lying_ports)
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
 from tactile_protocol.messages import BY_NAME
@@ -87,11 +87,11 @@ class LyingPort:
 def lying_ports(make_port):
     """While active, opening any port gives ``make_port()`` (a fresh LyingPort each time).
 
-    ``tactile.record_session`` binds ``open_port`` at import: imported first (above), so
+    ``tactile.recording.session`` binds ``open_port`` at import: imported first (above), so
     it does not bind the patched opener for good."""
     opener = lambda name, *a, **k: make_port()  # noqa: E731
     with (
-        mock.patch("tactile.serial_port.open_port", opener),
-        mock.patch("tactile.record_session.open_port", opener),
+        mock.patch("tactile.board.serial_port.open_port", opener),
+        mock.patch("tactile.recording.session.open_port", opener),
     ):
         yield

@@ -79,7 +79,7 @@ def flash_master(session_dir, n_sensors=1):
     """A flash file holding the firmware, flashed the way a user flashes a board (``tactile
     flash --sensors n_sensors``), once per ``session_dir`` (``pico_master``: every xdist
     worker of a run shares it)."""
-    from tactile import flashing
+    from tactile.board import flashing
 
     need_pico()
     master = session_dir / f"pico-firmware-{n_sensors}.flash"

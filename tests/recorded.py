@@ -6,7 +6,7 @@ import json
 import shutil
 import sys
 
-from tactile.stream_decoder import decode_bytes
+from tactile.board.stream_decoder import decode_bytes
 
 LEGACY_HEADER = (
     "seq,timestamp_us,type,sensor,phase,contact_id,flags,fx_N,fy_N,fz_N,tx_Nm,ty_Nm,tz_Nm"

@@ -3,7 +3,7 @@
 import numpy as np
 import serial
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_sim.urlhandler import register
 

@@ -9,9 +9,9 @@ import errno
 import pytest
 import serial
 
-from tactile.board_client import BoardClient
+from tactile.board.client import BoardClient
+from tactile.board.serial_port import open_port
 from tactile.errors import BoardTimeout, PortError, ProtocolVersionError
-from tactile.serial_port import open_port
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
 from tactile_protocol.messages import pack_into
@@ -82,7 +82,7 @@ def test_no_hello_then_get_info_is_sent_then_a_timeout_names_the_port():
     client = BoardClient(port, "/dev/ttyACM9", clock=StepClock())
     with pytest.raises(BoardTimeout, match=r"/dev/ttyACM9: no HELLO within 1 s"):
         client.handshake(1.0)
-    from tactile.stream_decoder import StreamDecoder
+    from tactile.board.stream_decoder import StreamDecoder
 
     sent = StreamDecoder()._decode(port.written[0][:-1])
     assert len(port.written) == 1 and sent[1] == C.CMD_GET_INFO

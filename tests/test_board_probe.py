@@ -1,11 +1,11 @@
-"""``tactile.board_probe.break_in``: MicroPython's raw REPL reached, or one line on what the
+"""``tactile.board.probe.break_in``: MicroPython's raw REPL reached, or one line on what the
 port holds instead, within its bounds whatever the port does (fake ports, fake clock)."""
 
 import pytest
 from flash_fakes import BANNER, BoardPort, FakeClock
 
-from tactile import board_probe
-from tactile.board_probe import BREAK, FIRMWARE_S, RAW, RESEND_S, WINDOW_S, NoRepl
+from tactile.board import probe as board_probe
+from tactile.board.probe import BREAK, FIRMWARE_S, RAW, RESEND_S, WINDOW_S, NoRepl
 from tactile.errors import PortLost
 
 NAME = "/dev/ttyACM0"

@@ -1,4 +1,4 @@
-"""The board-settings vocabulary (``tactile.board_settings``) against the firmware's own
+"""The board-settings vocabulary (``tactile.board.settings``) against the firmware's own
 rule, and ``tactile config`` refusing out-of-range values with their range, before any
 CONFIG is sent (issue 15)."""
 
@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tactile import board_settings as bs
+from tactile.board import settings as bs
 from tactile.cli.main import main
 from tactile_fw import settings as fw
 

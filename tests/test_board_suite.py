@@ -19,9 +19,9 @@ import pytest
 import serial
 from board_target import EMULATED, read_for, run_emulated
 
-from tactile.board_client import BoardClient, CommandRefused
-from tactile.serial_port import open_port
-from tactile.stream_decoder import StreamDecoder, decode_bytes
+from tactile.board.client import BoardClient, CommandRefused
+from tactile.board.serial_port import open_port
+from tactile.board.stream_decoder import StreamDecoder, decode_bytes
 from tactile_protocol import constants as C
 from tactile_sim.emulator import load_scene
 from tactile_sim.urlhandler import register

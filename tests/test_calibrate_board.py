@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from lying_device import LyingPort, lying_ports
 
-from tactile.board_client import BoardClient, CommandRefused
+from tactile.board.client import BoardClient, CommandRefused
+from tactile.board.serial_port import open_port
 from tactile.calib import convert, files, install
-from tactile.serial_port import open_port
 from tactile_fw import calibration
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard

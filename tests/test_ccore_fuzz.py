@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from test_ccore_diff import framed, hostile, sensible
 from toolchain import missing
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_fw.host_only import ccore
 from tactile_protocol import constants as C
 

@@ -86,7 +86,7 @@ def test_decode_imports_nothing_heavy():
     code = (
         "import sys; from tactile.cli.main import main; "
         "import tactile.cli.cmd_decode, "
-        "tactile.stream_decoder; print(sorted(m for m in ('numpy', 'scipy', 'matplotlib') "
+        "tactile.board.stream_decoder; print(sorted(m for m in ('numpy', 'scipy', 'matplotlib') "
         "if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

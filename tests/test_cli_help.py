@@ -34,7 +34,7 @@ def test_help_shows_every_default(name, capsys):
 def test_verbose_logs_commands_on_stderr(tmp_path, capsys):
     assert cli_main.main(["info", "--port", "sim://press", "-v"]) == 0
     err = capsys.readouterr().err
-    assert "tactile tactile.board_client: sim://press: GET_INFO" in err
+    assert "tactile tactile.board.client: sim://press: GET_INFO" in err
 
 
 def _walk(parser, path=()):

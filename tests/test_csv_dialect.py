@@ -1,15 +1,15 @@
-"""The strict CSV dialect (``tactile.csv_dialect``): an unterminated quote, a second or
+"""The strict CSV dialect (``tactile.files.csv_dialect``): an unterminated quote, a second or
 late ``# units:`` line, a column named twice and a number that is not an ASCII decimal
 are each one line, exit 2, naming the file and line; through ``read_csv``, the streamed
 contacts reader (both its parsers) and the calibration readers."""
 
 import pytest
 
-from tactile import tabular_blocks
 from tactile.calib import ati, files
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import InputError
-from tactile.tabular import read_csv
+from tactile.files import tabular_blocks
+from tactile.files.tabular import read_csv
 
 HEAD = "x,y,z,nx,ny,nz,patch\n"
 ROWS = "".join(f"{i},{i % 3},{i * i % 5},0,0,1,a\n" for i in range(12))

@@ -1,11 +1,11 @@
-"""From recorded CONTACT frames and a pose log to contacts.csv (tactile.derive)."""
+"""From recorded CONTACT frames and a pose log to contacts.csv (tactile.recording.derive)."""
 
 import numpy as np
 import pytest
 
-from tactile import derive
+from tactile.board.messages import Contact
 from tactile.errors import InputError
-from tactile.messages import Contact
+from tactile.recording import derive
 
 
 def _c(ts, phase, cid, fx=1_000_000, sensor=0):

@@ -19,9 +19,9 @@ from hypothesis import event, given, settings
 from hypothesis import strategies as st
 from lying_device import CODES, FIELDS, GOOD_INFO, LyingPort, frame, info_values, lying_ports
 
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.cli.main import main
-from tactile.stream_decoder import StreamDecoder
-from tactile.textout import printable
+from tactile.output.textout import printable
 from tactile_protocol import constants as C
 from tactile_protocol.limits import violation
 
@@ -101,7 +101,7 @@ def test_decode_non_finite_calibration_is_refused_alike_in_text_and_json(tmp_pat
 
 def test_text_output_writes_non_finite_numbers_as_null_like_json():
     from tactile.cli.cmd_decode import _text
-    from tactile.jsonout import dumps
+    from tactile.output.jsonout import dumps
 
     d = {"type": "X", "a": math.nan, "b": -math.inf, "c": 1.5, "s": "ok\x1b"}
     assert _text(d) == r"X        a=null b=null c=1.5 s=ok\x1b"
@@ -301,7 +301,7 @@ class _SilentAfterHello(LyingPort):
 
 
 def test_record_gives_up_on_a_board_silent_after_hello_with_exit_4(tmp_path, monkeypatch):
-    import tactile.record_session as session
+    import tactile.recording.session as session
 
     monkeypatch.setattr(session, "SILENT_S", 1.0)
     out_dir = tmp_path / "run"

@@ -14,7 +14,7 @@ import time
 import pytest
 import serial
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
 

@@ -9,7 +9,7 @@ import time
 import pytest
 import serial
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard

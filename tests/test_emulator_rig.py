@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import serial
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
 from tactile_sim.urlhandler import register

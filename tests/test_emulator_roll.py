@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import serial
 
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.ep1.estimator import estimate
 from tactile.ep1.from_ft import (
     fingertip_uv,
@@ -25,7 +26,6 @@ from tactile.ep1.from_ft import (
 )
 from tactile.errors import InputError
 from tactile.localize.sphere import sphere_contact
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_sim.emulator import SceneError, load_scene
 from tactile_sim.emulator.device import build_motion

@@ -10,7 +10,7 @@ import pytest
 import serial
 from toolchain import missing
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.pty_server import HOLD_LIMIT_S, PtyServer

@@ -7,7 +7,7 @@ import pytest
 
 from tactile.ep2 import analyze_patch, analyze_sweep
 from tactile.errors import DataError, InputError
-from tactile.jsonout import dumps
+from tactile.output.jsonout import dumps
 from tactile_sim.ep2 import make, sweep
 
 EXPECTED = {

@@ -9,10 +9,10 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from test_csv_fuzz import ODD, files
 
-from tactile import tabular, tabular_blocks
 from tactile.ep2 import contacts_csv
 from tactile.ep2.contacts_csv import REQUIRED, Contacts, ContactsFile, group_rows, read_contacts
 from tactile.errors import InputError, where
+from tactile.files import tabular, tabular_blocks
 
 pytestmark = pytest.mark.filterwarnings("error")
 

@@ -146,7 +146,7 @@ def _per_patch(groups, split=False):
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_batched_records_are_the_per_patch_records_in_file_order(mixed_csv, capsys, jobs):
-    from tactile.jsonout import dumps
+    from tactile.output.jsonout import dumps
 
     code, out, err = _run(capsys, str(mixed_csv), "--json", "--jobs", jobs)
     assert code == 3 and "2 of 7 patch(es) not determined" in err
@@ -197,9 +197,9 @@ def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monke
     """Several chunks of a scattered file: --jobs 1 and 2, blocks of 1 KiB and of the
     default, and the non-streaming run (the whole list first) print the same bytes; the
     batch gives the per-patch records, split parts included."""
-    from tactile import tabular_blocks
     from tactile.ep2 import many
-    from tactile.jsonout import dumps
+    from tactile.files import tabular_blocks
+    from tactile.output.jsonout import dumps
 
     monkeypatch.setattr(many, "CHUNK", 4)  # 14 patches: four chunks, the last short
     path = _many_patches(tmp_path, 14, split_some=split)

@@ -11,7 +11,7 @@ import pytest
 from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, variant
 
 import tactile
-from tactile.export_mcap import normal_quaternions
+from tactile.recording.export_mcap import normal_quaternions
 
 
 def _rows(recorded_msgs, host=None):

@@ -12,8 +12,8 @@ import sys
 
 import pytest
 
-from tactile import bounded
 from tactile.errors import InputError
+from tactile.files import bounded
 
 TIMEOUT_S = 60  # generous: a refusal takes well under a second; a hang never ends
 

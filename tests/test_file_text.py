@@ -1,5 +1,5 @@
 """Strings from files reach the terminal escaped, as a device's strings do
-(``tactile.textout.printable``), and plot labels are drawn without matplotlib warnings:
+(``tactile.output.textout.printable``), and plot labels are drawn without matplotlib warnings:
 patch ids, finger labels, a calibration file's serial, and any error quoting them."""
 
 import math
@@ -54,7 +54,7 @@ def test_plot_draws_file_text_without_warnings(tmp_path, cli):
 
 def test_plain_text_escapes_what_the_font_cannot_draw():
     pytest.importorskip("matplotlib")
-    from tactile.plots import plain_text
+    from tactile.output.plots import plain_text
 
     got = plain_text(EVIL)
     assert got.startswith("\\x1b[31mred\\u202e\\$x^{\\$") and "\u4e00" not in got

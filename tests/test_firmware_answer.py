@@ -1,4 +1,4 @@
-"""``tactile.firmware_answer``: after the reset, the port again and the firmware's HELLO or
+"""``tactile.board.firmware_answer``: after the reset, the port again and the firmware's HELLO or
 INFO within the bound, asking only when asking is safe; one line when nothing answers
 (fake ports and clock)."""
 
@@ -7,10 +7,10 @@ import serial
 from flash_fakes import FakeClock
 from lying_device import GOOD_INFO, frame
 
-from tactile import firmware_answer
+from tactile.board import firmware_answer
+from tactile.board.firmware_answer import ASK_GONE_S, ASK_STAYED_S, answer
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import BoardTimeout, PortError
-from tactile.firmware_answer import ASK_GONE_S, ASK_STAYED_S, answer
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 
 NAME = "/dev/ttyACM0"

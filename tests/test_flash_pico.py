@@ -13,8 +13,10 @@ import serial
 from board_target import BoardTarget
 from pico_target import serve
 
-from tactile import board_probe, flashing, load_recording, raw_repl
-from tactile.board_client import BoardClient
+from tactile import load_recording
+from tactile.board import flashing, raw_repl
+from tactile.board import probe as board_probe
+from tactile.board.client import BoardClient
 from tactile_protocol import constants as C
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py

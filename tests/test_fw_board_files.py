@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from tactile import flashing
+from tactile.board import flashing
 
 # Modules MicroPython provides (rp2 port) plus our own two packages.
 MICROPYTHON_MODULES = {

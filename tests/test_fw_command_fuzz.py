@@ -18,7 +18,7 @@ from conftest import FUZZ_SCALE
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.cobs_codec import encode as cobs_encode
 from tactile_protocol.crc16 import crc16

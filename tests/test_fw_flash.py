@@ -9,10 +9,11 @@ import pytest
 from flash_fakes import FakeSession
 from lying_device import GOOD_INFO, frame
 
-from tactile import board_probe, firmware_answer, flashing, mpy_files, raw_repl
+from tactile.board import firmware_answer, flashing, mpy_files, raw_repl
+from tactile.board import probe as board_probe
+from tactile.board.mpy_files import Abi
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import BoardError, MissingExtra, PortError
-from tactile.mpy_files import Abi
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 
 PORT = "/dev/ttyACM0"

@@ -14,7 +14,7 @@ import sys
 import pytest
 from toolchain import missing
 
-from tactile import flashing
+from tactile.board import flashing
 
 MP_PACKAGE = "@micropython/micropython-webassembly-pyscript"
 MP_VERSION = "1.27.0"

@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tactile import tabular
 from tactile.errors import InputError
-from tactile.jsonout import clean, dumps
-from tactile.tabular import read_csv
+from tactile.files import tabular
+from tactile.files.tabular import read_csv
+from tactile.output.jsonout import clean, dumps
 
 REQ = ("x", "y", "z")
 

@@ -112,10 +112,23 @@ def test_nothing_below_the_application_imports_the_studies():
 
 def test_a_sim_port_without_the_simulator_registered_says_how_in_one_line():
     code = (
-        "from tactile.serial_port import open_port\n"
+        "from tactile.board.serial_port import open_port\n"
         "from tactile.errors import InputError\n"
         "try:\n    open_port('sim://press')\n"
         "except InputError as e:\n    print(e)\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and "tactile_sim.urlhandler.register()" in r.stdout, r
+
+
+def test_the_host_package_shows_its_components():
+    """At most 12 modules at the top of ``tactile``; the rest in one package per component,
+    each saying what it owns; the documented public names importable from ``tactile``."""
+    import tactile
+
+    top = sorted(p.name for p in LIBRARY.glob("*.py"))
+    assert len(top) <= 12, top
+    for package in ("board", "recording", "files", "output"):
+        doc = (LIBRARY / package / "__init__.py").read_text(encoding="utf-8")
+        assert doc.startswith('"""') and len(doc.splitlines()) >= 3, package
+    assert callable(tactile.load_recording) and tactile.__version__

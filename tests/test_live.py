@@ -2,8 +2,8 @@
 
 import pytest
 
-from tactile.live_view import LiveState
-from tactile.messages import Contact, Sample
+from tactile.board.live_view import LiveState
+from tactile.board.messages import Contact, Sample
 from tactile_protocol import constants as C
 
 
@@ -21,7 +21,7 @@ def test_state_follows_samples_and_contacts():
 
 
 def test_live_turns_samples_on_and_restores_the_configuration(cli, mocker):
-    from tactile.board_client import BoardClient
+    from tactile.board.client import BoardClient
 
     spy = mocker.spy(BoardClient, "configure")
     code, out, err = cli("live", "--port", "sim://ch5_plane", "--duration", "0.3")

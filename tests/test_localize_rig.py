@@ -4,8 +4,8 @@ EP1 fingertip through the F/T path."""
 import numpy as np
 import pytest
 
+from tactile.files.tabular import read_csv
 from tactile.localize import STATUS, format_contacts, scara_contacts, sphere_contact
-from tactile.tabular import read_csv
 from tactile_sim.ep1.probes import measure, sphere_plus_probes
 from tactile_sim.rig.contact import contact_wrench, wheel_touch
 from tactile_sim.rig.fingertip import fingertip_point, fingertip_uv, fingertip_wrench

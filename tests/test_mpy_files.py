@@ -3,9 +3,9 @@ MicroPython's rule between the two, and mpy-cross's output read from its header.
 
 import pytest
 
-from tactile import mpy_files
+from tactile.board import mpy_files
+from tactile.board.mpy_files import Abi
 from tactile.errors import BoardError
-from tactile.mpy_files import Abi
 
 PICO_1_29 = 4870  # the emulated Pico's sys.implementation._mpy (MicroPython 1.29, RPI_PICO)
 

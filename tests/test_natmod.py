@@ -22,8 +22,8 @@ import serial
 from pico_target import serve, wait_booted
 from toolchain import missing
 
-from tactile.board_client import BoardClient
-from tactile.stream_decoder import decode_bytes
+from tactile.board.client import BoardClient
+from tactile.board.stream_decoder import decode_bytes
 from tactile_fw import calibration
 from tactile_fw.host_only import natmod
 from tactile_protocol import constants as C

@@ -11,7 +11,7 @@ import pytest
 import serial
 from pico_target import serve, wait_booted
 
-from tactile.board_client import BoardClient
+from tactile.board.client import BoardClient
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
 
@@ -124,7 +124,7 @@ def test_the_same_forces_give_the_same_codes_as_on_the_other_cores(pico_flashed,
 
     from board_target import read_for
 
-    from tactile.serial_port import open_port
+    from tactile.board.serial_port import open_port
     from tactile_protocol import constants as C
     from tactile_sim.emulator import load_scene
     from tactile_sim.emulator.device import EmulatedBoard

@@ -1,4 +1,5 @@
-"""``tactile plot`` and ``tactile.plots``: valid PNGs, the plotted data are the fit's, errors.
+"""``tactile plot`` and ``tactile.output.plots``: valid PNGs, the plotted data are the fit's,
+errors.
 
 The drawn data are checked by independent routes: the control net against the
 closed-form Bezier control points of a paraboloid and against a scipy B-spline
@@ -172,7 +173,7 @@ def test_other_commands_do_not_import_matplotlib(two_patches):
     code = (
         "import sys\n"
         "from tactile.cli.main import main\n"
-        "import tactile.plots, tactile.cli.cmd_plot\n"
+        "import tactile.output.plots, tactile.cli.cmd_plot\n"
         f"assert main(['ep2', 'analyze', {str(two_patches)!r}]) == 0\n"
         "print('matplotlib' in sys.modules)\n"
     )
@@ -250,7 +251,7 @@ def curvature_by_finite_differences(res, x, y, h=1e-3):
 def test_maps_draw_the_shape_index_and_curvedness_of_the_fit(tmp_path, mocker, grid):
     import matplotlib.axes
 
-    from tactile import plots
+    from tactile.output import plots
 
     rng = np.random.default_rng(1)
     pts, nrm = sphere()
@@ -294,7 +295,7 @@ def test_maps_draw_the_shape_index_and_curvedness_of_the_fit(tmp_path, mocker, g
 def test_plane_maps_say_not_computed(tmp_path, mocker):
     import matplotlib.axes
 
-    from tactile import plots
+    from tactile.output import plots
 
     x, y = (v.ravel() for v in np.meshgrid(XS, YS, indexing="ij"))
     pts = np.column_stack([x, y, 0.3 * x + 0.2 * y])
@@ -312,7 +313,7 @@ def test_plane_maps_say_not_computed(tmp_path, mocker):
 def test_contacts_and_patch_draw_the_given_normals_and_the_net(tmp_path, mocker):
     from mpl_toolkits.mplot3d import Axes3D
 
-    from tactile import plots
+    from tactile.output import plots
 
     pts, nrm = cylinder()
     finger = [str(XS.index(p)) for p in pts[:, 0]]

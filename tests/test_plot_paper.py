@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from figure_checks import caught, overprinted, paper_problems, titles, unit_problems
 
-from tactile import plots
 from tactile.ep2 import analyze_patch
+from tactile.output import plots
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 

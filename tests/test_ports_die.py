@@ -11,7 +11,7 @@ import json
 import pytest
 import serial
 
-from tactile.stream_decoder import decode_bytes
+from tactile.board.stream_decoder import decode_bytes
 from tactile_sim.emulator.dying import DyingBoard
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_fw import calibration, settings
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder

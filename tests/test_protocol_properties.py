@@ -5,7 +5,7 @@ from conftest import FUZZ_SCALE
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import cobs_codec
 from tactile_protocol.constants import MSG_SAMPLE
 from tactile_protocol.framing import FrameEncoder, encode_frame

@@ -7,7 +7,7 @@ import struct
 import pytest
 from cobs import cobs
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import cobs_codec
 from tactile_protocol.constants import MAX_ENCODED, PROTOCOL_VERSION
 from tactile_protocol.crc16 import crc16

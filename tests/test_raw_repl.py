@@ -1,4 +1,4 @@
-"""``tactile.raw_repl``: mpremote's transport with every wait bounded, each step one line on
+"""``tactile.board.raw_repl``: mpremote's transport with every wait bounded, each step one line on
 failure, files written whatever their bytes."""
 
 import os
@@ -9,7 +9,7 @@ import tty
 import pytest
 import serial
 
-from tactile import raw_repl
+from tactile.board import raw_repl
 from tactile.errors import BoardError, MissingExtra, PortError
 
 

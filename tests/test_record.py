@@ -6,10 +6,10 @@ import json
 import pytest
 import serial
 
+from tactile.board.serial_port import open_port
+from tactile.board.stream_decoder import decode_bytes
 from tactile.errors import PortError
-from tactile.record_session import Session
-from tactile.serial_port import open_port
-from tactile.stream_decoder import decode_bytes
+from tactile.recording.session import Session
 
 
 def _files(out):
@@ -125,7 +125,7 @@ def test_a_port_lost_mid_read_loses_nothing_and_the_gap_is_recorded(mocker, tmp_
 
 def test_a_port_that_never_comes_back_ends_with_one_line_and_keeps_the_data(mocker, cli, tmp_path):
     ports = Delivered(mocker, 300, serial.SerialException("device disconnected"), gone=10**6)
-    mocker.patch("tactile.record_session.open_port", side_effect=ports.open)
+    mocker.patch("tactile.recording.session.open_port", side_effect=ports.open)
     code, _, err = cli("record", "--port", "/dev/ttyACM0", "--duration", "5", "-o", tmp_path,
                        "--reconnect", "0.3", "--quiet")  # fmt: skip
     assert code == 4 and err.count("\n") == 1 and "Traceback" not in err

@@ -11,8 +11,8 @@ import pytest
 from full_disk import full_disk
 
 import tactile
-from tactile.record_session import Session
-from tactile.stream_decoder import decode_bytes
+from tactile.board.stream_decoder import decode_bytes
+from tactile.recording.session import Session
 
 RECORD = ("record", "--port", "sim://press", "--quiet")
 

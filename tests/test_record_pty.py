@@ -174,7 +174,7 @@ def test_a_board_killed_and_restarted_behind_link_is_one_reboot_and_nothing_lost
     import sys
     import time
 
-    from tactile.stream_decoder import decode_bytes
+    from tactile.board.stream_decoder import decode_bytes
 
     link, out = tmp_path / "ttyTACTILE", tmp_path / "run"
     first = _emulate("press", "--link", link, "--duration", "30")

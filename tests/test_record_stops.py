@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from tactile.localize.pose_log import read_pose_log
-from tactile.record_session import Session
+from tactile.recording.session import Session
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import build_motion
 
@@ -164,7 +164,7 @@ def test_force_raises_the_gate_for_the_tare_only(tmp_path):
     shows the gate as it was."""
     import serial
 
-    from tactile.board_client import BoardClient, CommandRefused
+    from tactile.board.client import BoardClient, CommandRefused
     from tactile_sim.urlhandler import register
 
     register()

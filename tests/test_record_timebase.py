@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from drift_port import DriftingPort
 
-from tactile.derive import derive
 from tactile.localize.pose_log import read_pose_log
 from tactile.localize.posed import window_index
-from tactile.log_clock import CLOCKS, log_end
-from tactile.record_session import Session
+from tactile.recording.derive import derive
+from tactile.recording.log_clock import CLOCKS, log_end
+from tactile.recording.session import Session
 from tactile_sim.emulator import load_scene
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py

@@ -1,14 +1,15 @@
 """One module owns the robot logs' format (issue 15): every simulator robot writes through
-``tactile.robot_log`` and each log reads back through the host's reader bit for bit."""
+``tactile.recording.robot_log`` and each log reads back through the host's reader bit for bit."""
 
 import numpy as np
 import pytest
 
-from tactile import robot_log, units
+from tactile import units
 from tactile.ep1.from_ft import read_probe_log
+from tactile.files.tabular import read_csv
 from tactile.localize.kinematics import pose_from_quaternion
 from tactile.localize.pose_log import read_pose_log
-from tactile.tabular import read_csv
+from tactile.recording import robot_log
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene
 

@@ -1,6 +1,6 @@
 """Sequence accounting across reboots and reorderings (PROTOCOL.md §3, issue 12)."""
 
-from tactile.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import encode_frame
 

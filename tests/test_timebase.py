@@ -1,13 +1,14 @@
-"""``tactile.timebase``: the board's clock segment by segment, unwrapped, mapped to host time."""
+"""``tactile.recording.timebase``: the board's clock segment by segment, unwrapped, mapped to host
+time."""
 
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from tactile.board.messages import Hello, Invalid, Sample
 from tactile.errors import DataError
-from tactile.messages import Hello, Invalid, Sample
-from tactile.timebase import (
+from tactile.recording.timebase import (
     WRAP,
     BoardClock,
     RecordingClock,

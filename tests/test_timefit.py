@@ -1,11 +1,11 @@
-"""``tactile.timefit``: the board -> host line under frame arrivals (issue 14, part 2)."""
+"""``tactile.recording.timefit``: the board -> host line under frame arrivals (issue 14, part 2)."""
 
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tactile.timefit import TAU, BinMinima, fit
+from tactile.recording.timefit import TAU, BinMinima, fit
 
 
 def _bins(b, h, **kw):

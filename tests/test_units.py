@@ -51,7 +51,7 @@ def _scene_logs(tmp_path):
 def test_every_csv_writer_starts_with_its_units_line(tmp_path):
     from tactile.ep1.probes_csv import format_probes
     from tactile.localize import format_contacts
-    from tactile.recording import Recording
+    from tactile.recording.files import Recording
     from tactile_sim.ep2 import make, sweep, write_csv
     from tactile_studies.ep1.studies import write_csv as ep1_study_csv
     from tactile_studies.ep2.studies import _write as ep2_study_csv
@@ -155,7 +155,7 @@ def test_a_file_without_the_line_is_read_as_before_and_cannot_be_converted(tmp_p
 
 def test_probes_and_frames_refuse_a_unit_they_do_not_hold(tmp_path):
     from tactile.ep1.probes_csv import read_probes
-    from tactile.recording import read_frames
+    from tactile.recording.files import read_frames
 
     probes = tmp_path / "probes.csv"
     probes.write_text("# units: deg\ndtheta_x,dtheta_y,du,dv\n1,2,3,4\n")
@@ -199,7 +199,7 @@ def test_scara_contacts_are_metres_and_the_cm_file_gives_the_same_shape(
     scara_run, tmp_path, capsys
 ):
     from tactile.ep2.contacts_csv import read_contacts
-    from tactile.recording_load import load_recording
+    from tactile.recording.load import load_recording
 
     run, lines, _ = scara_run
     assert "(m)" in lines[0] and _first_line(run / "contacts.csv") == "# units: m"

@@ -1,7 +1,7 @@
 """tactile host package: stream decoding, EP1/EP2 shape analysis and the CLI.
 
 Imports stay lazy: ``import tactile`` pulls in nothing heavy.  ``tactile.load_recording``
-(``tactile.recording_load``) imports NumPy when first used.
+(``tactile.recording.load``) imports NumPy when first used.
 """
 
 __version__ = "0.1.0"
@@ -10,7 +10,7 @@ __all__ = ["load_recording"]
 
 def __getattr__(name):
     if name == "load_recording":
-        from tactile.recording_load import load_recording
+        from tactile.recording.load import load_recording
 
         return load_recording
     raise AttributeError(f"module 'tactile' has no attribute {name!r}")

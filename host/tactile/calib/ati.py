@@ -31,8 +31,8 @@ from xml.parsers import expat
 
 from tactile.calib import units as U
 from tactile.calib.files import MAX_ID, MatrixFile
-from tactile.csv_dialect import DECIMAL
 from tactile.errors import InputError, where
+from tactile.files.csv_dialect import DECIMAL
 
 __all__ = ["parse", "format_cal", "AXES"]
 
@@ -197,7 +197,7 @@ def _values(path, el):
 
 
 def _float(text):
-    """``text`` as a finite float written in ASCII decimal (``tactile.csv_dialect``), else
+    """``text`` as a finite float written in ASCII decimal (``tactile.files.csv_dialect``), else
     None: ``1_0`` and digits of other scripts, which ``float`` takes, are not numbers here."""
     text = text.strip()
     if not DECIMAL.fullmatch(text):

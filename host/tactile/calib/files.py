@@ -7,7 +7,7 @@ not white space (``<`` XML, ``{`` or ``[`` JSON, anything else CSV), not by the 
 name.  Every error is an ``InputError`` (exit 2) naming file, line or row, and column or
 field.
 
-CSV (read by ``tactile.tabular``): six lines of six numbers separated by commas (or by
+CSV (read by ``tactile.files.tabular``): six lines of six numbers separated by commas (or by
 white space), no header; ``#`` lines are comments, except ``# units: FORCE, TORQUE [per
 GAUGE]`` (default ``N, N-m per count``) and ``# id: N``.  JSON: ``{"id": N, "matrix":
 [[six numbers] x 6], "units": "N, N-m per count"}``, ``id`` and ``units`` optional, no
@@ -18,10 +18,10 @@ import json
 import math
 from collections import namedtuple
 
-from tactile import bounded, tabular
 from tactile.calib import units as U
-from tactile.csv_dialect import DECIMAL, number
 from tactile.errors import InputError, where
+from tactile.files import bounded, tabular
+from tactile.files.csv_dialect import DECIMAL, number
 
 __all__ = ["MatrixFile", "read", "ROWS", "GAUGES", "MAX_BYTES", "MAX_ID"]
 
@@ -60,7 +60,7 @@ def read(path, index=None):
 
 
 def read_bounded(path, limit=MAX_BYTES):
-    """The bytes of a regular file of at most ``limit`` bytes (``tactile.bounded``)."""
+    """The bytes of a regular file of at most ``limit`` bytes (``tactile.files.bounded``)."""
     data = bounded.read_bytes(path, limit, "a calibration", "a calibration is a few kB")
     if not data.strip():
         raise InputError(f"{path}: empty file")

@@ -34,8 +34,8 @@ def port_of(args):
 
 def connect(args):
     """Open ``args.port`` and wait for HELLO; returns a BoardClient (the caller closes it)."""
-    from tactile.board_client import BoardClient
-    from tactile.serial_port import open_port
+    from tactile.board.client import BoardClient
+    from tactile.board.serial_port import open_port
 
     port = open_port(port_of(args))
     client = BoardClient(port, args.port)

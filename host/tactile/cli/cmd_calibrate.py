@@ -25,7 +25,7 @@ def add_arguments(parser):
 def run(args):
     from tactile.calib import convert, files, install
     from tactile.calib.units import describe
-    from tactile.textout import printable  # the label and notes quote the file
+    from tactile.output.textout import printable  # the label and notes quote the file
 
     mf = files.read(args.file, args.index)
     bm = convert.to_board(mf, args.volts_per_count, args.id)

@@ -3,7 +3,7 @@ the board's current values.  ``--persist`` also stores them on the board (used a
 
 import argparse
 
-from tactile.board_settings import GATES, STREAMS
+from tactile.board.settings import GATES, STREAMS
 from tactile.cli.board_args import add_port_argument, connect
 
 
@@ -22,7 +22,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.board_client import info_dict
+    from tactile.board.client import info_dict
     from tactile.cli.cmd_info import format_info
 
     flags_from = _streams(args.streams)
@@ -40,7 +40,7 @@ def run(args):
 
 
 def _streams(text):
-    from tactile.board_settings import stream_flags
+    from tactile.board.settings import stream_flags
     from tactile.errors import InputError
 
     if text is None:
@@ -55,7 +55,7 @@ def _streams(text):
 
 def _check(values, max_rate_hz):
     """Refuse, before anything is sent, a value the board would NAK: one line with its range."""
-    from tactile.board_settings import problem
+    from tactile.board.settings import problem
     from tactile.errors import InputError
 
     why = problem(*values[:4], max_rate_hz)
@@ -64,7 +64,7 @@ def _check(values, max_rate_hz):
 
 
 def _values(args, cur, streams):
-    from tactile.board_settings import GATES, STREAMS, stream_flags, to_newtons
+    from tactile.board.settings import GATES, STREAMS, stream_flags, to_newtons
     from tactile_protocol import constants as C
 
     flags = cur.flags & (C.CFG_WRITABLE & ~C.CFG_PERSIST)

@@ -4,7 +4,7 @@ Damaged input is not an error: it is skipped, counted, and the counters
 close the output (exit 0).  A frame whose content breaks the protocol's
 limits prints as INVALID, naming the message and the field, and is counted
 (``invalid``).  Only an unreadable file is an error (exit 2).  Text and JSON
-follow one rule (``tactile.textout``): device strings are escaped and a
+follow one rule (``tactile.output.textout``): device strings are escaped and a
 non-finite number is ``null`` in both.
 """
 
@@ -21,8 +21,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.jsonout import dumps
-    from tactile.stream_decoder import StreamDecoder
+    from tactile.board.stream_decoder import StreamDecoder
+    from tactile.output.jsonout import dumps
 
     decoder = StreamDecoder()
     write = sys.stdout.write
@@ -42,7 +42,7 @@ def run(args):
 
 
 def _text(d):
-    from tactile.textout import fields, printable
+    from tactile.output.textout import fields, printable
 
     if d["type"] == "INVALID":
         head = f"{d['message']} seq={d['seq']} timestamp_us={d['timestamp_us']}"
@@ -51,6 +51,6 @@ def _text(d):
 
 
 def _text_summary(s):
-    from tactile.textout import fields
+    from tactile.output.textout import fields
 
     return "summary  " + fields(s, skip=("last_invalid",))  # INVALID lines name each one

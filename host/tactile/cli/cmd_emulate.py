@@ -65,7 +65,7 @@ def add_arguments(parser):
 
 def run(args):
     from tactile.errors import InputError
-    from tactile.textout import printable
+    from tactile.output.textout import printable
     from tactile_sim.emulator import load_scene
     from tactile_sim.emulator.device import EmulatedBoard
     from tactile_sim.emulator.host_wait import serve_when_opened

@@ -70,7 +70,7 @@ CURVATURES = ("kx", "ky", "k1", "k2")
 def print_result(result, as_json, unit=None):
     """The estimate as JSON or ``key: value`` lines; curvatures in 1/``unit`` (the unit of
     --finger-radius) when it is given."""
-    from tactile.jsonout import dumps
+    from tactile.output.jsonout import dumps
 
     if as_json:
         if unit is not None:

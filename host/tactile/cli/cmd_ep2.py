@@ -182,11 +182,11 @@ class _Printer:
 
     def records(self, records):
         from tactile.ep2.record_units import in_unit
-        from tactile.textout import printable
+        from tactile.output.textout import printable
 
         records = [in_unit(r, self.unit, self.scale) for r in records]
         if self.as_json:
-            from tactile.jsonout import dumps
+            from tactile.output.jsonout import dumps
 
             lines = [dumps(r) for r in records]
         else:

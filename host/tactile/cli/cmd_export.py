@@ -1,11 +1,12 @@
 """``tactile export RUN --format mcap|parquet [-o FILE]``: a recording other tools open.
 
-``mcap``: ROS 2 messages (``tactile.export_mcap``) for Foxglove and ROS 2 tools; it needs
+``mcap``: ROS 2 messages (``tactile.recording.export_mcap``) for Foxglove and ROS 2 tools; it needs
 the ``export`` extra.  ``parquet``: the frames (and contacts) as tables with units
-(``tactile.export_parquet``) for pandas and Arrow; it needs the ``parquet`` extra.  Without
+(``tactile.recording.export_parquet``) for pandas and Arrow; it needs the ``parquet`` extra.
+Without
 its extra the command prints the install line and exits 2.  The one-line summary names the
 file(s), what they hold and the clock of the stamps.  A run cut short (killed, a full disk)
-is read with what capture.bin holds (``tactile.recording_recover``); one ``note:`` line on
+is read with what capture.bin holds (``tactile.recording.recover``); one ``note:`` line on
 stderr says what was rebuilt.
 """
 
@@ -33,14 +34,14 @@ def run(args):
     import pathlib
 
     from tactile.errors import InputError
-    from tactile.recording_load import load_recording
+    from tactile.recording.load import load_recording
 
     if args.format == "parquet":
-        from tactile.export_parquet import require_pyarrow as require
-        from tactile.export_parquet import write_parquet as write
+        from tactile.recording.export_parquet import require_pyarrow as require
+        from tactile.recording.export_parquet import write_parquet as write
     else:
-        from tactile.export_mcap import require_mcap as require
-        from tactile.export_mcap import write_mcap as write
+        from tactile.recording.export_mcap import require_mcap as require
+        from tactile.recording.export_mcap import write_mcap as write
     require()  # the install hint before any work
     run_dir = pathlib.Path(args.run)
     if not run_dir.is_dir():

@@ -1,5 +1,5 @@
 """``tactile flash --port PORT``: copy the firmware onto a MicroPython board, reset it and
-check that the firmware answers (``tactile.flashing``).  Exit 4 with one line when the port
+check that the firmware answers (``tactile.board.flashing``).  Exit 4 with one line when the port
 holds no MicroPython REPL, a step on the board fails, or the firmware does not answer."""
 
 import sys
@@ -9,7 +9,7 @@ from tactile.cli.words import add_quiet
 
 
 def add_arguments(parser):
-    from tactile.flashing import WAIT_S
+    from tactile.board.flashing import WAIT_S
 
     add_port_argument(
         parser,
@@ -33,7 +33,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile import firmware_answer, flashing
+    from tactile.board import firmware_answer, flashing
 
     port = port_of(args)
     if args.dry_run:

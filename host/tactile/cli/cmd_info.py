@@ -9,8 +9,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.board_client import info_dict
-    from tactile.jsonout import dumps
+    from tactile.board.client import info_dict
+    from tactile.output.jsonout import dumps
 
     client = connect(args)
     try:
@@ -25,8 +25,8 @@ def run(args):
 
 
 def format_info(d):
-    """The INFO as text; the device's own string is escaped (``tactile.textout``)."""
-    from tactile.textout import printable
+    """The INFO as text; the device's own string is escaped (``tactile.output.textout``)."""
+    from tactile.output.textout import printable
 
     return "\n".join(
         [

@@ -48,7 +48,7 @@ def run(args):
 
 def _view(client, duration):
     """Draw the board's state until ``duration`` s have passed (or Ctrl-C)."""
-    from tactile.live_view import LiveState
+    from tactile.board.live_view import LiveState
 
     state, tty = LiveState(), sys.stdout.isatty()
     start = last = time.monotonic()
@@ -67,7 +67,7 @@ def _view(client, duration):
 
 def _samples_on(client):
     """Turn the SAMPLE stream on; return the CONFIG values that restore the board."""
-    from tactile.board_settings import STREAMS, to_newtons
+    from tactile.board.settings import STREAMS, to_newtons
     from tactile_protocol import constants as C
 
     i = client.get_info()
@@ -86,7 +86,7 @@ def _samples_on(client):
 
 
 def _draw(state, client, elapsed, tty, drawn):
-    from tactile.live_view import WIDTH
+    from tactile.board.live_view import WIDTH
 
     c = client.decoder.counters
     lines = state.render()

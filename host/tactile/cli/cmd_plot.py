@@ -49,10 +49,10 @@ def add_arguments(parser):
 def run(args):
     import pathlib
 
-    from tactile import plots
     from tactile.ep2 import analyze_patch
     from tactile.ep2.contacts_csv import read_contacts
     from tactile.errors import DataError, InputError
+    from tactile.output import plots
 
     what = [w.strip() for w in args.what.split(",") if w.strip()]
     unknown = [w for w in what if w not in WHAT]
@@ -136,7 +136,7 @@ def run(args):
 
 
 def _draw(plot, *args, **kw):
-    """Call a ``tactile.plots`` function and print the path it wrote."""
+    """Call a ``tactile.output.plots`` function and print the path it wrote."""
     from tactile.errors import InputError
 
     try:
@@ -179,7 +179,7 @@ def _group_word(source):
     """'pass' for a recording from a one-sensor board (its finger column counts passes),
     else 'finger'."""
     from tactile.errors import InputError
-    from tactile.recording_meta import read_meta
+    from tactile.recording.meta import read_meta
 
     try:
         sensors = read_meta(source / "meta.json")["device"]["n_sensors"]

@@ -8,9 +8,9 @@ def add_arguments(parser):
 def run(args):
     import sys
 
-    from tactile.jsonout import dumps
-    from tactile.serial_port import list_ports
-    from tactile.textout import printable
+    from tactile.board.serial_port import list_ports
+    from tactile.output.jsonout import dumps
+    from tactile.output.textout import printable
 
     rows = list_ports()
     if not rows:

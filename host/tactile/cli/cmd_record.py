@@ -1,12 +1,12 @@
 """``tactile record --port P [--duration S | --contacts N] -o DIR``: record a board's stream.
 
 Writes DIR/capture.bin, frames.csv, device.jsonl and meta.json as data arrive
-(see ``tactile.recording``); with ``--pose-log`` it then derives the contact
+(see ``tactile.recording.files``); with ``--pose-log`` it then derives the contact
 points for EP2 (DIR/contacts.csv) or the rolling probes for EP1
 (DIR/probes.csv), ready for ``tactile ep2 analyze`` / ``tactile ep1 estimate``.
 With a pose log it stops on its own once the log's end has passed (its ``# end:`` line,
 or half a second after its last entry), and says so while it waits.  The summary names the
-board -> host time base (``tactile.timebase``); ``warning:`` lines go to stderr.
+board -> host time base (``tactile.recording.timebase``); ``warning:`` lines go to stderr.
 """
 
 import sys
@@ -41,8 +41,8 @@ def add_arguments(parser):
 
 def run(args):
     from tactile.errors import InputError
-    from tactile.record_session import Session
-    from tactile.textout import printable
+    from tactile.output.textout import printable
+    from tactile.recording.session import Session
 
     if args.duration is not None and not args.duration > 0:
         raise InputError(f"--duration: {args.duration} is not a positive number of seconds")
@@ -54,8 +54,8 @@ def run(args):
         connect(args)  # raises the 'no port given' message
     until = None
     if args.pose_log:
-        from tactile.derive import check_log
-        from tactile.log_clock import log_end
+        from tactile.recording.derive import check_log
+        from tactile.recording.log_clock import log_end
 
         log = check_log(args.pose_log)  # a bad log is refused before recording, not after
         end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
@@ -73,7 +73,7 @@ def run(args):
         until=until,
     )
     if until is not None and not args.quiet:
-        from tactile.log_clock import show_time
+        from tactile.recording.log_clock import show_time
 
         print(
             f"record: stops when the pose log is done ({show_time(until[0], until[1])}:"
@@ -91,7 +91,7 @@ def run(args):
     print(summary(meta, args.out))
     print(time_summary(meta.get("time_base")))
     if args.pose_log:
-        from tactile.derive import derive
+        from tactile.recording.derive import derive
 
         for line in derive(args.out, args.pose_log, per_contact=args.per_contact):
             out = sys.stderr if line.startswith("warning:") else sys.stdout

@@ -196,7 +196,7 @@ def main(argv=None):
             if undo is not None:
                 undo()
     except TactileError as exc:
-        from tactile.textout import printable  # a message may quote a file's text
+        from tactile.output.textout import printable  # a message may quote a file's text
 
         print(f"tactile {name}: error: {printable(str(exc))}", file=sys.stderr)
         return exc.exit_code

@@ -94,7 +94,7 @@ def add_dtheta(parser):
 
 def run_dtheta(args):
     _setup(args)
-    from tactile.jsonout import dumps
+    from tactile.output.jsonout import dumps
     from tactile_studies.ep1.plots import plot_optimal
     from tactile_studies.ep1.studies import study_optimal_dtheta
 

@@ -16,7 +16,7 @@ The probe log (written by the robot controller; ``tactile_sim``'s ``motion_roll`
 
 The times may be in the host's clocks instead (``t_start_utc_s,t_end_utc_s`` or
 ``t_start_mono_s,t_end_mono_s``), and ``# end: t_us=N`` says when the robot is done
-(``tactile.log_clock``).
+(``tactile.recording.log_clock``).
 
 Frames: the fingertip frame has the sensor's axes, its centre at ``centre_m`` in the sensor
 frame and its pole (u = v = 0 of eq. 20) along the sensor's +x.
@@ -27,12 +27,12 @@ from typing import NamedTuple
 import numpy as np
 
 from tactile.errors import InputError, where
-from tactile.robot_log import COLUMNS, tag
-from tactile.tabular import comment_lines, show
+from tactile.files.tabular import comment_lines, show
+from tactile.recording.robot_log import COLUMNS, tag
 
 __all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
 
-LOG_COLUMNS = COLUMNS["probe"]  # the format's (tactile.robot_log, which writes it too)
+LOG_COLUMNS = COLUMNS["probe"]  # the format's (tactile.recording.robot_log, which writes it too)
 PROBE_TAG, HOLD_TAG, END_TAG = tag("probe"), tag("hold"), tag("end")
 MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_PROBE = 2**31 - 1
@@ -117,8 +117,8 @@ def read_probe_log(path):
     """Read a probe log (module docstring); errors are one-line InputErrors naming
     file:line and column."""
     from tactile import units
-    from tactile.log_clock import CLOCKS, clock_of, parse_end, read_times
-    from tactile.tabular import preamble, read_csv
+    from tactile.files.tabular import preamble, read_csv
+    from tactile.recording.log_clock import CLOCKS, clock_of, parse_end, read_times
 
     units.check_stated(path, units.LOG_WORDS, units.LOG_WHAT)
     radius, centre, half = _header(path)

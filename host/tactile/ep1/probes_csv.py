@@ -15,7 +15,7 @@ __all__ = ["COLUMNS", "read_probes", "format_probes"]
 def read_probes(path):
     """Return (dtheta (m, 2), dp (m, 2)) arrays; errors are InputError naming file:line:column."""
     from tactile import units
-    from tactile.tabular import read_csv
+    from tactile.files.tabular import read_csv
 
     units.check_stated(path, {units.PROBES}, "a probes CSV holds angles in rad")
     table = read_csv(path, COLUMNS)

@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile import tabular
 from tactile.ep2 import extent
 from tactile.errors import InputError, where
-from tactile.tabular import show
-from tactile.tabular_blocks import CsvBlocks
+from tactile.files import tabular
+from tactile.files.tabular import show
+from tactile.files.tabular_blocks import CsvBlocks
 
 REQUIRED = ("x", "y", "z", "nx", "ny", "nz")
 MAX_BYTES = 16 * 2**30  # a streamed file (`ep2 analyze`)

@@ -2,7 +2,8 @@
 
 The F/T wire carries no pose: the robot controller logs, per finger, time windows in which
 the pose of that finger's sensor is held.  Two formats (CSV, ``#`` comment lines allowed; the
-columns, comment lines and time columns are ``tactile.robot_log``'s, which writes them too):
+columns, comment lines and time columns are ``tactile.recording.robot_log``'s, which writes them
+too):
 
 - generic (any robot): ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: the sensor
   frame's pose in the world during the window (position in metres, unit quaternion scalar
@@ -17,7 +18,7 @@ columns, comment lines and time columns are ``tactile.robot_log``'s, which write
 Times: ``t_start_us,t_end_us`` are the board's clock; a log stamped by the robot's own clock
 names it instead with ``t_start_utc_s,t_end_utc_s`` (UTC) or ``t_start_mono_s,t_end_mono_s``
 (the recording host's monotonic clock), joined through the recording's time base
-(``tactile.log_clock``).  ``# end: t_us=N`` (or ``t_utc_s=``, ``t_mono_s=``) says when the
+(``tactile.recording.log_clock``).  ``# end: t_us=N`` (or ``t_utc_s=``, ``t_mono_s=``) says when the
 robot is done; ``tactile record`` stops there.
 
 Placing CONTACT frames in the world through a log: ``tactile.localize.posed``.
@@ -27,13 +28,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile import robot_log, units
+from tactile import units
 from tactile.errors import InputError, where
-from tactile.tabular import show
+from tactile.files.tabular import show
+from tactile.recording import robot_log
 
 __all__ = ["PoseLog", "read_pose_log", "log_columns"]
 
-GENERIC = robot_log.COLUMNS["pose"]  # the format's columns (tactile.robot_log)
+GENERIC = robot_log.COLUMNS["pose"]  # the format's columns (tactile.recording.robot_log)
 SCARA = robot_log.COLUMNS["scara"]
 MAX_FINGER = 2**31 - 1  # a sensor index (generic log) or a pass number (SCARA log)
 LIMIT = 1e6  # |value| of a position (m), angle (rad), length (m) or sensor noise (N, N*m)
@@ -74,8 +76,8 @@ def read_pose_log(path):
 
     Every error is one ``InputError`` line naming file:line and the column.
     """
-    from tactile.log_clock import CLOCKS, clock_of, parse_end, read_times
-    from tactile.tabular import read_csv
+    from tactile.files.tabular import read_csv
+    from tactile.recording.log_clock import CLOCKS, clock_of, parse_end, read_times
 
     units.check_stated(path, units.LOG_WORDS, units.LOG_WHAT)
     tags, header_line, header = _scan(path)
@@ -132,7 +134,7 @@ def log_columns(path):
 def _scan(path):
     """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor, end) before the
     header, the header's line number and the header row."""
-    from tactile.tabular import preamble
+    from tactile.files.tabular import preamble
 
     comments, header_line, header = preamble(path)
     tags = {}
@@ -210,7 +212,7 @@ def _parse_rig(path, line, text):
 
 
 def _start_column(log):
-    from tactile.log_clock import CLOCKS
+    from tactile.recording.log_clock import CLOCKS
 
     return CLOCKS[log.clock][0]
 

@@ -16,7 +16,7 @@ import importlib
 import math
 import os
 
-from tactile import board_settings as bs
+from tactile.board import settings as bs
 from tactile_fw import calibration, settings
 from tactile_fw.board import boot_id_from
 from tactile_fw.frontend import ADDRESS_PLAN

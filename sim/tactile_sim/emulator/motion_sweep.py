@@ -39,7 +39,7 @@ Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``):
 
 import numpy as np
 
-from tactile.robot_log import write_log
+from tactile.recording.robot_log import write_log
 
 # Sensor axes in the object frame for an untwisted finger: pole +x_S = -z, y_S = +y, z_S = +x.
 _R0 = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
@@ -172,7 +172,8 @@ class SweepMotion:
         """The robot's pose log (host/tactile/localize/pose_log.py reads it), with the
         fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
         accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
-        scene's end (``# end:``), where ``tactile record`` stops (``tactile.robot_log``)."""
+        scene's end (``# end:``), where ``tactile record`` stops
+        (``tactile.recording.robot_log``)."""
         centre, radius, axis = self.probe()
         end_us = round(self.duration_s * 1e6)
         write_log(path, "pose", self.poses(), probe=(radius, centre, axis), sensor=self.noise,

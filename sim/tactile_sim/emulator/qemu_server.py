@@ -104,7 +104,7 @@ class QemuServer:
     def _run_out(self, end_us):
         """Fast mode's end: run the board until a frame stamped ``end_us`` or later has left
         its UART, so the frames its TX ring held at the end reach the host."""
-        from tactile.stream_decoder import StreamDecoder
+        from tactile.board.stream_decoder import StreamDecoder
 
         self._tail = (StreamDecoder(), end_us)
         deadline = time.monotonic() + RUN_OUT_S

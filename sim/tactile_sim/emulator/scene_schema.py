@@ -16,7 +16,7 @@ the file.
 import math
 import struct
 
-from tactile.board_settings import DEFAULTS, GATES, STREAMS, to_newtons
+from tactile.board.settings import DEFAULTS, GATES, STREAMS, to_newtons
 from tactile_fw import settings
 from tactile_protocol import constants as C
 from tactile_protocol.messages import BY_NAME

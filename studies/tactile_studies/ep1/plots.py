@@ -10,7 +10,7 @@ imported when one is called.
 import numpy as np
 
 from tactile.extras import pyplot
-from tactile.plots import log_ticks
+from tactile.output.plots import log_ticks
 
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
 

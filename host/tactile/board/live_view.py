@@ -7,7 +7,7 @@ bookkeeping: the CLI reads the port and draws.
 
 import math
 
-from tactile.board_settings import wrench_si
+from tactile.board.settings import wrench_si
 from tactile_protocol import constants as C
 
 

@@ -15,7 +15,8 @@ full``, ``file too large`` or ``write failed``) if it can still be written, and 
 raises ``HostFileError`` (exit 5): one line naming the file and what was kept.
 
 Time: every frame's arrival (the ``clock`` reading as its read returned) feeds the board ->
-host fit of ``tactile.timebase.RecordingClock``; frames.csv gets each row's host time as the
+host fit of ``tactile.recording.timebase.RecordingClock``; frames.csv gets each row's host time as
+the
 fit stands, and is rewritten with the final fit at the end; meta.json holds the mapping.
 
 A board silent for half a second is PINGed: its ACK's stamp is a point of the fit too.
@@ -29,11 +30,11 @@ import time
 from datetime import UTC, datetime
 
 from tactile import __version__
-from tactile.board_client import BoardClient, info_dict
+from tactile.board.client import BoardClient, info_dict
+from tactile.board.serial_port import open_port
 from tactile.errors import BoardError, HostFileError, PortError, PortLost
-from tactile.recording import Recording, WriteFailed
-from tactile.serial_port import open_port
-from tactile.timebase import RecordingClock
+from tactile.recording.files import Recording, WriteFailed
+from tactile.recording.timebase import RecordingClock
 from tactile_protocol import constants as C
 
 META_EVERY_S = 1.0
@@ -215,7 +216,7 @@ class Session:
         """What the run waits for, in words (None: a duration, a count or Ctrl-C)."""
         if self.until is None:
             return None
-        from tactile.log_clock import show_time
+        from tactile.recording.log_clock import show_time
 
         clock, end, _ = self.until
         left = self.until_left_s()
@@ -366,7 +367,7 @@ class Session:
 
     # -- metadata -------------------------------------------------------------------
     def meta(self):
-        """This session's entry in meta.json (``tactile.recording_meta`` adds the totals)."""
+        """This session's entry in meta.json (``tactile.recording.meta`` adds the totals)."""
         client = self.client
         info = client.info if client is not None else None
         s = self.stats

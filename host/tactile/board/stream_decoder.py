@@ -20,7 +20,7 @@ refusing it is not mistaken for loss.
 import struct
 from binascii import crc_hqx
 
-from tactile.messages import CLASSES, INVALID, Invalid
+from tactile.board.messages import CLASSES, INVALID, Invalid
 from tactile_protocol.constants import (
     CRC_SIZE,
     HEADER_SIZE,

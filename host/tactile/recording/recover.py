@@ -26,9 +26,10 @@ import pathlib
 import stat
 from array import array
 
-from tactile.board_settings import wrench_si
+from tactile.board.settings import wrench_si
 from tactile.errors import InputError
-from tactile.recording import (
+from tactile.files.tabular import Table
+from tactile.recording.files import (
     CAPTURE,
     DEVICE,
     FRAME_COLUMNS,
@@ -40,8 +41,7 @@ from tactile.recording import (
     cut_torn,
     read_frames,
 )
-from tactile.recording_meta import MAX_META_BYTES, count_rows, read_meta, sessions_of
-from tactile.tabular import Table
+from tactile.recording.meta import MAX_META_BYTES, count_rows, read_meta, sessions_of
 from tactile_protocol import constants as C
 
 CUT_SHORT = {"running", "error", "write failed", *WRITE_ENDS.values()}
@@ -195,7 +195,7 @@ def beyond(path, meta, table):
 
 def readings(path, meta):
     """Yield the SAMPLE and CONTACT messages of capture.bin, decoded session by session."""
-    from tactile.stream_decoder import StreamDecoder
+    from tactile.board.stream_decoder import StreamDecoder
 
     size = _capture_size(path)
     if not size:

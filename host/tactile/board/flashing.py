@@ -5,10 +5,10 @@ The board holds ``/lib/tactile_fw``, ``/lib/tactile_protocol`` and a two-line
 on a Linux controller (the ``tactile_fw.host_only`` subpackage) stay behind:
 only each package's top-level modules are copied.
 
-``flash`` works through mpremote's raw REPL (``tactile.raw_repl``), every step within a
+``flash`` works through mpremote's raw REPL (``tactile.board.raw_repl``), every step within a
 deadline, so it never hangs:
 
-1. **Break in** (``tactile.board_probe``): a board running the firmware, even one that
+1. **Break in** (``tactile.board.probe``): a board running the firmware, even one that
    streams from boot, is stopped and brought to its raw REPL; a port where no REPL answers
    ends in one line (exit 4) within ``PROBE_S``.
 2. **Choose the files**: ``sys.implementation._mpy`` says which .mpy the board loads; with
@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import tactile_fw
 import tactile_protocol
-from tactile import mpy_files
+from tactile.board import mpy_files
 from tactile.errors import BoardError, InputError, MissingExtra, PortError
 from tactile.extras import hint
 
@@ -67,9 +67,9 @@ def board_files():
     return out
 
 
-PROBE_S = 10.0  # to reach the raw REPL, or say what is there instead (tactile.board_probe)
+PROBE_S = 10.0  # to reach the raw REPL, or say what is there instead (tactile.board.probe)
 STEP_S = 10.0  # each exec on the board
-WAIT_S = 20.0  # the firmware to answer after the reset (tactile.firmware_answer)
+WAIT_S = 20.0  # the firmware to answer after the reset (tactile.board.firmware_answer)
 SHORTCUTS = {"a": "/dev/ttyACM{}", "u": "/dev/ttyUSB{}", "c": "COM{}"}  # mpremote's a0, u0, c0
 
 
@@ -313,7 +313,8 @@ def flash(port, mpy=None, n_sensors=1, wdt_ms=0, wait_s=WAIT_S, progress=None, n
     ``mpy``: None .mpy where it fits, True .mpy or an error, False .py sources.
     ``progress(done, total)``: bytes copied; ``note(line)``: what was chosen and why.
     """
-    from tactile import board_probe, firmware_answer, raw_repl
+    from tactile.board import firmware_answer, raw_repl
+    from tactile.board import probe as board_probe
 
     _check_options(n_sensors, wdt_ms)
     port = resolve(port)

@@ -9,7 +9,7 @@ The document keeps the keys one session always had, so a reader needs no second 
   ``samples`` the number of rows in ``frames.csv``;
 - the rest (``command``, ``port``, ``device``, ``ended``, ``time_base``, ...) is the latest
   session's;
-- ``time_base`` (``tactile.timebase``): the board -> host clock mapping, one entry per
+- ``time_base`` (``tactile.recording.timebase``): the board -> host clock mapping, one entry per
   segment of the board's clock (a boot), each with the frames.csv rows it covers
   (``first_row``, ``rows``), the mapping ``host_*_ref_s + (board_us - board_ref_us) * 1e-6 *
   (1 + drift_ppm * 1e-6)`` and its quality (``fit_floor_ms``, ``arrival_delay_*_ms``);
@@ -26,8 +26,8 @@ match the files.
 
 import math
 
-from tactile import bounded
 from tactile.errors import InputError
+from tactile.files import bounded
 
 MAX_META_BYTES = 64 * 2**20  # meta.json: a few kB, more with many gaps
 

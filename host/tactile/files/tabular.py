@@ -9,17 +9,17 @@ at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most ``MAX_R
 rows.  UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; lines end in
 LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.  A reader of the
 project's own larger files (a recording's frames.csv) may raise the byte and row limits.
-Files are opened by ``tactile.bounded``; the dialect (quotes, ``# units:`` lines, columns
-named twice, ASCII decimal numbers) is ``tactile.csv_dialect``'s.
+Files are opened by ``tactile.files.bounded``; the dialect (quotes, ``# units:`` lines, columns
+named twice, ASCII decimal numbers) is ``tactile.files.csv_dialect``'s.
 """
 
 import contextlib
 import csv
 from array import array
 
-from tactile import bounded
-from tactile.csv_dialect import UnitsRule, csv_error, number, show
 from tactile.errors import InputError, where
+from tactile.files import bounded
+from tactile.files.csv_dialect import UnitsRule, csv_error, number, show
 
 __all__ = [
     "MAX_FILE_BYTES",
@@ -197,7 +197,8 @@ def comment_lines(path):
 
 def _open(path, max_bytes=None):
     """A binary handle on a regular file within ``max_bytes`` (default ``MAX_FILE_BYTES``),
-    or ``InputError`` (``tactile.bounded``: a FIFO is refused without waiting for a writer)."""
+    or ``InputError`` (``tactile.files.bounded``: a FIFO is refused without waiting for a
+    writer)."""
     max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
     return bounded.open_regular(path, max_bytes, "a CSV", _SPLIT)
 

@@ -17,9 +17,9 @@ import contextlib
 import functools
 import time
 
+from tactile.board.serial_port import describe_lost, open_port
 from tactile.errors import BoardError, PortError, PortLost, TactileError
 from tactile.extras import need
-from tactile.serial_port import describe_lost, open_port
 
 READ_TIMEOUT_S = 2.0  # mpremote's own reads (a raw-paste window, "OK"): at most this long
 POLL_S = 0.002  # read_until's look at the port while nothing is waiting
@@ -111,7 +111,7 @@ class Session:
 
     @property
     def serial(self):
-        """The open pyserial port (``tactile.board_probe`` talks to it before the REPL)."""
+        """The open pyserial port (``tactile.board.probe`` talks to it before the REPL)."""
         return self.t.serial
 
     @contextlib.contextmanager

@@ -14,10 +14,10 @@ traceback's last line, when the firmware failed to start).
 
 import time
 
-from tactile.board_client import BoardClient
+from tactile.board.client import BoardClient
+from tactile.board.serial_port import open_port
 from tactile.errors import BoardTimeout, PortError, PortLost
-from tactile.serial_port import open_port
-from tactile.textout import printable
+from tactile.output.textout import printable
 
 SETTLE_S = 0.3  # after the reset, before looking for the port
 ASK_GONE_S = 1.0  # the port went and came back: ask after this long

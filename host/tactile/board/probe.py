@@ -13,15 +13,15 @@ banner; ``break_in`` returns once it has come.  Everything else ends within
 - nothing at all;
 - bytes that are neither, shown escaped.
 
-A port that fails while it is probed is ``PortLost``, as in ``tactile.board_client``; one
-that cannot be opened is ``tactile.serial_port``'s business.
+A port that fails while it is probed is ``PortLost``, as in ``tactile.board.client``; one
+that cannot be opened is ``tactile.board.serial_port``'s business.
 """
 
 import time
 
-from tactile.board_client import BoardClient
+from tactile.board.client import BoardClient
+from tactile.board.serial_port import describe_lost
 from tactile.errors import BoardError, PortLost, TactileError
-from tactile.serial_port import describe_lost
 
 BREAK = b"\x00\r\x03"  # end a partial frame; CR, Ctrl-C (BREAK_IN's first two bytes)
 RAW = b"\r\x01"  # CR (BREAK_IN's third); Ctrl-A: the raw REPL

@@ -11,9 +11,9 @@ log's header says what it is:
   (``tactile.ep1.from_ft``) -> ``probes.csv``.
 
 The CONTACT frames come from ``capture.bin`` (the recording's source of truth).  A log
-stamped in a host clock (UTC or monotonic, ``tactile.log_clock``) is joined through the
+stamped in a host clock (UTC or monotonic, ``tactile.recording.log_clock``) is joined through the
 time base in ``meta.json``: each frame's board stamp becomes that clock's time
-(``tactile.timebase.recorded_times``).
+(``tactile.recording.timebase.recorded_times``).
 
 When fewer than half the readings are localised, a ``warning:`` line says so and counts
 where the rest went (outside every window, below the gate, off the probe, too noisy), with
@@ -24,7 +24,7 @@ import pathlib
 
 import numpy as np
 
-from tactile import board_settings
+from tactile.board import settings as board_settings
 from tactile.errors import DataError, InputError
 from tactile_protocol import constants as C
 
@@ -88,10 +88,10 @@ def _gate(meta):
 
 def derive(outdir, pose_log, per_contact=None):
     """Write contacts.csv or probes.csv into ``outdir``; return lines to print."""
-    from tactile import bounded
+    from tactile.board.stream_decoder import decode_bytes
+    from tactile.files import bounded
     from tactile.localize.pose_log import log_columns
-    from tactile.recording_meta import read_meta
-    from tactile.stream_decoder import decode_bytes
+    from tactile.recording.meta import read_meta
 
     outdir = pathlib.Path(outdir)
     columns = log_columns(pose_log)
@@ -105,7 +105,7 @@ def derive(outdir, pose_log, per_contact=None):
         messages, _ = decode_bytes(data)
         times = None
     else:
-        from tactile.timebase import recorded_times
+        from tactile.recording.timebase import recorded_times
 
         messages, times = recorded_times(data, meta, clock, outdir)
     threshold, gate = _gate(meta)
@@ -115,7 +115,7 @@ def derive(outdir, pose_log, per_contact=None):
 
 
 def _log_clock(pose_log, columns):
-    from tactile.log_clock import clock_of
+    from tactile.recording.log_clock import clock_of
 
     return clock_of(pose_log, None, columns) or "board"
 

@@ -1,4 +1,4 @@
-"""The strict CSV dialect every reader of ``tactile.tabular`` holds a file to.
+"""The strict CSV dialect every reader of ``tactile.files.tabular`` holds a file to.
 
 - Quotes: a quoted cell may span lines, but one still open at the end of the file (an
   unterminated quote, which would take in the rest of the file) is refused at the line it

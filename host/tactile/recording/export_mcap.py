@@ -11,7 +11,7 @@
   carries no times, so the one message is stamped at the recording's first frame and a
   player shows it throughout.
 - Stamps (``header.stamp`` and each message's log time): the host's UTC (Unix time, as ROS
-  stamps) when every row has one (``tactile.recording_load``), else the board's clock
+  stamps) when every row has one (``tactile.recording.load``), else the board's clock
   (seconds since its segment's first frame's epoch: its boot).  The metadata record
   ``tactile`` says which, and why, with the units, topics and source.
 

@@ -1,6 +1,6 @@
 """Opening a file the host does not trust: a regular file, read within a stated bound.
 
-Every reader of a user-supplied path goes through here (CSV through ``tactile.tabular``,
+Every reader of a user-supplied path goes through here (CSV through ``tactile.files.tabular``,
 calibrations, ``meta.json``, scenes, a recording's capture):
 
 - ``open_regular(path, max_bytes, what)``: a binary handle, opened non-blocking so that a

@@ -25,7 +25,10 @@ Invalid frames in a stream are passed on, counted, never acted on.
 import logging
 import time
 
-from tactile import board_settings
+from tactile.board import settings as board_settings
+from tactile.board.messages import INVALID
+from tactile.board.serial_port import describe_lost
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import (
     BoardError,
     BoardTimeout,
@@ -34,9 +37,6 @@ from tactile.errors import (
     ProtocolVersionError,
     TactileError,
 )
-from tactile.messages import INVALID
-from tactile.serial_port import describe_lost
-from tactile.stream_decoder import StreamDecoder
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
 
@@ -144,7 +144,7 @@ class BoardClient:
     def read_timed(self):
         """(messages, their arrival times) received since the last call, the backlog first.
         A message's arrival is the ``clock`` reading taken as the read that completed it
-        returned: what ``tactile.timebase`` fits the board's clock to."""
+        returned: what ``tactile.recording.timebase`` fits the board's clock to."""
         out, times = self._take_backlog()
         new = self._pull()
         return out + new, times + [self.pulled_at] * len(new)

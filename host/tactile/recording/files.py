@@ -7,7 +7,8 @@ Files (``tactile record -o DIR``):
 - ``frames.csv``: ``# units: N, N*m, us, s``, then one row per SAMPLE or CONTACT frame, SI
   units, appended and flushed; each row has the board's stamp (``timestamp_us``) and the
   host's time of it, monotonic and UTC (``host_monotonic_s``, ``host_utc_s``, from
-  ``tactile.timebase``): written with the fit as it stands, and rewritten with the final fit
+  ``tactile.recording.timebase``): written with the fit as it stands, and rewritten with the final
+  fit
   when the recording ends (``rewrite_host``).
 - ``device.jsonl``: the other frames (HELLO, INFO, STATUS, NAK) as JSON lines.
 - ``meta.json``: device INFO, configuration, calibration ids, counters, gaps;
@@ -22,8 +23,8 @@ file's length (no new space needed); otherwise the old one stays.  No temporary 
 A directory that already holds a capture is refused unless ``append`` is set; then the
 new bytes follow the old ones and nothing recorded is ever lost: a run cut short has its
 torn last row cut and frames.csv completed from capture.bin first
-(``tactile.recording_recover``), and meta.json keeps one entry per session with totals
-over them (``tactile.recording_meta``).
+(``tactile.recording.recover``), and meta.json keeps one entry per session with totals
+over them (``tactile.recording.meta``).
 """
 
 import contextlib
@@ -37,10 +38,10 @@ import stat
 import numpy as np
 
 from tactile import units
-from tactile.board_settings import wrench_si
+from tactile.board.settings import wrench_si
 from tactile.errors import HostFileError, InputError
-from tactile.jsonout import clean, dumps
-from tactile.recording_meta import count_rows, document, previous_sessions
+from tactile.output.jsonout import clean, dumps
+from tactile.recording.meta import count_rows, document, previous_sessions
 from tactile_protocol import constants as C
 
 FRAME_COLUMNS = (
@@ -114,7 +115,7 @@ class Recording:
             )
         self.capture_offset = capture.stat().st_size if capture.exists() else 0
         if self.capture_offset:
-            from tactile.recording_recover import complete_frames
+            from tactile.recording.recover import complete_frames
 
             _check_columns(self.dir / FRAMES)
             complete_frames(self.dir)  # a torn or short frames.csv made whole first
@@ -324,7 +325,7 @@ def remove_recording(outdir):
         (pathlib.Path(outdir) / name).unlink(missing_ok=True)
 
 
-# --- reading frames.csv back (``tactile.recording_load``) ------------------------------------
+# --- reading frames.csv back (``tactile.recording.load``) ------------------------------------
 
 FRAME_NUMBERS = (
     "seq",
@@ -345,7 +346,7 @@ def read_frames(path, end=None):
     """frames.csv as a ``tabular.Table`` (``FRAME_NUMBERS``, ``FRAME_BLANKS`` as NaN where
     empty, ``type`` as text), after checking that a ``# units:`` line names SI units;
     ``end``: only its first ``end`` bytes."""
-    from tactile.tabular import read_csv
+    from tactile.files.tabular import read_csv
 
     units.check_stated(path, units.FRAME_WORDS, "frames.csv holds N, N*m, us and s (SI)")
     return read_csv(

@@ -4,12 +4,12 @@ A device's strings (``sensor_model``) are not trusted: one carrying ESC sequence
 or a newline would repaint the user's terminal or forge output lines.
 ``printable`` escapes every non-printable character (``\\x1b``, ``\\n``, ``\\x7f``,
 ``\\u2028``...).  ``value`` applies the project's one rule for numbers as well: a
-non-finite float is ``null`` in text as in ``--json`` (``tactile.jsonout.clean``).
+non-finite float is ``null`` in text as in ``--json`` (``tactile.output.jsonout.clean``).
 Every text output of device data goes through here; JSON output is escaped by
 ``json`` itself.
 """
 
-from tactile.jsonout import clean
+from tactile.output.jsonout import clean
 
 
 def printable(text):

@@ -50,9 +50,9 @@ def require_matplotlib():
 
 def plain_text(text):
     """``text`` from a file, as a label drawn as written: non-printable characters escaped
-    as on the terminal (``tactile.textout``), characters the font has no glyph for as
+    as on the terminal (``tactile.output.textout``), characters the font has no glyph for as
     ``\\uXXXX`` (matplotlib would warn and draw a box), ``$`` not starting mathtext."""
-    from tactile.textout import printable
+    from tactile.output.textout import printable
 
     have = _glyphs()
     text = printable(str(text))

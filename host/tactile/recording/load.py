@@ -2,17 +2,17 @@
 
 It reads what the recorder wrote, through the modules that own each file:
 
-- ``frames.csv`` (``tactile.recording.read_frames``): one row per SAMPLE or CONTACT frame,
+- ``frames.csv`` (``tactile.recording.files.read_frames``): one row per SAMPLE or CONTACT frame,
   forces in N, torques in N*m, the board's stamp in us and, from a recorder that maps the
   board's clock to the host's, the host time of each row (``host_monotonic_s``,
   ``host_utc_s``);
-- ``meta.json`` (``tactile.recording_meta``): the sessions and, from such a recorder, the
+- ``meta.json`` (``tactile.recording.meta``): the sessions and, from such a recorder, the
   mapping itself (``time_base``: one line per run of the board's clock);
 - ``contacts.csv`` when there is one (the EP2 contacts CSV, ``tactile.ep2.contacts_csv``):
   world points, converted to metres by its ``# units:`` line, and unit normals.
 
 ``capture.bin`` holds the same frames as frames.csv; it is read only for a run cut short
-(``tactile.recording_recover``): meta.json missing or unreadable, frames.csv missing, torn
+(``tactile.recording.recover``): meta.json missing or unreadable, frames.csv missing, torn
 or short of what capture.bin holds.  The readings taken from it follow frames.csv's whole
 rows, and ``notes`` says what was rebuilt, one sentence each.
 
@@ -40,9 +40,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.errors import InputError
-from tactile.recording import META
-from tactile.recording_meta import sessions_of
-from tactile.recording_recover import frames_of, meta_of
+from tactile.recording.files import META
+from tactile.recording.meta import sessions_of
+from tactile.recording.recover import frames_of, meta_of
 from tactile_protocol import constants as C
 
 __all__ = ["Contacts", "RecordingData", "load_recording"]
@@ -292,7 +292,7 @@ def _missing(known, what, meta):
 def _contacts(path, meta):
     """(``Contacts`` or None, why None)."""
     from tactile.ep2.contacts_csv import REQUIRED
-    from tactile.tabular import read_csv
+    from tactile.files.tabular import read_csv
 
     csv_path = path / CONTACTS
     if not csv_path.exists():

@@ -9,7 +9,7 @@ A pose or probe log names its clock by its time columns:
   (CLOCK_MONOTONIC: ROS steady time, for a robot logging on the same computer).
 
 A host-clock log is joined to the frames through the recording's time base (``meta.json``,
-``tactile.timebase``).  Inside, every time is held as whole microseconds (int64) of its
+``tactile.recording.timebase``).  Inside, every time is held as whole microseconds (int64) of its
 clock.
 
 A log may say when its robot is done with ``# end: t_us=N`` (or ``t_utc_s=``, ``t_mono_s=``,
@@ -20,9 +20,9 @@ frames.  The emulator writes the line with its scene's end.
 
 import numpy as np
 
-from tactile import robot_log
 from tactile.errors import InputError, where
-from tactile.tabular import show
+from tactile.files.tabular import show
+from tactile.recording import robot_log
 
 MAX_BOARD_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_HOST_S = 1e10  # s: UTC until the year 2286, or a monotonic clock up for 317 years

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.csv_dialect import UnitsRule, csv_error
 from tactile.errors import InputError, where
-from tactile.tabular import (
+from tactile.files.csv_dialect import UnitsRule, csv_error
+from tactile.files.tabular import (
     MAX_LINE_BYTES,
     cell_at,
     count_lines,

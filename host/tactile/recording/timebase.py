@@ -6,7 +6,8 @@ gives each message its **segment** (one per boot seen: a new ``boot_id`` in HELL
 a HELLO whose clock went back) and its **unwrapped** board time within that segment (the
 raw stamp plus 2^32 per wrap, counted from the segment's first frame).  Given arrival
 times (``tactile record``), each segment also gathers the points of its board -> host fit
-(``tactile.timefit``); given none (a replay), it only numbers and unwraps, by the same rule,
+(``tactile.recording.timefit``); given none (a replay), it only numbers and unwraps, by the same
+rule,
 so a replay of ``capture.bin`` finds the segments the recorder found.
 
 ``Segment.to_meta`` is the segment's entry in ``meta.json``'s ``time_base``;
@@ -22,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.timefit import BIN_S, TAU, BinMinima, fit
+from tactile.recording.timefit import BIN_S, TAU, BinMinima, fit
 from tactile_protocol import constants as C
 
 WRAP = C.TIMESTAMP_MODULO  # 2^32 us
@@ -32,7 +33,7 @@ HALF = WRAP // 2
 MAX_DRIFT_PPM = 1000.0
 METHOD = (
     f"the {TAU:.0%} quantile line of each bin's least (arrival - board time), bins of"
-    f" {BIN_S:g} s or wider (tactile.timefit)"
+    f" {BIN_S:g} s or wider (tactile.recording.timefit)"
 )
 
 
@@ -267,8 +268,8 @@ def recorded_times(data, meta, clock, where="recording"):
 
     Raises ``DataError`` when no message has a time (a recording without a time base, or an
     emulator in fast mode, whose clock is not the host's)."""
+    from tactile.board.stream_decoder import decode_bytes
     from tactile.errors import DataError
-    from tactile.stream_decoder import decode_bytes
 
     sessions = meta.get("sessions", [meta]) if isinstance(meta, dict) else []
     messages, times, why, offset = [], [], [], 0

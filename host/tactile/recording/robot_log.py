@@ -12,7 +12,8 @@ The F/T wire carries no pose, so a robot controller logs what it did beside the 
   time in the hold at its start and at its end, and the commanded rotation (rad).
 
 Times name their clock (``CLOCKS``): the board's (``t_start_us,t_end_us``), UTC or the
-recording host's monotonic clock (seconds; ``tactile.log_clock`` joins them through the time
+recording host's monotonic clock (seconds; ``tactile.recording.log_clock`` joins them through the
+time
 base).  Comment lines (``TAGS``): ``# probe: sphere radius_m=R centre_m=cx,cy,cz
 [axis=ax,ay,az]`` (the fingertip in the sensor frame), ``# rig: scara L1=.. L2=.. L3=.. L4=..``
 (m), ``# sensor: noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz`` (1 sigma per axis),

@@ -1,0 +1,3 @@
+"""Files the host reads, trusted no further than their bounds: ``bounded`` (regular files
+of a stated size, JSON without recursion or giant integers), ``csv_dialect`` (the strict
+CSV dialect), ``tabular`` and ``tabular_blocks`` (tables with their units line)."""
