@@ -84,14 +84,10 @@ def library():
 def mirrorable(buses):
     """Whether ``AdcBank`` can hold these buses (else the callbacks serve them)."""
     adcs = [d for bus in buses for d in bus.devices.values()]
+    if len(buses) > BUSES or len(adcs) > ADCS or any(type(a) is not ADS122C04Model for a in adcs):
+        return False
     models = {getattr(a.source, "gauges", None) for a in adcs}
-    return (
-        len(buses) <= BUSES
-        and len(adcs) <= ADCS
-        and len(models) <= MODELS
-        and all(type(a) is ADS122C04Model for a in adcs)
-        and len({a.clock_us for a in adcs}) <= 1
-    )
+    return len(models) <= MODELS and len({a.clock_us for a in adcs}) <= 1
 
 
 class AdcBank:
