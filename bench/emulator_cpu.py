@@ -9,6 +9,8 @@ the transducer, ADC and I2C models, the firmware and the encoder).  ``x real tim
 that rate over sensors x rate: below 1 the board cannot keep real time on one core, and
 in real time it then falls behind and flags late samples (docs/emulator.md).  The cores
 take turns, so their ratio is measured under the same load; the best of ``--repeat``.
+Core ``c`` answers the converters' reads in C (``emulator/adc_bank``); ``c-callbacks`` is
+the same core with a Python callback per I2C transaction (``cores.C_I2C``), as before.
 """
 
 import argparse
@@ -39,7 +41,8 @@ def scene(sensors, rate_hz):
 
 def run(sensors, rate_hz, seconds, core):
     """(samples taken, CPU s) for ``seconds`` of scene time."""
-    board = EmulatedBoard(scene(sensors, rate_hz), core=core)
+    cores.C_I2C = "callbacks" if core == "c-callbacks" else "bank"
+    board = EmulatedBoard(scene(sensors, rate_hz), core=core.split("-")[0])
     board.run_until(100_000)  # (boot, first conversions)
     board.read_host()
     start, taken = time.process_time(), board.board.samples
@@ -60,7 +63,7 @@ def main():
     use = ["python"]
     try:
         cores.c_library()
-        use.append("c")
+        use += ["c-callbacks", "c"]
     except cores.CoreUnavailable as exc:
         print(f"(no C core: {exc})")
     print("| sensors | rate Hz | core | samples / CPU s | needed / s | x real time |")

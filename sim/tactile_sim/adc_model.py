@@ -17,6 +17,10 @@ derived once per change, in ``_configure``, after RESET and WREG (the only
 ways the part's registers change) and when one of the three analog settings
 outside them (``conv_period_override``, ``vref_external``, ``avdd``, all
 properties) is set.  Runs on MicroPython too (tests/test_fw_micropython.py).
+
+``watch``: None or ``f(model)``, called when something outside the I2C transactions
+changes the model (a fault knob, the source, an analog setting, a RESET or WREG): the
+emulator's C mirror of the converters (``emulator/adc_bank``) takes the change then.
 """
 
 CMD_RESET = 0x06
@@ -34,14 +38,47 @@ _DATA = -1  # ``_ptr`` value: the next read returns the conversion result
 
 class ADS122C04Model:
     def __init__(self, clock_us, source=None, vref_external=3.3, avdd=3.3, conv_period_us=None):
+        self.watch = None
         self.clock_us = clock_us
-        self.source = source or (lambda t: 0.0)
+        self._source = source or (lambda t: 0.0)
         self._vref_external = vref_external
         self._avdd = avdd
         self._override = conv_period_us
-        self.stuck_drdy = False
-        self.saturate = 0
+        self._stuck = False
+        self._saturate = 0
         self.reset()
+
+    def _changed(self):
+        if self.watch is not None:
+            self.watch(self)
+
+    # --- fault knobs and the analog input: a change is reported to ``watch`` ----------
+    @property
+    def stuck_drdy(self):
+        return self._stuck
+
+    @stuck_drdy.setter
+    def stuck_drdy(self, stuck):
+        self._stuck = stuck
+        self._changed()
+
+    @property
+    def saturate(self):
+        return self._saturate
+
+    @saturate.setter
+    def saturate(self, sign):
+        self._saturate = sign
+        self._changed()
+
+    @property
+    def source(self):
+        return self._source
+
+    @source.setter
+    def source(self, fn):
+        self._source = fn
+        self._changed()
 
     # --- settings outside the registers: changing one re-derives the cache ------------
     @property
@@ -94,6 +131,7 @@ class ADS122C04Model:
             VREF_INTERNAL_V if sel == 0 else self._vref_external if sel == 1 else self._avdd
         )
         self._fs = self.vref_v / self.pga_gain
+        self._changed()
 
     def gain(self):
         return self.pga_gain
@@ -109,7 +147,7 @@ class ADS122C04Model:
 
     def conversions(self):
         """Conversions completed since START (single-shot stops after one)."""
-        if not self.running or self.stuck_drdy:  # stuck: no conversion completes
+        if not self.running or self._stuck:  # stuck: no conversion completes
             return self.n_read
         n = int((self.clock_us() - self.t_start) // self.period)
         if n > 1 and not self.continuous:
@@ -146,6 +184,7 @@ class ADS122C04Model:
             self.regs[reg] = value
             self._configure()
         # anything else: the part ignores it
+        self._changed()
 
     def read_into(self, buf):
         """A plain read: what the last RDATA or RREG pointed at (CONFIG0 after RESET)."""
@@ -173,10 +212,10 @@ class ADS122C04Model:
             self._ptr = _DATA
             n = self.conversions()
             if n > 0 and n != self.n_read:
-                if self.saturate:
-                    self.code = CODE_MAX if self.saturate > 0 else CODE_MIN
+                if self._saturate:
+                    self.code = CODE_MAX if self._saturate > 0 else CODE_MIN
                 else:
-                    self.code = self.code_for(self.source(self.t_start + n * self.period))
+                    self.code = self.code_for(self._source(self.t_start + n * self.period))
             self.n_read = n
             u = self.code & 0xFFFFFF
             if len(buf) >= 3:

@@ -45,14 +45,15 @@ def compiler():
     raise NoCompiler("no C compiler (cc, gcc or clang) on PATH: install build-essential")
 
 
-def build(out_dir, flags=CFLAGS, extra=(), name="libtactile_core.so"):
+def build(out_dir, flags=CFLAGS, extra=(), name="libtactile_core.so", files=None):
     """Compile the core as a shared library in ``out_dir``; its path (reused if current).
 
     ``name`` may hold ``{digest}``, replaced by a hash of the sources and flags: a cache
     shared by checkouts of different sources then keeps one library per version.
+    ``files``: other translation units instead of the core's (a host-only helper).
     """
     cc = compiler()
-    files = sources()
+    files = sources() if files is None else [pathlib.Path(f) for f in files]
     digest = hashlib.sha256()
     for f in [*files, *sorted(SRC.glob("*.h"))]:
         digest.update(f.read_bytes())
@@ -232,7 +233,11 @@ class CBoard:
     """The C board on injected hardware; the same constructor knobs as ``Board``.
 
     ``buses``: machine.I2C-style objects by bus number; ``layout``: one ``(bus, slot)``
-    or ``(bus, slot, bus_hz)`` per sensor (``frontend.ADDRESS_PLAN[slot]``).
+    or ``(bus, slot, bus_hz)`` per sensor (``frontend.ADDRESS_PLAN[slot]``).  ``i2c``: None,
+    or what answers the core's I2C calls in C before they reach ``buses``:
+    ``i2c.attach(write, read)`` takes the HAL's Python I2C callbacks (for what it leaves
+    to them) and gives ``(ctx, write, read)`` to install; ``i2c.enter()`` and
+    ``i2c.leave()`` bracket each call into the core.
     """
 
     def __init__(
@@ -249,15 +254,12 @@ class CBoard:
         tx_size=4096,
         boot_id=0,
         ticks_bits=TICKS_BITS,
+        i2c=None,
     ):
-        self.lib, self.buses, self.link, self.clock, self.storage = (
-            lib,
-            buses,
-            link,
-            clock,
-            storage,
-        )
+        self.lib, self.buses, self.link = lib, buses, link
+        self.clock, self.storage = clock, storage
         self.n = len(layout)
+        self._i2c = i2c
         self._error = None  # an exception raised inside a callback, re-raised after the call
         self._mem = ctypes.create_string_buffer(lib.tc_board_size())
         self._tx = (ctypes.c_uint8 * tx_size)()
@@ -276,8 +278,7 @@ class CBoard:
         cfg.tx_buf = ctypes.cast(self._tx, _pu8)
         cfg.tx_size = tx_size
         self._hal = self._make_hal()
-        r = lib.tc_board_init(self._mem, ctypes.byref(cfg), ctypes.byref(self._hal))
-        self._raise()
+        r = self._call(lib.tc_board_init, self._mem, ctypes.byref(cfg), ctypes.byref(self._hal))
         if r:
             raise ValueError("C board refused its configuration: %s" % INIT_ERRORS[r])
 
@@ -350,21 +351,36 @@ class CBoard:
             OPENED(self._guard(opened, 0)) if hasattr(self.link, "opened") else OPENED(),
             STREAMING(self._guard(streaming, 0)) if hook is not None else STREAMING(),
         )
-        return Hal(None, *self._callbacks)
+        hal = Hal(None, *self._callbacks)
+        if self._i2c is not None:
+            ctx, w, r = self._i2c.attach(hal.i2c_write, hal.i2c_read)
+            hal.ctx, hal.i2c_write, hal.i2c_read = ctx, I2C_WRITE(w), I2C_READ(r)
+        return hal
 
     def _raise(self):
         if self._error is not None:
             exc, self._error = self._error, None
             raise exc
 
+    def _call(self, fn, *args):
+        """``fn(*args)`` into the core, bracketed for ``i2c``; a callback's exception raised."""
+        if self._i2c is None:
+            r = fn(*args)
+        else:
+            self._i2c.enter()
+            try:
+                r = fn(*args)
+            finally:
+                self._i2c.leave()
+        self._raise()
+        return r
+
     # --- the Board's entry points -----------------------------------------------------
     def boot(self):
-        self.lib.tc_board_boot(self._mem)
-        self._raise()
+        self._call(self.lib.tc_board_boot, self._mem)
 
     def poll(self):
-        self.lib.tc_board_poll(self._mem)
-        self._raise()
+        self._call(self.lib.tc_board_poll, self._mem)
 
     def idle_us(self):
         d = self.lib.tc_board_idle_us(self._mem)

@@ -3,9 +3,9 @@
 - ``python``: ``tactile_fw.board.Board``, the MicroPython firmware, on the simulated buses;
 - ``c``: the C core (``firmware/c``) built by ``cc`` into ``$XDG_CACHE_HOME/tactile/ccore``
   (once per version of its sources, named by their hash) and driven through ctypes
-  (``tactile_fw.host_only.ccore``): its HAL's I2C callbacks reach the same simulated buses
-  and ADC models; its byte link, clock and flash are the same ``PipeLink``,
-  ``ManualClock`` and ``MemoryStorage``.
+  (``tactile_fw.host_only.ccore``): its HAL's I2C calls reach the same simulated buses
+  and ADC models (the sampling reads answered by their C mirror, ``adc_bank``); its byte
+  link, clock and flash are the same ``PipeLink``, ``ManualClock`` and ``MemoryStorage``.
 
 Both take the same arguments and give an object with ``boot``, ``poll``, ``idle_us``,
 ``max_rate_hz`` and the STATUS counters, so nothing above this module knows which runs;
@@ -25,6 +25,7 @@ from tactile.errors import BoardError
 CORES = ("python", "c")  # a scene's [board] core, sim://?core=
 SERVED = (*CORES, "qemu", "rp2040")  # also on a pty only: QEMU's image, the emulated Pico
 DEFAULT_CORE = "python"
+C_I2C = "bank"  # or "callbacks": the C core's I2C through Python per transaction (tests)
 
 
 class CoreUnavailable(BoardError):
@@ -60,10 +61,25 @@ def python_board(buses, layout, link, clock, storage, **kw):
     return Board(sensors, link, clock, storage, **kw)
 
 
+def c_i2c(buses):
+    """What answers the C core's I2C: the converters mirrored in C (``adc_bank``) when
+    ``C_I2C`` is ``"bank"`` and they can be, else None (a Python callback per transaction)."""
+    from tactile_fw.host_only import ccore
+    from tactile_sim.emulator import adc_bank
+
+    if C_I2C != "bank" or not adc_bank.mirrorable(buses):
+        return None
+    try:
+        return adc_bank.AdcBank(buses)
+    except (ccore.NoCompiler, ccore.CoreBuildError, OSError) as exc:
+        raise CoreUnavailable(f"core 'c': cannot build the emulator's ADC bank: {exc}") from None
+
+
 def c_board(buses, layout, link, clock, storage, **kw):
     from tactile_fw.host_only.ccore import CBoard
 
-    return CBoard(c_library(), buses, layout, link, clock, storage, **kw)
+    lib = c_library()
+    return CBoard(lib, buses, layout, link, clock, storage, i2c=c_i2c(buses), **kw)
 
 
 def qemu_board(buses, layout, link, clock, storage, **kw):

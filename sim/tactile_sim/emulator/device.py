@@ -139,6 +139,7 @@ class EmulatedBoard:
         def volts(t_us):
             return values(t_us)[j] * adc.vref_v / adc.pga_gain / FULL_SCALE_CODES
 
+        volts.gauges, volts.gauge, volts.adc = values, j, adc  # for adc_bank's mirror
         return volts
 
     def _now(self):
