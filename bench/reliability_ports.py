@@ -207,11 +207,56 @@ def probe_swap(tmp):
     )
 
 
+def probe_nobody_reads(tmp):
+    """An emulator as fast as possible with nobody on its pty ran forever."""
+    whys = []
+    for core in ("python", "qemu"):
+        try:
+            code, _, err = tactile("emulate", "press", "--core", core, "--fast", "--duration", 1,
+                                   "--now", timeout=60)  # fmt: skip
+        except subprocess.TimeoutExpired:
+            whys.append(f"{core}: still running after 60 s")
+            continue
+        if "qemu" in err and code == 2:  # no cross-compiler or QEMU here: not this probe's
+            continue
+        whys.append(one_line(code, err, 0) and f"{core}: {one_line(code, err, 0)}")
+    return (
+        "`emulate press --fast --duration 1 --now` with nobody on the pty (python, qemu core)",
+        "ends at its duration within seconds (was: ran forever, printing nothing)",
+        outcome(*whys),
+    )
+
+
+def probe_silent_board(tmp):
+    """A board that sends HELLO and then nothing, not even an ACK: a hung firmware."""
+    from tactile_sim.emulator.dying import DyingBoard
+
+    board = DyingBoard(at_command=10**9)  # never dies: it hangs instead
+    emulated, said, opened = board.server.board, board.server.board.read_host, []
+    open_port = emulated.host_opened
+    emulated.host_opened = lambda: (opened.append(emulated.t_us), open_port())
+    # 0.3 s after the host came (HELLO, its setup, a few readings), nothing more leaves it
+    emulated.read_host = lambda: b"" if opened and emulated.t_us > opened[0] + 3e5 else said()
+    out = tmp / "silent"
+    try:
+        code, _, err = tactile("record", "--port", board.path, "--duration", 30, "--no-tare",
+                               "-o", out, "--quiet", timeout=60)  # fmt: skip
+    finally:
+        board.join()
+    why = one_line(code, err, 4) or ("" if "said nothing for 5 s" in err else err.strip())
+    return (
+        "`record` from a board that hangs after HELLO and its setup: no frame, no PING reply",
+        "exit 4 within seconds, one line (was: exit 0, '0 readings' and a drift figure)",
+        outcome(why),
+    )
+
+
 def probes():
     with tempfile.TemporaryDirectory(prefix="reliability_ports_") as tmp:
         tmp = Path(tmp)
         yield from probe_commands(tmp)
-        for probe in (probe_live_killed, probe_reboot, probe_never_back, probe_append, probe_swap):
+        for probe in (probe_live_killed, probe_reboot, probe_never_back, probe_append, probe_swap,
+                      probe_nobody_reads, probe_silent_board):  # fmt: skip
             yield probe(tmp)
 
 
