@@ -286,3 +286,30 @@ def test_the_sdk_drops_for_a_client_that_cannot_keep_up():
         client.ws.close()
     finally:
         server.close()
+
+
+def test_the_shipped_layout_reads_topics_we_publish():
+    from conftest import ROOT
+
+    from tactile.topics import CONTACTS_TOPIC, contact_topic, wrench_topic
+
+    ours = {wrench_topic(0), contact_topic(0), CONTACTS_TOPIC}
+    text = (ROOT / "docs" / "foxglove_layout.json").read_text()
+    found = set()
+
+    def walk(node):
+        if isinstance(node, dict):
+            for key, value in node.items():
+                if key in ("value", "topicPath") and isinstance(value, str):
+                    found.add(value.split(".")[0])
+                if key == "topics":
+                    found.update(value)
+                walk(value)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value)
+
+    walk(json.loads(text))
+    assert found == ours
+    doc = (ROOT / "docs" / "foxglove.md").read_text()
+    assert all(t.replace("0", "N") in doc for t in ours)
