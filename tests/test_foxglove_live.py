@@ -230,10 +230,19 @@ def test_live_serves_on_the_asked_port_and_says_so(cli):
     assert 5 <= len(got) <= 60  # 50 Hz by the board's clock over < 1 s subscribed
 
 
-def test_bad_options_are_one_line(cli):
+def test_bad_options_and_a_taken_port_are_one_line(cli, tmp_path):
     for option, value in (("--foxglove-port", "70000"), ("--foxglove-rate", "-1")):
         code, out, err = cli("live", "--port", "sim://press", "--foxglove", option, value)
         assert code == 2 and err.count("\n") == 1 and option in err, err
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        args = ("-o", tmp_path / "r", "--duration", "0.1", "--foxglove", "--foxglove-port", port)
+        code, out, err = cli("record", "--port", "sim://press", *args)
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert err.startswith(f"tactile record: error: --foxglove: cannot serve on 127.0.0.1:{port} (")
+    assert err.count("\n") == 1 and not (tmp_path / "r").exists()  # refused before writing
 
 
 def test_the_sdk_speaks_the_protocol_under_its_new_name_only():

@@ -7,6 +7,7 @@ import sys
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
 DEFAULT_RATE_HZ = 100.0  # tactile.foxglove_live.DEFAULT_RATE_HZ
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
 
 def add_arguments(parser):
@@ -58,6 +59,12 @@ def start(args, device=None):
     server = LiveServer(args.foxglove_host, args.foxglove_port, args.foxglove_rate, device)
     rate = f"{args.foxglove_rate:g} Hz per sensor" if args.foxglove_rate else "every frame"
     print(f"foxglove: serving {server.url} ({rate})", file=sys.stderr, flush=True)
+    if args.foxglove_host not in LOOPBACK:
+        print(
+            f"foxglove: note: {args.foxglove_host} is not loopback; anyone who reaches it sees"
+            " the stream (the protocol has no authentication)",
+            file=sys.stderr,
+        )
     return server
 
 
