@@ -41,7 +41,7 @@ class Client:
             try:
                 self.ws = websockets_sync.connect(
                     f"ws://127.0.0.1:{port}", subprotocols=subprotocols, **options
-                )
+                ).__enter__()  # closed by the server's stop or ws.close()
                 break
             except OSError:  # the command has not bound its port yet
                 if time.monotonic() > deadline:

@@ -20,10 +20,15 @@ def add_arguments(parser):
     group.add_argument(
         "--foxglove-host",
         default=DEFAULT_HOST,
-        help="address to bind (default: 127.0.0.1, this machine only)",
+        metavar="HOST",
+        help="address to bind (127.0.0.1: this machine only)",
     )
     group.add_argument(
-        "--foxglove-port", type=int, default=DEFAULT_PORT, help="TCP port; 0: any free one"
+        "--foxglove-port",
+        type=int,
+        default=DEFAULT_PORT,
+        metavar="PORT",
+        help="TCP port; 0: any free one",
     )
     group.add_argument(
         "--foxglove-rate",
@@ -31,7 +36,7 @@ def add_arguments(parser):
         default=DEFAULT_RATE_HZ,
         metavar="HZ",
         help="messages per sensor per second, by the board's clock; 0: every frame;"
-        " contact begin/end frames always (default: 100 Hz)",
+        " contact begin/end frames always (100 Hz)",
     )
 
 
