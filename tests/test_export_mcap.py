@@ -22,11 +22,16 @@ def _rows(recorded_msgs, host=None):
 
 def read_mcap(path):
     """(metadata by name, {topic: [(schema, log time ns, sequence, decoded message)]})."""
+    from mcap.decoder import DecoderFactory as JsonFactory
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
+    class Json(JsonFactory):
+        def decoder_for(self, message_encoding, schema):
+            return json.loads if message_encoding == "json" else None
+
     with open(path, "rb") as fh:
-        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        reader = make_reader(fh, decoder_factories=[DecoderFactory(), Json()])
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
         topics = {}
         for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=False):
@@ -184,3 +189,29 @@ def test_normal_quaternions_turn_x_onto_any_normal():
     q = normal_quaternions(n)
     np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=1e-14)
     np.testing.assert_allclose([_rotate_x(v) for v in q], n, atol=1e-14)
+
+
+def test_each_frame_has_its_contact_state_beside_its_wrench(recorded_run, tmp_path, cli):
+    """``/tactile/sensorN/contact``: the live server's JSON schema
+    (``tactile.recording.topics``), one
+    message per frame at the wrench's stamp, with the gate's thresholds in N."""
+    assert cli("export", recorded_run, "-o", tmp_path / "s.mcap")[0] == 0
+    _, topics = read_mcap(tmp_path / "s.mcap")
+    rec = tactile.load_recording(recorded_run)
+    device = rec.meta["device"]
+    for s in rec.sensors:
+        rows = np.flatnonzero(rec.sensor == s)
+        states = topics[f"/tactile/sensor{s}/contact"]
+        wrenches = topics[f"/tactile/sensor{s}/wrench"]
+        assert len(states) == len(wrenches) == len(rows)
+        for i, (schema, log_ns, seq, c), w in zip(rows, states, wrenches):
+            assert schema == "tactile/ContactState" and (log_ns, seq) == w[1:3]
+            assert c["seq"] == seq == rec.seq[i] and c["sensor"] == s
+            assert c["timestamp"]["sec"] * 10**9 + c["timestamp"]["nsec"] == log_ns
+            assert c["frame"] == ("contact" if rec.is_contact[i] else "sample")
+            if rec.is_contact[i]:
+                assert c["in_contact"] == (c["phase"] != "end") and c["contact_id"] >= 0
+            assert c["enter_threshold_N"] == device["enter_threshold_N"] > 0
+            assert c["exit_threshold_N"] == device["exit_threshold_N"]
+            assert c["gate"] == device["gate"] and c["debounce_readings"] == device["debounce"]
+        assert any(c[3]["in_contact"] for c in states)

@@ -19,8 +19,8 @@ def add_arguments(parser):
         "--format",
         choices=FORMATS,
         default="mcap",
-        help="mcap: ROS 2 WrenchStamped per sensor and a PoseArray of contacts; parquet: the"
-        " frames and contacts as tables with units (default mcap)",
+        help="mcap: ROS 2 WrenchStamped and contact state per sensor, a PoseArray of contacts;"
+        " parquet: the frames and contacts as tables with units (default mcap)",
     )
     parser.add_argument(
         "-o",
@@ -67,12 +67,15 @@ def parquet_line(summary):
 
 
 def line(summary):
-    """``wrote FILE: N WrenchStamped on K topics, M contacts (PoseArray); stamps: ...``."""
+    """``wrote FILE: N WrenchStamped on K topics (+ contact state), M contacts (PoseArray);
+    stamps: ...``."""
     topics = dict(summary["topics"])
     contacts = topics.pop("/tactile/contacts", None)
-    wrenches = sum(topics.values())
-    out = f"wrote {summary['path']}: {wrenches} WrenchStamped (N, N*m) on {len(topics)} topic"
-    out += "s" * (len(topics) != 1)
+    wrench = {t: n for t, n in topics.items() if t.endswith("/wrench")}
+    out = f"wrote {summary['path']}: {sum(wrench.values())} WrenchStamped (N, N*m) on"
+    out += f" {len(wrench)} topic" + "s" * (len(wrench) != 1)
+    if len(topics) > len(wrench):
+        out += " with their contact state (N)"
     if contacts is not None:
         out += f", {contacts} contacts (m) as one PoseArray on /tactile/contacts"
     return out + f"; stamps: {summary['why']}"

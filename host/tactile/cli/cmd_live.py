@@ -3,12 +3,14 @@
 By default the SAMPLE stream is switched on for the session (not persisted)
 and the board's configuration is restored on exit; ``--as-is`` leaves it.  Every line
 fits 80 columns.  A ``sim://`` port runs as fast as the host reads unless its URL asks
-for ``?realtime=1``: live says so once, on stderr.
+for ``?realtime=1``: live says so once, on stderr.  ``--foxglove`` serves the same frames to
+Foxglove (``tactile.cli.foxglove_args``).
 """
 
 import sys
 import time
 
+from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
 
 REFRESH_S = 0.1
@@ -18,11 +20,13 @@ def add_arguments(parser):
     add_port_argument(parser)
     parser.add_argument("--duration", type=float, help="stop after S seconds (default: Ctrl-C)")
     parser.add_argument("--as-is", action="store_true", help="do not switch on SAMPLE frames")
+    foxglove_args.add_arguments(parser)
 
 
 def run(args):
     from tactile.errors import PortLost
 
+    foxglove_args.check(args)
     client = connect(args)
     if getattr(client.port, "realtime", True) is False:  # sim:// (tactile_sim.urlhandler)
         print(
@@ -30,10 +34,11 @@ def run(args):
             " add ?realtime=1 to the URL to pace it by the clock",
             file=sys.stderr,
         )
-    restore = None
+    restore = live = None
     try:
         restore = None if args.as_is else _samples_on(client)
-        _view(client, args.duration)
+        live = foxglove_args.start(args, _device(client))
+        _view(client, args.duration, live)
     except PortLost:
         restore = None  # a dead port cannot be told anything: the error alone, once
         raise
@@ -43,11 +48,19 @@ def run(args):
                 client.configure(*restore)
         finally:
             client.close()
+            foxglove_args.stop(live)
     return 0
 
 
-def _view(client, duration):
-    """Draw the board's state until ``duration`` s have passed (or Ctrl-C)."""
+def _device(client):
+    from tactile.board.client import info_dict
+
+    return info_dict(client.info) if client.info is not None else None
+
+
+def _view(client, duration, live=None):
+    """Draw the board's state until ``duration`` s have passed (or Ctrl-C); ``live``: a
+    ``tactile.output.foxglove_live.LiveServer`` fed every batch."""
     from tactile.board.live_view import LiveState
 
     state, tty = LiveState(), sys.stdout.isatty()
@@ -55,7 +68,10 @@ def _view(client, duration):
     drawn = 0
     try:
         while duration is None or time.monotonic() - start < duration:
-            state.update(client.read())
+            msgs, arrivals = client.read_timed()
+            state.update(msgs)
+            if live is not None:
+                live.feed(msgs, arrivals=arrivals)
             now = time.monotonic()
             if now - last >= (REFRESH_S if tty else 1.0):
                 last = now

@@ -7,10 +7,12 @@ points for EP2 (DIR/contacts.csv) or the rolling probes for EP1
 With a pose log it stops on its own once the log's end has passed (its ``# end:`` line,
 or half a second after its last entry), and says so while it waits.  The summary names the
 board -> host time base (``tactile.recording.timebase``); ``warning:`` lines go to stderr.
+``--foxglove`` serves the frames to Foxglove while recording (``tactile.cli.foxglove_args``).
 """
 
 import sys
 
+from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument
 from tactile.cli.words import add_quiet
 
@@ -37,6 +39,7 @@ def add_arguments(parser):
         "--reconnect", type=float, default=30.0, help="seconds to wait for a lost port (30)"
     )
     add_quiet(parser)
+    foxglove_args.add_arguments(parser)
 
 
 def run(args):
@@ -48,6 +51,7 @@ def run(args):
         raise InputError(f"--duration: {args.duration} is not a positive number of seconds")
     if args.contacts is not None and args.contacts <= 0:
         raise InputError(f"--contacts: {args.contacts} is not a positive count")
+    foxglove_args.check(args)
     if not args.port:
         from tactile.cli.board_args import connect
 
@@ -60,18 +64,24 @@ def run(args):
         log = check_log(args.pose_log)  # a bad log is refused before recording, not after
         end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
         until = (log.clock, end, how)
-    session = Session(
-        args.port,
-        args.out,
-        duration_s=args.duration,
-        contacts=args.contacts,
-        tare=not args.no_tare,
-        reconnect_s=args.reconnect,
-        handshake_s=args.wait,
-        append=args.append,
-        argv=sys.argv,
-        until=until,
-    )
+    live = foxglove_args.start(args)  # a port in use is refused before anything is written
+    try:
+        session = Session(
+            args.port,
+            args.out,
+            duration_s=args.duration,
+            contacts=args.contacts,
+            tare=not args.no_tare,
+            reconnect_s=args.reconnect,
+            handshake_s=args.wait,
+            append=args.append,
+            argv=sys.argv,
+            until=until,
+            on_frames=live.follow if live is not None else None,
+        )
+    except BaseException:
+        foxglove_args.stop(live, quiet=True)
+        raise
     if until is not None and not args.quiet:
         from tactile.recording.log_clock import show_time
 
@@ -88,6 +98,7 @@ def run(args):
     finally:
         if progress:
             progress.close(session)
+        foxglove_args.stop(live)
     print(summary(meta, args.out))
     print(time_summary(meta.get("time_base")))
     if args.pose_log:

@@ -2,7 +2,9 @@
 
 - One topic per sensor, ``/tactile/sensorN/wrench``: a ``geometry_msgs/msg/WrenchStamped``
   per SAMPLE or CONTACT frame, force in N and torque in N*m (ROS's REP 103 units),
-  ``header.frame_id`` ``tactile_sensorN``.
+  ``header.frame_id`` ``tactile_sensorN``; beside it ``/tactile/sensorN/contact``, the
+  frame's contact state and the gate's thresholds (JSON, ``tactile.recording.topics``).  The live
+  server (``tactile.output.foxglove_live``) publishes the same topics and schemas.
 - ``/tactile/contacts`` when the run has a contacts.csv: one ``geometry_msgs/msg/PoseArray``
   in ``frame_id`` ``world`` holding every contact, positions in m and each orientation
   turning the x axis onto the contact normal.  Foxglove's 3D panel draws a PoseArray as
@@ -27,49 +29,30 @@ import numpy as np
 from tactile import __version__
 from tactile.errors import InputError
 from tactile.extras import need
+from tactile.recording.topics import (
+    CONTACT_STATE,
+    CONTACT_STATE_SCHEMA,
+    CONTACTS_TOPIC,
+    POSE_ARRAY,
+    POSE_ARRAY_DEF,
+    WORLD_FRAME,
+    WRENCH_STAMPED,
+    WRENCH_STAMPED_DEF,
+    contact_message,
+    contact_topic,
+    ros_time,
+    sensor_frame,
+    wrench_message,
+    wrench_topic,
+)
 
-SEP = "=" * 80 + "\n"
-TIME = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"
-HEADER = "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
-VECTOR = "float64 x\nfloat64 y\nfloat64 z\n"
-WRENCH_STAMPED = "geometry_msgs/msg/WrenchStamped"
-WRENCH_STAMPED_DEF = SEP.join(
-    [
-        "std_msgs/Header header\ngeometry_msgs/Wrench wrench\n",
-        HEADER,
-        TIME,
-        "MSG: geometry_msgs/Wrench\ngeometry_msgs/Vector3 force\ngeometry_msgs/Vector3 torque\n",
-        "MSG: geometry_msgs/Vector3\n" + VECTOR,
-    ]
-)
-POSE_ARRAY = "geometry_msgs/msg/PoseArray"
-POSE_ARRAY_DEF = SEP.join(
-    [
-        "std_msgs/Header header\ngeometry_msgs/Pose[] poses\n",
-        HEADER,
-        TIME,
-        "MSG: geometry_msgs/Pose\ngeometry_msgs/Point position\n"
-        "geometry_msgs/Quaternion orientation\n",
-        "MSG: geometry_msgs/Point\n" + VECTOR,
-        "MSG: geometry_msgs/Quaternion\n" + VECTOR + "float64 w\n",
-    ]
-)
-CONTACTS_TOPIC = "/tactile/contacts"
-WORLD_FRAME = "world"
+__all__ = ["normal_quaternions", "require_mcap", "stamps_ns", "write_mcap"]
 
 
 def require_mcap():
     """The ROS 2 MCAP ``Writer`` class, or ``MissingExtra`` (the ``export`` extra: mcap,
     mcap-ros2-support)."""
     return need("export", "MCAP export", "mcap_ros2.writer")[0].Writer
-
-
-def wrench_topic(sensor):
-    return f"/tactile/sensor{sensor}/wrench"
-
-
-def sensor_frame(sensor):
-    return f"tactile_sensor{sensor}"
 
 
 def stamps_ns(rec):
@@ -94,11 +77,6 @@ def normal_quaternions(normals):
     return q / length[:, None]
 
 
-def _time(ns):
-    sec, nsec = divmod(int(ns), 1_000_000_000)
-    return {"sec": sec, "nanosec": nsec}
-
-
 def _contacts_message(contacts, stamp):
     q = normal_quaternions(contacts.normals)
     poses = [
@@ -108,7 +86,7 @@ def _contacts_message(contacts, stamp):
         }
         for p, o in zip(contacts.points_m, q)
     ]
-    return {"header": {"stamp": _time(stamp), "frame_id": WORLD_FRAME}, "poses": poses}
+    return {"header": {"stamp": ros_time(stamp), "frame_id": WORLD_FRAME}, "poses": poses}
 
 
 def write_mcap(rec, path):
@@ -119,6 +97,7 @@ def write_mcap(rec, path):
     path = pathlib.Path(path)
     stamps, clock, clock_why = stamps_ns(rec)
     topics = {wrench_topic(s): int(np.sum(rec.sensor == s)) for s in rec.sensors}
+    topics.update({contact_topic(s): topics[wrench_topic(s)] for s in rec.sensors})
     if rec.contacts is not None:
         topics[CONTACTS_TOPIC] = len(rec.contacts.points_m)
     tmp = path.with_name(path.name + ".tmp")
@@ -138,14 +117,28 @@ def write_mcap(rec, path):
 
 def _write(writer, rec, stamps, clock_why, topics):
     wrench = writer.register_msgdef(WRENCH_STAMPED, WRENCH_STAMPED_DEF)
-    frames = {s: sensor_frame(s) for s in rec.sensors}
-    force, torque = rec.force_N.tolist(), rec.torque_Nm.tolist()
-    for i, (s, ns, seq) in enumerate(zip(rec.sensor.tolist(), stamps.tolist(), rec.seq.tolist())):
-        msg = {
-            "header": {"stamp": _time(ns), "frame_id": frames[s]},
-            "wrench": {"force": dict(zip("xyz", force[i])), "torque": dict(zip("xyz", torque[i]))},
-        }
+    raw = writer._writer  # mcap's own Writer under mcap_ros2's: the JSON channels
+    state = raw.register_schema(
+        CONTACT_STATE, "jsonschema", json.dumps(CONTACT_STATE_SCHEMA).encode()
+    )
+    channels = {s: raw.register_channel(contact_topic(s), "json", state) for s in rec.sensors}
+    device = rec.meta.get("device")
+    wrenches = rec.wrench.tolist()
+    rows = zip(
+        rec.sensor.tolist(),
+        stamps.tolist(),
+        rec.seq.tolist(),
+        rec.is_contact.tolist(),
+        rec.phase.tolist(),
+        rec.contact_id.tolist(),
+        rec.flags.tolist(),
+    )
+    for i, (s, ns, seq, is_contact, phase, cid, flags) in enumerate(rows):
+        msg = wrench_message(s, ns, wrenches[i])
         writer.write_message(wrench_topic(s), wrench, msg, log_time=ns, sequence=seq)
+        c = contact_message(s, ns, seq, is_contact, phase, cid, flags, device)
+        data = json.dumps(c, separators=(",", ":")).encode()
+        raw.add_message(channels[s], log_time=ns, data=data, publish_time=ns, sequence=seq)
     if rec.contacts is not None:
         poses = writer.register_msgdef(POSE_ARRAY, POSE_ARRAY_DEF)
         first = int(stamps.min())

@@ -7,7 +7,8 @@ come back (``reconnect_s``) and carries on with the same decoder, so frames
 lost in the gap are counted from the sequence numbers.  A board that
 rebooted (the decoder sees a new boot id) is counted in ``reboots``, not as
 lost frames, and TAREd again.  Ctrl-C ends the recording
-normally.  Port and clock are injectable for tests.
+normally.  Port and clock are injectable for tests.  ``on_frames(session, msgs, host_times)``
+sees every batch once it is written (``tactile.output.foxglove_live`` serves it live).
 
 A write that fails (a full disk) ends the run: the files are settled (torn rows cut, the
 counts taken from the files: ``Recording.settle``), meta.json says how it ended (``disk
@@ -104,6 +105,7 @@ class Session:
         argv=None,
         utc=time.time,
         until=None,
+        on_frames=None,
     ):
         self.port_name = port_name
         self.duration_s = duration_s
@@ -116,6 +118,7 @@ class Session:
         self.sleep = sleep
         self.on_progress = on_progress or (lambda session: None)
         self.stop_when = stop_when or (lambda session: None)
+        self.on_frames = on_frames or (lambda session, msgs, host_times: None)
         try:
             self.rec = Recording(outdir, append)
         except WriteFailed as exc:
@@ -236,7 +239,9 @@ class Session:
         return None if now < 0 else max(0.0, (end - now) / 1e6)
 
     def _handle(self, msgs, times=None):
-        self.rec.messages(msgs, self.timing.take(msgs, times))
+        host_times = self.timing.take(msgs, times)
+        self.rec.messages(msgs, host_times)
+        self.on_frames(self, msgs, host_times)  # after the files: a live view never delays them
         self.stats.add(msgs)
         if msgs:
             self._heard_at = self.clock()

@@ -1,0 +1,89 @@
+"""``--foxglove`` and its options, shared by ``tactile live`` and ``tactile record``: a
+Foxglove WebSocket server of the board's frames (``tactile.output.foxglove_live``, the
+``foxglove`` extra) beside what the command does.  Its lines go to stderr."""
+
+import sys
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8765
+DEFAULT_RATE_HZ = 100.0  # tactile.output.foxglove_live.DEFAULT_RATE_HZ
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+
+
+def add_arguments(parser):
+    group = parser.add_argument_group("Foxglove (needs the 'foxglove' extra)")
+    group.add_argument(
+        "--foxglove",
+        action="store_true",
+        help="serve the wrench and contact state to Foxglove over its WebSocket protocol",
+    )
+    group.add_argument(
+        "--foxglove-host",
+        default=DEFAULT_HOST,
+        metavar="HOST",
+        help="address to bind (127.0.0.1: this machine only)",
+    )
+    group.add_argument(
+        "--foxglove-port",
+        type=int,
+        default=DEFAULT_PORT,
+        metavar="PORT",
+        help="TCP port; 0: any free one",
+    )
+    group.add_argument(
+        "--foxglove-rate",
+        type=float,
+        default=DEFAULT_RATE_HZ,
+        metavar="HZ",
+        help="messages per sensor per second, by the board's clock; 0: every frame;"
+        " contact begin/end frames always (100 Hz)",
+    )
+
+
+def check(args):
+    """Refuse bad ``--foxglove*`` values and a missing extra, before any board work."""
+    if not args.foxglove:
+        return
+    from tactile.errors import InputError
+    from tactile.output.foxglove_live import require_foxglove
+
+    if not 0 <= args.foxglove_port <= 65535:
+        raise InputError(f"--foxglove-port: {args.foxglove_port} is not a TCP port (0-65535)")
+    if not 0 <= args.foxglove_rate < float("inf"):
+        raise InputError(f"--foxglove-rate: {args.foxglove_rate} is not a rate in Hz (>= 0)")
+    require_foxglove()
+
+
+def start(args, device=None):
+    """The ``LiveServer`` that ``args`` ask for (None without ``--foxglove``); says where."""
+    if not args.foxglove:
+        return None
+    check(args)
+    from tactile.output.foxglove_live import LiveServer
+
+    server = LiveServer(args.foxglove_host, args.foxglove_port, args.foxglove_rate, device)
+    rate = f"{args.foxglove_rate:g} Hz per sensor" if args.foxglove_rate else "every frame"
+    print(f"foxglove: serving {server.url} ({rate})", file=sys.stderr, flush=True)
+    if args.foxglove_host not in LOOPBACK:
+        print(
+            f"foxglove: note: {args.foxglove_host} is not loopback; anyone who reaches it sees"
+            " the stream (the protocol has no authentication)",
+            file=sys.stderr,
+        )
+    return server
+
+
+def stop(server, quiet=False):
+    """Stop ``server`` (if any); print one line of what it published and dropped."""
+    if server is None:
+        return
+    s = server.close()
+    if quiet:
+        return
+    line = (
+        f"foxglove: published {s['published']:,} of {s['frames']:,} frames;"
+        f" {s['dropped']:,} dropped (the publisher fell behind)"
+    )
+    if s["failed"]:
+        line += f"; {s['failed']:,} failed ({s['error']})"
+    print(line, file=sys.stderr, flush=True)
