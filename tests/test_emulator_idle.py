@@ -29,6 +29,13 @@ def _cpu_s(pid):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def _busy(pid, seconds):
+    """The fraction of a core process ``pid`` used over the next ``seconds``."""
+    cpu0, wall0 = _cpu_s(pid), time.monotonic()
+    time.sleep(seconds)
+    return (_cpu_s(pid) - cpu0) / (time.monotonic() - wall0)
+
+
 @pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="needs Linux /proc")
 @pytest.mark.parametrize("options", [(), ("--now", "--fast")], ids=["waiting", "fast-now"])
 def test_an_idle_emulator_sleeps_and_still_answers_a_host(options):
@@ -39,11 +46,9 @@ def test_an_idle_emulator_sleeps_and_still_answers_a_host(options):
     try:
         path = proc.stdout.readline().strip()
         assert path.startswith("/dev/"), path
-        time.sleep(0.3)  # past start-up (imports, building the board)
-        cpu0, wall0 = _cpu_s(proc.pid), time.monotonic()
-        time.sleep(IDLE_S)
-        cpu1, wall1 = _cpu_s(proc.pid), time.monotonic()
-        fraction = (cpu1 - cpu0) / (wall1 - wall0)
+        # The quietest of three windows: the first may still hold its start-up on a loaded
+        # machine (a busy-polling emulator is busy in all three).
+        fraction = min(_busy(proc.pid, IDLE_S / 3) for _ in range(3))
         assert fraction < MAX_FRACTION, f"idle emulator used {fraction:.0%} of a core"
         port = serial.Serial(path, timeout=0.1)
         decoder = StreamDecoder()

@@ -85,6 +85,7 @@ class PicoServer:
             self.open()
         chip = self.launch()
         end_us = None if duration_s is None else duration_s * 1e6
+        self._limit.bounded = end_us is not None  # (a run without an end may hold)
         before, resets = 0.0, 0
         while not self.stop:
             if chip.resets != resets:  # a new clock from 0

@@ -16,9 +16,10 @@ ticks and only while a host is there to read: it holds until a host is
 announced (so the host sees the scene from its start), while the pty is full,
 and before a scripted unplug and the end of the run until the host has read
 what is in flight (so a host that reads loses nothing the scene does not
-take away), each for at most ``HOLD_LIMIT_S`` at a time: a host that is gone or
-stopped reading for longer (or none, with ``--now``) does not stop the run, which goes
-on and ends at its duration, the firmware dropping and counting what nobody reads.  In
+take away); in a run with a duration, each for at most ``HOLD_LIMIT_S`` at a time: a
+host that is gone or stopped reading for longer (or none, with ``--now``) does not stop
+the run, which goes on and ends at its duration, the firmware dropping and counting what
+nobody reads.  In
 real time the board runs regardless and a slow or absent host makes it drop frames, as
 a real board does.  An emulator that falls more than
 ``BEHIND_S`` behind the wall clock (a loaded machine, a heavy scene) does what
@@ -44,7 +45,7 @@ TICK_S = 0.002  # real time: simulated time per exchange with the host (bounds l
 FAST_TICK_S = 0.02  # as fast as possible: fewer, larger writes and polls
 FULL_WAIT_S = 0.0005  # as fast as possible, pty full: wait this long for the host to read
 HOST_WAIT_S = 0.005  # as fast as possible, no host yet: look again after this long
-DRAINED_S = 0.01  # ... the host has read all once the pty's input queue stays empty this long
+DRAINED_S = 0.1  # ... the host has read all once the pty's input queue stays empty this long
 BEHIND_S = 0.05  # real time: this far behind the wall clock, skip ahead (the samples are late)
 HOLD_LIMIT_S = 3.0  # as fast as possible: hold for an absent or stalled host at most this long
 
@@ -125,10 +126,11 @@ class PtyEndpoint:
 
 class HoldLimit:
     """As fast as possible: ``limit(want)`` says whether time may hold for the host now, for
-    at most ``HOLD_LIMIT_S`` in a row (``want`` false ends a hold)."""
+    at most ``HOLD_LIMIT_S`` in a row (``want`` false ends a hold).  Only a run with an end
+    (``bounded``) needs the limit: without one, holding for a host costs nothing."""
 
     def __init__(self, clock=time.monotonic):
-        self.clock, self.since = clock, None
+        self.clock, self.since, self.bounded = clock, None, True
 
     def __call__(self, want):
         if not want:
@@ -137,7 +139,7 @@ class HoldLimit:
         now = self.clock()
         if self.since is None:
             self.since = now
-        return now - self.since < HOLD_LIMIT_S
+        return not self.bounded or now - self.since < HOLD_LIMIT_S
 
 
 class Stalled:
@@ -212,6 +214,7 @@ class PtyServer:
         board = self.board
         start = self.clock()
         end_us = None if duration_s is None else int(duration_s * 1e6)
+        self._held.bounded = end_us is not None
         while not self.stop and (end_us is None or board.t_us < end_us):
             replug = self._unplugged(board.t_us)
             if replug is not None:

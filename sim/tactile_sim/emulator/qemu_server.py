@@ -90,6 +90,7 @@ class QemuServer:
             return
         self._launch()
         end_us = None if duration_s is None else int(duration_s * 1e6)
+        self._held.bounded = end_us is not None  # (a run without an end may hold)
         try:
             running = True
             while running and not self.stop and (end_us is None or self.board.t_us < end_us):
