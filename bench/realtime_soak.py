@@ -9,7 +9,8 @@ pty server, QEMU, the emulated Pico, ``tactile emulate`` in another process.  Su
 must assert what the board and host report (late flags, counted loss, the end of the run
 reaching the host), never that the machine was fast enough.  This runs them ``--runs``
 times in one process each, beside ``--hogs`` busy loops (one per CPU on this 2-core
-machine), and prints one row per test that failed, then the count of runs that passed.
+machine), and prints each run's outcome with the first assertion lines of a failure, then
+the count of runs that passed and which tests failed in which runs.
 Exit 0 when every run passed.
 """
 
@@ -32,14 +33,15 @@ def hogs(n):
 
 
 def one_run(pytest_args):
-    """(passed?, [failed test ids], seconds) of one pytest run of the real-time tests."""
+    """(passed?, [failed test ids], its assertion lines, seconds) of one pytest run."""
     start = time.monotonic()
     proc = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:randomly", "-p", "no:xdist",
          "-m", "realtime", "-o", "addopts=-q -ra", *pytest_args],
         cwd=ROOT, capture_output=True, text=True, env={**os.environ, "PYTHONHASHSEED": "0"},
     )  # fmt: skip
-    return proc.returncode == 0, FAILED.findall(proc.stdout), time.monotonic() - start
+    said = [ln for ln in proc.stdout.splitlines() if ln.startswith("E  ")][:6]
+    return proc.returncode == 0, FAILED.findall(proc.stdout), said, time.monotonic() - start
 
 
 def main(argv=None):
@@ -52,12 +54,12 @@ def main(argv=None):
     failures, passed = {}, 0
     try:
         for k in range(args.runs):
-            ok, failed, seconds = one_run(args.pytest_args)
+            ok, failed, said, seconds = one_run(args.pytest_args)
             passed += ok
             for test in failed:
                 failures.setdefault(test, []).append(k + 1)
             print(f"run {k + 1}: {'passed' if ok else 'FAILED ' + ' '.join(failed)} "
-                  f"({seconds:.0f} s)", flush=True)  # fmt: skip
+                  f"({seconds:.0f} s)", *said, sep="\n    ", flush=True)  # fmt: skip
     finally:
         for p in spinning:
             p.kill()
