@@ -2,18 +2,11 @@
 and takes -v/--verbose; logging goes to stderr only when asked."""
 
 import argparse
-import importlib
 
 import pytest
+from cli_tree import command_parser, tree
 
 from tactile.cli import main as cli_main
-
-
-def _parser(name):
-    module = importlib.import_module(cli_main.COMMANDS[name][0])
-    parser = argparse.ArgumentParser(prog=f"tactile {name}", formatter_class=cli_main._Help)
-    module.add_arguments(parser)
-    return parser
 
 
 @pytest.mark.parametrize("name", sorted(cli_main.COMMANDS))
@@ -23,7 +16,7 @@ def test_help_shows_every_default(name, capsys):
     assert exit_.value.code == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "-v, --verbose" in text
-    for action in _parser(name)._actions:
+    for action in command_parser(name)._actions:
         d = action.default
         if action.option_strings and action.help and d not in (None, False, argparse.SUPPRESS):
             if not isinstance(d, bool | list):
@@ -35,20 +28,6 @@ def test_verbose_logs_commands_on_stderr(tmp_path, capsys):
     assert cli_main.main(["info", "--port", "sim://press", "-v"]) == 0
     err = capsys.readouterr().err
     assert "tactile tactile.board.client: sim://press: GET_INFO" in err
-
-
-def _walk(parser, path=()):
-    """Every (command path, parser) of the tree, subcommands of subcommands included."""
-    yield path, parser
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for name, sub in action.choices.items():
-                yield from _walk(sub, (*path, name))
-
-
-def _tree():
-    for name in sorted(cli_main.COMMANDS):
-        yield from _walk(_parser(name), (name,))
 
 
 # Every leaf command that writes files: its output path is -o/--out.
@@ -71,7 +50,7 @@ def test_one_spelling_for_outputs_and_order():
     """Issue 15: -o/--out for every output path, --order for the spline order, and no old
     spelling shown; an option's dest that names an output is never spelled otherwise."""
     seen = set()
-    for path, parser in _tree():
+    for path, parser in tree():
         seen.add(path)
         shown = [a for a in parser._actions if a.option_strings and a.help != argparse.SUPPRESS]
         for action in shown:
@@ -100,7 +79,7 @@ def test_one_spelling_for_outputs_and_order():
     ],
 )  # fmt: skip
 def test_old_spellings_still_work_with_a_one_line_note(argv, old, capsys):
-    parser = _parser(argv[0])
+    parser = command_parser(argv[0])
     args = parser.parse_args(argv[1:])
     assert args.out == "D"
     err = capsys.readouterr().err
@@ -109,7 +88,7 @@ def test_old_spellings_still_work_with_a_one_line_note(argv, old, capsys):
 
 def test_sim_ep2_still_requires_its_output(capsys):
     with pytest.raises(SystemExit) as exit_:
-        _parser("sim").parse_args(["ep2", "--object", "plane"])
+        command_parser("sim").parse_args(["ep2", "--object", "plane"])
     assert exit_.value.code == 2
     assert "-o/--out is required" in capsys.readouterr().err
 
@@ -119,7 +98,7 @@ def test_object_names_are_spelled_one_way():
     from tactile.ep2.shape_index import S_NAMES
 
     names = set()
-    for _, parser in _tree():
+    for _, parser in tree():
         for action in parser._actions:
             if action.dest == "object":
                 names |= set(action.choices)

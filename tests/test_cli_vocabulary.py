@@ -3,10 +3,10 @@ positionals, after a subcommand's name), -p/--port or TACTILE_PORT for every boa
 each default shown once in help, one spelling per option, -q/--quiet for "no progress"."""
 
 import argparse
-import importlib
 import json
 
 import pytest
+from cli_tree import command_parser, tree
 
 from tactile.cli import main as cli_main
 
@@ -14,28 +14,10 @@ from tactile.cli import main as cli_main
 BOARD = {"info", "config", "tare", "calibrate", "record", "live", "flash"}
 
 
-def _parser(name):
-    module, help_ = importlib.import_module(cli_main.COMMANDS[name][0]), cli_main.COMMANDS[name][1]
-    return cli_main._command_parser(name, module, help_)
-
-
-def _walk(parser, path):
-    yield path, parser
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for name, sub in action.choices.items():
-                yield from _walk(sub, (*path, name))
-
-
-def _tree():
-    for name in sorted(cli_main.COMMANDS):
-        yield from _walk(_parser(name), (name,))
-
-
 def _leaves():
     """(path, argv) per leaf command: its required options and positionals with
     placeholder values, enough to parse."""
-    for path, parser in _tree():
+    for path, parser in tree():
         if any(isinstance(a, argparse._SubParsersAction) for a in parser._actions):
             continue
         opts, positionals = [], []
@@ -61,7 +43,7 @@ def _ids(cases):
 
 @pytest.mark.parametrize("path, argv", LEAVES, ids=_ids(LEAVES))
 def test_verbose_parses_after_positionals_and_subcommands(path, argv):
-    parser = _parser(path[0])
+    parser = command_parser(path[0])
     assert parser.parse_args(argv).verbose == 0
     assert parser.parse_args([*argv, "-v"]).verbose == 1
     assert parser.parse_args([*argv, "-vv"]).verbose == 2
@@ -71,15 +53,15 @@ def test_verbose_parses_after_positionals_and_subcommands(path, argv):
 
 def test_every_board_command_takes_p_and_tactile_port(monkeypatch):
     monkeypatch.delenv("TACTILE_PORT", raising=False)
-    has_port = {path[0] for path, p in _tree() if "--port" in p._option_string_actions}
+    has_port = {path[0] for path, p in tree() if "--port" in p._option_string_actions}
     assert has_port == BOARD
     for path, argv in LEAVES:
         if path[0] not in BOARD:
             continue
-        assert _parser(path[0]).parse_args([*argv, "-p", "/dev/ttyX"]).port == "/dev/ttyX"
-        assert _parser(path[0]).parse_args(argv).port is None
+        assert command_parser(path[0]).parse_args([*argv, "-p", "/dev/ttyX"]).port == "/dev/ttyX"
+        assert command_parser(path[0]).parse_args(argv).port is None
         monkeypatch.setenv("TACTILE_PORT", "sim://press")
-        assert _parser(path[0]).parse_args(argv).port == "sim://press"
+        assert command_parser(path[0]).parse_args(argv).port == "sim://press"
         monkeypatch.delenv("TACTILE_PORT")
 
 
@@ -98,7 +80,7 @@ def test_a_missing_port_is_one_line_naming_both(name, tmp_path, monkeypatch, cap
 
 
 def test_every_default_is_shown_once():
-    for path, parser in _tree():
+    for path, parser in tree():
         assert parser.formatter_class is cli_main._Help, path
         formatter = parser._get_formatter()
         for action in parser._actions:
@@ -114,15 +96,15 @@ def test_every_default_is_shown_once():
 
 
 def test_no_two_options_differ_only_by_case():
-    for path, parser in _tree():
+    for path, parser in tree():
         words = list(parser._option_string_actions)
         assert len({w.lower() for w in words}) == len(words), (path, sorted(words))
 
 
 def test_quiet_is_one_spelling():
-    quiet = {path for path, p in _tree() if "--quiet" in p._option_string_actions}
+    quiet = {path for path, p in tree() if "--quiet" in p._option_string_actions}
     assert {("record",), ("flash",), ("ep2", "analyze"), ("study", "ep1-noise")} <= quiet
-    for path, parser in _tree():
+    for path, parser in tree():
         assert "--no-progress" not in parser._option_string_actions, path
         if "--quiet" in parser._option_string_actions:
             assert parser._option_string_actions["-q"].dest == "quiet", path

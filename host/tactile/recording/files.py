@@ -40,6 +40,7 @@ import numpy as np
 from tactile import units
 from tactile.board.settings import wrench_si
 from tactile.errors import HostFileError, InputError
+from tactile.files import bounded
 from tactile.output.jsonout import clean, dumps
 from tactile.recording.meta import count_rows, document, previous_sessions
 from tactile_protocol import constants as C
@@ -270,20 +271,38 @@ def cut_torn(path):
             if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
                 return 0
             end = fh.seek(0, os.SEEK_END)
-            pos = end
-            while pos > 0:
-                start = max(0, pos - 4096)
-                fh.seek(start)
-                k = fh.read(pos - start).rfind(b"\n")
-                if k >= 0:
-                    pos = start + k + 1
-                    break
-                pos = start
+            pos = _whole_lines_end(fh)
             if pos < end:
                 fh.truncate(pos)
             return end - pos
     except FileNotFoundError:
         return 0
+
+
+def whole_end(path):
+    """(bytes up to the end of the last whole line, bytes after it) of ``path``; (None, 0)
+    when it does not exist; ``InputError`` when it is not a regular file."""
+    try:
+        with bounded.open_regular(path, None, "a recording's file") as fh:
+            size = fh.seek(0, os.SEEK_END)
+            end = _whole_lines_end(fh)
+            return end, size - end
+    except bounded.Missing:
+        return None, 0
+
+
+def _whole_lines_end(fh):
+    """The offset just past the last line break of the open binary file ``fh`` (0: none),
+    read backwards a block at a time."""
+    pos = fh.seek(0, os.SEEK_END)
+    while pos > 0:
+        start = max(0, pos - 4096)
+        fh.seek(start)
+        k = fh.read(pos - start).rfind(b"\n")
+        if k >= 0:
+            return start + k + 1
+        pos = start
+    return 0
 
 
 def _copy_bytes(src, dst, n):

@@ -40,6 +40,7 @@ from tactile.recording.files import (
     _put,
     cut_torn,
     read_frames,
+    whole_end,
 )
 from tactile.recording.meta import MAX_META_BYTES, count_rows, read_meta, sessions_of
 from tactile_protocol import constants as C
@@ -156,25 +157,6 @@ def cut_short(meta, capture_bytes, rows):
         or meta.get("bytes") != capture_bytes
         or meta.get("samples") != rows
     )
-
-
-def whole_end(path):
-    """(bytes up to the end of the last whole line, bytes after it) of ``path``; (None, 0)
-    when it does not exist."""
-    try:
-        with open(path, "rb") as fh:
-            size = fh.seek(0, os.SEEK_END)
-            pos = size
-            while pos > 0:
-                start = max(0, pos - 4096)
-                fh.seek(start)
-                k = fh.read(pos - start).rfind(b"\n")
-                if k >= 0:
-                    return start + k + 1, size - (start + k + 1)
-                pos = start
-            return 0, size
-    except FileNotFoundError:
-        return None, 0
 
 
 def beyond(path, meta, table):
