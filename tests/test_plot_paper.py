@@ -75,6 +75,11 @@ def test_patch_and_maps_name_their_unit_and_thesis_figure(tmp_path, figures):
     for fig in (patch, maps):
         assert paper_problems(fig) == []
     assert "fig. 43" in titles(patch) and f"radius {res.radius:.3g} cm" in titles(patch)
+    ax = patch.axes[0]  # one length unit on all three axes: the box is in their proportion
+    ranges = np.array([np.ptp(lim) for lim in (ax.get_xlim(), ax.get_ylim(), ax.get_zlim())])
+    box = np.asarray(ax.get_box_aspect())
+    np.testing.assert_allclose(box / box.max(), ranges / ranges.max(), rtol=1e-9)
+    assert len({ax.get_xlabel()[-4:], ax.get_ylabel()[-4:], ax.get_zlabel()[-4:]}) == 1  # (cm)
     labels = [t.get_text() for t in patch.axes[0].get_legend().get_texts()]
     assert labels == ["control mesh", "pass 0", "pass 1", "pass 2"]
     assert "fig. 50" in titles(maps)
