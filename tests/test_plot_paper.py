@@ -75,9 +75,20 @@ def test_patch_and_maps_name_their_unit_and_thesis_figure(tmp_path, figures):
     for fig in (patch, maps):
         assert paper_problems(fig) == []
     assert "fig. 43" in titles(patch) and f"radius {res.radius:.3g} cm" in titles(patch)
+    ax = patch.axes[0]  # one length unit on all three axes: the box is in their proportion
+    ranges = np.array([np.ptp(lim) for lim in (ax.get_xlim(), ax.get_ylim(), ax.get_zlim())])
+    box = np.asarray(ax.get_box_aspect())
+    np.testing.assert_allclose(box / box.max(), ranges / ranges.max(), rtol=1e-9)
+    assert len({ax.get_xlabel()[-4:], ax.get_ylabel()[-4:], ax.get_zlabel()[-4:]}) == 1  # (cm)
     labels = [t.get_text() for t in patch.axes[0].get_legend().get_texts()]
     assert labels == ["control mesh", "pass 0", "pass 1", "pass 2"]
     assert "fig. 50" in titles(maps)
+    for fig in (patch, maps):  # plain titles: the label and the fit, not the model's notes
+        assert "cylinder, S " in titles(fig) and "(biquadratic B-spline)" in titles(fig)
+        assert "segment(s)" not in titles(fig) and "weights" not in titles(fig)
+    jet = analyze_patch(pts, nrm, maps=True)
+    plots.plot_patch(jet, pts, nrm, tmp_path / "j.png", unit="cm")
+    assert "(local jet)" in titles(figures()[-1]) and "2-jet" not in titles(figures()[-1])
     data = [ax for ax in maps.axes if ax.get_label() != "<colorbar>"]
     assert [ax.get_aspect() for ax in data] == [1.0, 1.0]  # geometry to equal scale
     bars = [ax.get_ylabel() for ax in maps.axes if ax.get_label() == "<colorbar>"]
@@ -124,3 +135,40 @@ def test_cli_names_passes_and_units_from_the_recording(
     assert [t.get_text() for t in ax.get_legend().get_texts()] == [f"{word} {k}" for k in "012"]
     assert ax.get_xlabel() == f"x ({unit})"
     assert paper_problems(fig) == []
+
+
+def _mesh_limits(fig):
+    """(vmin, vmax) of each map panel's colour scale, S then C."""
+    data = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    return [ax.collections[0].get_clim() for ax in data]
+
+
+def test_a_constant_field_is_drawn_constant_and_a_varying_one_over_its_range(tmp_path, figures):
+    """Round-off in C (1.5184..1.5197: 0.09 % of the value) must not fill the colour bar;
+    a field that varies (the noisy rig cylinder's C) keeps its own range."""
+    import dataclasses
+
+    pts, nrm, _ = rig_cylinder()
+    res = analyze_patch(pts, nrm, maps=True)
+    n = res.maps["C"].size
+    flat = dict(res.maps, C=np.linspace(1.5184, 1.5197, n), S=np.full(n, 0.5))
+    plots.plot_maps(dataclasses.replace(res, maps=flat), tmp_path / "flat.png", unit="cm")
+    plots.plot_maps(res, tmp_path / "rig.png", unit="cm")
+    flat_fig, rig_fig = figures()
+    assert paper_problems(flat_fig) == []
+    (s_lo, s_hi), (c_lo, c_hi) = _mesh_limits(flat_fig)
+    assert (s_lo, s_hi) == (-1.0, 1.0)  # S always on [-1, 1]
+    assert c_hi - c_lo >= plots.MIN_SPAN * 1.519 * (1 - 1e-12)  # at least the minimum span
+    assert (c_lo + c_hi) / 2 == pytest.approx((1.5184 + 1.5197) / 2)  # about the values
+    # the values fill under 90 % of the bar: a reader sees a near-constant field
+    assert (1.5197 - 1.5184) / (c_hi - c_lo) < 0.9
+    c = res.maps["C"]
+    assert np.ptp(c) > plots.MIN_SPAN * abs(c.mean())  # this one varies ...
+    assert _mesh_limits(rig_fig)[1] == pytest.approx((c.min(), c.max()))  # ... over its range
+
+
+@pytest.mark.parametrize("value", [0.0, -1.5, 1e-9, 42.0])
+def test_colour_limits_of_an_exactly_constant_field_have_a_span(value):
+    lo, hi = plots.colour_limits(np.full(16, value))
+    assert lo < value < hi and hi - lo == pytest.approx(plots.MIN_SPAN * max(abs(value), 1.0))
+    assert plots.colour_limits(np.array([np.nan, value, np.nan])) == (lo, hi)  # NaN ignored

@@ -1,10 +1,12 @@
-"""Every command block of the README runs exactly as written (issue 15).
+"""Every command block of the README runs exactly as written.
 
-The ```sh blocks run in order in one fresh directory, as a newcomer pastes them into one
-terminal, with ``.venv`` pointing at this interpreter's environment:
+The README opens with its ``# `` title line and then, as its first block, the two commands
+(``make demo`` and ``make test``): that block is not run here (those two commands are what CI
+runs), it is checked to be exactly those two lines. The other ```sh blocks run in order in
+one fresh directory, as a newcomer pastes them into one terminal, with ``.venv`` pointing at
+this interpreter's environment; the ```python block then runs in that directory, on the
+recording the walkthrough made:
 
-- The first block, ``make demo`` and ``make test``, is not run here: those two commands are
-  what CI runs. It is checked to be exactly those two lines.
 - A line marked ``# terminal 1`` (``tactile emulate``) runs in the background for the rest
   of the README and prints its pty.
 - ``NAME=value`` sets a variable for the lines after it, as the shell does. The board's port
@@ -20,7 +22,8 @@ terminal, with ``.venv`` pointing at this interpreter's environment:
   its one line, which the test accepts.
 
 Every other line must exit 0 without a traceback, a NaN or a ``warning:``; ``record`` must
-end on its own with nothing lost, and ``ep2 analyze`` must name the scene's shape. The EP2
+end on its own with nothing lost, and ``ep2 analyze`` and the Python example must name the
+scene's shape. The install line names an extra that brings every other user extra. The EP2
 sweep block of docs/cli.md runs the same way, and every link of the README and docs/ must
 resolve.
 """
@@ -30,6 +33,7 @@ import re
 import signal
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -48,6 +52,10 @@ def _blocks():
     return [b.strip().splitlines() for b in re.findall(r"```sh\n(.*?)```", text, re.S)]
 
 
+def _python_blocks():
+    return re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
+
+
 def _commands(block):
     return [ln.strip() for ln in block if ln.strip() and not ln.strip().startswith("#")]
 
@@ -57,10 +65,15 @@ def test_the_readme_is_a_front_door():
     assert len(text.splitlines()) <= 160
     blocks = _blocks()
     assert [ln.split("#")[0].strip() for ln in blocks[0]] == MAKE  # the two commands on top
-    assert text.startswith("```sh\nmake demo")
+    lines = text.splitlines()
+    assert lines[0].startswith("# ") and lines[0][2:].strip()  # the title line, nothing above
+    first = next(i for i, ln in enumerate(lines) if ln.startswith("```"))
+    assert lines[first] == "```sh" and lines[first + 1].startswith("make demo")
+    assert all(not ln.strip() for ln in lines[1:first])  # the block right under the title
     # no command hides in a fence the runner does not read, nor behind a placeholder
     fences = re.findall(r"^```(\w*)$", text, re.M)
-    assert fences.count("sh") == len(blocks) and set(fences) <= {"sh", ""}
+    assert fences.count("sh") == len(blocks) and set(fences) <= {"sh", "python", ""}
+    assert fences.count("python") == len(_python_blocks()) == 1
     for line in (ln for b in blocks for ln in _commands(b)):
         command = line.split(" #")[0]
         assert not re.search(r"\[--|\w\|\w|\bDIR\b|\bP\b|<\w+>", command), line
@@ -68,11 +81,34 @@ def test_the_readme_is_a_front_door():
     assert "../" not in text and "http" not in text  # the thesis is cited, not linked
 
 
+def test_the_install_extra_brings_every_user_extra():
+    text = README.read_text(encoding="utf-8")
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    extras = extras["optional-dependencies"]
+    (named,) = set(re.findall(r"pip install 'tactile-shape\[(\w+)\]'", text))
+    users = set().union(*(extras[k] for k in extras if k not in ("test", named)))
+    assert users and set(extras[named]) == users  # no more, no less
+    assert set(extras[named]) <= set(extras["test"])  # and make test installs them
+
+
 @pytest.mark.slow
 def test_every_block_runs_as_written(tmp_path):
     blocks = _blocks()
     ran = _run_blocks(blocks[1:], tmp_path)
     assert ran == len(blocks) - 1 and ran >= 3  # every block but the two make commands
+    # the Python example, on the recording the walkthrough made (run1)
+    (python,) = _python_blocks()
+    roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim", "studies")]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))
+    r = subprocess.run([sys.executable, "-c", python], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    assert not re.search(r"\b(nan|inf|infinity|none)\b", r.stdout, re.I), r.stdout
+    out = r.stdout.splitlines()
+    assert re.fullmatch(r"\d+ readings from sensors \[0\], peak \|F\| \d+\.\d\d N", out[0])
+    found = re.fullmatch(r"cylinder: S (\S+), radius (\S+) cm at the patch centre", out[1])
+    assert found, out  # the scene's shape, S of a cylinder, its radius (6.6 cm) within 20 %
+    assert abs(float(found[1]) - 0.5) < 0.05 and abs(float(found[2]) - 6.6) < 1.32, out
 
 
 @pytest.mark.slow

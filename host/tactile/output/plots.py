@@ -5,8 +5,10 @@ Functions take arrays or a ``PatchResult`` (``tactile.ep2.analyze_patch``) and a
 write the PNG and return the path.  matplotlib (the ``plot`` extra) is imported only
 inside them, with the Agg backend; without it they raise ``tactile.errors.MissingExtra``.
 
-Every figure names the thesis figure it reproduces, draws geometry to equal scale, puts
-its legend outside the axes and labels each axis with its unit: ``unit`` is the length
+Every figure has a plain title naming the thesis figure it reproduces, draws geometry to
+equal scale, puts its legend outside the axes (where it hides no data), gives a colour bar
+at least a span relative to its values (round-off in a constant field is drawn constant)
+and labels each axis with its unit: ``unit`` is the length
 unit of the contacts (``None``: "input unit", the CSV contract allows any).  ``group``
 names what the ``finger`` labels count: fingers (the simulator's three-finger sweep) or
 passes (the ch. 5 rig moves one finger in passes).
@@ -21,6 +23,7 @@ from tactile.errors import InputError
 from tactile.extras import pyplot
 
 __all__ = [
+    "colour_limits",
     "map_grids",
     "plot_contacts",
     "plot_maps",
@@ -41,6 +44,8 @@ LEGEND = dict(fontsize=8, loc="upper left", bbox_to_anchor=(1.04, 1.0), borderax
 PATCH_FIGURE = {"plane": "fig. 40", "cylinder": "fig. 43", "concave_cylinder": "fig. 47"}
 CONTACTS_REF = "cf. thesis figs. 39 ii, 42 ii, 46 ii"
 MAPS_REF = "cf. thesis fig. 50"
+MIN_SPAN = 1e-3  # a colour bar spans at least this times max(|mean value|, 1)
+ORDER_NAME = {2: "biquadratic", 3: "bicubic", 4: "biquartic"}
 
 
 def require_matplotlib():
@@ -250,7 +255,7 @@ def plot_patch(result, points, normals, path, finger=None, title=None, unit=None
     ax.set(**dict(zip(("xlabel", "ylabel", "zlabel"), view.labels(names, unit), strict=True)))
     if ax.get_legend_handles_labels()[0]:
         ax.legend(**LEGEND)
-    first = plain_text(title) if title else _summary(result, unit)
+    first = plain_text(title) if title else f"Fitted patch: {_summary(result, unit)}"
     ax.set_title(f"{first}\n({patch_reference(result)})", fontsize=10)
     _thin_ticks(fig, ax)
     return _save(plt, fig, path)
@@ -262,14 +267,37 @@ def patch_reference(result):
     return f"cf. thesis {number}" if number else "cf. thesis figs. 40, 43, 47"
 
 
+def fit_name(result):
+    """The fit in plain words: 'biquadratic B-spline', 'bicubic B-spline', 'local jet'."""
+    if result.method == "spline":
+        return f"{ORDER_NAME.get(result.order, f'degree {result.order}')} B-spline"
+    return "local jet"
+
+
 def _summary(result, unit=None):
-    """'round 3-jet: cylinder (confidence 1.00), S 0.501, radius 6.98 cm', at the centre."""
-    text = f"{result.model.split(':')[0]}: {result.shape} (confidence {result.confidence:.2f})"
+    """'cylinder, S 0.501, radius 6.98 cm (biquadratic B-spline)', at the patch centre."""
+    text = result.shape.replace("_", " ")
     if result.S is not None:
         text += f", S {result.S:.3f}"
     if result.radius is not None:
         text += f", radius {result.radius:.3g} {unit_name(unit)}"
-    return text
+    return f"{text} ({fit_name(result)})"
+
+
+def colour_limits(values):
+    """(vmin, vmax) for a colour bar of ``values`` (NaN ignored): their range, widened about
+    its middle to at least ``MIN_SPAN`` x max(|mean|, 1) so that round-off in a constant
+    field (C spanning 1.5184-1.5197) is not stretched over the whole colour scale."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if not v.size:
+        return None, None
+    lo, hi = float(v.min()), float(v.max())
+    least = MIN_SPAN * max(abs(float(v.mean())), 1.0)
+    if hi - lo >= least:
+        return lo, hi
+    middle = 0.5 * (lo + hi)
+    return middle - 0.5 * least, middle + 0.5 * least
 
 
 def map_grids(result):
@@ -314,6 +342,8 @@ def plot_maps(result, path, points=None, title=None, unit=None):
             hx, hy = (0.5 * np.ptp(v) / (v.shape[0] - 1) for v in (x, y))
             ax.set(xlim=(x.min() - hx, x.max() + hx), ylim=(y.min() - hy, y.max() + hy))
         else:
+            if "vmin" not in style:
+                style["vmin"], style["vmax"] = colour_limits(values)
             mesh = ax.pcolormesh(x, y, np.ma.masked_invalid(values), shading="nearest", **style)
             fig.colorbar(mesh, ax=ax, label=label)
         if xy is not None:
@@ -323,7 +353,7 @@ def plot_maps(result, path, points=None, title=None, unit=None):
         ax.set_title(name, fontsize=10)
         ax.set(xlabel=xlabel, ylabel=ylabel)
     n = x.shape[0]
-    first = plain_text(title) if title else f"S and C on the {n}x{n} grid; {_summary(result, unit)}"
+    first = plain_text(title) if title else f"S and C on the {n}x{n} grid: {_summary(result, unit)}"
     dots = "" if xy is None else "; dots: contacts"
     fig.suptitle(f"{first}\n({MAPS_REF}{dots})", fontsize=10)
     return _save(plt, fig, path)
