@@ -136,7 +136,8 @@ def test_a_client_sees_the_wrench_and_contact_state_the_recording_holds(cli, tmp
         f, t = w.wrench.force, w.wrench.torque
         assert [f.x, f.y, f.z, t.x, t.y, t.z] == rec.wrench[i].tolist()  # N, N*m: exact
         assert w.header.stamp.sec * 10**9 + w.header.stamp.nanosec == ns
-        assert abs(ns * 1e-9 - rec.host_utc_s[i]) < 0.25  # the fit then vs the final fit
+        if rec.host_utc_s is not None:  # (a loaded machine can leave no usable time base)
+            assert abs(ns * 1e-9 - rec.host_utc_s[i]) < 0.25  # the fit then vs the final fit
         assert state["frame"] == ("contact" if rec.is_contact[i] else "sample")
         assert state["enter_threshold_N"] == rec.meta["device"]["enter_threshold_N"]
         in_contact += state["in_contact"]
