@@ -176,6 +176,9 @@ def test_without_the_extra_the_command_says_how_to_install_it(
     assert err == "tactile export: error: MCAP export needs the 'export' extra:" \
         " pip install 'tactile-shape[export]'\n"  # fmt: skip
     assert not (tmp_path / "x.mcap").exists()
+    monkeypatch.undo()
+    monkeypatch.setitem(sys.modules, "foxglove.messages", None)  # the scene's schemas
+    assert cli("export", recorded_run, "-o", tmp_path / "x.mcap")[1:] == ("", err)
 
 
 def test_other_commands_and_the_loader_do_not_import_mcap(recorded_run):

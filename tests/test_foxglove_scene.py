@@ -171,3 +171,70 @@ def test_the_scene_shows_the_contacts_and_the_patch_the_files_hold(cli, tmp_path
     live_tf = {pose(p) for t, _, p in client.received if t == "/tactile/tf"}
     exported_tf = [pose(m) for m in messages["/tactile/tf"]]
     assert live_tf <= set(exported_tf) and len(exported_tf) > 3  # stamps: each sink's clock
+
+
+def _sphere_cap(n=60, radius=0.05, seed=1):
+    """Contacts on a sphere's cap (m) with outward normals, no noise."""
+    rng = np.random.default_rng(seed)
+    theta, phi = rng.uniform(0, 0.5, n), rng.uniform(0, 2 * np.pi, n)
+    nrm = np.column_stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
+    return radius * nrm, nrm
+
+
+def test_a_patch_is_drawn_only_where_ep2_determines_it():
+    from tactile.recording import scene
+
+    pts, nrm = _sphere_cap()
+    record, mesh = scene.fit_patch(pts, nrm, None)
+    meta, text, drawn = patch(scene.patch_update(record, mesh, pts.mean(0), len(pts), 0).encode())
+    assert meta["shape"] == "sphere" and drawn and mesh.shape[1] == 3
+    assert text.startswith("EP2: sphere (60 contacts): S 1.00 (95% [")
+    assert text.endswith(f"radius {record['radius'] * 1e3:.1f} mm")  # the record's m, in mm
+    refused, none = scene.fit_patch(pts[:2], nrm[:2], None)
+    meta, text, drawn = patch(scene.patch_update(refused, none, pts[0], 2, 0).encode())
+    assert none is None and not drawn and meta["S"] == "null"
+    assert text.startswith("EP2: refused (2 contacts): ")
+    unsure = {"shape": "uncertain", "S": 0.4, "S_interval": (-0.9, 1.0)}
+    meta, text, drawn = patch(scene.patch_update(unsure, mesh, pts[0], 60, 0).encode())
+    assert not drawn and "S not determined" in text and "0.40" not in text
+    assert scene.s_colour(-1) == (0.0, 0.0, 1.0) and scene.s_colour(1) == (1.0, 0.0, 0.0)
+    assert scene.s_colour(0) == (1.0, 1.0, 1.0)
+
+
+def test_transforms_carry_the_log_pose():
+    from scipy.spatial.transform import Rotation
+
+    from tactile.recording import scene
+
+    for q in Rotation.random(50, random_state=3).as_quat():  # x, y, z, w
+        R = Rotation.from_quat(q).as_matrix()
+        got = pose(scene.sensor_transform(2, R, (0.1, -0.2, 0.3), 5).encode())
+        assert got[0] == "tactile_sensor2" and np.allclose(got[1], (0.1, -0.2, 0.3))
+        assert np.allclose(got[2], q * np.sign(q[3]), atol=1e-12)
+
+
+def test_the_ep2_worker_fits_the_latest_contacts_and_skips_stale_ones(monkeypatch):
+    import threading
+
+    import foxglove
+
+    from tactile.output import foxglove_scene
+    from tactile.recording import scene
+
+    gate, fitted = threading.Event(), []
+
+    def slow_fit(points, normals, finger):
+        fitted.append(len(points))
+        gate.wait(10)
+        return {"shape": None, "error": "test"}, None
+
+    monkeypatch.setattr(scene, "fit_patch", slow_fit)
+    pub = foxglove_scene.ScenePublisher(foxglove, foxglove.Context(), log=None)
+    pts, nrm = _sphere_cap()
+    for n in (10, 20, 30, 40):  # the first starts, the next two are replaced by the last
+        pub.request(pts[:n], nrm[:n], None, 0)
+        while n == 10 and not fitted:
+            threading.Event().wait(0.01)
+    gate.set()
+    pub.close()
+    assert fitted == [10, 40] and pub.stale == 2 and pub.patches == 2

@@ -28,6 +28,31 @@ _STOP = object()
 _RESEND = object()
 
 
+class _Rows:
+    """The contacts so far: points (m) and normals in arrays that double as they fill (a
+    list turned into an array per batch would cost n^2 over a run), fingers in a list."""
+
+    def __init__(self):
+        self.n = 0
+        self.points, self.normals, self.finger = np.empty((256, 3)), np.empty((256, 3)), []
+
+    def add(self, points, normals, finger):
+        """Append; the new rows' indices."""
+        k = len(points)
+        if self.n + k > len(self.points):
+            size = max(2 * len(self.points), self.n + k)
+            self.points = np.resize(self.points, (size, 3))
+            self.normals = np.resize(self.normals, (size, 3))
+        self.points[self.n : self.n + k] = points
+        self.normals[self.n : self.n + k] = normals
+        self.finger.extend(np.asarray(finger).tolist())
+        self.n += k
+        return range(self.n - k, self.n)
+
+    def arrays(self):
+        return self.points[: self.n], self.normals[: self.n]
+
+
 class ScenePublisher:
     """Localise, publish contacts and transforms, fit patches; all off the caller's loop."""
 
@@ -39,7 +64,7 @@ class ScenePublisher:
         self.tf_ch = fox.channels.FrameTransformChannel(TF_TOPIC, context=context)
         self.live = LiveContacts(log, per_contact)
         self.queue = queue.Queue(QUEUE_BATCHES)
-        self.points, self.normals, self.finger = [], [], []
+        self.rows = _Rows()
         self.entities = {}  # (sensor, contact id) -> [entity id, [row indices]]
         self.shown = {}  # entity id -> [row indices], every contact so far
         self.poses = {}  # sensor -> its latest FrameTransform
@@ -86,7 +111,7 @@ class ScenePublisher:
     def _again(self, topic):
         ns = time.time_ns()
         if topic == CONTACTS_TOPIC and self.shown:
-            pts, nrm = np.asarray(self.points), np.asarray(self.normals)
+            pts, nrm = self.rows.arrays()
             for entity_id, rows in self.shown.items():
                 update = scene.contacts_update(entity_id, pts[rows], nrm[rows], ns)
                 self.contacts_ch.log(update, log_time=ns)
@@ -102,28 +127,29 @@ class ScenePublisher:
             self.poses[sensor] = (R, t)
             self.tf_ch.log(scene.sensor_transform(sensor, R, t, ns), log_time=ns)
         touched = {}
-        for p, n, f, key in zip(b.points, b.normals, b.finger, b.keys):
+        for row, key in zip(self.rows.add(b.points, b.normals, b.finger), b.keys):
             entry = self.entities.get(key)
             if entry is None:
                 entry = self.entities[key] = [f"contact{self.next_entity}", []]
                 self.shown[entry[0]] = entry[1]
                 self.next_entity += 1
-            entry[1].append(len(self.points))
-            self.points.append(p)
-            self.normals.append(n)
-            self.finger.append(f)
+            entry[1].append(row)
             touched[entry[0]] = entry[1]
-        pts, nrm = np.asarray(self.points), np.asarray(self.normals)
+        pts, nrm = self.rows.arrays()
         for entity_id, rows in touched.items():
             update = scene.contacts_update(entity_id, pts[rows], nrm[rows], b.ns)
             self.contacts_ch.log(update, log_time=b.ns)
         for key in b.ended:
             self.entities.pop(key, None)  # the board may reuse the id: a new entity then
-        if b.ended and len(self.points) >= MIN_PATCH_CONTACTS:
-            with self._wake:
-                self.stale += self._mailbox is not None
-                self._mailbox = (pts.copy(), nrm.copy(), np.asarray(self.finger), b.ns)
-                self._wake.notify()
+        if b.ended and len(pts) >= MIN_PATCH_CONTACTS:
+            self.request(pts.copy(), nrm.copy(), np.asarray(self.rows.finger), b.ns)
+
+    def request(self, points, normals, finger, ns):
+        """Ask for a patch fit of these contacts; replaces a request not yet started."""
+        with self._wake:
+            self.stale += self._mailbox is not None
+            self._mailbox = (points, normals, finger, ns)
+            self._wake.notify()
 
     def _ep2(self):
         while True:
@@ -161,7 +187,7 @@ class ScenePublisher:
 
     def stats(self):
         return {
-            "contacts": len(self.points),
+            "contacts": self.rows.n,
             "patches": self.patches,
             "stale_fits": self.stale,
             "dropped_batches": self.dropped,

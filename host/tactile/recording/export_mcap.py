@@ -19,7 +19,8 @@
   (seconds since its segment's first frame's epoch: its boot).  The metadata record
   ``tactile`` says which, and why, with the units, topics and source.
 
-The ``mcap`` and ``mcap-ros2-support`` packages are the ``export`` extra, imported only here.
+The ``mcap``, ``mcap-ros2-support`` and ``foxglove-sdk`` packages are the ``export`` extra,
+imported only here.
 """
 
 import json
@@ -51,8 +52,8 @@ __all__ = ["require_mcap", "stamps_ns", "write_mcap"]
 
 def require_mcap():
     """The ROS 2 MCAP ``Writer`` class, or ``MissingExtra`` (the ``export`` extra: mcap,
-    mcap-ros2-support)."""
-    return need("export", "MCAP export", "mcap_ros2.writer")[0].Writer
+    mcap-ros2-support, and foxglove-sdk for the scene's schemas)."""
+    return need("export", "MCAP export", "mcap_ros2.writer", "foxglove.messages")[0].Writer
 
 
 def stamps_ns(rec):
