@@ -15,7 +15,8 @@ def add_arguments(parser):
     group.add_argument(
         "--foxglove",
         action="store_true",
-        help="serve the wrench and contact state to Foxglove over its WebSocket protocol",
+        help="serve the wrench and contact state to Foxglove over its WebSocket protocol"
+        " (record --pose-log: the contacts, sensor poses and EP2 patch too)",
     )
     group.add_argument(
         "--foxglove-host",
@@ -77,6 +78,10 @@ def start(args, device=None, pose_log=None):
     return server
 
 
+def _count(n, what, plural="s"):
+    return f"{n:,} {what}{plural * (n != 1)}"
+
+
 def stop(server, quiet=False):
     """Stop ``server`` (if any); print one line of what it published and dropped."""
     if server is None:
@@ -94,8 +99,9 @@ def stop(server, quiet=False):
     c = s.get("scene")
     if c is not None:
         line = (
-            f"foxglove: scene: {c['contacts']:,} contact readings localised, {c['patches']:,}"
-            f" EP2 patches published ({c['stale_fits']:,} fits skipped for newer contacts)"
+            f"foxglove: scene: {c['contacts']:,} contact readings localised,"
+            f" {_count(c['patches'], 'EP2 patch', 'es')} published"
+            f" ({_count(c['stale_fits'], 'fit')} skipped for newer contacts)"
         )
         if c["dropped_batches"]:
             line += f"; {c['dropped_batches']:,} frame batches dropped (the scene fell behind)"
