@@ -11,7 +11,7 @@ import pytest
 from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, variant
 
 import tactile
-from tactile.recording.export_mcap import normal_quaternions
+from tactile.recording.scene import normal_quaternions
 
 
 def _rows(recorded_msgs, host=None):
@@ -26,9 +26,9 @@ def read_mcap(path):
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    class Json(JsonFactory):
+    class Json(JsonFactory):  # and protobuf as its bytes (test_foxglove_scene reads them)
         def decoder_for(self, message_encoding, schema):
-            return json.loads if message_encoding == "json" else None
+            return {"json": json.loads, "protobuf": bytes}.get(message_encoding)
 
     with open(path, "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory(), Json()])
@@ -83,28 +83,36 @@ def _rotate_x(q):
     return np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)])
 
 
-def test_contacts_are_one_posearray_in_metres_pointing_along_the_normals(
-    recorded_run, tmp_path, cli
-):
-    assert cli("export", recorded_run, "-o", tmp_path / "c.mcap")[0] == 0
+def test_contacts_are_one_scene_of_arrows_in_metres_along_the_normals(recorded_run, tmp_path, cli):
+    from test_foxglove_scene import arrows, patch
+
+    code, out, err = cli("export", recorded_run, "-o", tmp_path / "c.mcap")
+    assert code == 0, err
     meta, topics = read_mcap(tmp_path / "c.mcap")
     contacts = tactile.load_recording(recorded_run).contacts
-    [(schema, log_ns, _, arr)] = topics["/tactile/contacts"]
-    assert schema == "geometry_msgs/msg/PoseArray" and arr.header.frame_id == "world"
-    first = min(e[1] for t, es in topics.items() if t != "/tactile/contacts" for e in es)
-    assert _stamp_ns(arr.header) == log_ns == first  # shown from the recording's start
-    assert len(arr.poses) == len(contacts.points_m) > 1000
-    pos = np.array([_vector(p.position) for p in arr.poses])
-    np.testing.assert_array_equal(pos, contacts.points_m)
-    q = np.array([[p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w]
-                  for p in arr.poses])  # fmt: skip
-    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=1e-14)
-    x_axes = np.array([_rotate_x(v) for v in q])
-    np.testing.assert_allclose(x_axes, contacts.normals, atol=1e-14)
-    assert meta["tactile"]["contacts"].startswith(f"{len(pos)} contacts from contacts.csv")
+    [(schema, log_ns, _, update)] = topics["/tactile/contacts"]
+    assert schema == "foxglove.SceneUpdate"
+    first = min(e[1] for t, es in topics.items() if not t.startswith("/tactile/") or
+                t.endswith("/wrench") for e in es)  # fmt: skip
+    assert log_ns == first  # shown from the recording's start
+    [rows] = arrows(update).values()
+    assert len(rows) == len(contacts.points_m) > 1000
+    np.testing.assert_array_equal([p for p, _ in rows], contacts.points_m)  # m, exact
+    np.testing.assert_allclose([n for _, n in rows], contacts.normals, atol=1e-12)
+    assert meta["tactile"]["contacts"].startswith(f"{len(rows)} contacts from contacts.csv")
+
+    [(schema, log_ns, _, update)] = topics["/tactile/patch"]
+    assert schema == "foxglove.SceneUpdate" and log_ns == first
+    code, analysed, err = cli("ep2", "analyze", recorded_run / "contacts.csv", "--json")
+    expected = json.loads(analysed.splitlines()[0])
+    shape, text, mesh = patch(update)
+    assert shape["shape"] == expected["shape"] and mesh == (expected["shape"] != "uncertain")
+    assert f"EP2: {expected['shape']}" in text and f"their EP2 patch ({expected['shape']})" in out
 
 
 def test_contacts_written_in_cm_are_exported_in_metres(recorded_run, tmp_path, cli):
+    from test_foxglove_scene import arrows
+
     metres = tactile.load_recording(recorded_run).contacts.points_m
     cm = variant(recorded_run, tmp_path / "cm")
     lines = (recorded_run / "contacts.csv").read_text().splitlines()[1:]  # below "# units: m"
@@ -113,8 +121,8 @@ def test_contacts_written_in_cm_are_exported_in_metres(recorded_run, tmp_path, c
     (cm / "contacts.csv").write_text("\n".join(["# units: cm", lines[0], *scaled]) + "\n")
     assert cli("export", cm, "-o", tmp_path / "cm.mcap")[0] == 0
     meta, topics = read_mcap(tmp_path / "cm.mcap")
-    pos = np.array([_vector(p.position) for p in topics["/tactile/contacts"][0][3].poses])
-    np.testing.assert_allclose(pos, metres, rtol=1e-14, atol=1e-18)
+    [rows] = arrows(topics["/tactile/contacts"][0][3]).values()
+    np.testing.assert_allclose([p for p, _ in rows], metres, rtol=1e-14, atol=1e-18)
     assert "written in cm, here in m" in meta["tactile"]["contacts"]
 
 
@@ -168,6 +176,9 @@ def test_without_the_extra_the_command_says_how_to_install_it(
     assert err == "tactile export: error: MCAP export needs the 'export' extra:" \
         " pip install 'tactile-shape[export]'\n"  # fmt: skip
     assert not (tmp_path / "x.mcap").exists()
+    monkeypatch.undo()
+    monkeypatch.setitem(sys.modules, "foxglove.messages", None)  # the scene's schemas
+    assert cli("export", recorded_run, "-o", tmp_path / "x.mcap")[1:] == ("", err)
 
 
 def test_other_commands_and_the_loader_do_not_import_mcap(recorded_run):

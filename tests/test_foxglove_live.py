@@ -309,9 +309,9 @@ def test_the_sdk_drops_for_a_client_that_cannot_keep_up():
 def test_the_shipped_layout_reads_topics_we_publish():
     from conftest import ROOT
 
-    from tactile.recording.topics import CONTACTS_TOPIC, contact_topic, wrench_topic
+    from tactile.recording.topics import SCENE_TOPICS, contact_topic, wrench_topic
 
-    ours = {wrench_topic(0), contact_topic(0), CONTACTS_TOPIC}
+    ours = {wrench_topic(0), contact_topic(0), *SCENE_TOPICS}
     text = (ROOT / "docs" / "foxglove_layout.json").read_text()
     found = set()
 

@@ -19,8 +19,14 @@ def add_arguments(parser):
         "--format",
         choices=FORMATS,
         default="mcap",
-        help="mcap: ROS 2 WrenchStamped and contact state per sensor, a PoseArray of contacts;"
-        " parquet: the frames and contacts as tables with units (default mcap)",
+        help="mcap: ROS 2 WrenchStamped and contact state per sensor, the contacts and EP2"
+        " patch as a Foxglove scene; parquet: the frames and contacts as tables with units"
+        " (default mcap)",
+    )
+    parser.add_argument(
+        "--pose-log",
+        metavar="LOG",
+        help="mcap: the robot's pose log of the run, for each sensor's pose (/tactile/tf)",
     )
     parser.add_argument(
         "-o",
@@ -48,12 +54,19 @@ def run(args):
         raise InputError(f"{run_dir}: not a directory (expected 'tactile record -o {run_dir}')")
     name = f"{run_dir.resolve().name}.{args.format}"
     out = pathlib.Path(args.out) if args.out else run_dir / name
+    pose_log = None
+    if args.pose_log:
+        if args.format != "mcap":
+            raise InputError("--pose-log is for --format mcap (the sensors' transforms)")
+        from tactile.localize.pose_log import read_pose_log
+
+        pose_log = read_pose_log(args.pose_log)
     rec = load_recording(run_dir)
     if rec.notes:
         import sys
 
         print(f"tactile export: note: {'; '.join(rec.notes)}", file=sys.stderr, flush=True)
-    summary = write(rec, out)
+    summary = write(rec, out, pose_log) if pose_log is not None else write(rec, out)
     print(line(summary) if args.format == "mcap" else parquet_line(summary), flush=True)
     return 0
 
@@ -67,15 +80,21 @@ def parquet_line(summary):
 
 
 def line(summary):
-    """``wrote FILE: N WrenchStamped on K topics (+ contact state), M contacts (PoseArray);
-    stamps: ...``."""
+    """``wrote FILE: N WrenchStamped on K topics (+ contact state), M contacts and the EP2
+    patch (its label), T transforms; stamps: ...``."""
     topics = dict(summary["topics"])
     contacts = topics.pop("/tactile/contacts", None)
+    topics.pop("/tactile/patch", None)
+    transforms = topics.pop("/tactile/tf", None)
     wrench = {t: n for t, n in topics.items() if t.endswith("/wrench")}
     out = f"wrote {summary['path']}: {sum(wrench.values())} WrenchStamped (N, N*m) on"
     out += f" {len(wrench)} topic" + "s" * (len(wrench) != 1)
     if len(topics) > len(wrench):
         out += " with their contact state (N)"
     if contacts is not None:
-        out += f", {contacts} contacts (m) as one PoseArray on /tactile/contacts"
+        shape = (summary.get("patch") or {}).get("shape") or "refused"
+        out += f", {contacts} contacts (m) on /tactile/contacts, their EP2 patch ({shape})"
+        out += " on /tactile/patch"
+    if transforms is not None:
+        out += f", {transforms} sensor poses (m) on /tactile/tf"
     return out + f"; stamps: {summary['why']}"

@@ -56,7 +56,7 @@ def run(args):
         from tactile.cli.board_args import connect
 
         connect(args)  # raises the 'no port given' message
-    until = None
+    until = posed = None
     if args.pose_log:
         from tactile.recording.derive import check_log
         from tactile.recording.log_clock import log_end
@@ -64,7 +64,9 @@ def run(args):
         log = check_log(args.pose_log)  # a bad log is refused before recording, not after
         end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
         until = (log.clock, end, how)
-    live = foxglove_args.start(args)  # a port in use is refused before anything is written
+        posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
+    # a port in use is refused before anything is written
+    live = foxglove_args.start(args, pose_log=posed)
     try:
         session = Session(
             args.port,

@@ -15,7 +15,8 @@ def add_arguments(parser):
     group.add_argument(
         "--foxglove",
         action="store_true",
-        help="serve the wrench and contact state to Foxglove over its WebSocket protocol",
+        help="serve the wrench and contact state to Foxglove over its WebSocket protocol"
+        " (record --pose-log: the contacts, sensor poses and EP2 patch too)",
     )
     group.add_argument(
         "--foxglove-host",
@@ -54,14 +55,18 @@ def check(args):
     require_foxglove()
 
 
-def start(args, device=None):
-    """The ``LiveServer`` that ``args`` ask for (None without ``--foxglove``); says where."""
+def start(args, device=None, pose_log=None):
+    """The ``LiveServer`` that ``args`` ask for (None without ``--foxglove``); says where.
+    ``pose_log``: a robot's ``PoseLog``, to serve the contacts, transforms and patch too."""
     if not args.foxglove:
         return None
     check(args)
     from tactile.output.foxglove_live import LiveServer
 
-    server = LiveServer(args.foxglove_host, args.foxglove_port, args.foxglove_rate, device)
+    per_contact = getattr(args, "per_contact", None)
+    server = LiveServer(
+        args.foxglove_host, args.foxglove_port, args.foxglove_rate, device, pose_log, per_contact
+    )
     rate = f"{args.foxglove_rate:g} Hz per sensor" if args.foxglove_rate else "every frame"
     print(f"foxglove: serving {server.url} ({rate})", file=sys.stderr, flush=True)
     if args.foxglove_host not in LOOPBACK:
@@ -71,6 +76,10 @@ def start(args, device=None):
             file=sys.stderr,
         )
     return server
+
+
+def _count(n, what, plural="s"):
+    return f"{n:,} {what}{plural * (n != 1)}"
 
 
 def stop(server, quiet=False):
@@ -87,3 +96,17 @@ def stop(server, quiet=False):
     if s["failed"]:
         line += f"; {s['failed']:,} failed ({s['error']})"
     print(line, file=sys.stderr, flush=True)
+    c = s.get("scene")
+    if c is not None:
+        line = (
+            f"foxglove: scene: {c['contacts']:,} contact readings localised,"
+            f" {_count(c['patches'], 'EP2 patch', 'es')} published"
+            f" ({_count(c['stale_fits'], 'fit')} skipped for newer contacts)"
+        )
+        if c["dropped_batches"]:
+            line += f"; {c['dropped_batches']:,} frame batches dropped (the scene fell behind)"
+        if c["localise_error"]:
+            line += f"; localising stopped: {c['localise_error']}"
+        if c["failed"]:
+            line += f"; {c['failed']:,} failed ({c['error']})"
+        print(line, file=sys.stderr, flush=True)

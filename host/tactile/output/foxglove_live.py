@@ -10,6 +10,9 @@ drops the frame and counts it (``dropped``).  A thread encodes and logs to the S
 keeps ``BACKLOG`` messages per client and drops a slow client's oldest (its own rule; it
 counts nothing the SDK shows).  So the caller's loop never waits on a client.
 
+With a robot's ``pose_log`` (a ``PoseLog``) the 3D scene is published too: contacts,
+transforms and the EP2 patch (``tactile.output.foxglove_scene``, off this loop as well).
+
 Rate: ``rate_hz`` per sensor by the board's stamps (0: every frame); CONTACT frames that
 begin or end a contact always pass.  Stamps: the host UTC the caller gives (``record``: the
 board -> host fit as it stands), else this server's own fit of the arrivals
@@ -37,6 +40,7 @@ from tactile_protocol import constants as C
 QUEUE_FRAMES = 4096  # frames between the caller's loop and the publishing thread
 BACKLOG = 1024  # messages the SDK keeps per client before it drops the oldest
 REFIT_S = 1.0
+LINGER_S = 0.3
 DEFAULT_RATE_HZ = 100.0
 _STOP = object()
 
@@ -65,10 +69,25 @@ class Decimator:
         return True
 
 
+class _Listener:
+    """The SDK's callbacks: a client that subscribes to a scene topic gets the scene so far
+    (its entities would otherwise appear only as they change)."""
+
+    def __init__(self, server):
+        self.server = server
+
+    def on_subscribe(self, client, channel):
+        if self.server.scene is not None:
+            self.server.scene.resend(channel.topic)
+
+
 class LiveServer:
     """The server on ``host``:``port`` (0: any free port; ``port`` says which)."""
 
-    def __init__(self, host="127.0.0.1", port=8765, rate_hz=DEFAULT_RATE_HZ, device=None):
+    def __init__(
+        self, host="127.0.0.1", port=8765, rate_hz=DEFAULT_RATE_HZ, device=None, pose_log=None,
+        per_contact=None,
+    ):  # fmt: skip
         fox, serialize = require_foxglove()
         self._fox = fox
         self.encode = serialize(WRENCH_STAMPED, WRENCH_STAMPED_DEF)[WRENCH_STAMPED]
@@ -76,6 +95,7 @@ class LiveServer:
         self.rate_hz = rate_hz
         self.decimator = Decimator(rate_hz)
         self.context = fox.Context()
+        self.scene = None
         try:
             self.server = fox.start_server(
                 name="tactile",
@@ -83,6 +103,7 @@ class LiveServer:
                 port=port,
                 context=self.context,
                 message_backlog_size=BACKLOG,
+                server_listener=_Listener(self) if pose_log is not None else None,
             )
         except Exception as exc:  # the SDK's bind error (a RuntimeError, or its own class)
             from tactile.errors import InputError
@@ -98,6 +119,10 @@ class LiveServer:
         self._fit_at = 0.0
         self._thread = threading.Thread(target=self._publish, name="foxglove", daemon=True)
         self._thread.start()
+        if pose_log is not None:
+            from tactile.output.foxglove_scene import ScenePublisher
+
+            self.scene = ScenePublisher(fox, self.context, pose_log, per_contact)
 
     @property
     def url(self):
@@ -128,6 +153,8 @@ class LiveServer:
 
             self._info, self.device = info, info_dict(info)
         self.feed(msgs, host_times)
+        if self.scene is not None:
+            self.scene.feed(msgs, host_times, self.device)
 
     def _stamp(self, msgs, arrivals):
         if arrivals is None:
@@ -198,6 +225,9 @@ class LiveServer:
         except queue.Full:
             pass
         self._thread.join(timeout_s)
+        if self.scene is not None:
+            self.scene.close()
+            time.sleep(LINGER_S)  # the SDK sends the last patch before the server stops
         for pair in self.channels.values():
             for ch in pair:
                 ch.close()
@@ -213,4 +243,5 @@ class LiveServer:
             "dropped": self.dropped,
             "failed": self.failed,
             "error": self.error,
+            "scene": None if self.scene is None else self.scene.stats(),
         }

@@ -32,7 +32,7 @@ MAX_CAPTURE_BYTES = 2 * 2**30  # read whole: a long recording's capture.bin
 SCARA_PER_CONTACT = 2  # §5.1: two samples per probed point
 
 
-def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=None):
+def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=None, rule=None):
     """CONTACT readings (BEGIN and IN; END is already outside the gate).
 
     ``per_contact``: keep only the first N readings of each contact (per sensor);
@@ -40,25 +40,15 @@ def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=No
     §5.1 takes a sample "when the x-y force exceeds 5 units" (inside a contact, the
     firmware's hysteresis lets the force dip to the exit threshold).
     ``times`` (one int64 us per message) replaces the board's stamps (a host clock's).
+    ``rule``: a ``Readings`` that replaces the three above.
     Returns (times_us int64, sensor, wrench (n, 6) in N and N*m, contact ids).
     """
-    taken, rows = {}, []
-    floor = None if above_N is None else above_N * board_settings.COUNTS_PER_N
-    for i, m in enumerate(messages):
-        if m.type_code != C.MSG_CONTACT or m.phase == C.PHASE_END:
-            continue
-        if floor is not None:
-            fz2 = m.fz * m.fz if gate == "3d" else 0
-            if m.fx * m.fx + m.fy * m.fy + fz2 <= floor * floor:
-                continue
-        key = (m.sensor, m.contact_id)
-        if m.phase == C.PHASE_BEGIN or (floor is not None and key not in taken):
-            taken[key] = 0
-        k = taken.get(key)
-        if k is None or (per_contact is not None and k >= per_contact):
-            continue
-        taken[key] = k + 1
-        rows.append((i, m.sensor, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
+    rule = rule or Readings(per_contact, above_N, gate)
+    rows = [
+        (i, m.sensor, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
+        for i, m in enumerate(messages)
+        if rule.take(m)
+    ]
     a = np.array(rows, dtype=np.int64).reshape(-1, 9)
     wrench = a[:, 3:] * np.array(board_settings.WRENCH_LSB)
     index = a[:, 0]
@@ -67,6 +57,41 @@ def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=No
     else:
         t = np.asarray(times, dtype=np.int64)[index]
     return t, a[:, 1].astype(int), wrench, a[:, 2].astype(int)
+
+
+class Readings:
+    """``contact_frames``'s rule one frame at a time (``take``), for a live view that
+    localises as frames arrive and must keep what contacts.csv keeps."""
+
+    def __init__(self, per_contact=None, above_N=None, gate="xy"):
+        self.per_contact, self.gate, self.taken = per_contact, gate, {}
+        self.floor = None if above_N is None else above_N * board_settings.COUNTS_PER_N
+
+    @classmethod
+    def for_log(cls, kind, per_contact, threshold, gate):
+        """The rule ``derive`` applies to a pose log of ``kind`` ("scara" or "pose")."""
+        if kind == "scara":
+            n = SCARA_PER_CONTACT if per_contact is None else per_contact
+            return cls(n, threshold, gate)
+        return cls(per_contact)
+
+    def take(self, m):
+        """Whether the CONTACT frame ``m`` is a reading (BEGIN or IN, above the floor, within
+        the first ``per_contact`` of its contact)."""
+        if m.type_code != C.MSG_CONTACT or m.phase == C.PHASE_END:
+            return False
+        if self.floor is not None:
+            fz2 = m.fz * m.fz if self.gate == "3d" else 0
+            if m.fx * m.fx + m.fy * m.fy + fz2 <= self.floor * self.floor:
+                return False
+        key = (m.sensor, m.contact_id)
+        if m.phase == C.PHASE_BEGIN or (self.floor is not None and key not in self.taken):
+            self.taken[key] = 0
+        k = self.taken.get(key)
+        if k is None or (self.per_contact is not None and k >= self.per_contact):
+            return False
+        self.taken[key] = k + 1
+        return True
 
 
 def check_log(pose_log):
@@ -134,14 +159,8 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, time
     from tactile.localize.posed import posed_world_contacts
 
     log = read_pose_log(pose_log)
-    scara = log.kind == "scara"
-    if scara:
-        n = SCARA_PER_CONTACT if per_contact is None else per_contact
-        t, sensor, wrench, _ = contact_frames(
-            messages, n, above_N=threshold, gate=gate, times=times
-        )
-    else:
-        t, sensor, wrench, _ = contact_frames(messages, per_contact, times=times)
+    rule = Readings.for_log(log.kind, per_contact, threshold, gate)
+    t, sensor, wrench, _ = contact_frames(messages, times=times, rule=rule)
     points, normals, finger, report = posed_world_contacts(log, t, sensor, wrench, threshold)
     if len(t) == 0:
         raise DataError(

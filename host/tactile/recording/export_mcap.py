@@ -5,19 +5,22 @@
   ``header.frame_id`` ``tactile_sensorN``; beside it ``/tactile/sensorN/contact``, the
   frame's contact state and the gate's thresholds (JSON, ``tactile.recording.topics``).  The live
   server (``tactile.output.foxglove_live``) publishes the same topics and schemas.
-- ``/tactile/contacts`` when the run has a contacts.csv: one ``geometry_msgs/msg/PoseArray``
-  in ``frame_id`` ``world`` holding every contact, positions in m and each orientation
-  turning the x axis onto the contact normal.  Foxglove's 3D panel draws a PoseArray as
-  arrows along x, so the contacts show as their normals with no visualization_msgs; a
-  ``sensor_msgs/PointCloud2`` would show the points but not the normals.  contacts.csv
-  carries no times, so the one message is stamped at the recording's first frame and a
-  player shows it throughout.
+- When the run has a contacts.csv, the live view's scene (``tactile.recording.scene``, the
+  same ``foxglove.SceneUpdate`` schema, protobuf; needs the ``foxglove`` extra):
+  ``/tactile/contacts``, one entity of arrows in frame ``world`` from every contact point
+  (m) along its normal, and ``/tactile/patch``, the EP2 patch of all the contacts (as
+  ``tactile ep2 analyze`` fits it) as a mesh coloured by S with its label and interval.
+  contacts.csv carries no times, so both are stamped at the recording's first frame and a
+  player shows them throughout.  With the robot's pose log, ``/tactile/tf``: a
+  ``foxglove.FrameTransform`` world -> tactile_sensorN per pose-log window, stamped at the
+  first frame of that sensor inside it.
 - Stamps (``header.stamp`` and each message's log time): the host's UTC (Unix time, as ROS
   stamps) when every row has one (``tactile.recording.load``), else the board's clock
   (seconds since its segment's first frame's epoch: its boot).  The metadata record
   ``tactile`` says which, and why, with the units, topics and source.
 
-The ``mcap`` and ``mcap-ros2-support`` packages are the ``export`` extra, imported only here.
+The ``mcap``, ``mcap-ros2-support`` and ``foxglove-sdk`` packages are the ``export`` extra,
+imported only here.
 """
 
 import json
@@ -33,26 +36,24 @@ from tactile.recording.topics import (
     CONTACT_STATE,
     CONTACT_STATE_SCHEMA,
     CONTACTS_TOPIC,
-    POSE_ARRAY,
-    POSE_ARRAY_DEF,
-    WORLD_FRAME,
+    PATCH_TOPIC,
+    TF_TOPIC,
     WRENCH_STAMPED,
     WRENCH_STAMPED_DEF,
     contact_message,
     contact_topic,
-    ros_time,
     sensor_frame,
     wrench_message,
     wrench_topic,
 )
 
-__all__ = ["normal_quaternions", "require_mcap", "stamps_ns", "write_mcap"]
+__all__ = ["require_mcap", "stamps_ns", "write_mcap"]
 
 
 def require_mcap():
     """The ROS 2 MCAP ``Writer`` class, or ``MissingExtra`` (the ``export`` extra: mcap,
-    mcap-ros2-support)."""
-    return need("export", "MCAP export", "mcap_ros2.writer")[0].Writer
+    mcap-ros2-support, and foxglove-sdk for the scene's schemas)."""
+    return need("export", "MCAP export", "mcap_ros2.writer", "foxglove.messages")[0].Writer
 
 
 def stamps_ns(rec):
@@ -65,46 +66,25 @@ def stamps_ns(rec):
     return ns, "board clock", f"board clock, s since its boot, not host time: {why}"
 
 
-def normal_quaternions(normals):
-    """(k, 4) quaternions x, y, z, w turning the x axis onto each unit normal: half-way
-    between x and n, about x cross n (a half turn about z for n = -x)."""
-    n = np.asarray(normals, dtype=float)
-    q = np.column_stack([np.zeros(len(n)), -n[:, 2], n[:, 1], 1.0 + n[:, 0]])
-    length = np.linalg.norm(q, axis=1)
-    flip = length < 1e-9  # n = -x: any half turn about an axis normal to x
-    q[flip] = (0.0, 0.0, 1.0, 0.0)
-    length[flip] = 1.0
-    return q / length[:, None]
-
-
-def _contacts_message(contacts, stamp):
-    q = normal_quaternions(contacts.normals)
-    poses = [
-        {
-            "position": dict(zip("xyz", map(float, p))),
-            "orientation": dict(zip("xyzw", map(float, o))),
-        }
-        for p, o in zip(contacts.points_m, q)
-    ]
-    return {"header": {"stamp": ros_time(stamp), "frame_id": WORLD_FRAME}, "poses": poses}
-
-
-def write_mcap(rec, path):
+def write_mcap(rec, path, pose_log=None):
     """Write ``rec`` (a ``RecordingData``) to the MCAP file ``path``, replacing it whole
-    (written beside it, then renamed).  Returns a summary dict (topics and message counts,
-    the stamps' clock and why)."""
+    (written beside it, then renamed); ``pose_log`` (a ``PoseLog``) adds the sensors'
+    transforms.  Returns a summary dict (topics and message counts, the stamps' clock and
+    why, the patch's record)."""
     Writer = require_mcap()
     path = pathlib.Path(path)
     stamps, clock, clock_why = stamps_ns(rec)
     topics = {wrench_topic(s): int(np.sum(rec.sensor == s)) for s in rec.sensors}
     topics.update({contact_topic(s): topics[wrench_topic(s)] for s in rec.sensors})
-    if rec.contacts is not None:
-        topics[CONTACTS_TOPIC] = len(rec.contacts.points_m)
+    scene_msgs = _scene(rec, stamps, pose_log)
+    for topic, msgs in scene_msgs.items():
+        topics[topic] = len(msgs) if topic != CONTACTS_TOPIC else len(rec.contacts.points_m)
     tmp = path.with_name(path.name + ".tmp")
     try:
         with open(tmp, "wb") as fh:
             writer = Writer(fh)
             _write(writer, rec, stamps, clock_why, topics)
+            _write_scene(writer._writer, scene_msgs)
             writer.finish()
         os.replace(tmp, path)
     except OSError as exc:
@@ -112,7 +92,72 @@ def write_mcap(rec, path):
         raise InputError(
             f"{exc.filename or path}: cannot write the MCAP file ({exc.strerror})"
         ) from None
-    return {"path": str(path), "clock": clock, "why": clock_why, "topics": topics}
+    patch = scene_msgs.get(PATCH_TOPIC)
+    return {
+        "path": str(path),
+        "clock": clock,
+        "why": clock_why,
+        "topics": topics,
+        "patch": patch[0][2] if patch else None,
+    }
+
+
+def _scene(rec, stamps, pose_log):
+    """{topic: [(ns, message, record or None)]} of the scene topics the run has."""
+    from tactile.recording import scene
+
+    out = {}
+    if rec.contacts is not None and len(rec.contacts.points_m) and len(stamps):
+        c, first = rec.contacts, int(stamps.min())
+        out[CONTACTS_TOPIC] = [
+            (first, scene.contacts_update("contacts", c.points_m, c.normals, first), None)
+        ]
+        rows = np.ones(len(c.points_m), bool)
+        if c.patch is not None:  # several patches: the last one, as the live view ends
+            rows = np.array([p == c.patch[-1] for p in c.patch])
+        finger = None if c.finger is None else [f for f, r in zip(c.finger, rows) if r]
+        pts, nrm = c.points_m[rows], c.normals[rows]
+        record, mesh = scene.fit_patch(pts, nrm, finger)
+        update = scene.patch_update(record, mesh, pts.mean(axis=0), len(pts), first)
+        out[PATCH_TOPIC] = [(first, update, record)]
+    if pose_log is not None and len(stamps):
+        out[TF_TOPIC] = _transforms(rec, stamps, pose_log)
+    return out
+
+
+def _transforms(rec, stamps, log):
+    from tactile.localize.posed import window_index
+    from tactile.recording import scene
+    from tactile.recording.live_contacts import entered, sensor_pose
+
+    host = {"utc": rec.host_utc_s, "monotonic": rec.host_monotonic_s}.get(log.clock)
+    if log.clock == "board":
+        times = rec.board_us.astype(np.int64)
+    elif host is not None:
+        times = np.where(np.isfinite(host), np.round(np.nan_to_num(host) * 1e6), -1)
+    else:
+        return []
+    rows = window_index(log, times.astype(np.int64), rec.sensor)
+    out = []
+    for i, s, row in entered(rows, rec.sensor, {}):
+        ns = int(stamps[i])
+        out.append((ns, scene.sensor_transform(s, *sensor_pose(log, row), ns), None))
+    return out
+
+
+def _write_scene(raw, scene_msgs):
+    """The scene topics on ``raw`` (mcap's own Writer), with the SDK's protobuf schemas."""
+    from tactile.recording import scene
+
+    kinds = {CONTACTS_TOPIC: "SceneUpdate", PATCH_TOPIC: "SceneUpdate", TF_TOPIC: "FrameTransform"}
+    schemas = {}
+    for topic, msgs in scene_msgs.items():
+        kind = kinds[topic]
+        if kind not in schemas:
+            schemas[kind] = raw.register_schema(*scene.schema(kind))
+        channel = raw.register_channel(topic, "protobuf", schemas[kind])
+        for k, (ns, msg, _) in enumerate(msgs):
+            raw.add_message(channel, log_time=ns, data=msg.encode(), publish_time=ns, sequence=k)
 
 
 def _write(writer, rec, stamps, clock_why, topics):
@@ -139,10 +184,6 @@ def _write(writer, rec, stamps, clock_why, topics):
         c = contact_message(s, ns, seq, is_contact, phase, cid, flags, device)
         data = json.dumps(c, separators=(",", ":")).encode()
         raw.add_message(channels[s], log_time=ns, data=data, publish_time=ns, sequence=seq)
-    if rec.contacts is not None:
-        poses = writer.register_msgdef(POSE_ARRAY, POSE_ARRAY_DEF)
-        first = int(stamps.min())
-        writer.write_message(CONTACTS_TOPIC, poses, _contacts_message(rec.contacts, first), first)
     writer.add_metadata("tactile", _metadata(rec, clock_why, topics))
 
 
@@ -162,6 +203,7 @@ def _metadata(rec, clock_why, topics):
         "topics": json.dumps(topics),
         "sensor_frames": json.dumps({wrench_topic(s): sensor_frame(s) for s in rec.sensors}),
         "contacts": contacts,
-        "contact_orientation": "x axis along the contact normal (object toward probe)",
+        "contact_arrows": "from each contact point (m) along its normal (object toward probe)",
+        "patch_colour": "shape index S at the patch centre: -1 blue, 0 white, +1 red",
         "device": json.dumps(rec.meta.get("device")),
     }

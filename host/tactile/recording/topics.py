@@ -7,7 +7,10 @@
   ``.wrench.force.x`` and the ROS 2 tools read the recording as is.
 - ``/tactile/sensorN/contact``: ``tactile/ContactState`` (JSON, described by a JSON
   Schema): the frame's contact state beside the gate's thresholds, units in the names.
-- ``/tactile/contacts``: ROS 2 ``geometry_msgs/msg/PoseArray`` (MCAP export only).
+- ``/tactile/contacts``, ``/tactile/patch``: ``foxglove.SceneUpdate``; ``/tactile/tf``:
+  ``foxglove.FrameTransform`` (protobuf, the SDK's own schemas; built by
+  ``tactile.recording.scene``): the localised contacts as arrows along their normals, the
+  latest EP2 patch, and each sensor's pose from the robot's pose log.
 
 The builders return plain dicts: the ROS 2 ones are CDR-encoded by ``mcap_ros2`` (the same
 encoder in both sinks), the JSON one is written as JSON.
@@ -29,19 +32,10 @@ WRENCH_STAMPED_DEF = SEP.join(
         "MSG: geometry_msgs/Vector3\n" + VECTOR,
     ]
 )
-POSE_ARRAY = "geometry_msgs/msg/PoseArray"
-POSE_ARRAY_DEF = SEP.join(
-    [
-        "std_msgs/Header header\ngeometry_msgs/Pose[] poses\n",
-        HEADER,
-        TIME,
-        "MSG: geometry_msgs/Pose\ngeometry_msgs/Point position\n"
-        "geometry_msgs/Quaternion orientation\n",
-        "MSG: geometry_msgs/Point\n" + VECTOR,
-        "MSG: geometry_msgs/Quaternion\n" + VECTOR + "float64 w\n",
-    ]
-)
-CONTACTS_TOPIC = "/tactile/contacts"
+CONTACTS_TOPIC = "/tactile/contacts"  # foxglove.SceneUpdate: arrows, m
+PATCH_TOPIC = "/tactile/patch"  # foxglove.SceneUpdate: mesh and text, m
+TF_TOPIC = "/tactile/tf"  # foxglove.FrameTransform: world -> tactile_sensorN, m
+SCENE_TOPICS = (CONTACTS_TOPIC, PATCH_TOPIC, TF_TOPIC)
 WORLD_FRAME = "world"
 
 CONTACT_STATE = "tactile/ContactState"
