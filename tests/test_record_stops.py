@@ -78,8 +78,13 @@ def test_a_host_clock_log_needs_a_time_base_that_fast_emulation_lacks(cli, tmp_p
     code, stdout, err = cli("record", "--port", "sim://ep2_sweep_sphere", "--pose-log", log,
                             "-o", tmp_path / "run", "--quiet")  # fmt: skip
     line = _one_line(code, stdout.split("\n", 2)[-1], err, 3)
+    assert "(stopped by the pose log's end)" in stdout
+    segments = json.loads((tmp_path / "run" / "meta.json").read_text())["time_base"]["segments"]
+    if any(s["usable"] for s in segments):  # (a loaded machine ran the emulator at ~1x:
+        assert "no contact could be localised" in line  # joined, and the log's times miss)
+        return
     assert "stamped in monotonic time, but the recording cannot say when its frames" in line
-    assert "fast mode" in line and "(stopped by the pose log's end)" in stdout
+    assert "fast mode" in line
 
 
 def test_tare_under_load_is_refused_in_one_line_and_force_tares_anyway(cli, tmp_path):
