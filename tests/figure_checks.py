@@ -1,5 +1,5 @@
 """What a paper's reviewer checks on a figure, as code: units on every axis label, legends
-outside the data, readable fonts, tick labels that do not overprint, the thesis's figure
+that hide no data, readable fonts, tick labels that do not overprint, the thesis's figure
 number.  Figures are caught as they are saved (``caught``), so any plotting code can be
 checked without changing what it returns.
 """
@@ -11,6 +11,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.figure  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+
+from tactile.output.legends import covers_data  # noqa: E402
 
 # A unit, in the last parenthesised group of a label: '(cm)', '(1e3 cm)', '(%)', '(rad,
 # 1 sigma)', '(dimensionless)', '(length unit of R1)', '(1/cm)'.
@@ -117,7 +119,9 @@ def overprinted(fig):
 
 
 def legend_problems(fig):
-    """Legends that lie over any axes (where they could hide data) or use a small font."""
+    """Legends that could hide data or are hard to read: on a 2-D plot, one that covers a
+    data point or lies over another axes (inside its own axes, in the data's empty corner,
+    is where it belongs); on a 3-D view, one over any axes; entries in a small font."""
     renderer = _render(fig)
     out = []
     for ax in _plots(fig):
@@ -125,9 +129,12 @@ def legend_problems(fig):
         if legend is None:
             continue
         box = legend.get_window_extent(renderer)
+        three_d = hasattr(ax, "zaxis")
         for other in _plots(fig):
-            if box.overlaps(other.get_window_extent(renderer)):
+            if (three_d or other is not ax) and box.overlaps(other.get_window_extent(renderer)):
                 out.append(f"legend of {ax.get_title()!r} lies over an axes")
+        if not three_d and covers_data(ax, box):
+            out.append(f"legend of {ax.get_title()!r} covers data")
         small = [t.get_text() for t in legend.get_texts() if t.get_fontsize() < MIN_FONT]
         if small:
             out.append(f"legend entries {small} below {MIN_FONT} pt")

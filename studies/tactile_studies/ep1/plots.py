@@ -10,13 +10,13 @@ imported when one is called.
 import numpy as np
 
 from tactile.extras import pyplot
+from tactile.output.legends import place_legend
 from tactile.output.plots import log_ticks
 
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
 
 FLOOR = 1e-12  # % : smallest error drawn
 DPI = 110
-LEGEND = dict(fontsize=8, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0)
 ERROR_LABEL = "relative curvature error (%)"
 LENGTH = "length unit of R1"
 FLOOR_NOTE = f"(errors truncated at 100 %; below {FLOOR:g} % drawn at {FLOOR:g} %)"
@@ -69,7 +69,7 @@ def _panels(rows, line_key, x_key, y_key, xlabel, legend_title, fmt, title, extr
             extra(ax)
     axes[0].set_ylabel(ERROR_LABEL)
     fig.supxlabel(xlabel, fontsize=10)
-    axes[-1].legend(title=legend_title, title_fontsize=8, **LEGEND)
+    place_legend(axes[-1], title=legend_title, title_fontsize=8)
     fig.suptitle(f"{title}\n{FLOOR_NOTE}", fontsize=10)
     return plt, fig
 
@@ -155,7 +155,7 @@ def plot_arclength(rows, path):
     log_ticks(ax.xaxis)
     ax.set(xlabel="RCR = R2/R1 (dimensionless)", ylabel=f"\u0394s on the finger ({LENGTH})")
     ax.grid(True, alpha=0.3)
-    ax.legend(**LEGEND)
+    place_legend(ax)
     fig.suptitle(
         "Thesis fig. 21: \u0394s for \u0394\u03b8 = 90\u00b0 (\u03c0/2 rad) on spheres", fontsize=10
     )
@@ -184,7 +184,7 @@ def plot_optimal(rows, path, setup=""):
     log_ticks(ax.yaxis)
     ax.set_xlabel(f"sphere radius R2 ({LENGTH})")
     ax.grid(True, alpha=0.3)
-    ax.legend(**LEGEND)
+    place_legend(ax)
     title = "Beyond the thesis: EP1 with \u0394\u03b8 chosen per estimate"
     fig.suptitle(title + (f"\n{setup}" if setup else ""), fontsize=10)
     return _save(plt, fig, path)

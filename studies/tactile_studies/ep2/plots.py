@@ -11,6 +11,7 @@ when one is called.
 import numpy as np
 
 from tactile.extras import pyplot
+from tactile.output.legends import place_legend
 
 __all__ = [
     "plot_cylinder_radius",
@@ -21,7 +22,6 @@ __all__ = [
 ]
 
 DPI = 110
-LEGEND = dict(fontsize=8, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0)
 WEIGHTINGS = ("tangent", "position", "auto")
 ORDER_NAME = {2: "biquadratic", 3: "bicubic", 4: "biquartic"}
 S_LABEL = "S: grid mean \u00b1 STD (dimensionless)"
@@ -92,7 +92,7 @@ def plot_cylinders(rows, path):
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].set_ylabel(S_LABEL)
     fig.supxlabel("cylinder rotation about the patch normal (deg)", fontsize=10)
-    axes[-1].legend(**LEGEND)
+    place_legend(axes[-1])
     fig.suptitle(
         "Thesis fig. 30: S of convex cylinders against rotation\n(points: mean of S over the"
         " grid; bars: \u00b1 STD)",
@@ -127,7 +127,7 @@ def plot_rotation(rows, path):
     ax.set_xticks(sorted({r["rotation"] for r in rows}))
     ax.set(xlabel="cylinder rotation (deg)", ylabel="RMS over the grid of S - 0.5 (dimensionless)")
     ax.grid(True, alpha=0.3)
-    ax.legend(title=f"cylinder radius ({LENGTH}), fit", title_fontsize=8, **LEGEND)
+    place_legend(ax, title=f"cylinder radius ({LENGTH}), fit", title_fontsize=8)
     fig.suptitle("Thesis fig. 32: RMS error in S against cylinder rotation", fontsize=10)
     return _save(plt, fig, path)
 
@@ -149,7 +149,7 @@ def _radius_figure(rows, path, true_s, what, title):
         ax.set_ylabel(f"{ORDER_NAME.get(deg, deg)}\nS (dimensionless)", fontsize=9)
         ax.grid(True, axis="y", alpha=0.3)
     axes[-1].set_xlabel(f"{what} radius ({LENGTH}; the patch spans 4 x 4)")
-    axes[0].legend(**LEGEND)
+    place_legend(axes[0])
     fig.suptitle(f"{title}\n(points: mean of S over the grid; bars: \u00b1 STD)", fontsize=10)
     return _save(plt, fig, path)
 
@@ -192,7 +192,7 @@ def plot_tables(rows, path):
     ax.grid(True, axis="y", alpha=0.3)
     handles = dict(zip(*axes[1].get_legend_handles_labels()[::-1], strict=True))
     keys = ("this simulation", "thesis (robot)", "true S = 0.5 (cylinder)")
-    ax.legend([handles[k] for k in keys], [*keys[:2], "true value"], **LEGEND)
+    place_legend(ax, [handles[k] for k in keys], [*keys[:2], "true value"])
     fig.supxlabel("fit weighting; biquadratic fits, 8 x 8 grid", fontsize=10)
     fig.suptitle(
         "Thesis tables 5-7: the ch. 5 experiment in simulation beside the thesis's robot",
