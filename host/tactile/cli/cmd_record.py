@@ -8,6 +8,10 @@ With a pose log it stops on its own once the log's end has passed (its ``# end:`
 or half a second after its last entry), and says so while it waits.  The summary names the
 board -> host time base (``tactile.recording.timebase``); ``warning:`` lines go to stderr.
 ``--foxglove`` serves the frames to Foxglove while recording (``tactile.cli.foxglove_args``).
+The run folder's lock (``tactile.files.folder_lock``) is held from before anything is
+written until the command ends: a second ``record`` or an ``export`` into it is refused
+(exit 5).  A run that fails before the board sent a byte leaves nothing behind: a folder it
+made is removed, one that was there is left as it was.
 """
 
 import sys
@@ -43,6 +47,13 @@ def add_arguments(parser):
 
 
 def run(args):
+    from tactile.files.folder_lock import hold
+
+    with hold(args.out, create=True):  # one writer in the run, derive included
+        return _run(args)
+
+
+def _run(args):
     from tactile.errors import InputError
     from tactile.output.textout import printable
     from tactile.recording.session import Session
