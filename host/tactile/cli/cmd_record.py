@@ -19,6 +19,7 @@ import sys
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument
 from tactile.cli.words import add_quiet
+from tactile.errors import BoardError
 
 
 def add_arguments(parser):
@@ -108,6 +109,8 @@ def _run(args):
         session.on_progress = progress.update
     try:
         meta = session.run()
+    except BoardError as exc:
+        raise _says_kept(exc, session.rec) from None
     finally:
         if progress:
             progress.close(session)
@@ -121,6 +124,14 @@ def _run(args):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
+
+
+def _says_kept(exc, rec):
+    """A failed run's line says what it left: what the port sent is kept (a run that
+    received nothing left nothing: ``Session``)."""
+    if not rec.bytes or str(rec.dir) in str(exc):
+        return exc
+    return BoardError(f"{exc}; the {_count(rec.bytes, 'byte')} received are kept in {rec.dir}")
 
 
 def time_summary(time_base):
