@@ -50,6 +50,7 @@ def run(args):
 
     from tactile import units
     from tactile.errors import InputError
+    from tactile.files.atomic import write_bytes
     from tactile_sim.ep2 import make, sweep
     from tactile_sim.ep2.sweep import write_rows
 
@@ -90,12 +91,9 @@ def run(args):
                 header=i == 0,
                 unit=unit,
             )
-        with open(args.out, "w", encoding="utf-8") as out:
-            out.write(fh.getvalue())
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    except OSError as exc:
-        raise InputError(f"{args.out}: cannot write: {exc.strerror}") from None
+    write_bytes(args.out, fh.getvalue())  # replaced whole; a disk error: exit 5
     print(f"wrote {args.out}: {args.patches} patch(es) of {len(data['points'])} contacts")
     return 0
 
