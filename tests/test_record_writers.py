@@ -15,6 +15,7 @@ import pytest
 from lying_device import LyingPort, lying_ports
 
 from tactile.board.stream_decoder import decode_bytes
+from tactile.recording.session import Session
 from tactile_protocol import constants as C
 
 RECORD = ("record", "--port", "sim://press", "--quiet")
@@ -58,18 +59,24 @@ def _entries(folder):
     return sorted(os.listdir(folder))
 
 
-def test_a_second_record_into_the_folder_being_recorded_is_refused(cli, tmp_path):
+@pytest.mark.parametrize("append", [False, True])
+def test_a_second_record_between_the_firsts_start_and_its_first_byte_is_refused(tmp_path, append):
+    """The first has made its files and holds the folder, no byte recorded yet: the second
+    (another process) is refused, and the first then records a whole run.  Before the
+    lock, the second found an empty capture and recorded too, into the same files."""
     out = tmp_path / "run"
-    first = _start(*RECORD, "--duration", "3", "-o", out)
-    _wait_for_bytes(out / "capture.bin", 0, first)
-    code, _, err = cli(*RECORD, "--duration", "1", "-o", out)
-    _refused(code, err)
-    stdout, stderr = first.communicate(timeout=120)
-    assert first.returncode == 0, stderr
-    _agree(out, sessions=1)
+    more = ("--append",) if append else ()
+    if append:
+        assert subprocess.run([*CLI, *RECORD, "--contacts", "1", "-o", str(out)]).returncode == 0
+    first = Session("sim://press", out, duration_s=0.5, append=append)
+    second = subprocess.run([*CLI, *RECORD, "--duration", "0.5", "-o", str(out), *more],
+                            capture_output=True, text=True, timeout=120)  # fmt: skip
+    first.run()
+    _refused(second.returncode, second.stderr)
+    _agree(out, sessions=2 if append else 1)
 
 
-def test_a_second_append_is_refused_and_the_first_is_whole(cli, tmp_path):
+def test_a_second_append_while_the_first_records_is_refused(cli, tmp_path):
     out = tmp_path / "run"
     code, _, err = cli(*RECORD, "--contacts", "1", "-o", out)
     assert code == 0, err

@@ -124,7 +124,6 @@ class Recording:
     def _start(self, outdir, append):
         for name in (CAPTURE, FRAMES, DEVICE):
             _refuse_pipe(self.dir / name)
-        atomic.check_target(self.dir / META)  # replaced whole: a regular file or none
         capture = self.dir / CAPTURE
         if not append and capture.exists() and capture.stat().st_size > 0:
             raise InputError(
@@ -143,6 +142,7 @@ class Recording:
             self.previous = previous_sessions(
                 self.dir / META, self.capture_offset, self.rows_offset
             )
+        atomic.check_target(self.dir / META)  # replaced whole: a regular file or none
         self._before = {n: _before(self.dir / n) for n in (CAPTURE, FRAMES, DEVICE)}
         self._open_files(outdir)
         self.frames_offset = (self.dir / FRAMES).stat().st_size  # where this session's rows go
