@@ -109,16 +109,19 @@ def test_a_directory_is_refused_and_a_users_name_tmp_is_untouched(cli, run, tmp_
     assert sorted(os.listdir(tmp_path)) == ["adir", "adir.tmp", "run"]
 
 
-def test_a_full_disk_is_exit_5_and_the_old_export_stays(cli, run, tmp_path):
-    out = tmp_path / "x.parquet"
+@pytest.mark.parametrize("fmt", ["mcap", "parquet"])
+def test_a_full_disk_is_exit_5_and_the_old_export_stays(cli, run, tmp_path, fmt):
+    if fmt == "mcap":
+        pytest.importorskip("mcap_ros2", reason="the 'export' extra is missing")
+    out = tmp_path / f"x.{fmt}"
     out.write_bytes(b"an earlier export")
-    with full_disk(tmp_path, 1000, {TEMP % "x.parquet"}) as disk:
-        code, stdout, err = cli("export", run, *PARQUET, "-o", out)
+    with full_disk(tmp_path, 1000, {TEMP % out.name}) as disk:
+        code, stdout, err = cli("export", run, "--format", fmt, "-o", out)
     assert disk.hits
     _one_line(code, err, 5)
     assert f"{out}: cannot write: No space left on device (the file is unchanged)" in err
     assert stdout == "" and out.read_bytes() == b"an earlier export"
-    assert sorted(os.listdir(tmp_path)) == ["run", "x.parquet"]
+    assert sorted(os.listdir(tmp_path)) == ["run", out.name]
 
 
 def test_the_kernels_file_size_limit_is_exit_5(run, tmp_path):
