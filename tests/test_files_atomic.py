@@ -168,3 +168,23 @@ def test_another_process_is_refused_while_this_one_holds_the_folder(tmp_path):
         held = subprocess.run([sys.executable, "-c", code], timeout=60)
     free = subprocess.run([sys.executable, "-c", code], timeout=60)
     assert (held.returncode, free.returncode) == (5, 0)
+
+
+def test_where_a_folder_takes_no_flock_a_lock_file_inside_it_does(tmp_path, monkeypatch):
+    """Some network file systems answer flock on a folder with EBADF."""
+    real = fcntl.flock
+
+    def flock(fd, op):
+        if stat.S_ISDIR(os.fstat(fd).st_mode):
+            raise OSError(errno.EBADF, os.strerror(errno.EBADF))
+        return real(fd, op)
+
+    monkeypatch.setattr(folder_lock.fcntl, "flock", flock)
+    run = tmp_path / "run"
+    with folder_lock.hold(run, create=True):
+        assert _entries(run) == [folder_lock.LOCK_FILE]
+        fd = os.open(run / folder_lock.LOCK_FILE, os.O_RDONLY)
+        with pytest.raises(BlockingIOError):  # another writer's lock on it is refused
+            real(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.close(fd)
+    assert _entries(tmp_path) == []  # the lock file and the folder it made are gone

@@ -82,7 +82,8 @@ class FolderLock:
             raise _refuse(self.path, exc, "open the folder") from None
 
     def _flock(self, fd):
-        """Lock ``fd`` (the folder, else its lock file); the fd locked."""
+        """Lock the folder's ``fd``, else its lock file: the fd that holds the lock (the
+        caller closes ``fd`` if it is not that one)."""
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             return fd
@@ -96,7 +97,6 @@ class FolderLock:
             lock_fd = os.open(self.file, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as exc:
             raise _refuse(self.path, exc, "make its lock file") from None
-        os.close(fd)
         try:
             fcntl.flock(lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:
@@ -123,11 +123,13 @@ class FolderLock:
                 self.key = key
                 return self
             try:
-                fd = self._flock(fd)
+                locked = self._flock(fd)
             except BaseException:
-                with contextlib.suppress(OSError):
-                    os.close(fd)
+                os.close(fd)
                 raise
+            if locked != fd:
+                os.close(fd)  # the lock file holds the lock
+                fd = locked
             if self._still_there(key):
                 self.fd, self.key = fd, key
                 _HELD[key] = [self, 1]
