@@ -143,8 +143,9 @@ class PicoBoard:
     def boot(self):
         """Nothing: the chip boots when it is launched."""
 
-    def launch(self, flash, fast=False, bus_time=True):
-        """Start the chip on the flash file ``flash``; a ``PicoChip``."""
+    def launch(self, flash, fast=False, bus_time=True, journal=None):
+        """Start the chip on the flash file ``flash``; a ``PicoChip``.  ``journal``: a file
+        that gets every erase and program of the flash (pico_chip.mjs), for tests."""
         folder, exe, modules = rp2_dir(), node(), ensure_npm()
         lock = lock_flash(flash)
         cfg = {
@@ -155,6 +156,7 @@ class PicoBoard:
             "fast": bool(fast),
             "bus_time": bool(bus_time),
             "spin_skip": os.environ.get("TACTILE_PICO_SPIN") != "0",
+            "flash_journal": str(journal) if journal else None,
         }
         return PicoChip(self, [exe, str(CHIP_JS), json.dumps(cfg)], lock)
 
