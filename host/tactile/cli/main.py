@@ -11,6 +11,7 @@ import sys
 
 from tactile import __version__
 from tactile.errors import TactileError
+from tactile.output.textout import printable
 
 # name -> (module, one-line help).  Keep alphabetical within groups.
 COMMANDS = {
@@ -51,8 +52,8 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = NEGATIVE_NUMBER
 
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+    def error(self, message):  # (the message may quote what was typed)
+        self.exit(2, printable(f"{self.prog}: error: {message} (see '{self.prog} --help')") + "\n")
 
 
 # argparse's own pattern takes -3 and -.5 but not -3e-9, which it then reads as an option
@@ -195,13 +196,11 @@ def main(argv=None):
         finally:
             if undo is not None:
                 undo()
-    except TactileError as exc:
-        from tactile.output.textout import printable  # a message may quote a file's text
-
-        print(f"tactile {name}: error: {printable(str(exc))}", file=sys.stderr)
+    except TactileError as exc:  # a message may quote a file's text, a path, a device
+        print(printable(f"tactile {name}: error: {exc}"), file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
-        print(f"tactile {name}: interrupted", file=sys.stderr)
+        print(printable(f"tactile {name}: interrupted"), file=sys.stderr)
         return 130
     except BrokenPipeError:
         return 0
