@@ -140,12 +140,15 @@ def full_parser():
 
 def _logging(verbose):
     """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr, for
-    this call only: returns the undo (``main`` may run many times in one process)."""
+    this call only: returns the undo (``main`` may run many times in one process).  Each
+    line escaped; the libraries the project adopts log here too (``tactile.output.logs``)."""
     import logging
+
+    from tactile.output.logs import Escaped
 
     logger = logging.getLogger("tactile")
     handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("tactile %(name)s: %(message)s"))
+    handler.setFormatter(Escaped("tactile %(name)s: %(message)s"))
     level = logger.level
     logger.addHandler(handler)
     logger.setLevel(logging.INFO if verbose == 1 else logging.DEBUG)
