@@ -40,6 +40,7 @@ def run(args):
     import pathlib
 
     from tactile.errors import InputError
+    from tactile.output.textout import printable
     from tactile.recording.load import load_recording
 
     if args.format == "parquet":
@@ -65,9 +66,11 @@ def run(args):
     if rec.notes:
         import sys
 
-        print(f"tactile export: note: {'; '.join(rec.notes)}", file=sys.stderr, flush=True)
+        note = f"tactile export: note: {'; '.join(rec.notes)}"
+        print(printable(note), file=sys.stderr, flush=True)
     summary = write(rec, out, pose_log) if pose_log is not None else write(rec, out)
-    print(line(summary) if args.format == "mcap" else parquet_line(summary), flush=True)
+    said = line(summary) if args.format == "mcap" else parquet_line(summary)
+    print(printable(said), flush=True)  # the file is the user's
     return 0
 
 

@@ -138,6 +138,7 @@ def run(args):
 def _draw(plot, *args, **kw):
     """Call a ``tactile.output.plots`` function and print the path it wrote."""
     from tactile.errors import InputError
+    from tactile.output.textout import printable
 
     try:
         path = plot(*args, **kw)
@@ -145,7 +146,7 @@ def _draw(plot, *args, **kw):
         raise InputError(
             f"{exc.filename or 'output'}: cannot write the PNG ({exc.strerror})"
         ) from None
-    print(path, flush=True)
+    print(printable(path), flush=True)
 
 
 def _source(path):

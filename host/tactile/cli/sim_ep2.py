@@ -1,6 +1,7 @@
 """``tactile sim ep2``: simulate a three-finger EP2 sweep into a contacts CSV."""
 
 from tactile.cli.words import add_out
+from tactile.output.textout import printable
 
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")
 
@@ -96,7 +97,8 @@ def run(args):
         raise InputError(str(exc)) from None
     except OSError as exc:
         raise InputError(f"{args.out}: cannot write: {exc.strerror}") from None
-    print(f"wrote {args.out}: {args.patches} patch(es) of {len(data['points'])} contacts")
+    n = len(data["points"])
+    print(printable(f"wrote {args.out}: {args.patches} patch(es) of {n} contacts"))
     return 0
 
 

@@ -31,6 +31,7 @@ import sys
 import time
 
 from tactile.errors import BoardError, InputError, MissingExtra
+from tactile.output.textout import printable
 
 HERE = pathlib.Path(__file__).resolve().parent
 CHIP_JS = HERE / "pico_chip.mjs"
@@ -97,7 +98,7 @@ def ensure_npm(quiet=False):
     for name in ("package.json", "package-lock.json"):
         shutil.copyfile(NPM_DIR / name, prefix / name)
     if not quiet:
-        print(f"installing rp2040js from npm into {prefix} (once)", file=sys.stderr)
+        print(printable(f"installing rp2040js from npm into {prefix} (once)"), file=sys.stderr)
     cmd = [npm, "ci", "--prefix", str(prefix), "--no-audit", "--no-fund", "--loglevel=error"]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     if r.returncode != 0 or not (modules / "rp2040js").is_dir():
