@@ -31,8 +31,9 @@ def need_pico():
 
 
 @contextlib.contextmanager
-def serve(scene="press", flash=None, fast=False, bus_time=True):
-    """An emulated Pico serving ``scene`` on a pty until the block ends."""
+def serve(scene="press", flash=None, fast=False, bus_time=True, flash_journal=None):
+    """An emulated Pico serving ``scene`` on a pty until the block ends (``flash_journal``:
+    a file that gets every erase and program of its flash)."""
     from tactile_sim.emulator import load_scene
     from tactile_sim.emulator.device import EmulatedBoard
     from tactile_sim.emulator.pico_server import PicoServer
@@ -40,7 +41,7 @@ def serve(scene="press", flash=None, fast=False, bus_time=True):
     need_pico()
     loaded = load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
     server = PicoServer(EmulatedBoard(loaded, core="rp2040"), flash=flash, realtime=not fast,
-                        bus_time=bus_time)  # fmt: skip
+                        bus_time=bus_time, flash_journal=flash_journal)  # fmt: skip
     server.open()
     server.launch()
     errors = []

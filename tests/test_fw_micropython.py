@@ -53,7 +53,8 @@ def micropython_mjs():
 
 @pytest.fixture(scope="module")
 def stage(tmp_path_factory):
-    """The board's /lib (exactly what `tactile flash` copies) plus the simulated ADC and bus."""
+    """The board's /lib (exactly what `tactile flash` copies) plus the simulated ADC and bus,
+    and the power cuts of tests/power_cut.py."""
     root = tmp_path_factory.mktemp("board")
     for src, dest in flashing.board_files():
         target = root / dest.removeprefix("lib/")
@@ -62,6 +63,7 @@ def stage(tmp_path_factory):
     (root / "tactile_sim").mkdir()
     for name in ("__init__.py", "adc_model.py", "i2c_bus.py"):
         shutil.copyfile(SIM / name, root / "tactile_sim" / name)
+    shutil.copyfile(HERE / "power_cut.py", root / "power_cut.py")
     return root
 
 
@@ -101,3 +103,20 @@ def test_heap_use_per_call_on_micropython(micropython_mjs, stage):
     assert used["gate"] <= 128
     assert used["calibrate"] == 0
     assert used["poll"] <= used["read"] + used["calibrate"] + used["gate"] + used["encode"] + 256
+
+
+def test_a_power_cut_at_any_flash_call_on_micropython_boots_the_old_or_the_new_copy(
+    micropython_mjs, stage
+):
+    """tests/power_cut.py on MicroPython's own os and open (the WebAssembly port's
+    filesystem): a cut at every call of writing settings.bin and cal0.bin, then a boot, with
+    a rename that replaces and one that refuses an existing file."""
+    mp = run_micropython(micropython_mjs, stage, HERE / "fw_mpy_power_cut.py")
+    lines = [line.split() for line in mp.splitlines()]
+    boots = [line for line in lines if line[1].isdigit()]
+    assert {line[2] for line in boots} >= {"open", "write", "close", "rename", "remove"}
+    assert [line for line in boots if not {line[3], line[4]} <= {"old", "new"}] == []
+    for kind in ("replaces", "refuses"):  # each sweep ends with the writes done, uncut
+        assert [line for line in boots if line[0] == kind][-1][2:] == ["None", "new", "new"]
+    assert lines[-1][:3] == ["refuses", "second", "cuts"] and int(lines[-1][3]) > 100
+    assert lines[-1][4:] == ["bad", "0"]

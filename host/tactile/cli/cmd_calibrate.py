@@ -25,7 +25,7 @@ def add_arguments(parser):
 def run(args):
     from tactile.calib import convert, files, install
     from tactile.calib.units import describe
-    from tactile.output.textout import printable  # the label and notes quote the file
+    from tactile.output.textout import printable, printable_lines  # the file's words
 
     mf = files.read(args.file, args.index)
     bm = convert.to_board(mf, args.volts_per_count, args.id)
@@ -41,8 +41,8 @@ def run(args):
         )
     )
     if args.dry_run:
-        print(f"would send (from {describe(mf.units)}):")
-        print("\n".join(convert.table(bm.coeffs)))
+        print(printable(f"would send (from {describe(mf.units)}):"))
+        print(printable_lines(convert.table(bm.coeffs)))
         return 0
     client = connect(args)
     try:
@@ -50,7 +50,9 @@ def run(args):
     finally:
         client.close()
     print(
-        f"sensor {sensor}: calibration {bm.cal_id} loaded and verified"
-        f" (INFO reports id {bm.cal_id}, checksum 0x{bm.crc:04x})"
+        printable(
+            f"sensor {sensor}: calibration {bm.cal_id} loaded and verified"
+            f" (INFO reports id {bm.cal_id}, checksum 0x{bm.crc:04x})"
+        )
     )
     return 0

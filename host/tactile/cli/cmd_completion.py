@@ -33,5 +33,5 @@ def run(args):
 
     parser = full_parser()
     _mark_paths(parser, shtab)
-    print(shtab.complete(parser, shell=args.shell), end="")
+    print(shtab.complete(parser, shell=args.shell), end="")  # escaped: our own parser's words
     return 0

@@ -23,7 +23,8 @@ def add_arguments(parser):
 
 def run(args):
     from tactile.board.client import info_dict
-    from tactile.cli.cmd_info import format_info
+    from tactile.cli.cmd_info import info_lines
+    from tactile.output.textout import printable_lines
 
     flags_from = _streams(args.streams)
     client = connect(args)
@@ -35,7 +36,7 @@ def run(args):
         info = info_dict(client.get_info())
     finally:
         client.close()
-    print(format_info(info))
+    print(printable_lines(info_lines(info)))
     return 0
 
 

@@ -10,6 +10,7 @@ radius beside the thesis's tables 5-7.
 """
 
 from tactile.cli.words import renamed
+from tactile.output.textout import printable
 
 # The surfaces by the one name EP2 labels them with -> the ch. 5 scene's rig object.
 KINDS = {"plane": "plane", "cylinder": "convex", "concave_cylinder": "concave"}
@@ -41,7 +42,7 @@ def run(args):
 
     print("Chapter 5 replica on the board emulator (ch5_* scenes): biquadratic, 8x8 grid")
     head = ("S", "sd S", "R 1/cm", "sd 1/cm", "r cm")
-    print(f"{'surface':<17}{'fit':<9}{'':>6}" + "".join(f"{h:>{W}}" for h in head))
+    print(printable(f"{'surface':<17}{'fit':<9}{'':>6}" + "".join(f"{h:>{W}}" for h in head)))
     for name in dict.fromkeys(args.object or KINDS):
         kind = KINDS[name]
         outdir = pathlib.Path(args.out) / name
@@ -51,12 +52,14 @@ def run(args):
             _row("", "", "thesis", replica.THESIS[kind][weighting])
         true = replica.TRUE_RADIUS_CM[kind]
         print(
-            f"{'':<17}{meta['contacts_ended']} contacts, {results['tangent'].n_points} localised"
-            f" readings, {meta['decoder']['lost_frames']} frames lost"
+            printable(
+                f"{'':<17}{meta['contacts_ended']} contacts, {results['tangent'].n_points}"
+                f" localised readings, {meta['decoder']['lost_frames']} frames lost"
+            )
         )
         true_r = f"; true radius {true} cm" if true else ""
-        print(f"{'':<17}label '{results['tangent'].shape}'{true_r}")
-        print(f"{'':<17}recording: {outdir}")
+        print(printable(f"{'':<17}label '{results['tangent'].shape}'{true_r}"))
+        print(printable(f"{'':<17}recording: {outdir}"))
     return 0
 
 
@@ -66,4 +69,4 @@ def _ours(res):
 
 def _row(name, weighting, who, values):
     cells = "".join(f"{'-' if v is None else f'{v:.4f}':>{W}}" for v in values)
-    print(f"{name:<17}{weighting:<9}{who:>6}{cells}")
+    print(printable(f"{name:<17}{weighting:<9}{who:>6}{cells}"))

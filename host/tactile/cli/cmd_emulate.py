@@ -106,7 +106,7 @@ def run(args):
     if args.cal_file:
         _write_cal(scene, args.cal_file)
     path = server.open()
-    print(path, flush=True)
+    print(printable(path), flush=True)
     when = "now" if args.now else "when a host opens the port"
     if args.core == "rp2040":  # a Pico powers up with its USB cable
         when = "now, running while a host has the port open" if args.fast else "now"

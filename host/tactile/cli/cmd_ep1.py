@@ -71,6 +71,7 @@ def print_result(result, as_json, unit=None):
     """The estimate as JSON or ``key: value`` lines; curvatures in 1/``unit`` (the unit of
     --finger-radius) when it is given."""
     from tactile.output.jsonout import dumps
+    from tactile.output.textout import printable
 
     if as_json:
         if unit is not None:
@@ -85,4 +86,4 @@ def print_result(result, as_json, unit=None):
         label = key
         if unit is not None and key in (*CURVATURES, "residual"):
             label = f"{key} ({unit})" if key == "residual" else f"{key} (1/{unit})"
-        print(f"{label:>14}: {value if value is not None else '-'}")
+        print(printable(f"{label:>14}: {value if value is not None else '-'}"))

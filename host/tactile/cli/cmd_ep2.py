@@ -1,6 +1,7 @@
 """``tactile ep2 analyze FILE.csv``: fit a patch to contacts and normals, label its shape."""
 
 from tactile.cli.words import add_quiet
+from tactile.output.textout import printable_lines
 
 METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")
@@ -182,7 +183,6 @@ class _Printer:
 
     def records(self, records):
         from tactile.ep2.record_units import in_unit
-        from tactile.output.textout import printable
 
         records = [in_unit(r, self.unit, self.scale) for r in records]
         if self.as_json:
@@ -193,13 +193,13 @@ class _Printer:
             lines = [] if self.started else [_head(self.unit)]
             self.started = True
             for r in records:
-                lines.extend(printable(line) for line in _rows(r))  # patch ids are the file's
-        print("\n".join(lines), flush=True)
+                lines.extend(_rows(r))  # patch ids are the file's: escaped below
+        print(printable_lines(lines), flush=True)
 
     def close(self):
         if not self.as_json:
             lines = [] if self.started else [_head(self.unit)]
-            print("\n".join([*lines, _foot(self.unit, self.stated)]), flush=True)
+            print(printable_lines([*lines, _foot(self.unit, self.stated)]), flush=True)
 
 
 def patch_id(text):

@@ -47,6 +47,7 @@ def run(args):
 
     from tactile.errors import InputError
     from tactile.files.folder_lock import hold
+    from tactile.output.textout import printable
     from tactile.recording.export_parquet import contacts_path
     from tactile.recording.export_target import check_outputs
 
@@ -73,7 +74,8 @@ def run(args):
     inside = check_outputs(run_dir, outs, f".{args.format}")
     with hold(run_dir) if inside else contextlib.nullcontext():  # one writer in a run
         summary = _export(run_dir, out, pose_log, write)
-    print(line(summary) if args.format == "mcap" else parquet_line(summary), flush=True)
+    said = line(summary) if args.format == "mcap" else parquet_line(summary)
+    print(printable(said), flush=True)  # the file is the user's
     return 0
 
 
@@ -81,11 +83,13 @@ def _export(run_dir, out, pose_log, write):
     """Read the run, write ``out``: the summary."""
     import sys
 
+    from tactile.output.textout import printable
     from tactile.recording.load import load_recording
 
     rec = load_recording(run_dir)
     if rec.notes:
-        print(f"tactile export: note: {'; '.join(rec.notes)}", file=sys.stderr, flush=True)
+        note = f"tactile export: note: {'; '.join(rec.notes)}"
+        print(printable(note), file=sys.stderr, flush=True)
     return write(rec, out, pose_log) if pose_log is not None else write(rec, out)
 
 

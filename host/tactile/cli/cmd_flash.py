@@ -6,6 +6,7 @@ import sys
 
 from tactile.cli.board_args import add_port_argument, port_of
 from tactile.cli.words import add_quiet
+from tactile.output.textout import printable
 
 
 def add_arguments(parser):
@@ -38,7 +39,7 @@ def run(args):
     port = port_of(args)
     if args.dry_run:
         for line in flashing.plan(port, args.mpy, args.sensors, args.wdt_ms):
-            print(line)
+            print(printable(line))
         return 0
     bar = _Bar(args.quiet)
     try:
@@ -50,14 +51,16 @@ def run(args):
     kind = f".mpy v{done.mpy.tag}" if done.mpy else ".py sources"
     stale = f" ({len(done.removed)} stale removed)" if done.removed else ""
     print(
-        f"flashed {len(done.written)} files as {kind} to {done.port}{stale} and reset it;"
-        f" it answers: {firmware_answer.describe(done.info)}"
+        printable(
+            f"flashed {len(done.written)} files as {kind} to {done.port}{stale} and reset it;"
+            f" it answers: {firmware_answer.describe(done.info)}"
+        )
     )
     return 0
 
 
 def _note(line):
-    print(f"tactile flash: note: {line}", file=sys.stderr)
+    print(printable(f"tactile flash: note: {line}"), file=sys.stderr)
 
 
 class _Bar:

@@ -11,6 +11,7 @@ def add_arguments(parser):
 def run(args):
     from tactile.board.client import info_dict
     from tactile.output.jsonout import dumps
+    from tactile.output.textout import printable_lines
 
     client = connect(args)
     try:
@@ -20,26 +21,23 @@ def run(args):
     if args.json:
         print(dumps(info))
     else:
-        print(format_info(info))
+        print(printable_lines(info_lines(info)))
     return 0
 
 
-def format_info(d):
-    """The INFO as text; the device's own string is escaped (``tactile.output.textout``)."""
-    from tactile.output.textout import printable
-
-    return "\n".join(
-        [
-            f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"
-            f"  (protocol {d['protocol_version']})",
-            f"sensor        {printable(d['sensor_model'])} x {d['n_sensors']}, "
-            f"calibration ids {d['cal_ids']} (checksums "
-            f"{', '.join(f'0x{c:04x}' for c in d['cal_crcs'])})",
-            f"rate          {d['rate_hz']} Hz (ceiling {d['max_rate_hz']} Hz)",
-            f"gate          {d['gate']}: enter {d['enter_threshold_N']:.4g} N, "
-            f"exit {d['exit_threshold_N']:.4g} N, debounce {d['debounce']}",
-            f"streams       {', '.join(d['streams']) or 'none'}"
-            f"{' (autostart)' if d['autostart'] else ''}; "
-            f"{'streaming' if d['streaming'] else 'stopped'}",
-        ]
-    )
+def info_lines(d):
+    """The INFO as lines of text, to print through ``tactile.output.textout.printable_lines``
+    (the device's own string is escaped there)."""
+    return [
+        f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"
+        f"  (protocol {d['protocol_version']})",
+        f"sensor        {d['sensor_model']} x {d['n_sensors']}, "
+        f"calibration ids {d['cal_ids']} (checksums "
+        f"{', '.join(f'0x{c:04x}' for c in d['cal_crcs'])})",
+        f"rate          {d['rate_hz']} Hz (ceiling {d['max_rate_hz']} Hz)",
+        f"gate          {d['gate']}: enter {d['enter_threshold_N']:.4g} N, "
+        f"exit {d['exit_threshold_N']:.4g} N, debounce {d['debounce']}",
+        f"streams       {', '.join(d['streams']) or 'none'}"
+        f"{' (autostart)' if d['autostart'] else ''}; "
+        f"{'streaming' if d['streaming'] else 'stopped'}",
+    ]

@@ -12,6 +12,7 @@ import time
 
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.output.textout import printable
 
 REFRESH_S = 0.1
 
@@ -30,8 +31,10 @@ def run(args):
     client = connect(args)
     if getattr(client.port, "realtime", True) is False:  # sim:// (tactile_sim.urlhandler)
         print(
-            f"tactile live: note: {args.port} runs faster than real time;"
-            " add ?realtime=1 to the URL to pace it by the clock",
+            printable(
+                f"tactile live: note: {args.port} runs faster than real time;"
+                " add ?realtime=1 to the URL to pace it by the clock"
+            ),
             file=sys.stderr,
         )
     restore = live = None
@@ -107,9 +110,10 @@ def _draw(state, client, elapsed, tty, drawn):
     c = client.decoder.counters
     lines = state.render()
     lines.append(f"{elapsed:6.1f} s  frames {c.frames}  lost {c.lost_frames}  damaged {c.damaged}")
-    lines = [line[:WIDTH] for line in lines]  # a counter past 10^20 is cut, not wrapped
+    lines = [printable(line)[:WIDTH] for line in lines]  # a counter past 10^20 is cut
     if tty and drawn:
-        sys.stdout.write(f"\x1b[{drawn}F")  # back to the first line drawn last time
-    sys.stdout.write("".join(f"{line}\x1b[K\n" if tty else f"{line}\n" for line in lines))
+        sys.stdout.write(f"\x1b[{drawn}F")  # escaped: ours, back to the first line drawn
+    end = "\x1b[K\n" if tty else "\n"  # (clear the rest of the line)
+    sys.stdout.write("".join(line + end for line in lines))  # escaped: each line above
     sys.stdout.flush()
     return len(lines)

@@ -138,7 +138,9 @@ def run(args):
 def _draw(plot, *args, **kw):
     """Call a ``tactile.output.plots`` function and print the path it wrote (its file is
     replaced whole: not a file there, exit 2; a disk error, exit 5)."""
-    print(plot(*args, **kw), flush=True)
+    from tactile.output.textout import printable
+
+    print(printable(plot(*args, **kw)), flush=True)
 
 
 def _source(path):

@@ -21,7 +21,7 @@ def run(args):
         )
         return 1
     if not args.json:
-        print(f"{'device':<20} {'description':<32} hardware id")
+        print(printable(f"{'device':<20} {'description':<32} hardware id"))
     for device, description, hwid in rows:
         usb = "VID:PID" in (hwid or "")
         if args.json:

@@ -100,8 +100,10 @@ def _run(args):
         from tactile.recording.log_clock import show_time
 
         print(
-            f"record: stops when the pose log is done ({show_time(until[0], until[1])}:"
-            f" {until[2]}), or on Ctrl-C",
+            printable(
+                f"record: stops when the pose log is done ({show_time(until[0], until[1])}:"
+                f" {until[2]}), or on Ctrl-C"
+            ),
             file=sys.stderr,
         )
     progress = None if args.quiet else Progress(args.duration, args.contacts)
@@ -115,8 +117,8 @@ def _run(args):
         if progress:
             progress.close(session)
         foxglove_args.stop(live)
-    print(summary(meta, args.out))
-    print(time_summary(meta.get("time_base")))
+    print(printable(summary(meta, args.out)))  # the folder is the user's
+    print(printable(time_summary(meta.get("time_base"))))
     if args.pose_log:
         from tactile.recording.derive import derive
 
@@ -222,6 +224,8 @@ class Progress:
     def update(self, session):
         import time
 
+        from tactile.output.textout import fields
+
         now = time.monotonic()
         if now - self.last < (1.0 if self.plain else 0.1):
             return
@@ -241,7 +245,7 @@ class Progress:
         if waiting:
             info["until"] = waiting
         if self.plain:
-            print(" ".join(f"{k}={v}" for k, v in info.items()), file=sys.stderr)
+            print(fields(info, skip=()), file=sys.stderr)
             return
         elapsed = now - session.started
         left = session.until_left_s() if self.total is None else None

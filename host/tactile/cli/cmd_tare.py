@@ -21,6 +21,7 @@ def add_arguments(parser):
 
 def run(args):
     from tactile.errors import InputError
+    from tactile.output.textout import printable
     from tactile_protocol import constants as C
 
     sensor = _sensor(args.sensor, InputError)
@@ -32,7 +33,7 @@ def run(args):
     finally:
         client.close()
     which = "all sensors" if sensor is None else f"sensor {sensor}"
-    print(f"tared {which} ({args.samples} readings)")
+    print(printable(f"tared {which} ({args.samples} readings)"))
     return 0
 
 

@@ -4,6 +4,8 @@ Foxglove WebSocket server of the board's frames (``tactile.output.foxglove_live`
 
 import sys
 
+from tactile.output.textout import printable
+
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
 DEFAULT_RATE_HZ = 100.0  # tactile.output.foxglove_live.DEFAULT_RATE_HZ
@@ -68,11 +70,13 @@ def start(args, device=None, pose_log=None):
         args.foxglove_host, args.foxglove_port, args.foxglove_rate, device, pose_log, per_contact
     )
     rate = f"{args.foxglove_rate:g} Hz per sensor" if args.foxglove_rate else "every frame"
-    print(f"foxglove: serving {server.url} ({rate})", file=sys.stderr, flush=True)
+    print(printable(f"foxglove: serving {server.url} ({rate})"), file=sys.stderr, flush=True)
     if args.foxglove_host not in LOOPBACK:
         print(
-            f"foxglove: note: {args.foxglove_host} is not loopback; anyone who reaches it sees"
-            " the stream (the protocol has no authentication)",
+            printable(
+                f"foxglove: note: {args.foxglove_host} is not loopback; anyone who reaches it"
+                " sees the stream (the protocol has no authentication)"
+            ),
             file=sys.stderr,
         )
     return server
@@ -95,7 +99,7 @@ def stop(server, quiet=False):
     )
     if s["failed"]:
         line += f"; {s['failed']:,} failed ({s['error']})"
-    print(line, file=sys.stderr, flush=True)
+    print(printable(line), file=sys.stderr, flush=True)  # the error may quote a client
     c = s.get("scene")
     if c is not None:
         line = (
@@ -109,4 +113,4 @@ def stop(server, quiet=False):
             line += f"; localising stopped: {c['localise_error']}"
         if c["failed"]:
             line += f"; {c['failed']:,} failed ({c['error']})"
-        print(line, file=sys.stderr, flush=True)
+        print(printable(line), file=sys.stderr, flush=True)

@@ -11,6 +11,7 @@ import sys
 
 from tactile import __version__
 from tactile.errors import TactileError
+from tactile.output.textout import printable
 
 # name -> (module, one-line help).  Keep alphabetical within groups.
 COMMANDS = {
@@ -51,8 +52,8 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = NEGATIVE_NUMBER
 
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+    def error(self, message):  # (the message may quote what was typed)
+        self.exit(2, printable(f"{self.prog}: error: {message} (see '{self.prog} --help')") + "\n")
 
 
 # argparse's own pattern takes -3 and -.5 but not -3e-9, which it then reads as an option
@@ -139,12 +140,15 @@ def full_parser():
 
 def _logging(verbose):
     """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr, for
-    this call only: returns the undo (``main`` may run many times in one process)."""
+    this call only: returns the undo (``main`` may run many times in one process).  Each
+    line escaped; the libraries the project adopts log here too (``tactile.output.logs``)."""
     import logging
+
+    from tactile.output.logs import Escaped
 
     logger = logging.getLogger("tactile")
     handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("tactile %(name)s: %(message)s"))
+    handler.setFormatter(Escaped("tactile %(name)s: %(message)s"))
     level = logger.level
     logger.addHandler(handler)
     logger.setLevel(logging.INFO if verbose == 1 else logging.DEBUG)
@@ -195,13 +199,11 @@ def main(argv=None):
         finally:
             if undo is not None:
                 undo()
-    except TactileError as exc:
-        from tactile.output.textout import printable  # a message may quote a file's text
-
-        print(f"tactile {name}: error: {printable(str(exc))}", file=sys.stderr)
+    except TactileError as exc:  # a message may quote a file's text, a path, a device
+        print(printable(f"tactile {name}: error: {exc}"), file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
-        print(f"tactile {name}: interrupted", file=sys.stderr)
+        print(printable(f"tactile {name}: interrupted"), file=sys.stderr)
         return 130
     except BrokenPipeError:
         return 0

@@ -5,6 +5,7 @@ import math
 from tactile.cli.cmd_ep1 import add_sensor_arguments, check_sensor_arguments, print_result
 from tactile.cli.words import add_out, renamed
 from tactile.errors import DataError, InputError
+from tactile.output.textout import printable
 
 OBJECTS = (
     "plane",
@@ -109,8 +110,10 @@ def run(args):
     print_result(out, args.json)
     if not args.json:
         print(
-            f"{'truth':>10}: kx={truth['kx']:.6g} ky={truth['ky']:.6g} "
-            f"k1={truth['k1']:.6g} k2={truth['k2']:.6g}"
+            printable(
+                f"{'truth':>10}: kx={truth['kx']:.6g} ky={truth['ky']:.6g} "
+                f"k1={truth['k1']:.6g} k2={truth['k2']:.6g}"
+            )
         )
     if stopped:
         raise DataError(f"a probe roll stopped early ({', '.join(stopped)}): reduce --dtheta")

@@ -1,6 +1,7 @@
 """``tactile sim ep2``: simulate a three-finger EP2 sweep into a contacts CSV."""
 
 from tactile.cli.words import add_out
+from tactile.output.textout import printable
 
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")
 
@@ -94,7 +95,8 @@ def run(args):
     except ValueError as exc:
         raise InputError(str(exc)) from None
     write_bytes(args.out, fh.getvalue())  # replaced whole; a disk error: exit 5
-    print(f"wrote {args.out}: {args.patches} patch(es) of {len(data['points'])} contacts")
+    n = len(data["points"])
+    print(printable(f"wrote {args.out}: {args.patches} patch(es) of {n} contacts"))
     return 0
 
 

@@ -8,6 +8,7 @@ import os
 
 from tactile.cli.words import add_out, add_quiet
 from tactile.errors import InputError
+from tactile.output.textout import printable
 
 
 def _common(parser):
@@ -43,10 +44,10 @@ def _finish(args, name, rows, plot, **plot_kw):
 
     csv_path = os.path.join(args.out, f"{name}.csv")
     write_csv(csv_path, rows)
-    print(csv_path)
+    print(printable(csv_path))
     if not args.no_plot:
         for png in plot(rows, os.path.join(args.out, f"{name}.png"), **plot_kw):
-            print(png)
+            print(printable(png))
     return 0
 
 

@@ -4,6 +4,7 @@ Each prints the path of every file it wrote (``tactile_studies.ep2.studies.run``
 """
 
 from tactile.cli.words import add_out
+from tactile.output.textout import printable, printable_lines
 
 
 def _add(parser):
@@ -16,7 +17,7 @@ def _run_with(name):
         from tactile_studies.ep2 import studies
 
         _, paths = studies.run(name, args.out, png=not args.no_png)
-        print("\n".join(paths))
+        print(printable_lines(paths))
         return 0
 
     return run
@@ -54,8 +55,8 @@ def _run_tables(args):
                 "label_share",
             )
         ]
-        print("| " + " | ".join(cells) + " |")
-    print("\n".join(paths))
+        print(printable("| " + " | ".join(cells) + " |"))
+    print(printable_lines(paths))
     return 0
 
 

@@ -10,11 +10,13 @@ spelling (``concave_cylinder``).
 import argparse
 import sys
 
+from tactile.output.textout import printable
+
 OUT = ("-o", "--out")
 
 
 def _note(prog, old, new):
-    print(f"{prog}: note: '{old}' is deprecated, use '{new}'", file=sys.stderr)
+    print(printable(f"{prog}: note: '{old}' is deprecated, use '{new}'"), file=sys.stderr)
 
 
 class _OldSpelling(argparse.Action):

@@ -13,6 +13,10 @@ counts nothing the SDK shows).  So the caller's loop never waits on a client.
 With a robot's ``pose_log`` (a ``PoseLog``) the 3D scene is published too: contacts,
 transforms and the EP2 patch (``tactile.output.foxglove_scene``, off this loop as well).
 
+The SDK's own log lines (a client's bad message, a connection) go to the ``tactile.foxglove``
+logger, escaped and at most ``tactile.output.logs.LINES`` per ``INTERVAL_S``
+(``tactile.output.logs.adopt``): shown with ``tactile -v``, never raw, never without it.
+
 Rate: ``rate_hz`` per sensor by the board's stamps (0: every frame); CONTACT frames that
 begin or end a contact always pass.  Stamps: the host UTC the caller gives (``record``: the
 board -> host fit as it stands), else this server's own fit of the arrivals
@@ -25,6 +29,7 @@ import threading
 import time
 
 from tactile.extras import need
+from tactile.output import logs
 from tactile.recording.topics import (
     CONTACT_STATE,
     CONTACT_STATE_SCHEMA,
@@ -42,6 +47,7 @@ BACKLOG = 1024  # messages the SDK keeps per client before it drops the oldest
 REFIT_S = 1.0
 LINGER_S = 0.3
 DEFAULT_RATE_HZ = 100.0
+SDK_LOGGER, LOGGER = "foxglove", "tactile.foxglove"  # the SDK's loggers, and where they go
 _STOP = object()
 
 
@@ -89,6 +95,7 @@ class LiveServer:
         per_contact=None,
     ):  # fmt: skip
         fox, serialize = require_foxglove()
+        self.sdk_log = logs.adopt(SDK_LOGGER, LOGGER)  # before the SDK's first line
         self._fox = fox
         self.encode = serialize(WRENCH_STAMPED, WRENCH_STAMPED_DEF)[WRENCH_STAMPED]
         self.device = device
@@ -232,6 +239,7 @@ class LiveServer:
             for ch in pair:
                 ch.close()
         self.server.stop()
+        self.sdk_log.flush()  # "... K lines suppressed" of the last interval
         return self.stats()
 
     def stats(self):

@@ -23,7 +23,10 @@
 // Flash: rp2040js reads flash but does not program it. The boot ROM's flash_range_erase
 // ('RE') and flash_range_program ('RP') entries are replaced by BKPT; the break handler
 // applies the operation to the flash array and to the flash file at once, then returns to
-// LR. A watchdog reset (machine.reset()) restarts the chip on the same flash.
+// LR. A watchdog reset (machine.reset()) restarts the chip on the same flash. With
+// cfg.flash_journal, each operation is also appended to that file as it is applied (u32 LE
+// offset, u32 LE length, the bytes the range then holds), so a test can rebuild the flash
+// as a power cut after any operation would have left it.
 //
 // Time: the chip's clock is rp2040js's simulation clock (125 MHz). While the core sleeps
 // (WFE/WFI), or spins on a peripheral (the same load of the TIMER or an I2C controller again
@@ -125,6 +128,7 @@ function openFlash() {
 
 const ROM = patchedRom();
 const FLASH = openFlash();
+const JOURNAL = cfg.flash_journal ? fs.openSync(cfg.flash_journal, 'a') : null;
 
 // --- the chip --------------------------------------------------------------------------------
 let sim, mcu, cdc;
@@ -177,6 +181,12 @@ function onBreak(code) {
 function persist(at, n) {
   FLASH.bytes.set(mcu.flash.subarray(at, at + n), at);
   fs.writeSync(FLASH.fd, mcu.flash, at, n, at);
+  if (JOURNAL !== null) {
+    const head = Buffer.alloc(8);
+    head.writeUInt32LE(at, 0);
+    head.writeUInt32LE(n, 4);
+    fs.writeSync(JOURNAL, Buffer.concat([head, mcu.flash.subarray(at, at + n)]));
+  }
 }
 
 function wireUsb() {

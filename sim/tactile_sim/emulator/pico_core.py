@@ -31,6 +31,7 @@ import sys
 import time
 
 from tactile.errors import BoardError, InputError, MissingExtra
+from tactile.output.textout import printable
 
 HERE = pathlib.Path(__file__).resolve().parent
 CHIP_JS = HERE / "pico_chip.mjs"
@@ -97,7 +98,7 @@ def ensure_npm(quiet=False):
     for name in ("package.json", "package-lock.json"):
         shutil.copyfile(NPM_DIR / name, prefix / name)
     if not quiet:
-        print(f"installing rp2040js from npm into {prefix} (once)", file=sys.stderr)
+        print(printable(f"installing rp2040js from npm into {prefix} (once)"), file=sys.stderr)
     cmd = [npm, "ci", "--prefix", str(prefix), "--no-audit", "--no-fund", "--loglevel=error"]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     if r.returncode != 0 or not (modules / "rp2040js").is_dir():
@@ -143,8 +144,9 @@ class PicoBoard:
     def boot(self):
         """Nothing: the chip boots when it is launched."""
 
-    def launch(self, flash, fast=False, bus_time=True):
-        """Start the chip on the flash file ``flash``; a ``PicoChip``."""
+    def launch(self, flash, fast=False, bus_time=True, journal=None):
+        """Start the chip on the flash file ``flash``; a ``PicoChip``.  ``journal``: a file
+        that gets every erase and program of the flash (pico_chip.mjs), for tests."""
         folder, exe, modules = rp2_dir(), node(), ensure_npm()
         lock = lock_flash(flash)
         cfg = {
@@ -155,6 +157,7 @@ class PicoBoard:
             "fast": bool(fast),
             "bus_time": bool(bus_time),
             "spin_skip": os.environ.get("TACTILE_PICO_SPIN") != "0",
+            "flash_journal": str(journal) if journal else None,
         }
         return PicoChip(self, [exe, str(CHIP_JS), json.dumps(cfg)], lock)
 

@@ -42,12 +42,12 @@ class PicoServer:
     """See the module docstring; ``board`` is an ``EmulatedBoard(scene, core="rp2040")``."""
 
     def __init__(self, board, flash=None, link_path=None, realtime=True, faults=None,
-                 bus_time=True):  # fmt: skip
+                 bus_time=True, flash_journal=None):  # fmt: skip
         if board.core != "rp2040":
             raise ValueError("PicoServer serves an EmulatedBoard built with core='rp2040'")
         self.board, self.link_path, self.realtime, self.faults = board, link_path, realtime, faults
         self.flash = flash or default_flash()
-        self.bus_time = bus_time
+        self.bus_time, self.flash_journal = bus_time, flash_journal
         self.endpoint = self.chip = None
         self.to_host = bytearray()
         self.stop = False
@@ -75,7 +75,8 @@ class PicoServer:
         """Power the chip up (before ``serve``: a missing tool or a flash file in use is
         refused before the port is offered)."""
         if self.chip is None:
-            self.chip = self.board.board.launch(self.flash, not self.realtime, self.bus_time)
+            self.chip = self.board.board.launch(self.flash, not self.realtime, self.bus_time,
+                                                self.flash_journal)  # fmt: skip
         return self.chip
 
     # --- the run ----------------------------------------------------------------------------
