@@ -62,16 +62,32 @@ def probe_dev_full(tmp, name):
     out.mkdir()
     (out / name).symlink_to("/dev/full")
     code, _, err = tactile(*RECORD, "--duration", 5, "-o", out)
-    path = out / name.removesuffix(".tmp")
+    path = out / name
     whys = [one_line(code, err, 5), "" if f"{path}: disk full" in err else f"said: {err[:200]}"]
     if name != "frames.csv":
         whys.append(_meta_ended(out, "disk full"))
-    whys.append("" if not [p for p in out.glob("*.tmp") if not p.is_symlink()] else "a .tmp left")
+    whys.append("" if not list(out.glob("*.tmp")) else "a .tmp left")
     kept = "nothing recorded" if name == "frames.csv" else "meta.json `ended: disk full`"
     return (
         f"`record`: `{name}` a symlink to /dev/full (the kernel's ENOSPC on every write)",
         f"exit 5, one line naming {path.name}; {kept}; no temporary left",
         outcome(*whys),
+    )
+
+
+def probe_meta_dev_full(tmp):
+    """meta.json is replaced whole (tactile.files.atomic): a device there is refused; its
+    temporary has a name nobody can link beforehand."""
+    out = tmp / "full-meta.json"
+    out.mkdir()
+    (out / "meta.json").symlink_to("/dev/full")
+    code, _, err = tactile(*RECORD, "--duration", 5, "-o", out)
+    kept = "" if sorted(p.name for p in out.iterdir()) == ["meta.json"] else "files written"
+    linked = "" if os.readlink(out / "meta.json") == "/dev/full" else "the link replaced"
+    return (
+        "`record`: `meta.json` a symlink to /dev/full",
+        "exit 2 at once, one line: not a regular file; nothing recorded, the link kept",
+        outcome(one_line(code, err, 2), kept, linked),
     )
 
 
@@ -167,8 +183,9 @@ def probes():
     with tempfile.TemporaryDirectory(prefix="reliability_disk_") as tmp:
         tmp = Path(tmp)
         if os.path.exists("/dev/full"):
-            for name in ("frames.csv", "capture.bin", "meta.json.tmp"):
+            for name in ("frames.csv", "capture.bin"):
                 yield probe_dev_full(tmp, name)
+            yield probe_meta_dev_full(tmp)
         yield probe_file_size_limit(tmp)
         yield probe_killed(tmp)
         yield probe_damaged(tmp, "torn row", "frames.csv ends in a torn row (a kill mid-write)")

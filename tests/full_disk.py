@@ -1,15 +1,20 @@
 """A disk that fills up, for tests and probes: ``builtins.open`` patched so that writes to
 the chosen files of one directory share ``free`` bytes; the write that crosses it lands
 the part that fits, as the kernel's short write does, and then raises
-``OSError(ENOSPC)``.  As on a real disk, writing over a file's own bytes costs nothing
-(``in_place=False``: it does).  Reads, and files elsewhere, are untouched."""
+``OSError(ENOSPC)``.  ``names`` are shell patterns (``TEMP % "meta.json"`` is any
+temporary ``tactile.files.atomic`` writes meta.json through).  As on a real disk, writing
+over a file's own bytes costs nothing (``in_place=False``: it does).  Reads, and files
+elsewhere, are untouched."""
 
 import builtins
 import contextlib
 import errno
+import fnmatch
 import io
 import os
 import pathlib
+
+TEMP = ".%s.*.tmp"  # the temporaries of tactile.files.atomic
 
 
 class FullDisk:
@@ -27,7 +32,9 @@ class FullDisk:
         if not isinstance(file, str | os.PathLike):
             return False
         path = pathlib.Path(file).resolve()
-        return path.parent == self.root and (self.names is None or path.name in self.names)
+        if path.parent != self.root:
+            return False
+        return self.names is None or any(fnmatch.fnmatchcase(path.name, n) for n in self.names)
 
     def take(self, name, n):
         """How many of ``n`` bytes fit; a write that does not fit is recorded."""

@@ -152,10 +152,7 @@ def _write_log(motion, path):
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
         raise InputError(f"--pose-log: this scene's motion has no robot log ({path})")
-    try:
-        write(path)
-    except OSError as exc:
-        raise InputError(f"--pose-log: cannot write {path}: {exc.strerror}") from None
+    write(path)  # tactile.files.atomic: not a file there, exit 2; a disk error, exit 5
 
 
 def _write_cal(scene, path):
@@ -163,12 +160,9 @@ def _write_cal(scene, path):
     import pathlib
 
     from tactile.calib.ati import format_cal
-    from tactile.errors import InputError
+    from tactile.files.atomic import write_bytes
     from tactile_sim.emulator.ft_model import per_volt_matrix
 
     digits = "".join(c for c in pathlib.Path(path).stem if c.isdigit())[:6]
     serial = f"FT{digits or 1}"  # the calibration id tactile calibrate takes from it
-    try:
-        pathlib.Path(path).write_text(format_cal(per_volt_matrix(scene.sensor), serial))
-    except OSError as exc:
-        raise InputError(f"--cal-file: cannot write {path}: {exc.strerror}") from None
+    write_bytes(path, format_cal(per_volt_matrix(scene.sensor), serial))  # a disk error: 5

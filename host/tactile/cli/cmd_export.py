@@ -8,6 +8,11 @@ its extra the command prints the install line and exits 2.  The one-line summary
 file(s), what they hold and the clock of the stamps.  A run cut short (killed, a full disk)
 is read with what capture.bin holds (``tactile.recording.recover``); one ``note:`` line on
 stderr says what was rebuilt.
+
+``-o`` is checked before any work (``tactile.recording.export_target``): a new file or a
+regular file, never a directory, a device or a FIFO, never a file of the run; the file is
+replaced whole (``tactile.files.atomic``), a full disk is exit 5, and an export into the
+run folder holds the run's lock while it works.
 """
 
 FORMATS = ("mcap", "parquet")
@@ -37,11 +42,14 @@ def add_arguments(parser):
 
 
 def run(args):
+    import contextlib
     import pathlib
 
     from tactile.errors import InputError
+    from tactile.files.folder_lock import hold
     from tactile.output.textout import printable
-    from tactile.recording.load import load_recording
+    from tactile.recording.export_parquet import contacts_path
+    from tactile.recording.export_target import check_outputs
 
     if args.format == "parquet":
         from tactile.recording.export_parquet import require_pyarrow as require
@@ -62,16 +70,27 @@ def run(args):
         from tactile.localize.pose_log import read_pose_log
 
         pose_log = read_pose_log(args.pose_log)
-    rec = load_recording(run_dir)
-    if rec.notes:
-        import sys
-
-        note = f"tactile export: note: {'; '.join(rec.notes)}"
-        print(printable(note), file=sys.stderr, flush=True)
-    summary = write(rec, out, pose_log) if pose_log is not None else write(rec, out)
+    outs = [out] if args.format == "mcap" else [out, contacts_path(out)]
+    inside = check_outputs(run_dir, outs, f".{args.format}")
+    with hold(run_dir) if inside else contextlib.nullcontext():  # one writer in a run
+        summary = _export(run_dir, out, pose_log, write)
     said = line(summary) if args.format == "mcap" else parquet_line(summary)
     print(printable(said), flush=True)  # the file is the user's
     return 0
+
+
+def _export(run_dir, out, pose_log, write):
+    """Read the run, write ``out``: the summary."""
+    import sys
+
+    from tactile.output.textout import printable
+    from tactile.recording.load import load_recording
+
+    rec = load_recording(run_dir)
+    if rec.notes:
+        note = f"tactile export: note: {'; '.join(rec.notes)}"
+        print(printable(note), file=sys.stderr, flush=True)
+    return write(rec, out, pose_log) if pose_log is not None else write(rec, out)
 
 
 def parquet_line(summary):

@@ -136,17 +136,11 @@ def run(args):
 
 
 def _draw(plot, *args, **kw):
-    """Call a ``tactile.output.plots`` function and print the path it wrote."""
-    from tactile.errors import InputError
+    """Call a ``tactile.output.plots`` function and print the path it wrote (its file is
+    replaced whole: not a file there, exit 2; a disk error, exit 5)."""
     from tactile.output.textout import printable
 
-    try:
-        path = plot(*args, **kw)
-    except OSError as exc:
-        raise InputError(
-            f"{exc.filename or 'output'}: cannot write the PNG ({exc.strerror})"
-        ) from None
-    print(printable(path), flush=True)
+    print(printable(plot(*args, **kw)), flush=True)
 
 
 def _source(path):

@@ -8,6 +8,10 @@ With a pose log it stops on its own once the log's end has passed (its ``# end:`
 or half a second after its last entry), and says so while it waits.  The summary names the
 board -> host time base (``tactile.recording.timebase``); ``warning:`` lines go to stderr.
 ``--foxglove`` serves the frames to Foxglove while recording (``tactile.cli.foxglove_args``).
+The run folder's lock (``tactile.files.folder_lock``) is held from before anything is
+written until the command ends: a second ``record`` or an ``export`` into it is refused
+(exit 5).  A run that fails before the board sent a byte leaves nothing behind: a folder it
+made is removed, one that was there is left as it was.
 """
 
 import sys
@@ -15,6 +19,7 @@ import sys
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument
 from tactile.cli.words import add_quiet
+from tactile.errors import BoardError
 
 
 def add_arguments(parser):
@@ -43,6 +48,13 @@ def add_arguments(parser):
 
 
 def run(args):
+    from tactile.files.folder_lock import hold
+
+    with hold(args.out, create=True):  # one writer in the run, derive included
+        return _run(args)
+
+
+def _run(args):
     from tactile.errors import InputError
     from tactile.output.textout import printable
     from tactile.recording.session import Session
@@ -99,6 +111,8 @@ def run(args):
         session.on_progress = progress.update
     try:
         meta = session.run()
+    except BoardError as exc:
+        raise _says_kept(exc, session.rec) from None
     finally:
         if progress:
             progress.close(session)
@@ -112,6 +126,14 @@ def run(args):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
+
+
+def _says_kept(exc, rec):
+    """A failed run's line says what it left: what the port sent is kept (a run that
+    received nothing left nothing: ``Session``)."""
+    if not rec.bytes or str(rec.dir) in str(exc):
+        return exc
+    return BoardError(f"{exc}; the {_count(rec.bytes, 'byte')} received are kept in {rec.dir}")
 
 
 def time_summary(time_base):

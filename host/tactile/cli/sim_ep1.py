@@ -79,6 +79,7 @@ def run(args):
 
     from tactile.ep1.estimator import EXIT_OK
     from tactile.ep1.probes_csv import format_probes
+    from tactile.files.atomic import write_bytes
     from tactile_sim.ep1.surfaces import make
     from tactile_studies.ep1.experiment import run_ep1
 
@@ -100,8 +101,7 @@ def run(args):
         seed=args.seed,
     )
     if args.out:
-        with open(args.out, "w", encoding="utf-8") as fh:
-            fh.write(format_probes(rows))
+        write_bytes(args.out, format_probes(rows))  # a disk error: exit 5
     out = est.as_dict()
     out["truth"] = {k: np.asarray(v).tolist() for k, v in truth.items()}
     out["relative_error"] = {k: _rel(out[k], truth[k]) for k in ("kx", "ky", "k1", "k2")}

@@ -51,6 +51,7 @@ def run(args):
 
     from tactile import units
     from tactile.errors import InputError
+    from tactile.files.atomic import write_bytes
     from tactile_sim.ep2 import make, sweep
     from tactile_sim.ep2.sweep import write_rows
 
@@ -91,12 +92,9 @@ def run(args):
                 header=i == 0,
                 unit=unit,
             )
-        with open(args.out, "w", encoding="utf-8") as out:
-            out.write(fh.getvalue())
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    except OSError as exc:
-        raise InputError(f"{args.out}: cannot write: {exc.strerror}") from None
+    write_bytes(args.out, fh.getvalue())  # replaced whole; a disk error: exit 5
     n = len(data["points"])
     print(printable(f"wrote {args.out}: {args.patches} patch(es) of {n} contacts"))
     return 0

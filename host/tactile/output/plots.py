@@ -15,12 +15,14 @@ passes (the ch. 5 rig moves one finger in passes).
 """
 
 import functools
+import os
 
 import numpy as np
 
 from tactile.ep2 import extent
 from tactile.errors import InputError
 from tactile.extras import pyplot
+from tactile.files.atomic import atomic_write
 
 __all__ = [
     "colour_limits",
@@ -193,9 +195,18 @@ def _contacts_3d(ax, points, normals, finger, length, group="finger"):
 
 
 def _save(plt, fig, path):
-    fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=0.15)
-    plt.close(fig)
+    try:
+        with atomic_write(path) as fh:  # the format is the name's, as savefig(path) takes it
+            fig.savefig(fh, format=image_format(path), dpi=DPI, bbox_inches="tight",
+                        pad_inches=0.15)  # fmt: skip
+    finally:
+        plt.close(fig)
     return path
+
+
+def image_format(path):
+    """The image format ``path``'s extension names (png without one, as matplotlib)."""
+    return os.path.splitext(os.fspath(path))[1][1:].lower() or "png"
 
 
 def plot_contacts(points, normals, path, finger=None, title=None, unit=None, group="finger"):

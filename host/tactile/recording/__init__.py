@@ -6,6 +6,6 @@ the loader and the exports.
 - ``meta``, ``recover``, ``load``: meta.json, runs cut short, ``load_recording``;
 - ``timebase``, ``timefit``, ``log_clock``, ``robot_log``: board time to host time, and
   the robot's pose log joined to it;
-- ``derive``, ``export_mcap``, ``export_parquet``: contacts and probes from a run, MCAP
-  and Parquet exports.
+- ``derive``, ``export_mcap``, ``export_parquet``, ``export_target``: contacts and probes
+  from a run, MCAP and Parquet exports, and where an export may write.
 """

@@ -26,6 +26,7 @@ import numpy as np
 
 from tactile.board import settings as board_settings
 from tactile.errors import DataError, InputError
+from tactile.files.atomic import write_bytes
 from tactile_protocol import constants as C
 
 MAX_CAPTURE_BYTES = 2 * 2**30  # read whole: a long recording's capture.bin
@@ -146,9 +147,7 @@ def _log_clock(pose_log, columns):
 
 
 def _write(path, text):
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
+    write_bytes(path, text)  # replaced whole; a disk error is exit 5
 
 
 def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times=None):

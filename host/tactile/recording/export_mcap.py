@@ -24,14 +24,13 @@ imported only here.
 """
 
 import json
-import os
 import pathlib
 
 import numpy as np
 
 from tactile import __version__
-from tactile.errors import InputError
 from tactile.extras import need
+from tactile.files.atomic import atomic_write
 from tactile.recording.topics import (
     CONTACT_STATE,
     CONTACT_STATE_SCHEMA,
@@ -68,7 +67,7 @@ def stamps_ns(rec):
 
 def write_mcap(rec, path, pose_log=None):
     """Write ``rec`` (a ``RecordingData``) to the MCAP file ``path``, replacing it whole
-    (written beside it, then renamed); ``pose_log`` (a ``PoseLog``) adds the sensors'
+    (``tactile.files.atomic``); ``pose_log`` (a ``PoseLog``) adds the sensors'
     transforms.  Returns a summary dict (topics and message counts, the stamps' clock and
     why, the patch's record)."""
     Writer = require_mcap()
@@ -79,19 +78,11 @@ def write_mcap(rec, path, pose_log=None):
     scene_msgs = _scene(rec, stamps, pose_log)
     for topic, msgs in scene_msgs.items():
         topics[topic] = len(msgs) if topic != CONTACTS_TOPIC else len(rec.contacts.points_m)
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            writer = Writer(fh)
-            _write(writer, rec, stamps, clock_why, topics)
-            _write_scene(writer._writer, scene_msgs)
-            writer.finish()
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError(
-            f"{exc.filename or path}: cannot write the MCAP file ({exc.strerror})"
-        ) from None
+    with atomic_write(path) as fh:  # a disk error: exit 5; not a file there: exit 2
+        writer = Writer(fh)
+        _write(writer, rec, stamps, clock_why, topics)
+        _write_scene(writer._writer, scene_msgs)
+        writer.finish()
     patch = scene_msgs.get(PATCH_TOPIC)
     return {
         "path": str(path),

@@ -12,14 +12,13 @@ never a NaN.
 """
 
 import json
-import os
 import pathlib
 
 import numpy as np
 
 from tactile import __version__
-from tactile.errors import InputError
 from tactile.extras import need
+from tactile.files.atomic import atomic_write
 
 # column, RecordingData attribute (index into a 2-D one), unit
 COLUMNS = (
@@ -100,21 +99,22 @@ def _describe(what, rec, why):
 
 def write_parquet(rec, path):
     """Write ``rec`` to ``path`` (frames) and, with contacts, ``NAME.contacts.parquet``
-    beside it, each replaced whole (written beside, then renamed).  Returns a summary."""
+    beside it, each replaced whole (``tactile.files.atomic``).  Returns a summary."""
     _, pq = require_pyarrow()
     path = pathlib.Path(path)
     out = {"path": str(path), "frames": len(rec), "contacts": None, "contacts_path": None}
     tables = [(path, frames_table(rec))]
     if rec.contacts is not None:
-        cpath = path.with_name(path.name.removesuffix(".parquet") + ".contacts.parquet")
+        cpath = contacts_path(path)
         tables.append((cpath, contacts_table(rec.contacts)))
         out.update(contacts=len(rec.contacts.points_m), contacts_path=str(cpath))
     for target, table in tables:
-        tmp = target.with_name(target.name + ".tmp")
-        try:
-            pq.write_table(table, tmp)
-            os.replace(tmp, target)
-        except OSError as exc:
-            tmp.unlink(missing_ok=True)
-            raise InputError(f"{target}: cannot write the Parquet file ({exc.strerror})") from None
+        with atomic_write(target) as fh:  # a disk error: exit 5; not a file there: exit 2
+            pq.write_table(table, fh)
     return out
+
+
+def contacts_path(path):
+    """Where ``write_parquet`` puts the contacts of a run written to ``path``."""
+    path = pathlib.Path(path)
+    return path.with_name(path.name.removesuffix(".parquet") + ".contacts.parquet")

@@ -12,7 +12,14 @@ Files (``tactile record -o DIR``):
   when the recording ends (``rewrite_host``).
 - ``device.jsonl``: the other frames (HELLO, INFO, STATUS, NAK) as JSON lines.
 - ``meta.json``: device INFO, configuration, calibration ids, counters, gaps;
-  replaced atomically (write, fsync, rename) every second and at the end.
+  replaced whole (``tactile.files.atomic``) every second and at the end.
+
+One writer per directory: a ``Recording`` takes the directory's lock
+(``tactile.files.folder_lock``) before it reads or writes anything in it, making the
+directory first if need be, and gives it back at ``close``; another process's recording or
+export there is refused (``Busy``, exit 5) having touched nothing.  A session that received
+nothing (no port, no board) is undone by ``discard``: the files it made are removed, the
+others cut back, meta.json left as it was, and the directory removed if it made it.
 
 A write that fails (a full disk) raises ``WriteFailed`` naming the file; ``settle`` then
 leaves every file readable: frames.csv and device.jsonl cut back to their last whole line
@@ -40,7 +47,7 @@ import numpy as np
 from tactile import units
 from tactile.board.settings import wrench_si
 from tactile.errors import HostFileError, InputError
-from tactile.files import bounded
+from tactile.files import atomic, bounded, folder_lock
 from tactile.output.jsonout import clean, dumps
 from tactile.recording.meta import count_rows, document, previous_sessions
 from tactile_protocol import constants as C
@@ -107,6 +114,14 @@ class Recording:
 
     def __init__(self, outdir, append=False):
         self.dir = pathlib.Path(outdir)
+        self._lock = folder_lock.hold(self.dir, create=True)  # before anything is read
+        try:
+            self._start(outdir, append)
+        except BaseException:
+            self._lock.release()  # (a folder it made, left empty, is removed)
+            raise
+
+    def _start(self, outdir, append):
         for name in (CAPTURE, FRAMES, DEVICE):
             _refuse_pipe(self.dir / name)
         capture = self.dir / CAPTURE
@@ -127,6 +142,8 @@ class Recording:
             self.previous = previous_sessions(
                 self.dir / META, self.capture_offset, self.rows_offset
             )
+        atomic.check_target(self.dir / META)  # replaced whole: a regular file or none
+        self._before = {n: _before(self.dir / n) for n in (CAPTURE, FRAMES, DEVICE)}
         self._open_files(outdir)
         self.frames_offset = (self.dir / FRAMES).stat().st_size  # where this session's rows go
         self.rows = 0  # rows written by this session
@@ -134,7 +151,6 @@ class Recording:
 
     def _open_files(self, outdir):
         try:
-            self.dir.mkdir(parents=True, exist_ok=True)
             self._capture = open(self.dir / CAPTURE, "ab")
             new = not (self.dir / FRAMES).exists() or (self.dir / FRAMES).stat().st_size == 0
             self._frames = open(self.dir / FRAMES, "a", encoding="utf-8")
@@ -146,7 +162,7 @@ class Recording:
                 head = units.line(units.FRAMES) + FRAME_COLUMNS + "\n"
                 _put(self._frames, head, self.dir / FRAMES)
             except WriteFailed:
-                self.settle()
+                self.discard()  # nothing recorded: nothing left of this session
                 raise
 
     def raw(self, data):
@@ -175,10 +191,9 @@ class Recording:
         session's first; a NaN leaves its cell empty).  The copy replaces frames.csv
         atomically, so a crash leaves the rows as they were."""
         path = self.dir / FRAMES
-        tmp = path.with_suffix(".csv.tmp")
         self._frames.close()
         try:
-            with open(path, "rb") as src, open(tmp, "wb") as dst:
+            with open(path, "rb") as src, atomic.atomic_write(path) as dst:
                 _copy_bytes(src, dst, self.frames_offset)
                 row = 0
                 while lines := list(itertools.islice(src, REWRITE_ROWS)):
@@ -187,12 +202,6 @@ class Recording:
                     mono, utc = host_of(np.arange(row, row + len(parts)), stamps)
                     dst.write(b"".join(_with_host(p, a, b) for p, a, b in zip(parts, mono, utc)))
                     row += len(parts)
-                dst.flush()
-                os.fsync(dst.fileno())
-            os.replace(tmp, path)
-        except OSError:
-            tmp.unlink(missing_ok=True)
-            raise
         finally:
             self._frames = open(path, "a", encoding="utf-8")
 
@@ -202,8 +211,8 @@ class Recording:
         path = self.dir / META
         doc = clean(document(self.previous + [session]))
         try:
-            _replace(path, (json.dumps(doc, indent=2, allow_nan=False) + "\n").encode())
-        except OSError as exc:
+            atomic.write_bytes(path, (json.dumps(doc, indent=2, allow_nan=False) + "\n").encode())
+        except OSError as exc:  # (atomic's WriteError and PathRefused are OSErrors)
             compact = (json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n").encode()
             if exc.errno not in WRITE_ENDS or not _overwrite(path, compact):
                 raise WriteFailed(path, exc) from None
@@ -212,17 +221,35 @@ class Recording:
         """After a failed write: close the files (a flush that fails again is let go), cut
         frames.csv and device.jsonl back to their last whole line, and count this session's
         bytes and rows from the files."""
-        self.close()
+        self._close_files()
         for name in (FRAMES, DEVICE):
             cut_torn(self.dir / name)
         self.bytes = _size(self.dir / CAPTURE) - self.capture_offset
         self.rows = count_rows(self.dir / FRAMES, strict=False) - self.rows_offset
 
-    def close(self):
-        """Close every file; a flush that fails is let go (``settle`` counts what landed)."""
-        for fh in (self._capture, self._frames, self._device):
+    def discard(self):
+        """Undo a session that received nothing: its files closed, the ones it made
+        removed, the others cut back to their length before it (meta.json is not
+        touched); ``close`` then removes the folder if it made it."""
+        self._close_files()
+        for name, size in self._before.items():
+            path = self.dir / name
             with contextlib.suppress(OSError):
+                if size is None:
+                    path.unlink()
+                elif _size(path) > size and path.is_file():
+                    os.truncate(path, size)
+
+    def _close_files(self):
+        for fh in (getattr(self, n, None) for n in ("_capture", "_frames", "_device")):
+            with contextlib.suppress(OSError, AttributeError):
                 fh.close()
+
+    def close(self):
+        """Close every file (a flush that fails is let go: ``settle`` counts what landed)
+        and give the folder's lock back."""
+        self._close_files()
+        self._lock.release()
 
 
 def _size(path):
@@ -232,18 +259,9 @@ def _size(path):
         return 0
 
 
-def _replace(path, data):
-    """Write ``data`` beside ``path``, fsync, rename over it; no temporary is left."""
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except OSError:
-        tmp.unlink(missing_ok=True)
-        raise
+def _before(path):
+    """``path``'s size before a session (None: no such name), for ``discard``."""
+    return _size(path) if os.path.lexists(path) else None
 
 
 def _overwrite(path, data):

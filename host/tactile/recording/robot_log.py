@@ -23,6 +23,7 @@ a reader gets back the very floats the writer had.
 """
 
 from tactile import units
+from tactile.files.atomic import atomic_write
 
 __all__ = [
     "CLOCKS",
@@ -116,7 +117,7 @@ def write_log(path, kind, rows, clock="board", **fields):
     readable half width of a hold; ``end_us`` when the robot is done, in us of ``clock``.
     """
     head = tag_lines(clock=clock, **fields)
-    with open(path, "w", encoding="utf-8") as fh:
+    with atomic_write(path, text=True) as fh:
         fh.write(units.line(UNITS[kind]))
         fh.writelines(head)
         fh.write(",".join(columns(kind, clock)) + "\n")

@@ -10,6 +10,9 @@ lost frames, and TAREd again.  Ctrl-C ends the recording
 normally.  Port and clock are injectable for tests.  ``on_frames(session, msgs, host_times)``
 sees every batch once it is written (``tactile.output.foxglove_live`` serves it live).
 
+A run that fails before the board sent a byte (no such port, nothing answering) is undone
+(``Recording.discard``): no meta.json, no file of it left.
+
 A write that fails (a full disk) ends the run: the files are settled (torn rows cut, the
 counts taken from the files: ``Recording.settle``), meta.json says how it ended (``disk
 full``, ``file too large`` or ``write failed``) if it can still be written, and ``run``
@@ -111,6 +114,7 @@ class Session:
         self.duration_s = duration_s
         self.contacts = contacts
         self.want_tare = tare
+        self.tared = False  # a TARE the board acknowledged
         self.reconnect_s = reconnect_s
         self.handshake_s = handshake_s
         self.opener = opener or (lambda name: open_port(name))
@@ -162,6 +166,7 @@ class Session:
     def _prepare(self):
         if self.want_tare:
             self.client.tare()
+            self.tared = True
         if not self.client.info.flags & C.CFG_STREAMING:
             self.client.start()
 
@@ -278,6 +283,9 @@ class Session:
         write, the files are settled first and nothing more is attempted but meta.json."""
         if self.ended == "running":
             self.ended = "error"
+        if self.ended == "error" and not self.rec.bytes and self.failed is None:
+            self._discard()  # no byte from a board: the run leaves nothing behind
+            return
         try:
             self._keep_backlog()
         except WriteFailed as exc:
@@ -292,6 +300,12 @@ class Session:
             self._fail(exc)
         if self.client is not None:
             self._close_port()
+        self.rec.close()
+
+    def _discard(self):
+        if self.client is not None:
+            self._close_port()
+        self.rec.discard()
         self.rec.close()
 
     def _kept(self):
@@ -385,7 +399,7 @@ class Session:
             "ended": self.ended,
             "elapsed_s": round(self.clock() - self.started, 3) if self.started else 0.0,
             "device": info_dict(info) if info is not None else None,
-            "tared": self.want_tare,
+            "tared": self.tared,
             "frames": s.frames,
             "samples": self.rec.rows,  # = s.samples, or what frames.csv kept of a failed write
             "late_samples": s.late_samples,

@@ -10,6 +10,8 @@ axis so the data arrive in a robot frame that is not the patch frame.
 
 import numpy as np
 
+from tactile.files.atomic import atomic_write
+
 
 def sweep(
     obj,
@@ -64,7 +66,7 @@ UNIT = "cm"  # the scene's lengths (§4.9's numbers carry none; cm makes them ha
 
 def write_csv(path, data, patch=None, unit=UNIT):
     """Write the EP2 CSV contract: ``# units: UNIT``, x,y,z,nx,ny,nz,finger[,patch]."""
-    with open(path, "w", encoding="utf-8") as fh:
+    with atomic_write(path, text=True) as fh:
         write_rows(fh, data, patch, unit=unit)
 
 

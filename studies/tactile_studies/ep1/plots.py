@@ -10,8 +10,9 @@ imported when one is called.
 import numpy as np
 
 from tactile.extras import pyplot
+from tactile.files.atomic import atomic_write
 from tactile.output.legends import place_legend
-from tactile.output.plots import log_ticks
+from tactile.output.plots import image_format, log_ticks
 
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
 
@@ -32,8 +33,11 @@ def _figure(n, width=3.6):
 
 
 def _save(plt, fig, path):
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
+    try:
+        with atomic_write(path) as fh:
+            fig.savefig(fh, format=image_format(path), dpi=DPI)
+    finally:
+        plt.close(fig)
     return [str(path)]
 
 

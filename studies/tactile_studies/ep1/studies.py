@@ -12,6 +12,7 @@ import csv
 
 import numpy as np
 
+from tactile.files.atomic import atomic_write
 from tactile_sim.ep1.probes import measure, simulate_probes, sphere_plus_probes, tile
 from tactile_sim.ep1.surfaces import fingertip, local, paraboloid
 
@@ -285,7 +286,7 @@ def write_csv(path, rows, units=UNITS):
     """Write dict rows (union of keys, in first-seen order) as CSV under a ``# units:``
     line; never NaN/inf."""
     keys = list(dict.fromkeys(k for row in rows for k in row))
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    with atomic_write(path, text=True, newline="") as fh:
         fh.write(f"# units: {units}\n")
         writer = csv.DictWriter(fh, fieldnames=keys)
         writer.writeheader()

@@ -11,7 +11,9 @@ when one is called.
 import numpy as np
 
 from tactile.extras import pyplot
+from tactile.files.atomic import atomic_write
 from tactile.output.legends import place_legend
+from tactile.output.plots import image_format
 
 __all__ = [
     "plot_cylinder_radius",
@@ -44,8 +46,11 @@ def _figure(n, width=3.6, height=3.4, sharey=True, ratios=None):
 
 
 def _save(plt, fig, path):
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
+    try:
+        with atomic_write(path) as fh:
+            fig.savefig(fh, format=image_format(path), dpi=DPI)
+    finally:
+        plt.close(fig)
     return str(path)
 
 

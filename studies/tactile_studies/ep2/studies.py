@@ -16,6 +16,7 @@ import os
 import numpy as np
 
 from tactile.errors import DataError
+from tactile.files.atomic import atomic_write
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import sweep
 
@@ -224,7 +225,7 @@ def _write(out, name, rows):
     os.makedirs(out, exist_ok=True)
     path = os.path.join(out, name + ".csv")
     keys = list(dict.fromkeys(k for r in rows for k in r))
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    with atomic_write(path, text=True, newline="") as fh:
         fh.write(f"# units: {UNITS}\n")
         w = csv.DictWriter(fh, keys)
         w.writeheader()

@@ -1,0 +1,174 @@
+"""Whole files the host writes: never half written, and never over what is not a file.
+
+``atomic_write(path)`` is the one way the host writes a whole file (an export, meta.json,
+frames.csv's final rewrite, contacts.csv and probes.csv, a figure, a table).  Files that
+grow as data arrive (capture.bin, frames.csv while recording) are appended, not here.
+
+- The target is a new file in an existing directory, or a regular file; a symlink is
+  followed (the file it names is replaced and the link kept).  A directory, a device
+  (``/dev/null`` and ``/dev/full`` too), a FIFO or a socket is refused before anything is
+  written: ``PathRefused``, exit 2.  ``check_target`` makes the same check alone, so a
+  command refuses a bad output before its work.
+- The bytes go to a temporary beside the target, ``.NAME.XXXXXXXX.tmp`` (16 random hex
+  digits), created exclusively (``O_EXCL``): it never names, replaces or deletes a user's
+  file.  It is flushed and fsynced, given the old file's permissions, renamed over the
+  target, and the directory is fsynced where the system allows it.
+- Whatever goes wrong, the temporary is removed and the target is as it was.  An
+  ``OSError`` becomes ``WriteError`` (exit 5: a full disk, a quota, an I/O error, a
+  read-only file system), one line naming the path; a directory that refuses a new file
+  (no permission, gone) is ``PathRefused`` (exit 2).  Both are ``OSError``\\ s too, so code
+  that treats a failed write as an ``OSError`` keeps working; other exceptions pass as
+  they are, after the clean-up.
+"""
+
+import contextlib
+import errno
+import os
+import secrets
+import stat
+
+from tactile.errors import HostFileError, InputError
+
+__all__ = ["PathRefused", "WriteError", "atomic_write", "check_target", "write_bytes"]
+
+# A new file refused for one of these is the path's fault (exit 2), not the disk's.
+PATH_ERRNOS = frozenset(
+    (errno.EACCES, errno.EPERM, errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.ELOOP)
+    + (errno.ENAMETOOLONG,)
+)
+NAME_KEPT = 200  # characters of the target's name in the temporary's (a name has 255)
+KINDS = (
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISCHR, "a device"),
+    (stat.S_ISBLK, "a device"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+class PathRefused(InputError, OSError):
+    """The target is not a file the host may write (exit 2); ``errno`` as the system said."""
+
+    def __init__(self, path, why, code=None):
+        super().__init__(f"{path}: {why}")
+        self.errno, self.strerror = code, why
+
+    def __str__(self):
+        return str(self.args[0])
+
+
+class WriteError(HostFileError, OSError):
+    """Writing ``path`` failed (exit 5); ``errno`` and ``strerror`` as the system said."""
+
+    def __init__(self, path, exc, existed):
+        why = exc.strerror or str(exc)
+        kept = "the file is unchanged" if existed else "nothing written"
+        super().__init__(f"{path}: cannot write: {why} ({kept})")
+        self.errno, self.strerror, self.path = exc.errno, exc.strerror, str(path)
+
+    def __str__(self):
+        return str(self.args[0])
+
+
+def _kind(mode):
+    for test, name in KINDS:
+        if test(mode):
+            return name
+    return None if stat.S_ISREG(mode) else "not a regular file"
+
+
+def check_target(path):
+    """The real path ``path`` names (symlinks followed), once it is known to be a regular
+    file or a new name in an existing directory; ``PathRefused`` otherwise."""
+    real = os.path.realpath(path)
+    try:
+        mode = os.stat(real).st_mode
+    except FileNotFoundError:
+        mode = None
+    except OSError as exc:
+        raise PathRefused(path, f"cannot write: {exc.strerror}", exc.errno) from None
+    if mode is not None:
+        kind = _kind(mode)
+        if kind is not None:
+            why = f"{kind}, not a regular file (an output is a new file or replaces one)"
+            raise PathRefused(path, why)
+        return real
+    parent = os.path.dirname(real)
+    if not os.path.isdir(parent):
+        raise PathRefused(path, f"cannot write: no directory {parent}", errno.ENOENT)
+    return real
+
+
+def _open_temp(path, real, text, encoding, newline):
+    """A new temporary beside ``real``, opened exclusively: (name, file)."""
+    head, name = os.path.split(real)
+    while True:
+        tmp = os.path.join(head, f".{name[:NAME_KEPT]}.{secrets.token_hex(8)}.tmp")
+        try:
+            if text:
+                return tmp, open(tmp, "x", encoding=encoding, newline=newline)
+            return tmp, open(tmp, "xb")
+        except FileExistsError:
+            continue  # one chance in 2**64: draw again
+        except OSError as exc:
+            if exc.errno in PATH_ERRNOS:
+                why = f"cannot write in {head}: {exc.strerror}"
+                raise PathRefused(path, why, exc.errno) from None
+            raise WriteError(path, exc, existed=os.path.exists(real)) from None
+
+
+@contextlib.contextmanager
+def atomic_write(path, text=False, encoding="utf-8", newline=None):
+    """A file object to write ``path`` through; on leaving the block the target is
+    replaced whole (module docstring), or left as it was when anything failed."""
+    real = check_target(path)
+    existed = os.path.exists(real)
+    tmp, fh = _open_temp(path, real, text, encoding, newline)
+    try:
+        yield fh
+        fh.flush()
+        os.fsync(fh.fileno())
+        _keep_mode(fh, real)
+        fh.close()
+        check_target(path)  # again, just before the rename: it may have changed meanwhile
+        os.replace(tmp, real)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            fh.close()  # (a flush that fails again is let go)
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, HostFileError | InputError):
+            raise WriteError(path, exc, existed) from None
+        raise
+    _sync_dir(os.path.dirname(real))
+
+
+def write_bytes(path, data):
+    """Replace ``path`` whole with ``data`` (bytes or str, UTF-8)."""
+    text = isinstance(data, str)
+    with atomic_write(path, text=text, newline="" if text else None) as fh:
+        fh.write(data)
+
+
+def _keep_mode(fh, real):
+    """The replaced file's permission bits on the new one (a new file: the umask's)."""
+    try:
+        mode = stat.S_IMODE(os.stat(real).st_mode)
+    except OSError:
+        return
+    with contextlib.suppress(OSError):  # not the owner: the umask's bits stay
+        os.fchmod(fh.fileno(), mode)
+
+
+def _sync_dir(directory):
+    """fsync the directory so the rename survives a power cut, where the system allows."""
+    try:
+        fd = os.open(directory or ".", os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # not supported here (some file systems, Windows): the rename stands
+    finally:
+        os.close(fd)
