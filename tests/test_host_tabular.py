@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from tactile.errors import InputError
-from tactile.files import tabular
+from tactile.files import csv_dialect, tabular
 from tactile.files.tabular import read_csv
 from tactile.output.jsonout import clean, dumps
 
@@ -211,8 +211,8 @@ def test_a_caller_may_raise_the_byte_and_row_limits(tmp_path):
 
 def test_the_units_line_is_found_before_the_header(tmp_path):
     path = _write(tmp_path, "# rig: x\n#  Units :  cm \nx,y,z\n1,2,3\n# units: m\n")
-    assert tabular.units_line(path) == (2, "cm")
-    assert tabular.units_line(_write(tmp_path, "x,y,z\n1,2,3\n")) is None
+    assert csv_dialect.units_line(path) == (2, "cm")
+    assert csv_dialect.units_line(_write(tmp_path, "x,y,z\n1,2,3\n")) is None
 
 
 # -- issue 13: dumps writes the object itself where ``clean``'s copy would read the same ----

@@ -1,4 +1,4 @@
 """Files the host reads, trusted no further than their bounds: ``bounded`` (regular files
 of a stated size, JSON without recursion or giant integers), ``csv_dialect`` (the strict
-CSV dialect: lines, records, cells), ``tabular`` (the CSV reader: blocks of rows, tables,
-``#`` lines)."""
+CSV dialect: lines, records, cells; a header-less matrix and the ``#`` lines), ``tabular``
+(CSV tables: blocks of rows in NumPy, a whole table)."""

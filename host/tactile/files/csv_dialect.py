@@ -1,4 +1,7 @@
-"""The strict CSV dialect every reader of ``tactile.files.tabular`` holds a file to.
+"""The strict CSV dialect every CSV reader holds a file to, and the readers that need no
+table: ``rows`` (a file without a header, a calibration matrix), ``preamble``,
+``units_line`` and ``comment_lines`` (the ``#`` lines some formats carry).  Tables are
+``tactile.files.tabular``'s.
 
 - Lines: UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; LF, CR LF
   or CR endings; at most ``MAX_LINE_BYTES`` each.  A byte that is not UTF-8 is refused at
@@ -17,6 +20,7 @@
 Every refusal is an ``InputError`` naming the file and line (and the column of a cell).
 """
 
+import contextlib
 import csv
 import math
 import re
@@ -26,6 +30,8 @@ from tactile.files import bounded
 
 SHOW_CHARS = 40  # of a cell or header quoted in a message
 MAX_LINE_BYTES = 64 * 1024
+MAX_FILE_BYTES = 64 * 1024 * 1024  # of a CSV read whole (a reader may state its own)
+RUN_BYTES = 1 << 16  # read at a time by the line readers here
 _BOM = b"\xef\xbb\xbf"
 
 
@@ -282,3 +288,66 @@ class Records:
         while (record := self.next()) is not None and record[1] is None:
             pass
         return record
+
+
+# --- files without a table: a header-less matrix, the ``#`` lines -----------------------
+
+
+def rows(path, max_bytes=None):
+    """Yield (line number, cells) of every row of a CSV without a header (a calibration
+    matrix): blank and ``#`` lines skipped; the limits and messages of ``tabular.read_csv``
+    (``max_bytes`` as for ``preamble``)."""
+    runs = line_blocks(path, MAX_FILE_BYTES if max_bytes is None else max_bytes, RUN_BYTES)
+    with contextlib.closing(runs):
+        records = Records(path, Feed(path, runs))
+        while (record := records.next()) is not None:
+            if record[1] is not None:
+                yield record
+
+
+def preamble(path, max_bytes=None):
+    """(``#`` lines before the header as [(line, stripped text)], header line, header row).
+    Only the lines up to the header are read, of a file of at most ``max_bytes``
+    (default ``MAX_FILE_BYTES``)."""
+    comments = []
+    with contextlib.closing(_text_lines(path, max_bytes)) as lines:
+        for line_no, text in lines:
+            s = text.strip()
+            if s.startswith("#"):
+                comments.append((line_no, s))
+            elif s:
+                try:
+                    return comments, line_no, next(csv.reader([s]))
+                except csv.Error as exc:
+                    raise InputError(f"{where(path, line_no)}: not valid CSV: {exc}") from None
+    raise InputError(no_header(path))
+
+
+def no_header(path):
+    """The one-line message for a file without a header row."""
+    return f"{where(path, 1)}: no header row (the file is empty or only comments)"
+
+
+def units_line(path, max_bytes=None):
+    """The ``# units: ...`` line among the ``#`` lines before the header, as (line, the text
+    after the colon, stripped), or None when the file states no unit."""
+    comments, _, _ = preamble(path, max_bytes)
+    for line_no, text in comments:
+        key, _, value = text[1:].partition(":")
+        if key.strip().lower() == "units":
+            return line_no, value.strip()
+    return None
+
+
+def comment_lines(path, max_bytes=None):
+    """Every ``#`` line of the file as [(line, stripped text)], in file order."""
+    with contextlib.closing(_text_lines(path, max_bytes)) as lines:
+        return [(n, t.strip()) for n, t in lines if t.lstrip().startswith("#")]
+
+
+def _text_lines(path, max_bytes=None):
+    """Yield (line number, text with its line ending) of every physical line, decoded."""
+    max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
+    for first, run in line_blocks(path, max_bytes, RUN_BYTES):
+        for line_no, raw in enumerate(run.splitlines(keepends=True), first):
+            yield line_no, line_text(path, line_no, raw)

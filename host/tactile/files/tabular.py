@@ -3,10 +3,9 @@ a recording's frames).
 
 One reader: ``CsvBlocks`` yields the data rows as ``Block``s of NumPy arrays, about
 ``BLOCK_BYTES`` of text at a time, so memory holds a block, not the file; ``read_csv`` is
-those blocks gathered into one ``Table``.  ``rows`` reads a file without a header (a
-calibration matrix); ``preamble``, ``comment_lines`` and ``units_line`` the ``#`` lines
-some formats carry.  Every error is an ``InputError`` (exit 2) whose one-line message
-names file, line and column: the first error in file order.
+those blocks gathered into one ``Table``.  Every error is an ``InputError`` (exit 2) whose
+one-line message names file, line and column: the first error in file order.  A file
+without a header, and the ``#`` lines, are read by ``tactile.files.csv_dialect``.
 
 Limits (docs/cli.md, "Files the host reads"): a regular file (not a device, pipe or
 directory) of at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most
@@ -24,8 +23,6 @@ is followed into the next one.  ``tests/test_ep2_reader.py`` holds the two equal
 hostile files.
 """
 
-import contextlib
-import csv
 import io
 from array import array
 from dataclasses import dataclass
@@ -35,6 +32,7 @@ import numpy as np
 from tactile.errors import InputError, where
 from tactile.files.csv_dialect import (
     DECIMAL,
+    MAX_FILE_BYTES,
     MAX_LINE_BYTES,
     Feed,
     Records,
@@ -42,7 +40,7 @@ from tactile.files.csv_dialect import (
     count_lines,
     header_index,
     line_blocks,
-    line_text,
+    no_header,
     number_at,
     show,
 )
@@ -54,15 +52,10 @@ __all__ = [
     "Block",
     "CsvBlocks",
     "Table",
-    "comment_lines",
-    "preamble",
     "read_csv",
-    "rows",
     "show",
-    "units_line",
 ]
 
-MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_ROWS = 1_000_000
 MAX_WHOLE = 2**53  # the largest whole-number value a column may hold (floats are exact to it)
 BLOCK_BYTES = 1 << 18  # bytes of text a block: ~3,500 rows of contacts (as fast as 1 MiB)
@@ -317,61 +310,3 @@ class _Rows:
         out = Block(numbers, texts, np.frombuffer(self.lines, np.int64).copy())
         self._reset()
         return out
-
-
-def rows(path):
-    """Yield (line number, cells) of every row of a CSV without a header (a calibration
-    matrix): blank and ``#`` lines skipped, the same limits and messages as ``read_csv``."""
-    runs = line_blocks(path, MAX_FILE_BYTES, BLOCK_BYTES)
-    with contextlib.closing(runs):
-        records = Records(path, Feed(path, runs))
-        while (record := records.next()) is not None:
-            if record[1] is not None:
-                yield record
-
-
-def preamble(path, max_bytes=None):
-    """(``#`` lines before the header as [(line, stripped text)], header line, header row).
-    Only the lines up to the header are read; ``max_bytes`` as for ``read_csv``."""
-    comments = []
-    with contextlib.closing(_text_lines(path, max_bytes)) as lines:
-        for line_no, text in lines:
-            s = text.strip()
-            if s.startswith("#"):
-                comments.append((line_no, s))
-            elif s:
-                try:
-                    return comments, line_no, next(csv.reader([s]))
-                except csv.Error as exc:
-                    raise InputError(f"{where(path, line_no)}: not valid CSV: {exc}") from None
-    raise InputError(no_header(path))
-
-
-def no_header(path):
-    """The one-line message for a file without a header row."""
-    return f"{where(path, 1)}: no header row (the file is empty or only comments)"
-
-
-def units_line(path, max_bytes=None):
-    """The ``# units: ...`` line among the ``#`` lines before the header, as (line, the text
-    after the colon, stripped), or None when the file states no unit."""
-    comments, _, _ = preamble(path, max_bytes)
-    for line_no, text in comments:
-        key, _, value = text[1:].partition(":")
-        if key.strip().lower() == "units":
-            return line_no, value.strip()
-    return None
-
-
-def comment_lines(path):
-    """Every ``#`` line of the file as [(line, stripped text)], in file order."""
-    with contextlib.closing(_text_lines(path)) as lines:
-        return [(n, t.strip()) for n, t in lines if t.lstrip().startswith("#")]
-
-
-def _text_lines(path, max_bytes=None):
-    """Yield (line number, text with its line ending) of every physical line, decoded."""
-    max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
-    for first, run in line_blocks(path, max_bytes, BLOCK_BYTES):
-        for line_no, raw in enumerate(run.splitlines(keepends=True), first):
-            yield line_no, line_text(path, line_no, raw)
