@@ -1,10 +1,8 @@
-"""The scene schema: ``KEYS``, one row per key of a scene TOML file (section, key, type,
-default, unit, help; section ``motion.KIND`` for the keys of one motion kind), and the rules
-across keys (``broken_rules``).  The wire's and the firmware's limits come from
-``tactile_protocol`` and ``tactile_fw``.  ``validate(data)`` checks a whole parsed scene
-before anything is built and fills in the defaults; ``markdown()`` is docs/scenes.md's
-tables (a test keeps them equal).  An error is ``Bad`` with ``where`` = ``[section] key``
-(``[[sensor_fault]] #2 kind``, ``[sensor] noise_force_N[1]``); the loader adds the file.
+"""The scene schema: ``KEYS``, a row per key of a scene TOML file (section ``motion.KIND``
+for a motion kind's keys), with limits from ``tactile_protocol`` and ``tactile_fw``, and the
+rules across keys (``broken_rules``).  ``validate(data)`` checks a parsed scene whole and
+fills in the defaults; ``markdown()`` is docs/scenes.md's tables.  An error is ``Bad`` with
+``where`` = ``[section] key`` (``[[sensor_fault]] #2 kind``, ``[sensor] noise_force_N[1]``).
 """
 
 import copy
@@ -153,9 +151,6 @@ OPTIONAL = ("link",)  # None when the scene has none
 BOARD, SENSOR = SECTIONS["board"], SECTIONS["sensor"]
 
 
-# --- rules across keys ---------------------------------------------------------------------
-
-
 def broken_rules(d):
     """Yield (where, why) for each rule across keys that ``d`` (the checked sections) breaks."""
     b, m, sensors = d["board"], d["motion"], d["board"]["sensors"]
@@ -186,7 +181,7 @@ def broken_rules(d):
 
 
 class Bad(ValueError):
-    """A value that breaks its key's rule; ``where`` is the path to it."""
+    """A value that breaks its key's rule (``why``); ``where`` is the path to it."""
 
     def __init__(self, why, where=""):
         super().__init__(why)
@@ -194,27 +189,21 @@ class Bad(ValueError):
 
 
 def validate(data):
-    """The parsed scene ``data`` checked whole; returns {section: values, defaults filled}.
-
-    A section of ``OPTIONAL`` is None when the scene has none; an array (``sensor_fault``)
-    a list.  Raises ``Bad`` with ``where`` naming section and key.
-    """
+    """The parsed scene ``data`` checked whole: {section: values, defaults filled in}, None
+    for an ``OPTIONAL`` section the scene has not, a list for an array; or ``Bad``."""
     for name, value in data.items():
-        if name not in TOP:
-            _unknown_section(name, value)
+        if name in TOP:
+            continue
+        if not isinstance(value, (dict, list)):
+            owner = [s for s in TOP if s not in ("motion", *ARRAYS) and name in SECTIONS[s]]
+            hint = f" (put it under [{owner[0]}])" if owner else ""
+            raise Bad("a key outside any section" + hint, where=str(name))
+        hint = did_you_mean(f"[{name}]", [f"[{s}]" for s in TOP])
+        raise Bad("unknown section" + hint, where=f"[{name}]")
     out = {name: _top(name, data.get(name)) for name in TOP}
     for where, why in broken_rules(out):
         raise Bad(why, where)
     return out
-
-
-def _unknown_section(name, value):
-    if not isinstance(value, (dict, list)):
-        owner = [s for s in TOP if s not in ("motion", *ARRAYS) and name in SECTIONS[s]]
-        hint = f" (put it under [{owner[0]}])" if owner else ""
-        raise Bad("a key outside any section" + hint, where=str(name))
-    hint = did_you_mean(f"[{name}]", [f"[{s}]" for s in TOP])
-    raise Bad("unknown section" + hint, where=f"[{name}]")
 
 
 def _top(name, given):
@@ -284,7 +273,17 @@ def check(t, value):
             _bad(f"a table of at most {t.hi} entries", value)
         return {name: _under(f".{name}", t.of, v) for name, v in value.items()}
     if t.kind in ("list", "row"):
-        return _items(t, value)
+        n = len(t.of) if t.kind == "row" else None
+        size = n if n else f"{_size(t)} ({describe(t.of)})"
+        if not isinstance(value, list) or not (
+            len(value) == n if n else t.lo <= len(value) <= t.hi
+        ):
+            _bad(f"a list of {size}{' numbers' if n else ''}", value)
+        items = t.of if n else [t.of] * len(value)
+        out = [_under(f"[{i}]", item, v) for i, (item, v) in enumerate(zip(items, value))]
+        if t.unique and len(set(map(repr, out))) != len(out):
+            raise Bad(f"must not repeat an item, got {show(value)}")
+        return out
     number = isinstance(value, (int, float)) and not isinstance(value, bool)
     if t.kind == "int":
         if not number or isinstance(value, float):
@@ -306,18 +305,6 @@ def check(t, value):
         return value if ok else _bad(f"1 to {t.hi} printable ASCII characters", value)
     ok = isinstance(value, str) and value in choices(t)
     return value if ok else _bad("one of " + ", ".join(choices(t)), value)
-
-
-def _items(t, value):
-    n = len(t.of) if t.kind == "row" else None
-    size = n if n else f"{_size(t)} ({describe(t.of)})"
-    if not isinstance(value, list) or not (len(value) == n if n else t.lo <= len(value) <= t.hi):
-        _bad(f"a list of {size}{' numbers' if n else ''}", value)
-    items = t.of if n else [t.of] * len(value)
-    out = [_under(f"[{i}]", item, v) for i, (item, v) in enumerate(zip(items, value))]
-    if t.unique and len(set(map(repr, out))) != len(out):
-        raise Bad(f"must not repeat an item, got {show(value)}")
-    return out
 
 
 def _bad(what, value):
@@ -347,11 +334,8 @@ def show(value, width=40):
 
 
 def did_you_mean(name, known):
-    """``' (did you mean X?)'`` for a near miss among ``known``, else the known names.
-
-    A known name that begins with ``name`` (``rate`` for ``rate_hz``) wins over one that
-    merely looks alike (``gate``).
-    """
+    """``' (did you mean X?)'`` for a near miss among ``known``, else the known names; one
+    that begins with ``name`` (``rate_hz`` for ``rate``) wins over a look-alike (``gate``)."""
     name = str(name)
     stem = name.rstrip("]")
     close = [k for k in known if len(stem.strip("[")) > 1 and k.startswith(stem)]
@@ -359,9 +343,6 @@ def did_you_mean(name, known):
     if close:
         return f" (did you mean {close[0]}?)"
     return f" (known: {', '.join(known)})" if known else ""
-
-
-# --- documentation ------------------------------------------------------------------------
 
 
 def describe(t):
