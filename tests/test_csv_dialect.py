@@ -8,7 +8,7 @@ import pytest
 from tactile.calib import ati, files
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import InputError
-from tactile.files import tabular_blocks
+from tactile.files import tabular
 from tactile.files.tabular import read_csv
 
 HEAD = "x,y,z,nx,ny,nz,patch\n"
@@ -28,7 +28,7 @@ def _readers(monkeypatch):
 
     def streamed(block):
         def read(path):
-            monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", block)
+            monkeypatch.setattr(tabular, "BLOCK_BYTES", block)
             return read_contacts(path)
 
         return read

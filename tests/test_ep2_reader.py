@@ -2,6 +2,8 @@
 errors as the whole-table reader it replaced, whatever the block size; both of its
 parsers; scattered patches given out as soon as they are complete; its limits."""
 
+from unittest import mock
+
 import numpy as np
 import pytest
 from conftest import FUZZ_SCALE
@@ -12,18 +14,19 @@ from test_csv_fuzz import ODD, files
 from tactile.ep2 import contacts_csv
 from tactile.ep2.contacts_csv import REQUIRED, Contacts, ContactsFile, group_rows, read_contacts
 from tactile.errors import InputError, where
-from tactile.files import tabular, tabular_blocks
+from tactile.files import tabular
 
 pytestmark = pytest.mark.filterwarnings("error")
 
 
 def whole_table(path):
     """The reader before issue 13, kept as the reference: the whole table at once
-    (``tabular.read_csv``), grouped by ``group_rows``, then the zero-normal and extent
-    checks."""
+    (``tabular.read_csv``, its line-by-line parser only), grouped by ``group_rows``, then
+    the zero-normal and extent checks."""
     from tactile.ep2 import extent
 
-    table = tabular.read_csv(path, REQUIRED, optional_text=("finger", "patch"))
+    with mock.patch.object(tabular.CsvBlocks, "_fast", lambda self, first, run: None):
+        table = tabular.read_csv(path, REQUIRED, optional_text=("finger", "patch"))
     pts, nrm = table.array("x", "y", "z"), table.array("nx", "ny", "nz")
     bad = np.flatnonzero(~(np.max(np.abs(nrm), axis=1) > 0))
     if bad.size:
@@ -75,7 +78,7 @@ FUZZ = settings(
 @FUZZ
 @given(data=st.data(), block=st.sampled_from([7, 40, 200, 1 << 20]))
 def test_hostile_files_give_the_whole_table_readers_answer(tmp_path, monkeypatch, data, block):
-    monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", block)
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", block)
     path = tmp_path / "c.csv"
     path.write_bytes(data.draw(files("contacts")))
     want = outcome(whole_table, path)
@@ -118,7 +121,7 @@ def scattered_files(draw):
 @FUZZ
 @given(data=st.data(), block=st.sampled_from([16, 64, 300, 1 << 20]))
 def test_scattered_files_give_the_whole_table_readers_answer(tmp_path, monkeypatch, data, block):
-    monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", block)
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", block)
     path = tmp_path / "c.csv"
     path.write_bytes(data.draw(scattered_files()))
     want = outcome(whole_table, path)
@@ -131,7 +134,7 @@ def test_scattered_files_give_the_whole_table_readers_answer(tmp_path, monkeypat
 def test_every_odd_cell_in_a_plain_file_gets_the_whole_table_readers_answer(
     tmp_path, monkeypatch, column, block
 ):
-    monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", block)
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", block)
     header = "x,y,z,nx,ny,nz,finger,patch".split(",")
     extra = ["inf", "-inf", "1e400", " 1", "1 ", "\t1", "\u00a0", "1e-400", "a#b", "#", "1;2"]
     for k, cell in enumerate(ODD + extra):
@@ -180,19 +183,19 @@ def _plain_file(path, n_patches, rows=12, seed=0, window=7):
 def test_fast_and_slow_parsers_agree_and_the_fast_one_does_the_work(tmp_path, monkeypatch):
     path = tmp_path / "plain.csv"
     _plain_file(path, 300)
-    monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", 2048)
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", 2048)
     fast = []
-    parse = tabular_blocks.CsvBlocks._fast
+    parse = tabular.CsvBlocks._fast
 
     def counted(self, first, run):
         block = parse(self, first, run)
         fast.append(0 if block is None else len(block.lines))
         return block
 
-    monkeypatch.setattr(tabular_blocks.CsvBlocks, "_fast", counted)
+    monkeypatch.setattr(tabular.CsvBlocks, "_fast", counted)
     got = outcome(read_contacts, path)
     assert sum(fast) > 0.9 * 300 * 12  # plain runs are parsed in C
-    monkeypatch.setattr(tabular_blocks.CsvBlocks, "_fast", lambda self, first, run: None)
+    monkeypatch.setattr(tabular.CsvBlocks, "_fast", lambda self, first, run: None)
     assert_same(got, outcome(read_contacts, path))
     assert_same(got, outcome(whole_table, path))
 
@@ -203,7 +206,7 @@ def test_a_quoted_field_over_a_line_break_spans_blocks(tmp_path, monkeypatch):
     rows[20] = rows[20][:-1] + '"a\nstill a"'  # patch id with a line break, over a run's end
     path.write_text("x,y,z,nx,ny,nz,finger,patch\n" + "\n".join(rows) + "\n")
     for block in (8, 50, 1 << 20):
-        monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", block)
+        monkeypatch.setattr(tabular, "BLOCK_BYTES", block)
         got = outcome(read_contacts, path)
         assert [g[0] for g in got] == ["a", "a\nstill a"] and got[1][4] == [23]
         assert_same(got, outcome(whole_table, path))
@@ -212,22 +215,22 @@ def test_a_quoted_field_over_a_line_break_spans_blocks(tmp_path, monkeypatch):
 def test_a_patch_is_given_out_once_complete_not_at_the_end_of_the_file(tmp_path, monkeypatch):
     path = tmp_path / "many.csv"
     _plain_file(path, 400)
-    monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", 4096)
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", 4096)
     read = []
-    iterate = tabular_blocks.CsvBlocks.__iter__
+    iterate = tabular.CsvBlocks.__iter__
 
     def counted(self):
         for block in iterate(self):
             read.append(len(block.lines))
             yield block
 
-    monkeypatch.setattr(tabular_blocks.CsvBlocks, "__iter__", counted)
+    monkeypatch.setattr(tabular.CsvBlocks, "__iter__", counted)
     patches = ContactsFile(path)
     assert len(patches) == 400 and sum(read) == 400 * 12  # the first pass read it all
+    order = [g.patch for g in whole_table(path)]
     read.clear()
     it = iter(patches)
     first = next(it)
-    order = [g.patch for g in whole_table(path)]
     assert first.patch == order[0] and len(first.points) == 12
     assert sum(read) < 0.05 * 400 * 12  # ... the second had read a few blocks
     assert [g.patch for g in it] == order[1:]

@@ -198,7 +198,7 @@ def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monke
     default, and the non-streaming run (the whole list first) print the same bytes; the
     batch gives the per-patch records, split parts included."""
     from tactile.ep2 import many
-    from tactile.files import tabular_blocks
+    from tactile.files import tabular
     from tactile.output.jsonout import dumps
 
     monkeypatch.setattr(many, "CHUNK", 4)  # 14 patches: four chunks, the last short
@@ -207,7 +207,7 @@ def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monke
     one = _run(capsys, str(path), *flags)
     assert "Traceback" not in one[2]
     assert _run(capsys, str(path), *flags, "--jobs", "2") == one
-    monkeypatch.setattr(tabular_blocks, "BLOCK_BYTES", 1024)
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", 1024)
     assert _run(capsys, str(path), *flags, "--jobs", "2") == one
     from tactile.ep2 import contacts_csv  # every patch in memory first: not streamed
 

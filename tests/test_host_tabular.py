@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from tactile.errors import InputError
-from tactile.files import tabular
+from tactile.files import csv_dialect, tabular
 from tactile.files.tabular import read_csv
 from tactile.output.jsonout import clean, dumps
 
@@ -84,7 +84,7 @@ def test_excel_csv_utf8_with_its_byte_order_mark_is_read(tmp_path):
 @pytest.mark.parametrize("eol", [b"\n", b"\r\n", b"\r"])
 @pytest.mark.parametrize("chunk", [3, 7, 1 << 16])
 def test_line_endings_and_numbers_survive_any_chunking(tmp_path, monkeypatch, eol, chunk):
-    monkeypatch.setattr(tabular, "_CHUNK", chunk)  # lines and CR LF pairs cut across reads
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", chunk)  # lines and CR LF pairs cut across reads
     rows = [b"# c", b"x,y,z", b"1,2,3", b"", b"4,5,6"]
     path = tmp_path / "e.csv"
     path.write_bytes(eol.join(rows) + eol)
@@ -165,6 +165,41 @@ def test_blank_float_columns_are_nan_where_empty_and_checked_elsewhere(tmp_path)
         read_csv(short, REQ, blank_float=("t",))
 
 
+BLANK_CELLS = ["", "7.5", "-2", "+1", ".5", "1.", "1e400", "nan", "inf", "1_0", "0x10", "1e"]
+
+
+@pytest.mark.parametrize("cell", BLANK_CELLS)
+def test_blank_columns_read_the_same_by_both_parsers(tmp_path, monkeypatch, cell):
+    """A plain file with blank cells (a recording's frames): the fast parser gives the
+    line-by-line parser's table or its refusal, whatever sits in a blank column, and
+    takes the rows itself when every cell is good."""
+    rows = [f"{i},{i % 3},SAMPLE,,{i * 0.25}" for i in range(40)]
+    rows[23] = f"23,2,SAMPLE,{cell},1"
+    path = _write(tmp_path, "x,y,type,t,z\n" + "\n".join(rows) + "\n")
+    fast = []
+    parse = tabular.CsvBlocks._fast
+
+    def read():
+        try:
+            t = read_csv(path, REQ, ("type",), blank_float=("t",))
+        except InputError as exc:
+            return str(exc)
+        return t.array("x", "y", "z", "t").tobytes(), t.columns["type"], list(t.lines)
+
+    def counted(self, first, run):
+        block = parse(self, first, run)
+        fast.append(0 if block is None else len(block.lines))
+        return block
+
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", 200)
+    monkeypatch.setattr(tabular.CsvBlocks, "_fast", counted)
+    got = read()
+    monkeypatch.setattr(tabular.CsvBlocks, "_fast", lambda self, first, run: None)
+    assert got == read()
+    good = cell in ("", "7.5", "-2", "+1", ".5", "1.")
+    assert isinstance(got, str) != good and sum(fast) >= (30 if good else 0)
+
+
 def test_a_caller_may_raise_the_byte_and_row_limits(tmp_path):
     path = _write(tmp_path, "x,y,z\n" + "1,2,3\n" * 5)
     with pytest.raises(InputError, match=r"data\.csv:6: more than 4 data rows"):
@@ -176,8 +211,8 @@ def test_a_caller_may_raise_the_byte_and_row_limits(tmp_path):
 
 def test_the_units_line_is_found_before_the_header(tmp_path):
     path = _write(tmp_path, "# rig: x\n#  Units :  cm \nx,y,z\n1,2,3\n# units: m\n")
-    assert tabular.units_line(path) == (2, "cm")
-    assert tabular.units_line(_write(tmp_path, "x,y,z\n1,2,3\n")) is None
+    assert csv_dialect.units_line(path) == (2, "cm")
+    assert csv_dialect.units_line(_write(tmp_path, "x,y,z\n1,2,3\n")) is None
 
 
 # -- issue 13: dumps writes the object itself where ``clean``'s copy would read the same ----

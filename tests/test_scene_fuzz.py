@@ -16,7 +16,7 @@ from conftest import FUZZ_SCALE, ROOT
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tactile_sim.emulator import SceneError, load_scene, scene_schema, toml_keys
+from tactile_sim.emulator import SceneError, load_scene, scene_schema
 from tactile_sim.emulator.device import EmulatedBoard
 
 sys.path.insert(0, str(ROOT / "bench"))
@@ -47,44 +47,38 @@ VALUES = st.recursive(
     lambda inner: st.lists(inner, max_size=8) | st.dictionaries(_NAMES, inner, max_size=4),
     max_leaves=20,
 )
-SECTIONS = list(scene_schema.SECTIONS) + ["sensor_fault", "extra"]
-KEYS = sorted(  # every key the schema knows, in any section
-    {k for name, keys in scene_schema.SECTIONS.items() if name != "motion" for k in keys}
-    | {k for keys in scene_schema.MOTION.values() for k in keys}
-    | set(scene_schema.SENSOR_FAULT)
-    | {"kind"}
-)
+SECTIONS = list(scene_schema.TOP) + ["extra"]
+KEYS = sorted({key.name for key in scene_schema.KEYS})  # every key the schema knows
 
 
-def in_range(key):
-    """Values the schema accepts for ``key`` (its extremes included): valid, but odd,
+def in_range(t):
+    """Values the schema accepts for type ``t`` (its extremes included): valid, but odd,
     combinations are where building and running can still go wrong."""
-    if isinstance(key, toml_keys.Int):
-        return st.integers(key.lo, key.hi) | st.sampled_from([key.lo, key.hi])
-    if isinstance(key, toml_keys.Float):
-        return st.floats(key.lo, key.hi, exclude_min=key.lo_open)
-    if isinstance(key, toml_keys.Bool):
+    if t.kind == "int":
+        return st.integers(t.lo, t.hi) | st.sampled_from([t.lo, t.hi])
+    if t.kind == "number":
+        return st.floats(t.lo, t.hi, exclude_min=t.open)
+    if t.kind == "bool":
         return st.booleans()
-    if isinstance(key, toml_keys.Text):
+    if t.kind == "text":
         return st.text(st.characters(min_codepoint=32, max_codepoint=126), min_size=1,
-                       max_size=key.max_len)  # fmt: skip
-    if isinstance(key, toml_keys.Choice):
-        return st.sampled_from(key.choices)
-    if isinstance(key, toml_keys.List):
-        size = {"min_size": key.min_len, "max_size": min(key.max_len, key.min_len + 6)}
-        return st.lists(in_range(key.item), **size)
-    if isinstance(key, toml_keys.Row):
-        return st.tuples(*map(in_range, key.items)).map(list)
-    if isinstance(key, toml_keys.Map):
-        return st.dictionaries(st.sampled_from("abcrRCd"), in_range(key.value), max_size=4)
-    return st.one_of(*map(in_range, key.options))  # Either
+                       max_size=t.hi)  # fmt: skip
+    if t.kind == "choice":
+        return st.sampled_from(scene_schema.choices(t))
+    if t.kind == "list":
+        return st.lists(in_range(t.of), min_size=t.lo, max_size=min(t.hi, t.lo + 6))
+    if t.kind == "row":
+        return st.tuples(*map(in_range, t.of)).map(list)
+    if t.kind == "table":
+        return st.dictionaries(st.sampled_from("abcrRCd"), in_range(t.of), max_size=4)
+    return st.one_of(*map(in_range, t.of))  # either
 
 
 def _keys(data, section):
     if section == "motion":
         kind = data.get("motion", {}).get("kind") if isinstance(data.get("motion"), dict) else None
-        return scene_schema.MOTION.get(kind, {})
-    return {**scene_schema.SECTIONS, **scene_schema.ARRAYS}.get(section, {})
+        return scene_schema.MOTION.get(kind, {}) if isinstance(kind, str) else {}
+    return scene_schema.SECTIONS.get(section, {})
 
 
 @st.composite
@@ -102,8 +96,8 @@ def mutated_scenes(draw):
         if section == "sensor_fault":
             faults = data.setdefault("sensor_fault", [])
             if isinstance(faults, list) and what == "valid":
-                keys = scene_schema.SENSOR_FAULT
-                faults.append({k: draw(in_range(v)) for k, v in keys.items()
+                keys = scene_schema.SECTIONS["sensor_fault"]
+                faults.append({k: draw(in_range(v.type)) for k, v in keys.items()
                                if k == "kind" or draw(st.booleans())})  # fmt: skip
                 continue
             section = "extra"
@@ -115,7 +109,7 @@ def mutated_scenes(draw):
             del table[draw(st.sampled_from(sorted(table)))]
         elif what == "valid" and keys:
             key = draw(st.sampled_from(sorted(keys)))
-            table[key] = draw(in_range(keys[key]))
+            table[key] = draw(in_range(keys[key].type))
         else:
             table[draw(st.sampled_from(KEYS) | _NAMES)] = draw(VALUES)
     return base, data

@@ -71,7 +71,8 @@ def test_one_schema_for_every_motion_module():
 
 
 def test_limits_come_from_the_protocol_and_firmware():
-    b, s = scene_schema.BOARD, scene_schema.SENSOR
+    b = {k: key.type for k, key in scene_schema.SECTIONS["board"].items()}
+    s = {k: key.type for k, key in scene_schema.SECTIONS["sensor"].items()}
     assert (b["sensors"].lo, b["sensors"].hi) == (1, C.MAX_SENSORS)
     assert (b["debounce"].lo, b["debounce"].hi) == (1, settings.MAX_DEBOUNCE)
     assert b["rate_hz"].lo == settings.MIN_RATE_HZ

@@ -81,7 +81,7 @@ def line(spec):
 def stated(path):
     """(line, the text after ``units:``) of the file's ``# units:`` line, or None.  Only the
     head is read, so any size will do: the reader of the rows applies its own limit."""
-    from tactile.files.tabular import units_line
+    from tactile.files.csv_dialect import units_line
 
     return units_line(path, max_bytes=ANY_SIZE)
 

@@ -7,7 +7,7 @@ not white space (``<`` XML, ``{`` or ``[`` JSON, anything else CSV), not by the 
 name.  Every error is an ``InputError`` (exit 2) naming file, line or row, and column or
 field.
 
-CSV (read by ``tactile.files.tabular``): six lines of six numbers separated by commas (or by
+CSV (read by ``tactile.files.csv_dialect``): six lines of six numbers separated by commas (or by
 white space), no header; ``#`` lines are comments, except ``# units: FORCE, TORQUE [per
 GAUGE]`` (default ``N, N-m per count``) and ``# id: N``.  JSON: ``{"id": N, "matrix":
 [[six numbers] x 6], "units": "N, N-m per count"}``, ``id`` and ``units`` optional, no
@@ -20,8 +20,8 @@ from collections import namedtuple
 
 from tactile.calib import units as U
 from tactile.errors import InputError, where
-from tactile.files import bounded, tabular
-from tactile.files.csv_dialect import DECIMAL, number
+from tactile.files import bounded, csv_dialect
+from tactile.files.csv_dialect import DECIMAL, number, show
 
 __all__ = ["MatrixFile", "read", "ROWS", "GAUGES", "MAX_BYTES", "MAX_ID"]
 
@@ -85,7 +85,7 @@ def _cell_place(path, line, r, j):
 
 def _csv(path):
     spec, cal_id, id_from = U.SI, None, None
-    for line, text in tabular.comment_lines(path):
+    for line, text in csv_dialect.comment_lines(path, MAX_BYTES):
         key, sep, value = text.lstrip("#").partition(":")
         key = key.strip().lower()
         if not sep or key not in ("units", "unit", "id"):
@@ -95,7 +95,7 @@ def _csv(path):
                 whole = int(value.strip())
             except ValueError:
                 raise InputError(
-                    f"{where(path, line)}: id: not a whole number: {tabular.show(value.strip())}"
+                    f"{where(path, line)}: id: not a whole number: {show(value.strip())}"
                 ) from None
             cal_id = check_id(whole, f"{where(path, line)}: id")
             id_from = f"line {line}"
@@ -105,7 +105,7 @@ def _csv(path):
             except ValueError as exc:
                 raise InputError(f"{where(path, line)}: units: {exc}") from None
     matrix, places = [], []
-    for line, cells in tabular.rows(path):
+    for line, cells in csv_dialect.rows(path, MAX_BYTES):
         r = len(matrix)
         if r == 6:
             raise InputError(f"{where(path, line)}: a 7th row; the matrix has 6 ({' '.join(ROWS)})")
@@ -183,7 +183,7 @@ def _json_matrix(path, m):
         for j, v in enumerate(row):
             place = f"{path}: field matrix[{r}][{j}] ({ROWS[r]}, {GAUGES[j]})"
             if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise InputError(f"{place}: not a number: {tabular.show(json.dumps(v))}")
+                raise InputError(f"{place}: not a number: {show(json.dumps(v))}")
             v = float(v)
             if not math.isfinite(v):
                 raise InputError(f"{place}: not a finite number")

@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from tactile.errors import InputError, where
-from tactile.files.tabular import comment_lines, show
+from tactile.files.csv_dialect import comment_lines, show
 from tactile.recording.robot_log import COLUMNS, tag
 
 __all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
@@ -117,7 +117,8 @@ def read_probe_log(path):
     """Read a probe log (module docstring); errors are one-line InputErrors naming
     file:line and column."""
     from tactile import units
-    from tactile.files.tabular import preamble, read_csv
+    from tactile.files.csv_dialect import preamble
+    from tactile.files.tabular import read_csv
     from tactile.recording.log_clock import CLOCKS, clock_of, parse_end, read_times
 
     units.check_stated(path, units.LOG_WORDS, units.LOG_WHAT)

@@ -21,8 +21,7 @@ import numpy as np
 from tactile.ep2 import extent
 from tactile.errors import InputError, where
 from tactile.files import tabular
-from tactile.files.tabular import show
-from tactile.files.tabular_blocks import CsvBlocks
+from tactile.files.tabular import CsvBlocks, show
 
 REQUIRED = ("x", "y", "z", "nx", "ny", "nz")
 MAX_BYTES = 16 * 2**30  # a streamed file (`ep2 analyze`)
@@ -178,10 +177,6 @@ class _Scan:
         n = len(self.code_of)
         self.count = self.count[:n].copy()
         self.first, self.last = self.first[:n], self.last[:n]
-        if blocks.rows == 0:
-            raise InputError(
-                f"{where(self.path, blocks.header_line)}: no data rows after the header"
-            )
         if self.zero_normal is not None:
             raise InputError(
                 f"{where(self.path, self.zero_normal, 'nx')}: zero-length normal (nx,ny,nz)"

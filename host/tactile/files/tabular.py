@@ -1,48 +1,67 @@
-"""Reading the project's CSV files (EP2 contacts, pose logs, EP1 probes and probe logs).
+"""Reading the project's CSV files (EP2 contacts, pose logs, EP1 probes and probe logs,
+a recording's frames).
 
-This is the one place a CSV is read: ``read_csv`` for the rows, ``preamble``,
-``comment_lines`` and ``units_line`` for the ``#`` lines some formats carry.  Every error is
-an ``InputError`` (exit 2) whose one-line message names file, line and column.
+One reader: ``CsvBlocks`` yields the data rows as ``Block``s of NumPy arrays, about
+``BLOCK_BYTES`` of text at a time, so memory holds a block, not the file; ``read_csv`` is
+those blocks gathered into one ``Table``.  Every error is an ``InputError`` (exit 2) whose
+one-line message names file, line and column: the first error in file order.  A file
+without a header, and the ``#`` lines, are read by ``tactile.files.csv_dialect``.
 
-Limits (docs/cli.md, "Files the host reads"): a regular file (not a device, pipe or directory) of
-at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most ``MAX_ROWS`` data
-rows.  UTF-8, with or without the byte-order mark Excel's "CSV UTF-8" writes; lines end in
-LF, CR LF or CR.  A byte that is not UTF-8 is reported at its line.  A reader of the
-project's own larger files (a recording's frames.csv) may raise the byte and row limits.
-Files are opened by ``tactile.files.bounded``; the dialect (quotes, ``# units:`` lines, columns
+Limits (docs/cli.md, "Files the host reads"): a regular file (not a device, pipe or
+directory) of at most ``MAX_FILE_BYTES``, lines of at most ``MAX_LINE_BYTES``, at most
+``MAX_ROWS`` data rows; a reader of larger files (a recording's frames, streamed EP2
+contacts) states its own byte and row limits.  Files are opened by
+``tactile.files.bounded``; the dialect (UTF-8 lines, quotes, ``# units:`` lines, columns
 named twice, ASCII decimal numbers) is ``tactile.files.csv_dialect``'s.
+
+Two parsers, one answer.  A run of plain lines (printable ASCII without quotes, spaces or
+``#``; LF or CR LF endings) is parsed by ``numpy.loadtxt`` in C, which rounds numbers as
+``float`` does.  Anything else, and any run the fast parse does not take whole (an error,
+a blank line, a short row, a non-finite number), goes through ``csv.reader`` line by line,
+which also names the line of any error.  A quoted field that runs over the end of a run
+is followed into the next one.  ``tests/test_ep2_reader.py`` holds the two equal on
+hostile files.
 """
 
-import contextlib
-import csv
+import io
 from array import array
+from dataclasses import dataclass
+
+import numpy as np
 
 from tactile.errors import InputError, where
-from tactile.files import bounded
-from tactile.files.csv_dialect import UnitsRule, csv_error, number, show
+from tactile.files.csv_dialect import (
+    DECIMAL,
+    MAX_FILE_BYTES,
+    MAX_LINE_BYTES,
+    Feed,
+    Records,
+    cell_at,
+    count_lines,
+    header_index,
+    line_blocks,
+    no_header,
+    number_at,
+    show,
+)
 
 __all__ = [
     "MAX_FILE_BYTES",
     "MAX_LINE_BYTES",
     "MAX_ROWS",
+    "Block",
+    "CsvBlocks",
     "Table",
-    "comment_lines",
-    "preamble",
     "read_csv",
-    "rows",
     "show",
-    "units_line",
 ]
 
-MAX_LINE_BYTES = 64 * 1024
-MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_ROWS = 1_000_000
-NAN = float("nan")
 MAX_WHOLE = 2**53  # the largest whole-number value a column may hold (floats are exact to it)
-
-_CHUNK = 1 << 16
-_SPLIT = "the limit for one file; split it"
-_BOM = b"\xef\xbb\xbf"
+BLOCK_BYTES = 1 << 18  # bytes of text a block: ~3,500 rows of contacts (as fast as 1 MiB)
+NAN = float("nan")
+# bytes a plain run may hold (printable ASCII but quote, '#' and space; line breaks)
+_PLAIN = bytes(b for b in range(0x21, 0x7F) if b not in b'"#') + b"\r\n"
 
 
 class Table:
@@ -59,15 +78,11 @@ class Table:
 
     def array(self, *names):
         """Stack the named float columns into an (n, len(names)) NumPy array."""
-        import numpy as np
-
         return np.column_stack([np.asarray(self.columns[n], dtype=float) for n in names])
 
     def within(self, names, limit):
         """The named float columns as an (n, k) array, every |value| <= ``limit``, or
         ``InputError`` naming the first offending line and column."""
-        import numpy as np
-
         a = self.array(*names)
         bad = np.argwhere(np.abs(a) > limit)
         if bad.size:
@@ -82,8 +97,6 @@ class Table:
         """The float column ``name`` as int64, every value a whole number in [low, high]
         (``high`` at most 2**53, where floats still hold every integer), or ``InputError``
         naming the first offending line."""
-        import numpy as np
-
         v = np.asarray(self.columns[name], dtype=float)
         bad = np.flatnonzero((v != np.round(v)) | (v < low) | (v > high))
         if bad.size:
@@ -106,255 +119,194 @@ def read_csv(
     max_rows=None,
     end=None,
 ):
-    """Read ``path``: header row, ``#`` comment lines, unknown columns ignored.
-
-    ``required`` and ``optional_float`` columns must be finite numbers; ``blank_float``
-    columns (optional) too, but an empty cell there is NaN (a value not known);
-    ``optional_text`` columns are kept as stripped strings.  ``max_bytes`` and ``max_rows``
-    replace ``MAX_FILE_BYTES`` and ``MAX_ROWS`` for this file; ``end`` reads only the
-    file's first ``end`` bytes (whole lines: a torn last row left out).
-    """
-    max_rows = MAX_ROWS if max_rows is None else max_rows
-    with contextlib.closing(_rows(path, max_bytes, end)) as rows:
-        try:
-            header_line, header = next(rows)
-        except StopIteration:
-            raise InputError(no_header(path)) from None
-        index = header_index(path, header_line, header, required)
-        floats = [c for c in (*required, *optional_float) if c in index]
-        blanks = [c for c in blank_float if c in index]
-        texts = [c for c in optional_text if c in index]
-        columns = {c: array("d") for c in (*floats, *blanks)}
-        columns.update({c: [] for c in texts})
-        shared = {c: {} for c in texts}  # one str object per distinct cell (patch ids repeat)
-        lines = array("q")
-        for line_no, row in rows:
-            if len(lines) == max_rows:
-                raise InputError(
-                    f"{where(path, line_no)}: more than {max_rows:,} data rows (the limit for"
-                    " one file; split it)"
-                )
-            for name in floats:
-                columns[name].append(number_at(path, line_no, name, row, index[name]))
-            for name in blanks:
-                i = index[name]
-                empty = not cell_at(path, line_no, name, row, i)
-                columns[name].append(NAN if empty else number_at(path, line_no, name, row, i))
-            for name in texts:
-                text = cell_at(path, line_no, name, row, index[name])
-                columns[name].append(shared[name].setdefault(text, text))
-            lines.append(line_no)
-    if not lines:
-        raise InputError(f"{where(path, header_line)}: no data rows after the header")
+    """``CsvBlocks`` of ``path`` gathered into a ``Table``; ``max_bytes`` and ``max_rows``
+    default to ``MAX_FILE_BYTES`` and ``MAX_ROWS``."""
+    blocks = CsvBlocks(
+        path, required, optional_text, optional_float, blank_float,
+        max_bytes=MAX_FILE_BYTES if max_bytes is None else max_bytes,
+        max_rows=MAX_ROWS if max_rows is None else max_rows, end=end,
+    )  # fmt: skip
+    columns, lines = {}, array("q")
+    for block in blocks:
+        if not columns:
+            columns = {c: array("d") for c in blocks.floats}
+            columns.update({c: [] for c in blocks.texts})
+            shared = {c: {} for c in blocks.texts}  # one str per distinct cell (ids repeat)
+        for c, values in zip(blocks.floats, block.numbers.T):
+            columns[c].frombytes(values.tobytes())
+        for c, values in block.texts.items():
+            columns[c].extend([shared[c].setdefault(t, t) for t in values.tolist()])
+        lines.frombytes(block.lines.tobytes())
     return Table(path, columns, lines)
 
 
-def rows(path):
-    """Yield (line number, cells) of every row of a CSV without a header (a calibration
-    matrix): blank and ``#`` lines skipped, the same limits and messages as ``read_csv``."""
-    with contextlib.closing(_rows(path)) as found:
-        yield from found
+@dataclass
+class Block:
+    """Consecutive data rows: ``numbers`` (n, k) floats (the columns of ``CsvBlocks.floats``,
+    blank cells NaN), ``texts`` one object array of stripped strings per text column
+    present, ``lines`` (n,) int64."""
+
+    numbers: np.ndarray
+    texts: dict
+    lines: np.ndarray
 
 
-def preamble(path, max_bytes=None):
-    """(``#`` lines before the header as [(line, stripped text)], header line, header row).
-    Only the lines up to the header are read; ``max_bytes`` as for ``read_csv``."""
-    comments = []
-    with contextlib.closing(_text_lines(path, max_bytes)) as lines:
-        for line_no, text in lines:
-            s = text.strip()
-            if s.startswith("#"):
-                comments.append((line_no, s))
-            elif s:
-                return comments, line_no, _parse_one(path, line_no, s)
-    raise InputError(no_header(path))
+class CsvBlocks:
+    """Iterate the data rows of ``path`` as ``Block``s: header row, ``#`` comment lines,
+    unknown columns ignored.
 
+    ``required`` and ``optional_float`` columns must be finite numbers; ``blank_float``
+    columns (optional) too, but an empty cell there is NaN (a value not known);
+    ``optional_text`` columns are kept as stripped strings.  ``end`` reads only the file's
+    first ``end`` bytes.  Once the header is read, ``header_line``, ``floats`` and
+    ``texts`` (the columns present) are set; ``rows`` counts the data rows read so far,
+    ``bytes_read`` the bytes."""
 
-def no_header(path):
-    """The one-line message for a file without a header row."""
-    return f"{where(path, 1)}: no header row (the file is empty or only comments)"
-
-
-def units_line(path, max_bytes=None):
-    """The ``# units: ...`` line among the ``#`` lines before the header, as (line, the text
-    after the colon, stripped), or None when the file states no unit."""
-    comments, _, _ = preamble(path, max_bytes)
-    for line_no, text in comments:
-        key, _, value = text[1:].partition(":")
-        if key.strip().lower() == "units":
-            return line_no, value.strip()
-    return None
-
-
-def comment_lines(path):
-    """Every ``#`` line of the file as [(line, stripped text)], in file order."""
-    with contextlib.closing(_text_lines(path)) as lines:
-        return [(n, t.strip()) for n, t in lines if t.lstrip().startswith("#")]
-
-
-# --- reading bytes into lines --------------------------------------------------------------
-
-
-def _open(path, max_bytes=None):
-    """A binary handle on a regular file within ``max_bytes`` (default ``MAX_FILE_BYTES``),
-    or ``InputError`` (``tactile.files.bounded``: a FIFO is refused without waiting for a
-    writer)."""
-    max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
-    return bounded.open_regular(path, max_bytes, "a CSV", _SPLIT)
-
-
-def _too_big(path, max_bytes):
-    return bounded.too_big(path, max_bytes, _SPLIT)
-
-
-def _text_lines(path, max_bytes=None, end=None):
-    """Yield (line number, text with its line ending) of every physical line, decoded.
-
-    At most ``MAX_LINE_BYTES`` per line and ``max_bytes`` in all are ever held or read.
-    """
-    for first, block in line_blocks(path, max_bytes, end=end):
-        for line_no, raw in enumerate(block.splitlines(keepends=True), first):
-            yield line_no, line_text(path, line_no, raw)
-
-
-def line_blocks(path, max_bytes=None, size=_CHUNK, end=None):
-    """Yield (number of its first line, bytes) of runs of whole lines, in file order: each
-    run ends at a line break (LF, CR LF or CR) or at the end of the file.
-
-    About ``size`` bytes a run; a line longer than ``MAX_LINE_BYTES`` is refused at its
-    line number before more of it is read.  ``end``: stop after that many bytes."""
-    max_bytes = MAX_FILE_BYTES if max_bytes is None else max_bytes
-    with _open(path, max_bytes) as fh:
-        carry, line_no, total = b"", 0, 0
-        while True:
-            if len(carry) > MAX_LINE_BYTES + 1:
-                raise InputError(_too_long(path, line_no + 1))
-            chunk = fh.read(size if end is None else max(0, min(size, end - total)))
-            total += len(chunk)
-            if total > max_bytes:
-                raise InputError(_too_big(path, max_bytes))
-            if total == len(chunk) and chunk.startswith((b"\xff\xfe", b"\xfe\xff")):
-                raise InputError(f"{where(path, 1)}: UTF-16 text; save it as 'CSV UTF-8'")
-            data = carry + chunk
-            # a CR at the very end may be the first half of a CR LF: it waits for the chunk
-            cut = (
-                max(data.rfind(b"\n"), data.rfind(b"\r", 0, len(data) - 1)) + 1
-                if chunk
-                else len(data)
-            )
-            block, carry = data[:cut], data[cut:]
-            if block:
-                yield line_no + 1, block
-                line_no += count_lines(block)
-            if not chunk:
-                return
-
-
-def count_lines(block):
-    """Lines in ``block`` as ``bytes.splitlines`` counts them (LF, CR LF or CR)."""
-    n = block.count(b"\n")
-    if b"\r" in block:
-        n += block.count(b"\r") - block.count(b"\r\n")
-    return n + (not block.endswith((b"\n", b"\r")))
-
-
-def line_text(path, line_no, raw):
-    """One physical line decoded (the BOM dropped from line 1), or ``InputError``."""
-    if len(raw) > MAX_LINE_BYTES and len(raw.rstrip(b"\r\n")) > MAX_LINE_BYTES:
-        raise InputError(_too_long(path, line_no))
-    if line_no == 1 and raw.startswith(_BOM):
-        raw = raw[len(_BOM) :]
-    return _decode(path, line_no, raw)
-
-
-def _too_long(path, line_no):
-    return f"{where(path, line_no)}: line longer than {MAX_LINE_BYTES} bytes (the limit)"
-
-
-def _decode(path, line_no, raw):
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise InputError(
-            f"{where(path, line_no)}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at byte"
-            f" {exc.start + 1} of the line); save it as 'CSV UTF-8'"
-        ) from None
-
-
-# --- lines into rows and cells -------------------------------------------------------------
-
-
-def _rows(path, max_bytes=None, end=None):
-    """Yield (line number, cells) of the header and data rows; blank and ``#`` lines skipped."""
-    with contextlib.closing(_text_lines(path, max_bytes, end)) as lines:
-        numbered = _Numbered(lines)
-        reader = csv.reader(numbered, strict=True)
-        comments = UnitsRule(path)
-        while True:
-            start = numbered.line + 1  # where the next record begins
-            try:
-                row = next(reader)
-            except StopIteration:
-                return
-            except csv.Error as exc:
-                raise csv_error(path, numbered.line, start, exc) from None
-            if comments.data(numbered.line, row):
-                yield numbered.line, row
-
-
-class _Numbered:
-    """Iterator over the text of (line, text) pairs that remembers the last line number."""
-
-    def __init__(self, lines):
-        self.lines = lines
-        self.line = 0
+    def __init__(
+        self, path, required, optional_text=(), optional_float=(), blank_float=(), *,
+        max_bytes, max_rows, end=None,
+    ):  # fmt: skip
+        self.path, self.required, self.end = path, tuple(required), end
+        self.asked = (optional_text, optional_float, blank_float)
+        self.max_bytes, self.max_rows = max_bytes, max_rows
+        self.header_line, self.floats, self.blanks, self.texts, self.rows = None, (), (), (), 0
+        self._index = self._feed = None
 
     def __iter__(self):
-        return self
+        feed = self._feed = Feed(self.path, self._runs())
+        records = Records(self.path, feed)
+        header = records.first()
+        if header is None:
+            raise InputError(no_header(self.path))
+        self._header(*header)
+        slow = _Rows(self)
+        feed.put_back_rest()  # the lines after the header may be plain
+        while True:
+            if feed.at_end_of_run():
+                if len(slow.lines):
+                    yield slow.block()
+                run = feed.take()
+                if run is None:
+                    break
+                fast = self._fast(*run)
+                if fast is not None:
+                    yield fast
+                    continue
+                feed.start(*run)
+            record = records.next()
+            if record is None:
+                break
+            if record[1] is not None:
+                slow.add(*record)
+        if len(slow.lines):
+            yield slow.block()
+        if not self.rows:
+            raise InputError(f"{where(self.path, self.header_line)}: no data rows after the header")
 
-    def __next__(self):
-        self.line, text = next(self.lines)
-        return text
+    @property
+    def bytes_read(self):
+        return 0 if self._feed is None else self._feed.bytes
+
+    def _runs(self):
+        return line_blocks(self.path, self.max_bytes, BLOCK_BYTES, self.end)
+
+    def _header(self, line_no, row):
+        texts, optional, blanks = self.asked
+        self._index = header_index(self.path, line_no, row, self.required)
+        self.header_line = line_no
+        self.blanks = tuple(c for c in blanks if c in self._index)
+        self.floats = (*self.required, *(c for c in optional if c in self._index), *self.blanks)
+        self.texts = tuple(c for c in texts if c in self._index)
+
+    def _fast(self, first, run):
+        """The run's rows parsed by ``numpy.loadtxt``, or None (the slow parser decides)."""
+        n = count_lines(run)
+        if self.rows + n > self.max_rows or not _plain(run):
+            return None
+        k, index = len(self.floats), self._index
+        dtype = [(f"f{i}", "f8") for i in range(k)] + [(c, "O") for c in self.texts]
+        try:
+            table = np.loadtxt(
+                io.BytesIO(run), delimiter=",", comments=None, quotechar=None, dtype=dtype,
+                ndmin=1, encoding="ascii", usecols=[index[c] for c in (*self.floats, *self.texts)],
+                converters={index[c]: _blank_cell for c in self.blanks},
+            )  # fmt: skip
+        except ValueError:  # a short row, a cell that is not a number: the slow parser names it
+            return None
+        numbers = np.column_stack([table[f"f{i}"] for i in range(k)])
+        fixed, blank = np.split(numbers, [k - len(self.blanks)], axis=1)
+        if len(table) != n or not np.isfinite(fixed).all() or np.isinf(blank).any():
+            return None  # NaN in ``blank`` comes only from an empty cell (``_blank_cell``)
+        self.rows += n
+        texts = {c: table[c] for c in self.texts}
+        return Block(numbers, texts, np.arange(first, first + n, dtype=np.int64))
 
 
-def _parse_one(path, line_no, text):
-    try:
-        return next(csv.reader([text]))
-    except csv.Error as exc:
-        raise InputError(f"{where(path, line_no)}: not valid CSV: {exc}") from None
+def _blank_cell(text):
+    """A ``blank_float`` cell for the fast parser: NaN when empty, a plain decimal, or
+    ``ValueError`` (the slow parser then names it)."""
+    if not text:
+        return NAN
+    if not DECIMAL.fullmatch(text):
+        raise ValueError(text)
+    return float(text)
 
 
-def header_index(path, line_no, header, required):
-    """{column name: index} of a header row; ``InputError`` naming a required column
-    that is missing or a column named twice."""
-    index = {}
-    for i, name in enumerate(header):
-        name = name.strip()
-        if name and name in index:
+def _plain(run):
+    """True when every line of ``run`` is one record the fast parser reads as the slow one
+    does: printable ASCII but quote, '#' and space; not blank; LF or CR LF; within the
+    line limit."""
+    if run.translate(None, _PLAIN) or run.startswith((b"\n", b"\r")):
+        return False
+    if b"\n\n" in run or b"\n\r\n" in run:
+        return False
+    if b"\r" in run and run.count(b"\r") != run.count(b"\r\n"):
+        return False
+    return _longest_line(run) <= MAX_LINE_BYTES
+
+
+def _longest_line(run):
+    """Length in bytes of the longest line of ``run`` (lines end in LF), or a number at
+    most ``MAX_LINE_BYTES`` when none is longer: such a line would span a whole aligned
+    window of half that size without a line break, and there are only a few windows."""
+    half = MAX_LINE_BYTES // 2
+    if all(run.find(b"\n", p, p + half) >= 0 for p in range(0, len(run) - half + 1, half)):
+        return min(len(run), MAX_LINE_BYTES)
+    ends = np.flatnonzero(np.frombuffer(run, np.uint8) == 10)
+    return int(np.diff(ends, prepend=-1, append=len(run) - 1).max())
+
+
+class _Rows:
+    """Rows parsed one at a time, gathered into a ``Block``."""
+
+    def __init__(self, owner):
+        self.owner = owner
+        self._reset()
+
+    def _reset(self):
+        self.columns = [array("d") for _ in self.owner.floats]
+        self.texts = {c: [] for c in self.owner.texts}
+        self.lines = array("q")
+
+    def add(self, line_no, row):
+        o, path = self.owner, self.owner.path
+        if o.rows == o.max_rows:
             raise InputError(
-                f"{where(path, line_no, name)}: named twice in the header (columns"
-                f" {index[name] + 1} and {i + 1})"
+                f"{where(path, line_no)}: more than {o.max_rows:,} data rows (the limit for"
+                " one file; split it)"
             )
-        index[name] = i
-    missing = [c for c in required if c not in index]
-    if missing:
-        names = ", ".join(show(h.strip(), 20, quote=False) for h in header[:20])
-        more = f" and {len(header) - 20} more" if len(header) > 20 else ""
-        raise InputError(
-            f"{where(path, line_no)}: missing required column(s) {', '.join(missing)}"
-            f" (header has: {names}{more})"
-        )
-    return index
+        for name, col in zip(o.floats, self.columns):
+            i = o._index[name]
+            empty = name in o.blanks and not cell_at(path, line_no, name, row, i)
+            col.append(NAN if empty else number_at(path, line_no, name, row, i))
+        for name, col in self.texts.items():
+            col.append(cell_at(path, line_no, name, row, o._index[name]))
+        self.lines.append(line_no)
+        o.rows += 1
 
-
-def cell_at(path, line_no, name, row, i):
-    """Cell ``i`` (column ``name``) of a row, stripped; ``InputError`` if the row is short."""
-    if i >= len(row):
-        raise InputError(f"{where(path, line_no, name)}: missing value (row is short)")
-    return row[i].strip()
-
-
-def number_at(path, line_no, name, row, i):
-    """Cell ``i`` as a float; ``InputError`` naming file, line and column otherwise."""
-    text = cell_at(path, line_no, name, row, i)
-    return number(text, where(path, line_no, name))
+    def block(self):
+        numbers = np.column_stack([np.frombuffer(c, float) for c in self.columns])
+        texts = {c: np.array(v, dtype=object) for c, v in self.texts.items()}
+        out = Block(numbers, texts, np.frombuffer(self.lines, np.int64).copy())
+        self._reset()
+        return out

@@ -134,7 +134,7 @@ def log_columns(path):
 def _scan(path):
     """{tag: (line number, text)} of ``# tag: text`` comments (probe, rig, sensor, end) before the
     header, the header's line number and the header row."""
-    from tactile.files.tabular import preamble
+    from tactile.files.csv_dialect import preamble
 
     comments, header_line, header = preamble(path)
     tags = {}

@@ -14,7 +14,7 @@ import tomllib
 from tactile.errors import InputError
 from tactile.files import bounded
 from tactile_sim.emulator import scene_schema
-from tactile_sim.emulator.toml_keys import Bad
+from tactile_sim.emulator.scene_schema import Bad
 
 SCENE_DIR = pathlib.Path(__file__).resolve().parents[1] / "scenes"
 

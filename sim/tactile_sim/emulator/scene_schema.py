@@ -1,20 +1,19 @@
-"""The scene schema: every section and key of a scene TOML file, its type, range and default.
-
-This module is the one place a scene's keys are declared.  ``validate(data)`` checks a whole
-parsed scene against it before anything is built, and returns each section with its
-defaults filled in; the emulator's modules read those values and check nothing again.  The
-limits the wire or the firmware impose (sensor count, rates, thresholds, calibration id,
-debounce) are read from ``tactile_protocol`` and ``tactile_fw``, not restated.  A rule that
-spans keys (``exit_threshold_N`` <= ``enter_threshold_N``) is one function in ``RULES``.
-``markdown()`` renders the schema for docs/scenes.md, which a test keeps equal to it.
-
-Errors are ``toml_keys.Bad`` with ``where`` = ``[section] key`` (``[[sensor_fault]] #2 kind``
-for an array of tables, ``[sensor] noise_force_N[1]`` for a list item); the loader prefixes
-the file.
+"""The scene schema: ``KEYS``, a row per key of a scene TOML file (section ``motion.KIND``
+for a motion kind's keys), with limits from ``tactile_protocol`` and ``tactile_fw``, and the
+rules across keys (``broken_rules``).  ``validate(data)`` checks a parsed scene whole and
+fills in the defaults; ``markdown()`` is docs/scenes.md's tables.  An error is ``Bad`` with
+``where`` = ``[section] key`` (``[[sensor_fault]] #2 kind``, ``[sensor] noise_force_N[1]``).
 """
 
+import copy
+import datetime
+import difflib
+import importlib
 import math
 import struct
+from collections import namedtuple
+from functools import partial
+from typing import NamedTuple
 
 from tactile.board.settings import DEFAULTS, GATES, STREAMS, to_newtons
 from tactile_fw import settings
@@ -23,22 +22,6 @@ from tactile_protocol.messages import BY_NAME
 from tactile_sim.adc_model import FULL_SCALE_CODES
 from tactile_sim.emulator import sensor_faults
 from tactile_sim.emulator.cores import CORES, DEFAULT_CORE
-from tactile_sim.emulator.toml_keys import (
-    Bad,
-    Bool,
-    Choice,
-    Either,
-    Float,
-    Int,
-    List,
-    Map,
-    Row,
-    Text,
-    check_table,
-    did_you_mean,
-    markdown_table,
-    show,
-)
 
 
 def wire_max(message, field):
@@ -49,360 +32,368 @@ def wire_max(message, field):
     return (1 << bits) - 1 if code.isupper() else (1 << (bits - 1)) - 1
 
 
+class T(NamedTuple):
+    """A value's type: ``of`` is a list's or table's item type, a row's item types, the
+    options of ``either`` or a choice's names (``"module:NAME"``: imported when checked);
+    ``lo``, ``hi`` bound a number, a text's length, a list's size, a table's entries."""
+
+    kind: str
+    of: object = ()
+    lo: float = 0
+    hi: float = 10_000
+    open: bool = False  # a number: above ``lo``
+    names: tuple = ()  # a row's items
+    unique: bool = False  # a list's items
+
+
+Int, Num, Text = partial(T, "int", ()), partial(T, "number", ()), partial(T, "text", (), 1)
+OneOf, ListOf, Row, Either = (partial(T, kind) for kind in ("choice", "list", "row", "either"))
+BOOL, Key = T("bool"), namedtuple("Key", "section name type default unit help")
+
+REQUIRED = object()  # the default of a key that must be given
 FORCE_MAX_N = to_newtons(wire_max("CONFIG", "enter_threshold"))  # 2147.48 N
 TORQUE_MAX_NM = wire_max("SAMPLE", "tx") * C.TORQUE_LSB_NM
 MAX_TIME_S = 1e6  # any time or duration in a scene (11.6 days)
+U32, FORCE, TORQUE = 2**32 - 1, Num(0.0, FORCE_MAX_N), Num(0.0, TORQUE_MAX_NM)
+TIME, CODES, CHART = Num(0.0, MAX_TIME_S), Num(-FULL_SCALE_CODES, FULL_SCALE_CODES), Num(-100, 100)
+DEG, MU, LENGTH = Num(-360.0, 360.0), Num(0.0, 10.0), Num(0.0, 1.0, True)
+SIGNED = (Num(-FORCE_MAX_N, FORCE_MAX_N),) * 3 + (Num(-TORQUE_MAX_NM, TORQUE_MAX_NM),) * 3
+KEYFRAME = Row((TIME, *SIGNED), names=("t_s", "fx", "fy", "fz", "tx", "ty", "tz"))
+FRICTION = "Coulomb friction: tangential / normal load"
 
-
-def _s(default, doc, hi=MAX_TIME_S, positive=False):
-    return Float(0.0, hi, default, "s", doc, lo_open=positive)
-
-
-def _m(default, doc, hi=1.0, positive=True):
-    return Float(0.0, hi, default, "m", doc, lo_open=positive)
-
-
-def _deg(default, doc):
-    return Float(-360.0, 360.0, default, "deg", doc)
-
-
-def _n(default, doc, positive=False):
-    return Float(0.0, FORCE_MAX_N, default, "N", doc, lo_open=positive)
-
-
-def _mu(default):
-    return Float(0.0, 10.0, default, "", "Coulomb friction: tangential / normal load")
-
-
-_CODES = Float(-FULL_SCALE_CODES, FULL_SCALE_CODES)
-_TORQUE = Float(-TORQUE_MAX_NM, TORQUE_MAX_NM)
-_FORCE = Float(-FORCE_MAX_N, FORCE_MAX_N)
-_CHART = Float(-100.0, 100.0)
-_FRAME = Int(0, 2**32 - 1)
-
-SCENE = {
-    "name": Text(64, None, "shown by `tactile emulate`; default: the file's name"),
-    "seed": Int(0, 2**32 - 1, 0, "", "seeds the sensor noise"),
-    "duration_s": _s(10.0, "nominal length (informational)", positive=True),
-}
-BOARD = {
-    "rate_hz": Int(
-        settings.MIN_RATE_HZ,
-        wire_max("CONFIG", "rate_hz"),
-        DEFAULTS["rate_hz"],
-        "Hz",
-        "sample rate; at most the ceiling of the board's sensors",
-    ),
-    "autostart": Bool(True, doc="stream from boot"),
-    "streams": List(
-        Choice(STREAMS),
-        ["contacts"],
-        "",
-        "frames streamed: SAMPLE and/or CONTACT",
-        max_len=len(STREAMS),
-        unique=True,
-    ),
-    "gate": Choice(GATES, "xy", "contact gate on the force in the x-y plane or in 3-D"),
-    "enter_threshold_N": _n(DEFAULTS["enter_N"], "a contact begins above this (5 ozf)"),
-    "exit_threshold_N": _n(
-        DEFAULTS["exit_N"], "... and ends below it (4 ozf); <= enter_threshold_N"
-    ),
-    "debounce": Int(
-        1,
-        settings.MAX_DEBOUNCE,
-        DEFAULTS["debounce"],
-        "samples",
-        "past a threshold to change state",
-    ),
-    "sensors": Int(1, C.MAX_SENSORS, 1, "", "F/T sensors on the board, two per I2C bus"),
-    "max_rate_hz": Int(
-        0,
-        wire_max("INFO", "max_rate_hz"),
-        0,
-        "Hz",
-        "0: the hardware's ceiling; else override it (benches only)",
-    ),
-    "core": Choice(
-        CORES,
-        DEFAULT_CORE,
-        "firmware run: the MicroPython one, or the C core (firmware/c, built with cc)",
-    ),
-}
-SENSOR = {
-    "model": Text(16, "SIM-FT6", "informational (HELLO names the firmware's own)"),
-    "force_range_N": Float(
-        C.FORCE_LSB_N, FORCE_MAX_N, 50.0, "N", "full-scale force, at 60% of the converters' range"
-    ),
-    "torque_range_Nm": Float(C.TORQUE_LSB_NM, TORQUE_MAX_NM, 2.0, "N*m", "full-scale torque"),
-    "noise_force_N": List(
-        _n(0.0, ""),
-        [0.0, 0.0, 0.0],
-        "N",
-        "sd of fx, fy, fz noise; all zero: no random numbers",
-        length=3,
-    ),
-    "noise_torque_Nm": List(
-        Float(0.0, TORQUE_MAX_NM), [0.0, 0.0, 0.0], "N*m", "sd of tx, ty, tz noise", length=3
-    ),
-    "bias_counts": Either(
-        _CODES,
-        List(_CODES, length=6),
-        default=20000.0,
-        unit="counts",
-        doc="gauge offset, one for all or one per gauge (TARE removes it)",
-    ),
-    "drift_counts_per_s": Float(
-        -FULL_SCALE_CODES, FULL_SCALE_CODES, 0.0, "counts/s", "gauge drift"
-    ),
-    "cal_id": Int(0, wire_max("INFO", "cal_id_0"), 1, "", "calibration id in HELLO"),
-}
-_KEYFRAME = Row(
-    _s(None, ""),
-    _FORCE,
-    _FORCE,
-    _FORCE,
-    _TORQUE,
-    _TORQUE,
-    _TORQUE,
-    names=("t_s", "fx", "fy", "fz", "tx", "ty", "tz"),
-)
-MOTION = {
-    "press": {
-        "keyframes": List(
-            _KEYFRAME,
-            unit="s, N, N*m",
-            min_len=1,
-            doc="the wrench at increasing times, linear in between",
-        ),
-        "repeat": Bool(False, doc="loop the keyframes over their span"),
-    },
-    "rig": {
-        "object": Choice("tactile_sim.rig.objects:CH5_OBJECTS", "plane", "ch. 5 surface (§5.2)"),
-        "passes": Int(1, 10, 3, "", "passes (the thesis's 'fingers')"),
-        "points": Int(1, 50, 6, "", "points per pass"),
-        "samples": Int(1, 10, 2, "", "touches per point"),
-        "mu": _mu(0.0),
-        "hold_s": _s(0.05, "hold per touch", hi=60.0, positive=True),
-        "speed_mps": Float(1e-3, 1.0, 0.01, "m/s", "approach speed"),
-        "lead_in_s": _s(1.0, "rest before the first approach (time for a TARE)", hi=3600.0),
-    },
-    "sweep": {
-        "object": Choice("tactile_sim.ep2.objects:KINDS", "sphere", "EP2 object"),
-        "radius_m": _m(0.05, "the object's radius", hi=10.0),
-        "rotation_deg": _deg(0.0, "the object turned about its normal"),
-        "tilt_deg": _deg(0.0, "object and hand turned about world x"),
-        "fingers": Int(1, C.MAX_SENSORS, 3, "", "one per board sensor; <= [board] sensors"),
-        "spacing_m": _m(0.02, "between fingers, along x"),
-        "length_m": _m(0.04, "swept along y"),
-        "samples": Int(2, 1000, 21, "", "stations per finger"),
-        "speed_mps": Float(1e-4, 10.0, 0.05, "m/s", "sweep speed"),
-        "settle_s": _s(0.002, "move between stations; < the time per station", hi=60.0),
-        "fingertip_radius_m": _m(0.012, "spherical fingertip"),
-        "sensor_offset_m": _m(0.03, "sensor origin behind the fingertip centre", positive=False),
-        "normal_force_N": _n(5.0, "normal load"),
-        "mu": _mu(0.3),
-        "ramp_s": _s(0.02, "load ramp at the first and last station", hi=60.0),
-        "rest_s": _s(1.0, "unloaded before and after (the host TAREs in it)", hi=3600.0),
-        "roll_deg": List(
-            Float(-360.0, 360.0),
-            [0.0, 30.0, -30.0],
-            "deg",
-            "finger k turned about its pole; one per finger",
-            min_len=1,
-            max_len=C.MAX_SENSORS,
-        ),
-    },
-    "roll": {
-        "surface": Choice("tactile_sim.ep1.surfaces:KINDS", "ellipsoid", "EP1 object surface"),
-        "surface_params": Map(
-            _CHART, {"a": 0.02, "b": 0.03, "c": 0.02}, "m", "the surface's parameters, by name"
-        ),
-        "object_uv": Row(_CHART, _CHART, default=[0.0, 0.0], doc="start contact, object chart"),
-        "finger_uv": Row(_CHART, _CHART, default=[0.0, 0.0], doc="start contact, finger chart"),
-        "psi": Float(-2 * math.pi, 2 * math.pi, 0.0, "rad", "start angle between contact frames"),
-        "finger_radius_m": _m(0.01, "fingertip radius R1"),
-        "sensor_offset_m": _m(0.05, "sensor origin behind the fingertip centre", positive=False),
-        "normal_force_N": _n(5.0, "normal load", positive=True),
-        "mu": _mu(0.0),
-        "friction_dir_deg": _deg(0.0, "friction load's direction, fingertip tangent basis"),
-        "dtheta_rad": Float(0.0, math.pi, 0.5, "rad", "rotation per probe", lo_open=True),
-        "directions_deg": List(
-            Float(-360.0, 360.0),
-            [0.0, 180.0, 90.0, 270.0],
-            "deg",
-            "roll directions, each out and back",
-            min_len=1,
-            max_len=16,
-        ),
-        "rest_s": _s(0.5, "unloaded before and after", hi=3600.0),
-        "press_s": _s(0.2, "load ramp", hi=3600.0, positive=True),
-        "hold_s": _s(0.2, "hold at each end of a roll", hi=3600.0, positive=True),
-        "roll_s": _s(0.3, "one roll", hi=3600.0, positive=True),
-        "release_s": _s(0.2, "unload ramp", hi=3600.0, positive=True),
-    },
-}
+# fmt: off
+KEYS = tuple(Key(*row) for row in (
+    # section, key, type, default, unit, help
+    ("scene", "name", Text(64), None, "", "shown by `tactile emulate`; default: the file's name"),
+    ("scene", "seed", Int(0, U32), 0, "", "seeds the sensor noise"),
+    ("scene", "duration_s", Num(0.0, MAX_TIME_S, True), 10.0, "s", "nominal length (informational)"),
+    ("board", "rate_hz", Int(settings.MIN_RATE_HZ, wire_max("CONFIG", "rate_hz")), DEFAULTS["rate_hz"], "Hz", "sample rate; at most the ceiling of the board's sensors"),
+    ("board", "autostart", BOOL, True, "", "stream from boot"),
+    ("board", "streams", ListOf(OneOf(STREAMS), 0, len(STREAMS), unique=True), ["contacts"], "", "frames streamed: SAMPLE and/or CONTACT"),
+    ("board", "gate", OneOf(GATES), "xy", "", "contact gate on the force in the x-y plane or in 3-D"),
+    ("board", "enter_threshold_N", FORCE, DEFAULTS["enter_N"], "N", "a contact begins above this (5 ozf)"),
+    ("board", "exit_threshold_N", FORCE, DEFAULTS["exit_N"], "N", "... and ends below it (4 ozf); <= enter_threshold_N"),
+    ("board", "debounce", Int(1, settings.MAX_DEBOUNCE), DEFAULTS["debounce"], "samples", "past a threshold to change state"),
+    ("board", "sensors", Int(1, C.MAX_SENSORS), 1, "", "F/T sensors on the board, two per I2C bus"),
+    ("board", "max_rate_hz", Int(0, wire_max("INFO", "max_rate_hz")), 0, "Hz", "0: the hardware's ceiling; else override it (benches only)"),
+    ("board", "core", OneOf(CORES), DEFAULT_CORE, "", "firmware run: the MicroPython one, or the C core (firmware/c, built with cc)"),
+    ("sensor", "model", Text(16), "SIM-FT6", "", "informational (HELLO names the firmware's own)"),
+    ("sensor", "force_range_N", Num(C.FORCE_LSB_N, FORCE_MAX_N), 50.0, "N", "full-scale force, at 60% of the converters' range"),
+    ("sensor", "torque_range_Nm", Num(C.TORQUE_LSB_NM, TORQUE_MAX_NM), 2.0, "N*m", "full-scale torque"),
+    ("sensor", "noise_force_N", ListOf(FORCE, 3, 3), [0.0] * 3, "N", "sd of fx, fy, fz noise; all zero: no random numbers"),
+    ("sensor", "noise_torque_Nm", ListOf(TORQUE, 3, 3), [0.0] * 3, "N*m", "sd of tx, ty, tz noise"),
+    ("sensor", "bias_counts", Either((CODES, ListOf(CODES, 6, 6))), 20000.0, "counts", "gauge offset, one for all or one per gauge (TARE removes it)"),
+    ("sensor", "drift_counts_per_s", CODES, 0.0, "counts/s", "gauge drift"),
+    ("sensor", "cal_id", Int(0, wire_max("INFO", "cal_id_0")), 1, "", "calibration id in HELLO"),
+    ("motion", "kind", OneOf(f"{__name__}:MOTION_KINDS"), REQUIRED, "", "which motion; each kind has its own keys below"),
+    ("motion.press", "keyframes", ListOf(KEYFRAME, 1), REQUIRED, "s, N, N*m", "the wrench at increasing times, linear in between"),
+    ("motion.press", "repeat", BOOL, False, "", "loop the keyframes over their span"),
+    ("motion.rig", "object", OneOf("tactile_sim.rig.objects:CH5_OBJECTS"), "plane", "", "ch. 5 surface (§5.2)"),
+    ("motion.rig", "passes", Int(1, 10), 3, "", "passes (the thesis's 'fingers')"),
+    ("motion.rig", "points", Int(1, 50), 6, "", "points per pass"),
+    ("motion.rig", "samples", Int(1, 10), 2, "", "touches per point"),
+    ("motion.rig", "mu", MU, 0.0, "", FRICTION),
+    ("motion.rig", "hold_s", Num(0.0, 60.0, True), 0.05, "s", "hold per touch"),
+    ("motion.rig", "speed_mps", Num(1e-3, 1.0), 0.01, "m/s", "approach speed"),
+    ("motion.rig", "lead_in_s", Num(0.0, 3600.0), 1.0, "s", "rest before the first approach (time for a TARE)"),
+    ("motion.roll", "surface", OneOf("tactile_sim.ep1.surfaces:KINDS"), "ellipsoid", "", "EP1 object surface"),
+    ("motion.roll", "surface_params", T("table", CHART, 0, 16), {"a": 0.02, "b": 0.03, "c": 0.02}, "m", "the surface's parameters, by name"),
+    ("motion.roll", "object_uv", Row((CHART, CHART)), [0.0, 0.0], "", "start contact, object chart"),
+    ("motion.roll", "finger_uv", Row((CHART, CHART)), [0.0, 0.0], "", "start contact, finger chart"),
+    ("motion.roll", "psi", Num(-2 * math.pi, 2 * math.pi), 0.0, "rad", "start angle between contact frames"),
+    ("motion.roll", "finger_radius_m", LENGTH, 0.01, "m", "fingertip radius R1"),
+    ("motion.roll", "sensor_offset_m", Num(0.0, 1.0), 0.05, "m", "sensor origin behind the fingertip centre"),
+    ("motion.roll", "normal_force_N", Num(0.0, FORCE_MAX_N, True), 5.0, "N", "normal load"),
+    ("motion.roll", "mu", MU, 0.0, "", FRICTION),
+    ("motion.roll", "friction_dir_deg", DEG, 0.0, "deg", "friction load's direction, fingertip tangent basis"),
+    ("motion.roll", "dtheta_rad", Num(0.0, math.pi, True), 0.5, "rad", "rotation per probe"),
+    ("motion.roll", "directions_deg", ListOf(DEG, 1, 16), [0.0, 180.0, 90.0, 270.0], "deg", "roll directions, each out and back"),
+    ("motion.roll", "rest_s", Num(0.0, 3600.0), 0.5, "s", "unloaded before and after"),
+    ("motion.roll", "press_s", Num(0.0, 3600.0, True), 0.2, "s", "load ramp"),
+    ("motion.roll", "hold_s", Num(0.0, 3600.0, True), 0.2, "s", "hold at each end of a roll"),
+    ("motion.roll", "roll_s", Num(0.0, 3600.0, True), 0.3, "s", "one roll"),
+    ("motion.roll", "release_s", Num(0.0, 3600.0, True), 0.2, "s", "unload ramp"),
+    ("motion.sweep", "object", OneOf("tactile_sim.ep2.objects:KINDS"), "sphere", "", "EP2 object"),
+    ("motion.sweep", "radius_m", Num(0.0, 10.0, True), 0.05, "m", "the object's radius"),
+    ("motion.sweep", "rotation_deg", DEG, 0.0, "deg", "the object turned about its normal"),
+    ("motion.sweep", "tilt_deg", DEG, 0.0, "deg", "object and hand turned about world x"),
+    ("motion.sweep", "fingers", Int(1, C.MAX_SENSORS), 3, "", "one per board sensor; <= [board] sensors"),
+    ("motion.sweep", "spacing_m", LENGTH, 0.02, "m", "between fingers, along x"),
+    ("motion.sweep", "length_m", LENGTH, 0.04, "m", "swept along y"),
+    ("motion.sweep", "samples", Int(2, 1000), 21, "", "stations per finger"),
+    ("motion.sweep", "speed_mps", Num(1e-4, 10.0), 0.05, "m/s", "sweep speed"),
+    ("motion.sweep", "settle_s", Num(0.0, 60.0), 0.002, "s", "move between stations; < the time per station"),
+    ("motion.sweep", "fingertip_radius_m", LENGTH, 0.012, "m", "spherical fingertip"),
+    ("motion.sweep", "sensor_offset_m", Num(0.0, 1.0), 0.03, "m", "sensor origin behind the fingertip centre"),
+    ("motion.sweep", "normal_force_N", FORCE, 5.0, "N", "normal load"),
+    ("motion.sweep", "mu", MU, 0.3, "", FRICTION),
+    ("motion.sweep", "ramp_s", Num(0.0, 60.0), 0.02, "s", "load ramp at the first and last station"),
+    ("motion.sweep", "rest_s", Num(0.0, 3600.0), 1.0, "s", "unloaded before and after (the host TAREs in it)"),
+    ("motion.sweep", "roll_deg", ListOf(DEG, 1, C.MAX_SENSORS), [0.0, 30.0, -30.0], "deg", "finger k turned about its pole; one per finger"),
+    ("link", "corrupt_frames", ListOf(Int(0, U32)), [], "", "frames (from 0) with one byte XOR-ed"),
+    ("link", "drop_byte_frames", ListOf(Int(0, U32)), [], "", "frames (from 0) with one byte removed"),
+    ("link", "disconnect", ListOf(Row((TIME, TIME), names=("from_s", "to_s"))), [], "s", "pty removed, a new one later (behind --link)"),
+    ("sensor_fault", "at_s", TIME, 0.0, "s", "when"),
+    ("sensor_fault", "kind", OneOf(sensor_faults.KINDS), REQUIRED, "", "what fails"),
+    ("sensor_fault", "sensor", Int(0, C.MAX_SENSORS - 1), 0, "", "which sensor; < [board] sensors"),
+    ("sensor_fault", "count", Int(1, 1_000_000), 3, "", "failed transactions (i2c_timeout)"),
+    ("sensor_fault", "for_s", Num(0.0, MAX_TIME_S, True), 0.05, "s", "how long (the other kinds)"),
+))
+# fmt: on
+SECTIONS = {}  # section -> {key: Key}, in the order of KEYS
+for _key in KEYS:
+    SECTIONS.setdefault(_key.section, {})[_key.name] = _key
+MOTION = {s.removeprefix("motion."): keys for s, keys in SECTIONS.items() if "." in s}
 MOTION_KINDS = tuple(sorted(MOTION))
-LINK = {
-    "corrupt_frames": List(_FRAME, [], "", "frames (from 0) with one byte XOR-ed"),
-    "drop_byte_frames": List(_FRAME, [], "", "frames (from 0) with one byte removed"),
-    "disconnect": List(
-        Row(_s(None, ""), _s(None, ""), names=("from_s", "to_s")),
-        [],
-        "s",
-        "pty removed, a new one later (behind --link)",
-    ),
-}
-SENSOR_FAULT = {
-    "at_s": _s(0.0, "when"),
-    "kind": Choice(sensor_faults.KINDS, doc="what fails"),
-    "sensor": Int(0, C.MAX_SENSORS - 1, 0, "", "which sensor; < [board] sensors"),
-    "count": Int(1, 1_000_000, 3, "", "failed transactions (i2c_timeout)"),
-    "for_s": _s(0.05, "how long (the other kinds)", positive=True),
-}
-SECTIONS = {"scene": SCENE, "board": BOARD, "sensor": SENSOR, "motion": MOTION, "link": LINK}
-ARRAYS = {"sensor_fault": SENSOR_FAULT}  # [[name]]: any number of tables
+TOP = [s for s in SECTIONS if "." not in s]  # the sections a file may hold
+ARRAYS = ("sensor_fault",)  # [[name]]: any number of tables
+OPTIONAL = ("link",)  # None when the scene has none
+BOARD, SENSOR = SECTIONS["board"], SECTIONS["sensor"]
 
 
-# --- rules across keys: each returns (where, why) when broken, else None --------------------
-
-
-def _exit_not_above_enter(d):
-    b = d["board"]
+def broken_rules(d):
+    """Yield (where, why) for each rule across keys that ``d`` (the checked sections) breaks."""
+    b, m, sensors = d["board"], d["motion"], d["board"]["sensors"]
     if b["exit_threshold_N"] > b["enter_threshold_N"]:
-        return (
-            "[board] exit_threshold_N",
-            f"must be <= enter_threshold_N ({b['enter_threshold_N']:g})",
-        )
-
-
-def _keyframe_times_increase(d):
-    m = d["motion"]
-    if m["kind"] == "press":
-        times = [row[0] for row in m["keyframes"]]
-        for i in range(1, len(times)):
-            if times[i] <= times[i - 1]:
-                return f"[motion] keyframes[{i}]", f"time must be after {times[i - 1]:g} s"
-
-
-def _fingers_fit_the_board(d):
-    m, sensors = d["motion"], d["board"]["sensors"]
-    if m["kind"] != "sweep":
-        return None
-    if m["fingers"] > sensors:
-        return "[motion] fingers", f"must be <= [board] sensors ({sensors}): one sensor each"
-    if len(m["roll_deg"]) < m["fingers"]:
-        return "[motion] roll_deg", f"must give one angle per finger ({m['fingers']})"
-    period = m["length_m"] / (m["samples"] - 1) / m["speed_mps"]
-    if not m["settle_s"] < period:
-        return "[motion] settle_s", f"must be shorter than the time per station ({period:g} s)"
-
-
-def _faults_name_a_sensor(d):
+        why = f"must be <= enter_threshold_N ({b['enter_threshold_N']:g})"
+        yield "[board] exit_threshold_N", why
+    times = [row[0] for row in m["keyframes"]] if m["kind"] == "press" else []
+    for i in range(1, len(times)):
+        if times[i] <= times[i - 1]:
+            yield f"[motion] keyframes[{i}]", f"time must be after {times[i - 1]:g} s"
+    if m["kind"] == "sweep":
+        if m["fingers"] > sensors:
+            yield "[motion] fingers", f"must be <= [board] sensors ({sensors}): one sensor each"
+        if len(m["roll_deg"]) < m["fingers"]:
+            yield "[motion] roll_deg", f"must give one angle per finger ({m['fingers']})"
+        period = m["length_m"] / (m["samples"] - 1) / m["speed_mps"]
+        if not m["settle_s"] < period:
+            yield "[motion] settle_s", f"must be shorter than the time per station ({period:g} s)"
     for k, fault in enumerate(d["sensor_fault"]):
-        if fault["sensor"] >= d["board"]["sensors"]:
-            where = f"[[sensor_fault]] #{k + 1} sensor"
-            return where, f"must be < [board] sensors ({d['board']['sensors']})"
+        if fault["sensor"] >= sensors:
+            yield f"[[sensor_fault]] #{k + 1} sensor", f"must be < [board] sensors ({sensors})"
+    for k, (start, end) in enumerate((d["link"] or {}).get("disconnect", [])):
+        if not start < end:
+            yield f"[link] disconnect[{k}]", f"must end after it starts, got [{start:g}, {end:g}]"
 
 
-def _disconnects_end_after_they_start(d):
-    for k, (a, b) in enumerate((d["link"] or {}).get("disconnect", [])):
-        if not a < b:
-            return f"[link] disconnect[{k}]", f"must end after it starts, got [{a:g}, {b:g}]"
+# --- checking -----------------------------------------------------------------------------
 
 
-RULES = (
-    _exit_not_above_enter,
-    _keyframe_times_increase,
-    _fingers_fit_the_board,
-    _faults_name_a_sensor,
-    _disconnects_end_after_they_start,
-)
+class Bad(ValueError):
+    """A value that breaks its key's rule (``why``); ``where`` is the path to it."""
 
-
-# --- validation ---------------------------------------------------------------------------
+    def __init__(self, why, where=""):
+        super().__init__(why)
+        self.why, self.where = why, where
 
 
 def validate(data):
-    """The parsed scene ``data`` checked whole; returns {section: values, defaults filled}.
-
-    ``link`` is None when the scene has no ``[link]``; ``sensor_fault`` a list.  Raises
-    ``Bad`` with ``where`` naming section and key.
-    """
-    _known_sections(data)
-    out = {}
-    for name in ("scene", "board", "sensor"):
-        out[name] = _section(f"[{name}]", SECTIONS[name], data.get(name, {}))
-    out["motion"] = _motion(data.get("motion"))
-    out["link"] = _section("[link]", LINK, data["link"]) if "link" in data else None
-    faults = data.get("sensor_fault", [])
-    if not isinstance(faults, list) or not all(isinstance(f, dict) for f in faults):
-        raise Bad("must be tables, each under a [[sensor_fault]] line", where="[[sensor_fault]]")
-    out["sensor_fault"] = [
-        _section(f"[[sensor_fault]] #{k + 1}", SENSOR_FAULT, f) for k, f in enumerate(faults)
-    ]
-    for rule in RULES:
-        broken = rule(out)
-        if broken:
-            raise Bad(broken[1], where=broken[0])
+    """The parsed scene ``data`` checked whole: {section: values, defaults filled in}, None
+    for an ``OPTIONAL`` section the scene has not, a list for an array; or ``Bad``."""
+    for name, value in data.items():
+        if name in TOP:
+            continue
+        if not isinstance(value, (dict, list)):
+            owner = [s for s in TOP if s not in ("motion", *ARRAYS) and name in SECTIONS[s]]
+            hint = f" (put it under [{owner[0]}])" if owner else ""
+            raise Bad("a key outside any section" + hint, where=str(name))
+        hint = did_you_mean(f"[{name}]", [f"[{s}]" for s in TOP])
+        raise Bad("unknown section" + hint, where=f"[{name}]")
+    out = {name: _top(name, data.get(name)) for name in TOP}
+    for where, why in broken_rules(out):
+        raise Bad(why, where)
     return out
 
 
-def _known_sections(data):
-    known = list(SECTIONS) + list(ARRAYS)
-    for name, value in data.items():
-        if name in known:
-            continue
-        if not isinstance(value, (dict, list)):
-            owner = [s for s, keys in SECTIONS.items() if s != "motion" and name in keys]
-            hint = f" (put it under [{owner[0]}])" if owner else ""
-            raise Bad("a key outside any section" + hint, where=str(name))
-        hint = did_you_mean(f"[{name}]", [f"[{s}]" for s in known])
-        raise Bad("unknown section" + hint, where=f"[{name}]")
+def _top(name, given):
+    """A section the file may hold: a table, an array of tables, or [motion] by its kind."""
+    if name == "motion":
+        return _motion(given)
+    if given is None and name in OPTIONAL:
+        return None
+    if name not in ARRAYS:
+        return _section(f"[{name}]", SECTIONS[name], {} if given is None else given)
+    given = [] if given is None else given
+    if not isinstance(given, list) or not all(isinstance(t, dict) for t in given):
+        raise Bad(f"must be tables, each under a [[{name}]] line", where=f"[[{name}]]")
+    return [_section(f"[[{name}]] #{k + 1}", SECTIONS[name], t) for k, t in enumerate(given)]
 
 
-def _section(label, keys, given):
+def _section(label, keys, given, unknown="unknown key"):
+    """``given`` (a TOML table) checked against ``keys``, defaults filled in."""
     if not isinstance(given, dict):
         raise Bad(f"must be a table ({label} followed by its keys)", where=label)
-    try:
-        return check_table(keys, given)
-    except Bad as bad:
-        raise bad.under(label + " ") from None
+    for name in given:
+        if name not in keys:
+            raise Bad(unknown + did_you_mean(name, list(keys)), f"{label} {name}")
+    out = {}
+    for name, key in keys.items():
+        if name in given:
+            out[name] = _under(f"{label} {name}", key.type, given[name])
+        elif key.default is REQUIRED:
+            raise Bad(f"required ({describe(key.type)})", f"{label} {name}")
+        else:
+            out[name] = copy.deepcopy(key.default)
+    return out
 
 
 def _motion(given):
     """[motion]: its ``kind`` first, then the keys of that kind."""
-    kinds = MOTION_KINDS
+    kinds = ", ".join(MOTION_KINDS)
     if given is None:
-        raise Bad(f"required, with kind = one of {', '.join(kinds)}", where="[motion]")
+        raise Bad(f"required, with kind = one of {kinds}", where="[motion]")
     if not isinstance(given, dict):
         raise Bad("must be a table ([motion] followed by its keys)", where="[motion]")
     kind = given.get("kind")
-    if kind not in kinds:
+    if kind not in MOTION_KINDS:
         got = "" if kind is None else f", got {show(kind)}"
-        raise Bad(f"must be one of {', '.join(kinds)}{got}", where="[motion] kind")
+        raise Bad(f"must be one of {kinds}{got}", where="[motion] kind")
     rest = {k: v for k, v in given.items() if k != "kind"}
+    unknown = f"unknown key for kind {kind}"
+    return {"kind": kind, **_section("[motion]", MOTION[kind], rest, unknown)}
+
+
+def _under(part, t, value):
+    """``check`` of ``value``, the path to it prefixed with ``part`` in an error."""
     try:
-        return {"kind": kind, **check_table(MOTION[kind], rest)}
+        return check(t, value)
     except Bad as bad:
-        if bad.why.startswith("unknown key"):
-            bad = Bad(f"unknown key for kind {kind}" + bad.why[len("unknown key") :], bad.where)
-        raise bad.under("[motion] ") from None
+        raise Bad(bad.why, part + bad.where) from None
 
 
-# --- documentation ------------------------------------------------------------------------
+def check(t, value):
+    """``value`` as type ``t`` holds it (a number as a float, a list's items checked), or
+    ``Bad`` saying what it must be."""
+    if t.kind == "either":
+        option = [o for o in t.of if isinstance(value, list) == (o.kind in ("list", "row"))]
+        return check(option[0], value) if option else _bad(f"a {describe(t)}", value)
+    if t.kind == "table":
+        if not isinstance(value, dict) or len(value) > t.hi:
+            _bad(f"a table of at most {t.hi} entries", value)
+        return {name: _under(f".{name}", t.of, v) for name, v in value.items()}
+    if t.kind in ("list", "row"):
+        n = len(t.of) if t.kind == "row" else None
+        size = n if n else f"{_size(t)} ({describe(t.of)})"
+        if not isinstance(value, list) or not (
+            len(value) == n if n else t.lo <= len(value) <= t.hi
+        ):
+            _bad(f"a list of {size}{' numbers' if n else ''}", value)
+        items = t.of if n else [t.of] * len(value)
+        out = [_under(f"[{i}]", item, v) for i, (item, v) in enumerate(zip(items, value))]
+        if t.unique and len(set(map(repr, out))) != len(out):
+            raise Bad(f"must not repeat an item, got {show(value)}")
+        return out
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if t.kind == "int":
+        if not number or isinstance(value, float):
+            _bad("an integer", value)
+        return value if t.lo <= value <= t.hi else _bad(f"from {t.lo} to {t.hi}", value)
+    if t.kind == "number":
+        if not number:
+            _bad("a number", value)
+        x = float(value) if abs(value) < 2**1000 else math.inf  # (an int beyond any float)
+        if math.isfinite(x) and (x > t.lo if t.open else x >= t.lo) and x <= t.hi:
+            return x
+        _bad(f"finite, {'>' if t.open else '>='} {_num(t.lo)} and <= {_num(t.hi)}", value)
+    if t.kind == "bool":
+        return value if isinstance(value, bool) else _bad("true or false", value)
+    if t.kind == "text":
+        if not isinstance(value, str):
+            _bad("a string", value)
+        ok = value.isascii() and value.isprintable() and 0 < len(value) <= t.hi
+        return value if ok else _bad(f"1 to {t.hi} printable ASCII characters", value)
+    ok = isinstance(value, str) and value in choices(t)
+    return value if ok else _bad("one of " + ", ".join(choices(t)), value)
+
+
+def _bad(what, value):
+    raise Bad(f"must be {what}, got {show(value)}")
+
+
+def choices(t):
+    """The names a ``choice`` type takes (its module imported now if it names one)."""
+    if isinstance(t.of, str):
+        module, name = t.of.split(":")
+        return tuple(getattr(importlib.import_module(module), name))
+    return tuple(t.of)
+
+
+def show(value, width=40):
+    """A short, one-line rendering of a TOML value for error messages."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, (datetime.date, datetime.time)):
+        return f"a date or time ({value.isoformat()})"
+    text = repr(value)
+    if isinstance(value, list) and len(text) > width:
+        return f"a list of {len(value)}"
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def did_you_mean(name, known):
+    """``' (did you mean X?)'`` for a near miss among ``known``, else the known names; one
+    that begins with ``name`` (``rate_hz`` for ``rate``) wins over a look-alike (``gate``)."""
+    name = str(name)
+    stem = name.rstrip("]")
+    close = [k for k in known if len(stem.strip("[")) > 1 and k.startswith(stem)]
+    close = close or difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    if close:
+        return f" (did you mean {close[0]}?)"
+    return f" (known: {', '.join(known)})" if known else ""
+
+
+def describe(t):
+    """``t`` in words, for an error and the docs (``number in (0, 1]``)."""
+    k, item = t.kind, t.of
+    if k in ("int", "number"):
+        lo, hi = (t.lo, t.hi) if k == "int" else (_num(t.lo), _num(t.hi))
+        return f"{'integer' if k == 'int' else 'number'} in {'(' if t.open else '['}{lo}, {hi}]"
+    if k == "row":
+        return f"[{', '.join(t.names)}]" if t.names else f"list of {len(item)}: {describe(item[0])}"
+    if k in ("list", "table"):
+        head = f"list of {_size(t)}: " if k == "list" else "table of names to "
+        return head + describe(item)
+    if k == "either":
+        return " or a ".join(map(describe, item))
+    if k == "choice":
+        return "one of " + ", ".join(choices(t))
+    return "true or false" if k == "bool" else f"string, 1 to {t.hi} printable ASCII characters"
+
+
+def _size(t):
+    return f"{t.lo}" if t.lo == t.hi else f"{t.lo} to {t.hi}"
+
+
+def _num(x):
+    if isinstance(x, float) and not (x.is_integer() and abs(x) < 1e16):
+        return f"{x:g}"
+    return str(int(x))
+
+
+def _default(key):
+    d = key.default
+    if d is REQUIRED or d is None:
+        return "required" if d is REQUIRED else "see meaning"
+    if isinstance(d, (bool, str)):
+        return f'`"{d}"`' if isinstance(d, str) else f"`{str(d).lower()}`"
+    if isinstance(d, dict):
+        return "`{ " + ", ".join(f"{k} = {v!r}" for k, v in d.items()) + " }`"
+    return f"`{d!r}`".replace("'", '"')
 
 
 def markdown():
     """The schema as Markdown tables, one per section and motion kind (docs/scenes.md)."""
-    out = []
-    for name, keys in SECTIONS.items():
-        if name == "motion":
-            kind = Choice(MOTION_KINDS, doc="which motion; each kind has its own keys below")
-            out += markdown_table("[motion]", {"kind": kind}) + [""]
-            for k in MOTION_KINDS:
-                out += markdown_table(f'[motion] kind = "{k}"', MOTION[k]) + [""]
-        else:
-            out += markdown_table(f"[{name}]", keys) + [""]
-    for name, keys in ARRAYS.items():
-        out += markdown_table(f"[[{name}]]", keys) + [""]
+    out, kinds = [], [(f'[motion] kind = "{k}"', MOTION[k]) for k in MOTION_KINDS]
+    for top in TOP:
+        tables = [(f"[[{top}]]" if top in ARRAYS else f"[{top}]", SECTIONS[top])]
+        for title, keys in tables + (kinds if top == "motion" else []):
+            out += [f"### `{title}`", "", "| key | type and range | unit | default | meaning |"]
+            out.append("|---|---|---|---|---|")
+            for name, key in keys.items():
+                cells = (f"`{name}`", describe(key.type), key.unit or "-", _default(key), key.help)
+                out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+            out.append("")
     return "\n".join(out).rstrip() + "\n"
