@@ -1,14 +1,23 @@
 """``tactile ep2 analyze FILE.csv``: fit a patch to contacts and normals, label its shape."""
 
-from tactile.cli.words import add_quiet
+import os
+import sys
+
+from tactile import units
+from tactile.commands.words import add_quiet
+from tactile.ep2.contacts_csv import ContactsFile
+from tactile.ep2.many import MAX_JOBS, outcomes
+from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
+from tactile.ep2.record_units import in_unit
+from tactile.errors import DataError, InputError
+from tactile.output.jsonout import dumps
+from tactile.output.textout import printable
 
 METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")
 
 
 def add_arguments(parser):
-    from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
-
     subs = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     p = subs.add_parser("analyze", help="fit and classify every patch of a contacts CSV")
     p.add_argument("file", help="CSV with x,y,z,nx,ny,nz [,finger] [,patch]")
@@ -68,16 +77,12 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.ep2.many import MAX_JOBS, outcomes
-    from tactile.errors import DataError, InputError
-
     if args.grid < 2:
         raise InputError(f"--grid must be at least 2 (got {args.grid})")
     if args.segments < 1:
         raise InputError(f"--segments must be at least 1 (got {args.segments})")
     if not 1 <= args.jobs <= MAX_JOBS:
         raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
-    from tactile import units
 
     if args.file_units is not None:
         try:
@@ -137,10 +142,6 @@ CHECK_BAR_FROM = 64 * 2**20  # bytes: a bar for the checking pass of a file larg
 
 def _checked(path, quiet=False):
     """``ContactsFile(path)``: the whole file checked, with a bar for a large one."""
-    import os
-
-    from tactile.ep2.contacts_csv import ContactsFile
-
     try:
         size = os.path.getsize(path)
     except OSError:
@@ -161,8 +162,6 @@ def _progress(n_patches):
 
 
 def _bar(total, start_above, **kw):
-    import sys
-
     if total <= start_above or not sys.stderr.isatty():
         return None
     try:
@@ -181,13 +180,8 @@ class _Printer:
         self.started = False
 
     def records(self, records):
-        from tactile.ep2.record_units import in_unit
-        from tactile.output.textout import printable
-
         records = [in_unit(r, self.unit, self.scale) for r in records]
         if self.as_json:
-            from tactile.output.jsonout import dumps
-
             lines = [dumps(r) for r in records]
         else:
             lines = [] if self.started else [_head(self.unit)]

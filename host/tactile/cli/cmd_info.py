@@ -1,6 +1,9 @@
 """``tactile info --port P``: the board's INFO (firmware, protocol, sensors, configuration)."""
 
+from tactile.board.client import info_dict
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.output.jsonout import dumps
+from tactile.output.textout import printable
 
 
 def add_arguments(parser):
@@ -9,9 +12,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.board.client import info_dict
-    from tactile.output.jsonout import dumps
-
     client = connect(args)
     try:
         info = info_dict(client.get_info())
@@ -26,8 +26,6 @@ def run(args):
 
 def format_info(d):
     """The INFO as text; the device's own string is escaped (``tactile.output.textout``)."""
-    from tactile.output.textout import printable
-
     return "\n".join(
         [
             f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"
