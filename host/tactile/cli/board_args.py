@@ -3,8 +3,8 @@
 
 import os
 
+from tactile.board import serial_port
 from tactile.board.client import BoardClient
-from tactile.board.serial_port import open_port
 from tactile.commands.words import ENV_PORT
 from tactile.errors import InputError
 
@@ -34,7 +34,7 @@ def port_of(args):
 
 def connect(args):
     """Open ``args.port`` and wait for HELLO; returns a BoardClient (the caller closes it)."""
-    port = open_port(port_of(args))
+    port = serial_port.open_port(port_of(args))  # (looked up here: tests fake ports)
     client = BoardClient(port, args.port)
     try:
         client.handshake(args.wait)

@@ -5,7 +5,7 @@ import sys
 
 from tactile import units
 from tactile.commands.words import add_quiet
-from tactile.ep2.contacts_csv import ContactsFile
+from tactile.ep2 import contacts_csv
 from tactile.ep2.many import MAX_JOBS, outcomes
 from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
 from tactile.ep2.record_units import in_unit
@@ -148,9 +148,9 @@ def _checked(path, quiet=False):
         size = 0  # ContactsFile says why
     bar = None if quiet else _bar(size, CHECK_BAR_FROM, unit="B", unit_scale=True, desc="ep2 check")
     if bar is None:
-        return ContactsFile(path)
+        return contacts_csv.ContactsFile(path)
     try:
-        return ContactsFile(path, progress=lambda done: bar.update(done - bar.n))
+        return contacts_csv.ContactsFile(path, progress=lambda done: bar.update(done - bar.n))
     finally:
         bar.close()
 
