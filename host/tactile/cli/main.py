@@ -141,7 +141,7 @@ def _command_named(argv):
     """The command ``argv`` names (its parser refuses another), or None when ``argv`` asks
     for ``tactile``'s own help or version (printed here)."""
     if not argv or argv[0].startswith("-"):
-        _top_parser(None).parse_args(argv or ["--help"])
+        _top_parser(registry.names()).parse_args(argv or ["--help"])
         return None
     name = argv[0]
     if name not in registry.OWN:
