@@ -1,15 +1,15 @@
 """The CLI's parsers as the CLI builds them, command by command, for the vocabulary tests."""
 
 import argparse
-import importlib
 
 from tactile.cli import main as cli_main
+from tactile.cli import registry
 
 
 def command_parser(name):
     """``tactile NAME``'s parser, built as ``tactile`` builds it."""
-    module, help_ = importlib.import_module(cli_main.COMMANDS[name][0]), cli_main.COMMANDS[name][1]
-    return cli_main._command_parser(name, module, help_)
+    module, command = registry.load(name)
+    return cli_main._command_parser(name, module, command.help)
 
 
 def walk(parser, path=()):
@@ -23,5 +23,5 @@ def walk(parser, path=()):
 
 def tree():
     """Every (command path, parser) of the whole CLI."""
-    for name in sorted(cli_main.COMMANDS):
+    for name in sorted(registry.commands()):
         yield from walk(command_parser(name), (name,))

@@ -58,7 +58,8 @@ def test_missing_file_is_one_line_exit_2(tmp_path, cli):
 
 
 def test_unknown_command_and_help(capsys):
-    from tactile.cli.main import COMMANDS, main
+    from tactile.cli.main import main
+    from tactile.cli.registry import names
 
     with pytest.raises(SystemExit) as exc:
         main(["frobnicate"])
@@ -67,7 +68,7 @@ def test_unknown_command_and_help(capsys):
         main(["--help"])
     out = capsys.readouterr().out
     assert exc.value.code == 0
-    assert all(name in out for name in COMMANDS)
+    assert all(name in out for name in names())
 
 
 def test_decode_help_names_the_argument(capsys):
@@ -95,11 +96,15 @@ def test_decode_imports_nothing_heavy():
 
 def test_group_dispatch_skips_a_missing_module():
     import argparse
+    from importlib.metadata import EntryPoint
 
-    from tactile.cli.dispatch import add_group
+    from tactile.commands.groups import add_group
 
+    group = "tactile.commands.sim"
+    found = [EntryPoint(n, m, group) for n, m in (("ep0", "tactile_sim.commands.no_such_module"),
+             ("ep1", "tactile_studies.commands.sim_ep1"))]  # fmt: skip
     parser = argparse.ArgumentParser()
-    add_group(parser, ("tactile.cli.no_such_module", "tactile.cli.sim_ep1"), "what")
+    add_group(parser, "what", found)
     argv = ["ep1", "--object", "sphere", "--finger-radius", "1", "--dtheta", "0.1"]
     assert callable(parser.parse_args(argv)._run)
 
@@ -111,9 +116,10 @@ ISSUE_7_COMMANDS = (
 
 @pytest.mark.parametrize("name", ISSUE_7_COMMANDS + ["demo", "sim"])
 def test_every_subcommand_exists_and_has_help(capsys, name):
-    from tactile.cli.main import COMMANDS, main
+    from tactile.cli.main import main
+    from tactile.cli.registry import commands
 
-    assert name in COMMANDS
+    assert name in commands()
     with pytest.raises(SystemExit) as exc:
         main([name, "--help"])
     out = capsys.readouterr().out

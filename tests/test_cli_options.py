@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from tactile.cli.main import COMMANDS, main
+from tactile.cli.main import main
+from tactile.cli.registry import commands
 
 
 def run(capsys, *args):
@@ -58,6 +59,6 @@ def test_a_negative_number_reaches_each_commands_own_check(tmp_path, capsys):
     one_line(*run(capsys, "ep2", "analyze", path, "--grid", "-5"), "--grid must be at least 2")
 
 
-@pytest.mark.parametrize("name", sorted(COMMANDS))
+@pytest.mark.parametrize("name", sorted(commands()))
 def test_every_command_says_an_unknown_option_in_one_line(capsys, name):
     one_line(*run(capsys, name, "--no-such-option"), f"tactile {name}")

@@ -1,113 +1,171 @@
-"""Layers run one way (issue 15): protocol -> firmware -> host library -> simulator ->
-application.  The host library (``tactile`` outside ``tactile.cli``) never imports the
-simulator, neither at module level nor inside a function; the simulator never imports the
-host's estimators (``tactile.ep1``, ``tactile.ep2``, ``tactile.localize``), only its
-vocabulary (errors, units, board settings, the robot-log format); the application layer
-(``tactile.cli`` and the studies ``tactile_studies``: the CLI, the thesis's studies, the
-chapter 5 replica, the demo, sim:// ports) may import both, and nothing below imports it."""
+"""Layers run one way: protocol -> firmware -> host library -> simulator -> application.
 
-import ast
+Every module of the five packages is checked, its module-level and function-level imports
+alike (``import_graph``): no import runs up a layer, and no modules import each other in a
+circle.  The host library is ``tactile`` but its CLI.  The application is the CLI
+(``tactile.cli``, and ``python -m tactile``) and the studies (``tactile_studies``), side by
+side: neither imports the other, and the CLI finds the simulator's and the studies'
+commands through entry points (``tactile.commands``), never by importing them.  The
+simulator takes the host's vocabulary (errors, units, board settings, the robot-log
+format), never its estimators."""
+
 import subprocess
 import sys
 
+import pytest
 from conftest import ROOT
+from import_graph import cycles, graph, imports, modules
 
 LIBRARY = ROOT / "host" / "tactile"
-SIMULATOR = ROOT / "sim" / "tactile_sim"
+LAYERS = (  # lowest first: (name, the modules in it, by prefix; the longest prefix decides)
+    ("protocol", ("tactile_protocol",)),
+    ("firmware", ("tactile_fw",)),
+    ("host library", ("tactile",)),
+    ("simulator", ("tactile_sim",)),
+    ("application", ("tactile.cli", "tactile.__main__", "tactile_studies")),
+)
+CLI = ("tactile.cli", "tactile.__main__")
 ESTIMATORS = ("tactile.ep1", "tactile.ep2", "tactile.localize")
 
+# Import cycles left in parts being redesigned, each with why it stays for now.  The list
+# can only shrink: each cycle found must be listed exactly, and one that is gone must leave.
+KNOWN_CYCLES = {
+    ("tactile.recording.files", "tactile.recording.recover"): (
+        "recording: files completes a run's frames with recover, which reads the run with"
+        " files' readers; tactile.recording is being split"
+    ),
+    (
+        "tactile_sim.emulator.adc_bank",
+        "tactile_sim.emulator.cores",
+        "tactile_sim.emulator.pico_core",
+        "tactile_sim.emulator.qemu_core",
+    ): (
+        "emulator: cores builds each core, and the cores take cores.cache_dir; the emulator's"
+        " cores and servers are being redesigned"
+    ),
+}
 
-def _imports(path):
-    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            yield from ((node.lineno, a.name) for a in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            yield node.lineno, node.module
-            # ``from tactile import ep2`` imports the package tactile.ep2
-            yield from ((node.lineno, f"{node.module}.{a.name}") for a in node.names)
+
+def _in(name, prefix):
+    return name == prefix or name.startswith(prefix + ".")
 
 
-def _library_files():
-    return [p for p in LIBRARY.rglob("*.py") if "cli" not in p.relative_to(LIBRARY).parts]
+def layer_of(module):
+    """(index, name) of ``module``'s layer: that of the longest prefix it has."""
+    _, index, name = max(
+        (len(p), i, n) for i, (n, prefixes) in enumerate(LAYERS) for p in prefixes if _in(module, p)
+    )
+    return index, name
 
 
-def test_the_library_never_imports_the_simulator():
-    files = _library_files()
-    assert len(files) > 40
+def upward(found):
+    """Each import in ``found`` that reaches a layer above its module's, as a line."""
+    return [
+        f"{i.path}:{i.line}: {i.module} ({layer_of(i.module)[1]}) imports {i.target}"
+        f" ({layer_of(i.target)[1]})"
+        for i in found
+        if layer_of(i.target)[0] > layer_of(i.module)[0]
+    ]
+
+
+def test_every_package_is_read():
+    found = modules()
+    for package in ("tactile_protocol", "tactile_fw", "tactile", "tactile_sim", "tactile_studies"):
+        assert sum(_in(m, package) for m in found) >= 5, package
+    assert any(_in(m, "tactile.cli") for m in found) and len(imports()) > 500
+
+
+def test_no_import_runs_up_a_layer():
+    bad = upward(imports())
+    assert not bad, "\n".join(bad)
+
+
+def test_an_import_up_a_layer_is_found():
+    """The check itself: the library serving sim:// ports itself, in a function."""
+    port = next(i for i in imports() if i.module == "tactile.board.serial_port")
+    assert upward([port._replace(function="open_port", target="tactile_sim.urlhandler")])
+    assert upward([port._replace(target="tactile.cli.main")])
+    assert not upward([port._replace(target="tactile_protocol.constants")])
+
+
+def test_the_cli_imports_neither_the_simulator_nor_the_studies():
     bad = [
-        f"{p.relative_to(ROOT)}:{line}: {name}"
-        for p in files
-        for line, name in _imports(p)
-        if name.split(".")[0] == "tactile_sim"
+        f"{i.path}:{i.line}: {i.target}"
+        for i in imports()
+        if any(_in(i.module, c) for c in CLI)
+        and any(_in(i.target, p) for p in ("tactile_sim", "tactile_studies"))
+    ]
+    bad += [
+        f"{i.path}:{i.line}: {i.target}"
+        for i in imports()
+        if _in(i.module, "tactile_studies") and any(_in(i.target, c) for c in CLI)
     ]
     assert not bad, bad
-
-
-def test_every_library_module_imports_with_the_simulator_absent():
-    modules = sorted(
-        ".".join(("tactile", *p.relative_to(LIBRARY).with_suffix("").parts)).removesuffix(
-            ".__init__"
-        )
-        for p in _library_files()
-        if p.name != "__main__.py"
-    )
-    code = (
-        "import importlib, sys\n"
-        "sys.modules['tactile_sim'] = None  # any import of it fails\n"
-        f"for m in {modules!r}:\n"
-        "    importlib.import_module(m)\n"
-    )
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr[-2000:]
-
-
-def _is(name, package):
-    return name == package or name.startswith(package + ".")
 
 
 def test_the_simulator_never_imports_the_hosts_estimators():
-    files = list(SIMULATOR.rglob("*.py"))
-    assert len(files) > 30
     bad = [
-        f"{p.relative_to(ROOT)}:{line}: {name}"
-        for p in files
-        for line, name in _imports(p)
-        if any(_is(name, e) for e in ESTIMATORS)
+        f"{i.path}:{i.line}: {i.target}"
+        for i in imports()
+        if _in(i.module, "tactile_sim") and any(_in(i.target, e) for e in ESTIMATORS)
     ]
     assert not bad, bad
 
 
-def test_every_simulator_module_imports_with_the_estimators_absent():
-    modules = sorted(
-        ".".join(("tactile_sim", *p.relative_to(SIMULATOR).with_suffix("").parts)).removesuffix(
-            ".__init__"
-        )
-        for p in SIMULATOR.rglob("*.py")
-        if p.name != "__main__.py"
-    )
+def test_no_modules_import_each_other_in_a_circle():
+    found = {tuple(c): c for c in cycles(graph(imports()))}
+    new = [c for k, c in found.items() if k not in KNOWN_CYCLES]
+    gone = [k for k in KNOWN_CYCLES if k not in found]
+    assert not new, f"import cycles: {new}"
+    assert not gone, f"gone (or changed): take them out of KNOWN_CYCLES: {gone}"
+
+
+def test_a_cycle_is_found_however_long():
+    edges = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set(), "e": {"e"}}
+    assert cycles(edges) == [["a", "b", "c"]]  # a module importing itself is no cycle
+
+
+def _import_all(modules_, absent):
     code = (
         "import importlib, sys\n"
-        f"for gone in {ESTIMATORS + ('tactile_studies',)!r}:\n"
+        f"for gone in {absent!r}:\n"
         "    sys.modules[gone] = None  # any import of it fails\n"
-        f"for m in {modules!r}:\n"
+        f"for m in {modules_!r}:\n"
         "    importlib.import_module(m)\n"
     )
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize(
+    "layer, absent",
+    [
+        (("tactile",), ("tactile_sim", "tactile_studies")),  # the library and the CLI
+        (("tactile_sim",), (*ESTIMATORS, "tactile_studies")),
+    ],
+)
+def test_every_module_imports_with_what_is_above_it_absent(layer, absent):
+    names = sorted(m for m in modules() if any(_in(m, p) for p in layer))
+    names = [m for m in names if not m.endswith("__main__")]
+    r = _import_all(names, absent)
     assert r.returncode == 0, r.stderr[-2000:]
 
 
-def test_nothing_below_the_application_imports_the_studies():
-    below = [ROOT / "protocol", ROOT / "firmware", SIMULATOR, *_library_files()]
-    files = [f for b in below for f in (b.rglob("*.py") if b.is_dir() else [b])]
-    assert len(files) > 100
-    bad = [
-        f"{p.relative_to(ROOT)}:{line}: {name}"
-        for p in files
-        for line, name in _imports(p)
-        if _is(name, "tactile_studies")
-    ]
-    assert not bad, bad
+def test_without_the_simulator_the_cli_runs_and_says_what_is_missing():
+    code = (
+        "import sys\n"
+        "sys.modules['tactile_sim'] = None\n"
+        "from tactile.cli.main import main\n"
+        "print(main(['emulate', 'press']))\n"
+        "main(['--help'])\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stderr == (
+        "tactile emulate: error: 'emulate' is not available in this build: module"
+        " tactile_sim.commands is not installed\n"
+    )
+    first, help_ = r.stdout.split("\n", 1)
+    assert first == "1" and "  ports " in help_ and "  emulate " not in help_
 
 
 def test_a_sim_port_without_the_simulator_registered_says_how_in_one_line():
@@ -128,7 +186,7 @@ def test_the_host_package_shows_its_components():
 
     top = sorted(p.name for p in LIBRARY.glob("*.py"))
     assert len(top) <= 12, top
-    for package in ("board", "recording", "files", "output"):
+    for package in ("board", "recording", "files", "output", "commands"):
         doc = (LIBRARY / package / "__init__.py").read_text(encoding="utf-8")
         assert doc.startswith('"""') and len(doc.splitlines()) >= 3, package
     assert callable(tactile.load_recording) and tactile.__version__

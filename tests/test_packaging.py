@@ -34,3 +34,17 @@ def test_licence_and_citation_exist():
     assert "MIT License" in (ROOT / "LICENSE").read_text()
     cff = (ROOT / "CITATION.cff").read_text()
     assert "cff-version" in cff and "Exploring the shape of objects" in cff
+
+
+def test_the_installed_entry_points_are_the_pyprojects():
+    """Packages add commands and port schemes through entry points (tactile.commands); an
+    install older than pyproject.toml lacks them.  make reinstalls when pyproject.toml is
+    newer than its stamp."""
+    from importlib.metadata import distribution
+
+    declared = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]
+    assert {"tactile.commands", "tactile.ports"} <= set(declared)
+    found = distribution("tactile-shape").entry_points
+    installed = {g: {e.name: e.value for e in found if e.group == g} for g in declared}
+    assert installed == declared, "an old install: run make (pip install -e '.[test]')"
+    assert "$(STAMP): pyproject.toml" in (ROOT / "Makefile").read_text()

@@ -29,8 +29,8 @@ import math
 import re
 from xml.parsers import expat
 
+from tactile.calib import MAX_ID, MatrixFile
 from tactile.calib import units as U
-from tactile.calib.files import MAX_ID, MatrixFile
 from tactile.errors import InputError, where
 from tactile.files.csv_dialect import DECIMAL
 

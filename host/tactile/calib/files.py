@@ -16,8 +16,8 @@ other keys.
 
 import json
 import math
-from collections import namedtuple
 
+from tactile.calib import MAX_ID, MatrixFile, ati
 from tactile.calib import units as U
 from tactile.errors import InputError, where
 from tactile.files import bounded, csv_dialect
@@ -26,22 +26,9 @@ from tactile.files.csv_dialect import DECIMAL, number, show
 __all__ = ["MatrixFile", "read", "ROWS", "GAUGES", "MAX_BYTES", "MAX_ID"]
 
 MAX_BYTES = 1 << 20  # a calibration file is a few kB
-MAX_ID = 0xFFFFFFFF  # cal_id is a u32; 0 means "no calibration"
 ROWS = ("fx", "fy", "fz", "tx", "ty", "tz")
 GAUGES = ("g0", "g1", "g2", "g3", "g4", "g5")
 JSON_KEYS = ("id", "matrix", "units")
-
-MatrixFile = namedtuple(
-    "MatrixFile",
-    "path kind matrix units cal_id id_from label notes places",
-    defaults=((),),
-)
-MatrixFile.__doc__ = """A matrix as a file states it.
-
-``matrix``: 6 lists of 6 floats; ``units``: ``units.Units``; ``cal_id``: int or None;
-``id_from``: where the id came from; ``label``: one line saying what the file is;
-``notes``: lines worth telling the user; ``places``: per row, its location for messages.
-"""
 
 
 def read(path, index=None):
@@ -49,8 +36,6 @@ def read(path, index=None):
     data = read_bounded(path)
     first = data.lstrip(b"\xef\xbb\xbf \t\r\n")[:1]
     if first == b"<":
-        from tactile.calib import ati
-
         return ati.parse(path, data, index)
     if index is not None:
         raise InputError(f"--index: {path} is not an ATI .cal (only those hold several matrices)")

@@ -3,8 +3,10 @@
 
 import os
 
-ENV_PORT = "TACTILE_PORT"
-
+from tactile.board import serial_port
+from tactile.board.client import BoardClient
+from tactile.commands.words import ENV_PORT
+from tactile.errors import InputError
 
 PORT_HELP = "serial device or URL (sim://SCENE for the in-process emulator)"
 
@@ -23,8 +25,6 @@ def add_port_argument(
 
 def port_of(args):
     """``args.port``, or an InputError saying none was given."""
-    from tactile.errors import InputError
-
     if not args.port:
         raise InputError(
             f"--port: no port given (and {ENV_PORT} unset); 'tactile ports' lists them"
@@ -34,10 +34,7 @@ def port_of(args):
 
 def connect(args):
     """Open ``args.port`` and wait for HELLO; returns a BoardClient (the caller closes it)."""
-    from tactile.board.client import BoardClient
-    from tactile.board.serial_port import open_port
-
-    port = open_port(port_of(args))
+    port = serial_port.open_port(port_of(args))  # (looked up here: tests fake ports)
     client = BoardClient(port, args.port)
     try:
         client.handshake(args.wait)

@@ -2,7 +2,13 @@
 sensor, then verify them through INFO (id and checksum).  FILE is ATI's ``.cal`` XML, a CSV
 or a JSON matrix (docs/calibration.md); ``--dry-run`` shows what would be sent."""
 
+from tactile.calib import convert, files, install
+from tactile.calib.units import describe
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.output.textout import (
+    printable,  # the label and notes quote the file
+    printable_lines,  # the file's words
+)
 
 
 def add_arguments(parser):
@@ -23,10 +29,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.calib import convert, files, install
-    from tactile.calib.units import describe
-    from tactile.output.textout import printable, printable_lines  # the file's words
-
     mf = files.read(args.file, args.index)
     bm = convert.to_board(mf, args.volts_per_count, args.id)
     scale = f"; {args.volts_per_count:.6g} V per count" if args.volts_per_count else ""

@@ -4,6 +4,9 @@ Commands, subcommands, options and choices complete; file arguments complete as 
 Load it in bash with ``source <(tactile completion bash)`` (docs/cli.md).
 """
 
+from tactile.cli.main import full_parser
+from tactile.errors import InputError
+
 SHELLS = ("bash", "zsh", "tcsh")
 # Arguments that name a file or a directory: the shell completes paths for them.
 PATHS = {"out", "file", "source", "capture", "run", "scene", "pose_log", "link"}
@@ -23,9 +26,6 @@ def _mark_paths(parser, shtab):
 
 
 def run(args):
-    from tactile.cli.main import full_parser
-    from tactile.errors import InputError
-
     try:
         import shtab
     except ImportError:  # a dependency since issue 15: an environment from before it

@@ -3,8 +3,13 @@ the board's current values.  ``--persist`` also stores them on the board (used a
 
 import argparse
 
-from tactile.board.settings import GATES, STREAMS
+from tactile.board.client import info_dict
+from tactile.board.settings import GATES, STREAMS, problem, stream_flags, to_newtons
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.cli.cmd_info import info_lines
+from tactile.errors import InputError
+from tactile.output.textout import printable_lines
+from tactile_protocol import constants as C
 
 
 def add_arguments(parser):
@@ -22,10 +27,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.board.client import info_dict
-    from tactile.cli.cmd_info import info_lines
-    from tactile.output.textout import printable_lines
-
     flags_from = _streams(args.streams)
     client = connect(args)
     try:
@@ -41,9 +42,6 @@ def run(args):
 
 
 def _streams(text):
-    from tactile.board.settings import stream_flags
-    from tactile.errors import InputError
-
     if text is None:
         return None
     names = [s.strip() for s in text.split(",") if s.strip()]
@@ -56,18 +54,12 @@ def _streams(text):
 
 def _check(values, max_rate_hz):
     """Refuse, before anything is sent, a value the board would NAK: one line with its range."""
-    from tactile.board.settings import problem
-    from tactile.errors import InputError
-
     why = problem(*values[:4], max_rate_hz)
     if why is not None:
         raise InputError(why)
 
 
 def _values(args, cur, streams):
-    from tactile.board.settings import GATES, STREAMS, stream_flags, to_newtons
-    from tactile_protocol import constants as C
-
     flags = cur.flags & (C.CFG_WRITABLE & ~C.CFG_PERSIST)
     if streams is not None:
         flags = flags & ~sum(STREAMS.values()) | stream_flags(streams)

@@ -10,7 +10,10 @@ non-finite number is ``null`` in both.
 
 import sys
 
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import InputError
+from tactile.output.jsonout import dumps
+from tactile.output.textout import fields, printable
 
 CHUNK = 1 << 16
 
@@ -21,9 +24,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.board.stream_decoder import StreamDecoder
-    from tactile.output.jsonout import dumps
-
     decoder = StreamDecoder()
     write = sys.stdout.write
     fmt = dumps if args.json else _text
@@ -42,8 +42,6 @@ def run(args):
 
 
 def _text(d):
-    from tactile.output.textout import fields, printable
-
     if d["type"] == "INVALID":
         head = f"{d['message']} seq={d['seq']} timestamp_us={d['timestamp_us']}"
         return f"INVALID  {head}: {printable(d['error'])}"
@@ -51,6 +49,4 @@ def _text(d):
 
 
 def _text_summary(s):
-    from tactile.output.textout import fields
-
     return "summary  " + fields(s, skip=("last_invalid",))  # INVALID lines name each one

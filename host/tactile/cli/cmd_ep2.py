@@ -1,6 +1,16 @@
 """``tactile ep2 analyze FILE.csv``: fit a patch to contacts and normals, label its shape."""
 
-from tactile.cli.words import add_quiet
+import os
+import sys
+
+from tactile import units
+from tactile.commands.words import add_quiet
+from tactile.ep2 import contacts_csv
+from tactile.ep2.many import MAX_JOBS, outcomes
+from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
+from tactile.ep2.record_units import in_unit
+from tactile.errors import DataError, InputError
+from tactile.output.jsonout import dumps
 from tactile.output.textout import printable_lines
 
 METHODS = ("jet", "spline")
@@ -8,8 +18,6 @@ WEIGHTINGS = ("auto", "tangent", "position")
 
 
 def add_arguments(parser):
-    from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
-
     subs = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     p = subs.add_parser("analyze", help="fit and classify every patch of a contacts CSV")
     p.add_argument("file", help="CSV with x,y,z,nx,ny,nz [,finger] [,patch]")
@@ -69,16 +77,12 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.ep2.many import MAX_JOBS, outcomes
-    from tactile.errors import DataError, InputError
-
     if args.grid < 2:
         raise InputError(f"--grid must be at least 2 (got {args.grid})")
     if args.segments < 1:
         raise InputError(f"--segments must be at least 1 (got {args.segments})")
     if not 1 <= args.jobs <= MAX_JOBS:
         raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
-    from tactile import units
 
     if args.file_units is not None:
         try:
@@ -138,19 +142,15 @@ CHECK_BAR_FROM = 64 * 2**20  # bytes: a bar for the checking pass of a file larg
 
 def _checked(path, quiet=False):
     """``ContactsFile(path)``: the whole file checked, with a bar for a large one."""
-    import os
-
-    from tactile.ep2.contacts_csv import ContactsFile
-
     try:
         size = os.path.getsize(path)
     except OSError:
         size = 0  # ContactsFile says why
     bar = None if quiet else _bar(size, CHECK_BAR_FROM, unit="B", unit_scale=True, desc="ep2 check")
     if bar is None:
-        return ContactsFile(path)
+        return contacts_csv.ContactsFile(path)
     try:
-        return ContactsFile(path, progress=lambda done: bar.update(done - bar.n))
+        return contacts_csv.ContactsFile(path, progress=lambda done: bar.update(done - bar.n))
     finally:
         bar.close()
 
@@ -162,8 +162,6 @@ def _progress(n_patches):
 
 
 def _bar(total, start_above, **kw):
-    import sys
-
     if total <= start_above or not sys.stderr.isatty():
         return None
     try:
@@ -182,12 +180,8 @@ class _Printer:
         self.started = False
 
     def records(self, records):
-        from tactile.ep2.record_units import in_unit
-
         records = [in_unit(r, self.unit, self.scale) for r in records]
         if self.as_json:
-            from tactile.output.jsonout import dumps
-
             lines = [dumps(r) for r in records]
         else:
             lines = [] if self.started else [_head(self.unit)]

@@ -4,14 +4,14 @@ holds no MicroPython REPL, a step on the board fails, or the firmware does not a
 
 import sys
 
+from tactile.board import firmware_answer, flashing
+from tactile.board.flashing import WAIT_S
 from tactile.cli.board_args import add_port_argument, port_of
-from tactile.cli.words import add_quiet
+from tactile.commands.words import add_quiet
 from tactile.output.textout import printable
 
 
 def add_arguments(parser):
-    from tactile.board.flashing import WAIT_S
-
     add_port_argument(
         parser,
         wait=WAIT_S,
@@ -34,8 +34,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.board import firmware_answer, flashing
-
     port = port_of(args)
     if args.dry_run:
         for line in flashing.plan(port, args.mpy, args.sensors, args.wdt_ms):

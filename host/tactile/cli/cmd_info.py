@@ -1,6 +1,9 @@
 """``tactile info --port P``: the board's INFO (firmware, protocol, sensors, configuration)."""
 
+from tactile.board.client import info_dict
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.output.jsonout import dumps
+from tactile.output.textout import printable_lines
 
 
 def add_arguments(parser):
@@ -9,10 +12,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.board.client import info_dict
-    from tactile.output.jsonout import dumps
-    from tactile.output.textout import printable_lines
-
     client = connect(args)
     try:
         info = info_dict(client.get_info())

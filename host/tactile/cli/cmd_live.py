@@ -10,9 +10,14 @@ Foxglove (``tactile.cli.foxglove_args``).
 import sys
 import time
 
+from tactile.board.client import info_dict
+from tactile.board.live_view import WIDTH, LiveState
+from tactile.board.settings import STREAMS, to_newtons
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.errors import PortLost
 from tactile.output.textout import printable
+from tactile_protocol import constants as C
 
 REFRESH_S = 0.1
 
@@ -25,8 +30,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.errors import PortLost
-
     foxglove_args.check(args)
     client = connect(args)
     if getattr(client.port, "realtime", True) is False:  # sim:// (tactile_sim.urlhandler)
@@ -56,16 +59,12 @@ def run(args):
 
 
 def _device(client):
-    from tactile.board.client import info_dict
-
     return info_dict(client.info) if client.info is not None else None
 
 
 def _view(client, duration, live=None):
     """Draw the board's state until ``duration`` s have passed (or Ctrl-C); ``live``: a
     ``tactile.output.foxglove_live.LiveServer`` fed every batch."""
-    from tactile.board.live_view import LiveState
-
     state, tty = LiveState(), sys.stdout.isatty()
     start = last = time.monotonic()
     drawn = 0
@@ -86,9 +85,6 @@ def _view(client, duration, live=None):
 
 def _samples_on(client):
     """Turn the SAMPLE stream on; return the CONFIG values that restore the board."""
-    from tactile.board.settings import STREAMS, to_newtons
-    from tactile_protocol import constants as C
-
     i = client.get_info()
     values = (
         i.rate_hz,
@@ -105,8 +101,6 @@ def _samples_on(client):
 
 
 def _draw(state, client, elapsed, tty, drawn):
-    from tactile.board.live_view import WIDTH
-
     c = client.decoder.counters
     lines = state.render()
     lines.append(f"{elapsed:6.1f} s  frames {c.frames}  lost {c.lost_frames}  damaged {c.damaged}")

@@ -6,7 +6,16 @@ line; a CSV without the line is drawn as it is, labelled U (or "input unit").  T
 one finger in passes), so its legend says "pass".
 """
 
-from tactile.cli.words import add_out
+import pathlib
+import re
+
+from tactile import units
+from tactile.commands.words import add_out
+from tactile.ep2 import analyze_patch
+from tactile.ep2.contacts_csv import read_contacts
+from tactile.errors import DataError, InputError
+from tactile.output import plots
+from tactile.recording.meta import read_meta
 
 WHAT = ("contacts", "patch", "maps")
 METHODS = ("jet", "spline")
@@ -47,13 +56,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    import pathlib
-
-    from tactile.ep2 import analyze_patch
-    from tactile.ep2.contacts_csv import read_contacts
-    from tactile.errors import DataError, InputError
-    from tactile.output import plots
-
     what = [w.strip() for w in args.what.split(",") if w.strip()]
     unknown = [w for w in what if w not in WHAT]
     if unknown or not what:
@@ -145,8 +147,6 @@ def _draw(plot, *args, **kw):
 
 def _source(path):
     """(csv path, file-name stem, default output directory) for a CSV or a record directory."""
-    from tactile.errors import InputError
-
     if path.is_dir():
         csv_path = path / "contacts.csv"
         if not csv_path.is_file():
@@ -162,8 +162,6 @@ def _source(path):
 def _display(csv_path, shown):
     """(the unit drawn or None, the scale from the file's unit to it): ``units.display``,
     except that a CSV stating no unit is drawn as it is, labelled ``shown``."""
-    from tactile import units
-
     file_unit = units.stated_length(csv_path)
     if file_unit is None:
         return shown, 1.0
@@ -173,9 +171,6 @@ def _display(csv_path, shown):
 def _group_word(source):
     """'pass' for a recording from a one-sensor board (its finger column counts passes),
     else 'finger'."""
-    from tactile.errors import InputError
-    from tactile.recording.meta import read_meta
-
     try:
         sensors = read_meta(source / "meta.json")["device"]["n_sensors"]
     except (InputError, KeyError, TypeError):
@@ -185,8 +180,6 @@ def _group_word(source):
 
 def _labels(groups):
     """File-name part per patch: None for a file without a patch column, else a safe unique name."""
-    import re
-
     if len(groups) == 1 and groups[0].patch is None:
         return [None]
     out, seen = [], set()

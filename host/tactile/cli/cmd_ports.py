@@ -1,17 +1,17 @@
 """``tactile ports``: the serial ports the OS knows, with their descriptions."""
 
+import sys
+
+from tactile.board.serial_port import list_ports
+from tactile.output.jsonout import dumps
+from tactile.output.textout import printable
+
 
 def add_arguments(parser):
     parser.add_argument("--json", action="store_true", help="JSON lines")
 
 
 def run(args):
-    import sys
-
-    from tactile.board.serial_port import list_ports
-    from tactile.output.jsonout import dumps
-    from tactile.output.textout import printable
-
     rows = list_ports()
     if not rows:
         print(

@@ -18,7 +18,7 @@ import sys
 
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument
-from tactile.cli.words import add_quiet
+from tactile.commands.words import add_quiet
 from tactile.errors import BoardError
 
 

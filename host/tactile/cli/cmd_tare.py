@@ -6,6 +6,9 @@ offset, before its first TARE since power-up, is above the gate.
 """
 
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.errors import InputError
+from tactile.output.textout import printable
+from tactile_protocol import constants as C
 
 
 def add_arguments(parser):
@@ -20,10 +23,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.errors import InputError
-    from tactile.output.textout import printable
-    from tactile_protocol import constants as C
-
     sensor = _sensor(args.sensor, InputError)
     if not 0 < args.samples < 65536:
         raise InputError(f"--samples: {args.samples} is not in 1..65535")

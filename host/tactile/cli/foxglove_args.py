@@ -4,6 +4,8 @@ Foxglove WebSocket server of the board's frames (``tactile.output.foxglove_live`
 
 import sys
 
+from tactile.errors import InputError
+from tactile.output.foxglove_live import LiveServer, require_foxglove
 from tactile.output.textout import printable
 
 DEFAULT_HOST = "127.0.0.1"
@@ -47,8 +49,6 @@ def check(args):
     """Refuse bad ``--foxglove*`` values and a missing extra, before any board work."""
     if not args.foxglove:
         return
-    from tactile.errors import InputError
-    from tactile.output.foxglove_live import require_foxglove
 
     if not 0 <= args.foxglove_port <= 65535:
         raise InputError(f"--foxglove-port: {args.foxglove_port} is not a TCP port (0-65535)")
@@ -63,7 +63,6 @@ def start(args, device=None, pose_log=None):
     if not args.foxglove:
         return None
     check(args)
-    from tactile.output.foxglove_live import LiveServer
 
     per_contact = getattr(args, "per_contact", None)
     server = LiveServer(

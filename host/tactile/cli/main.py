@@ -1,45 +1,23 @@
-"""``tactile`` entry point: a registry of subcommands, each imported only when used.
+"""``tactile`` entry point: parse, run the chosen command, turn its errors into one line.
 
-A subcommand module defines ``add_arguments(parser)`` and ``run(args) -> int``.
-Modules only parse, call and print; the work lives in the library.
+The commands are those ``tactile.cli.registry`` finds (the CLI's own and those other packages
+register); only the chosen command's module is imported.  A command module defines
+``add_arguments(parser)`` and ``run(args) -> int``; it only parses, calls and prints, and the
+work lives in the library.
 """
 
 import argparse
-import importlib
+import logging
+import os
 import re
 import sys
 
 from tactile import __version__
+from tactile.cli import registry
+from tactile.commands.words import ENV_PORT
 from tactile.errors import TactileError
+from tactile.output.logs import Escaped
 from tactile.output.textout import printable
-
-# name -> (module, one-line help).  Keep alphabetical within groups.
-COMMANDS = {
-    "demo": ("tactile.cli.cmd_demo", "run the main job on the board emulator and print the result"),
-    "ports": ("tactile.cli.cmd_ports", "list serial ports"),
-    "info": ("tactile.cli.cmd_info", "show a board's INFO"),
-    "config": ("tactile.cli.cmd_config", "set sample rate, contact gate and streams"),
-    "tare": ("tactile.cli.cmd_tare", "bias the F/T sensor"),
-    "calibrate": ("tactile.cli.cmd_calibrate", "load a 6x6 calibration matrix onto a sensor"),
-    "record": ("tactile.cli.cmd_record", "record a stream: raw capture, contacts CSV, metadata"),
-    "live": ("tactile.cli.cmd_live", "terminal view of force/torque and contact state"),
-    "decode": (
-        "tactile.cli.cmd_decode",
-        "decode a raw byte capture: one message per line (text or --json)",
-    ),
-    "export": (
-        "tactile.cli.cmd_export",
-        "write a recording as MCAP (ROS 2) or Parquet for other tools",
-    ),
-    "emulate": ("tactile.cli.cmd_emulate", "serve a simulated board on a pseudo-terminal"),
-    "flash": ("tactile.cli.cmd_flash", "copy the firmware onto a MicroPython board"),
-    "ep1": ("tactile.cli.cmd_ep1", "EP1: curvature at a point from rolling probes (ch. 3)"),
-    "ep2": ("tactile.cli.cmd_ep2", "EP2: patch fit and shape classification (ch. 4)"),
-    "sim": ("tactile.cli.cmd_sim", "simulate EP1 probes or EP2 sweeps into files"),
-    "study": ("tactile.cli.cmd_study", "reproduce the thesis's simulation studies"),
-    "plot": ("tactile.cli.cmd_plot", "draw contacts, fitted patches and S/C maps as PNG"),
-    "completion": ("tactile.cli.cmd_completion", "print a bash/zsh/tcsh completion script"),
-}
 
 
 class Parser(argparse.ArgumentParser):
@@ -60,9 +38,12 @@ class Parser(argparse.ArgumentParser):
 NEGATIVE_NUMBER = re.compile(r"^-(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
 
 
-def _top_parser(positional=True):
-    width = max(map(len, COMMANDS))
-    lines = [f"  {name:<{width}}  {help_}" for name, (_, help_) in COMMANDS.items()]
+def _top_parser(names, listed=None):
+    """``tactile``'s own parser: ``--version``, and ``COMMAND`` one of ``names`` (None: no
+    positional); ``listed`` (name -> Command) are the commands its help lists."""
+    listed = registry.commands() if listed is None else listed
+    width = max(map(len, listed), default=0)
+    lines = [f"  {name:<{width}}  {command.help}" for name, command in listed.items()]
     parser = Parser(
         prog="tactile",
         description="Tactile shape exploration: board, emulator, EP1 and EP2.",
@@ -70,8 +51,8 @@ def _top_parser(positional=True):
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"tactile {__version__}")
-    if positional:
-        parser.add_argument("command", choices=list(COMMANDS), metavar="COMMAND")
+    if names is not None:
+        parser.add_argument("command", choices=names, metavar="COMMAND")
     return parser
 
 
@@ -126,13 +107,15 @@ def _subparsers(parser):
 def full_parser():
     """The whole tree in one parser (every command a subparser), for shell completion:
     ``main`` itself builds only the parser of the command it runs."""
-    top = _top_parser(positional=False)
+    listed = registry.commands()
+    top = _top_parser(None, listed)
     subs = top.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
+    for name in listed:
         try:
-            module, help_ = _load(name)
+            module, command = registry.load(name)
         except TactileError:
             continue  # not in this build
+        help_ = command.help
         sub = subs.add_parser(name, help=help_, description=help_, formatter_class=_Help)
         _command_parser(name, module, help_, sub)
     return top
@@ -142,10 +125,6 @@ def _logging(verbose):
     """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr, for
     this call only: returns the undo (``main`` may run many times in one process).  Each
     line escaped; the libraries the project adopts log here too (``tactile.output.logs``)."""
-    import logging
-
-    from tactile.output.logs import Escaped
-
     logger = logging.getLogger("tactile")
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(Escaped("tactile %(name)s: %(message)s"))
@@ -160,39 +139,27 @@ def _logging(verbose):
     return undo
 
 
-def _load(name):
-    module_name, help_ = COMMANDS[name]
-    try:
-        return importlib.import_module(module_name), help_
-    except ModuleNotFoundError as exc:
-        if exc.name == module_name:
-            raise TactileError(f"'{name}' is not available in this build") from None
-        raise
-
-
-def _simulator_ports(argv):
-    """The application layer serves sim:// ports: the library below never imports the
-    simulator (``tests/test_layers.py``)."""
-    import os
-
-    if any("sim://" in a for a in argv) or "sim://" in os.environ.get("TACTILE_PORT", ""):
-        from tactile_sim.urlhandler import register
-
-        register()
+def _command_named(argv):
+    """The command ``argv`` names (its parser refuses another), or None when ``argv`` asks
+    for ``tactile``'s own help or version (printed here)."""
+    if not argv or argv[0].startswith("-"):
+        _top_parser(registry.names()).parse_args(argv or ["--help"])
+        return None
+    name = argv[0]
+    if name not in registry.OWN:
+        _top_parser(registry.names(), {}).parse_args(argv[:1])  # refuses an unknown name
+    return name
 
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
-    _simulator_ports(argv)
-    top = _top_parser()
-    if not argv or argv[0].startswith("-"):
-        top.parse_args(argv or ["--help"])
+    registry.serve_ports([*argv, os.environ.get(ENV_PORT, "")])
+    name = _command_named(argv)
+    if name is None:
         return 0
-    top.parse_args(argv[:1])  # validates the command name
-    name = argv[0]
     try:
-        module, help_ = _load(name)
-        args = _command_parser(name, module, help_).parse_args(argv[1:])
+        module, command = registry.load(name)
+        args = _command_parser(name, module, command.help).parse_args(argv[1:])
         undo = _logging(args.verbose) if args.verbose else None
         try:
             return int(module.run(args) or 0)

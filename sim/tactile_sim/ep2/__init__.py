@@ -2,6 +2,6 @@
 studies and test cases: ``tactile_studies.ep2``)."""
 
 from tactile_sim.ep2.objects import KINDS, make
-from tactile_sim.ep2.sweep import sweep, write_csv
+from tactile_sim.ep2.sweep import sweep, write_csv, write_rows
 
-__all__ = ["KINDS", "make", "sweep", "write_csv"]
+__all__ = ["KINDS", "make", "sweep", "write_csv", "write_rows"]

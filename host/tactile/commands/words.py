@@ -1,6 +1,6 @@
-"""The CLI's one vocabulary (issues 15, 31): ``-o/--out`` for every output path,
-``-q/--quiet`` for "no progress display", and old spellings kept working as hidden aliases
-that say once, on stderr, what replaced them.
+"""The commands' one vocabulary: ``-o/--out`` for every output path, ``-q/--quiet`` for "no
+progress display", ``$TACTILE_PORT`` for the board's port, and old spellings kept working as
+hidden aliases that say once, on stderr, what replaced them.
 
 ``add_out`` adds ``-o/--out`` (plus hidden old long options); ``add_quiet`` adds
 ``-q/--quiet``; ``renamed`` maps an old choice value (``concave-cylinder``) to its one
@@ -13,6 +13,7 @@ import sys
 from tactile.output.textout import printable
 
 OUT = ("-o", "--out")
+ENV_PORT = "TACTILE_PORT"  # the port of every command that opens one, when --port is not given
 
 
 def _note(prog, old, new):

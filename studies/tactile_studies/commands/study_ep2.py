@@ -1,9 +1,11 @@
 """``tactile study ep2-*``: replicas of figs. 30-34 and tables 5-7 as CSV + PNG.
 
-Each prints the path of every file it wrote (``tactile_studies.ep2.studies.run``).
+Each prints the path of every file it wrote (``tactile_studies.ep2.studies.run``).  A family
+of ``tactile study`` (``tactile.commands.groups``): the studies load when one runs.
 """
 
-from tactile.cli.words import add_out
+from tactile.commands.words import add_out
+from tactile.errors import InputError
 from tactile.output.textout import printable, printable_lines
 
 
@@ -12,11 +14,16 @@ def _add(parser):
     parser.add_argument("--no-png", action="store_true", help="write CSV only")
 
 
+def _study(name, args, **options):
+    """(rows, paths) of study ``name`` written into ``--out``."""
+    from tactile_studies.ep2 import studies  # NumPy: a family module (above)
+
+    return studies.run(name, args.out, png=not args.no_png, **options)
+
+
 def _run_with(name):
     def run(args):
-        from tactile_studies.ep2 import studies
-
-        _, paths = studies.run(name, args.out, png=not args.no_png)
+        _, paths = _study(name, args)
         print(printable_lines(paths))
         return 0
 
@@ -29,12 +36,9 @@ def _add_tables(parser):
 
 
 def _run_tables(args):
-    from tactile.errors import InputError
-    from tactile_studies.ep2 import studies
-
     if args.trials < 1:
         raise InputError(f"--trials: must be at least 1, got {args.trials}")
-    rows, paths = studies.run("tables", args.out, png=not args.no_png, trials=args.trials)
+    rows, paths = _study("tables", args, trials=args.trials)
     print(
         "| surface | weighting | S | S std | R (1/cm) | radius (cm) | thesis S | thesis S std"
         " | thesis R (1/cm) | thesis radius (cm) | label share |"

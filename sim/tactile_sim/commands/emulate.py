@@ -14,7 +14,23 @@ bridged to the pty and the scene's sensors served over semihosting
 ``qemu-system-arm``, and a scene without ``[link] disconnect`` windows.
 """
 
+import pathlib
+import signal
 import sys
+
+from tactile.calib.ati import format_cal
+from tactile.errors import BoardError, InputError
+from tactile.files.atomic import write_bytes
+from tactile.output.textout import printable
+from tactile_sim.emulator import load_scene, pty_link
+from tactile_sim.emulator.device import EmulatedBoard
+from tactile_sim.emulator.ft_model import per_volt_matrix
+from tactile_sim.emulator.host_wait import serve_when_opened
+from tactile_sim.emulator.link_faults import LinkFaults
+from tactile_sim.emulator.pico_server import PicoServer
+from tactile_sim.emulator.pty_server import PtyServer
+from tactile_sim.emulator.qemu_core import image
+from tactile_sim.emulator.qemu_server import QemuServer
 
 
 def add_arguments(parser):
@@ -64,17 +80,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from tactile.errors import InputError
-    from tactile.output.textout import printable
-    from tactile_sim.emulator import load_scene
-    from tactile_sim.emulator.device import EmulatedBoard
-    from tactile_sim.emulator.host_wait import serve_when_opened
-    from tactile_sim.emulator.link_faults import LinkFaults
-    from tactile_sim.emulator.pty_server import PtyServer
-
     if args.link:
-        from tactile_sim.emulator import pty_link
-
         pty_link.check(args.link)  # before the scene is built: refuse a file at once
     scene = load_scene(args.scene)
     link = scene.link or {}
@@ -87,15 +93,10 @@ def run(args):
     if args.flash and args.core != "rp2040":
         raise InputError("--flash: only with --core rp2040 (the emulated Pico's flash file)")
     if args.core == "qemu":
-        from tactile_sim.emulator.qemu_core import image
-        from tactile_sim.emulator.qemu_server import QemuServer
-
         image()  # built (or refused in one line) before the port is offered
         server = QemuServer(board, link_path=args.link, realtime=not args.fast, faults=faults)
         _exit_on_sigterm()  # so that QEMU's work directory and the --link go too
     elif args.core == "rp2040":
-        from tactile_sim.emulator.pico_server import PicoServer
-
         server = PicoServer(board, args.flash, args.link, not args.fast, faults)
         server.launch()  # powered (or refused in one line) before the port is offered
         _exit_on_sigterm()
@@ -128,15 +129,11 @@ def run(args):
 
 
 def _exit_on_sigterm():
-    import signal
-
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
 def _qemu_ended(server):
     """QEMU stops with status 0 only when told; the image's own exit is a fault (one line)."""
-    from tactile.errors import BoardError
-
     if server.exit_status:
         why = {1: "a CPU fault", 2: "no device channel", 3: "the device channel broke"}
         raise BoardError(
@@ -147,8 +144,6 @@ def _qemu_ended(server):
 
 def _write_log(motion, path):
     """The robot's log: joints or sensor poses (EP2, ch. 5) or the probe log (EP1 roll)."""
-    from tactile.errors import InputError
-
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
         raise InputError(f"--pose-log: this scene's motion has no robot log ({path})")
@@ -157,12 +152,6 @@ def _write_log(motion, path):
 
 def _write_cal(scene, path):
     """The scene's transducer calibration (sensor 0's; every sensor of a scene is alike)."""
-    import pathlib
-
-    from tactile.calib.ati import format_cal
-    from tactile.files.atomic import write_bytes
-    from tactile_sim.emulator.ft_model import per_volt_matrix
-
     digits = "".join(c for c in pathlib.Path(path).stem if c.isdigit())[:6]
     serial = f"FT{digits or 1}"  # the calibration id tactile calibrate takes from it
     write_bytes(path, format_cal(per_volt_matrix(scene.sensor), serial))  # a disk error: 5

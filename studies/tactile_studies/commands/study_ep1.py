@@ -1,13 +1,15 @@
 """``tactile study ep1-noise|ep1-paraboloid|ep1-resolution|ep1-arclength|ep1-dtheta``.
 
 Each writes NAME.csv and NAME.png (fig. 20: NAME_SENSOR.png, one per sensor model) into
---out, and prints the path of every file it wrote.
+--out, and prints the path of every file it wrote.  A family of ``tactile study``
+(``tactile.commands.groups``): the studies load when one runs.
 """
 
 import os
 
-from tactile.cli.words import add_out, add_quiet
+from tactile.commands.words import add_out, add_quiet
 from tactile.errors import InputError
+from tactile.output.jsonout import dumps
 from tactile.output.textout import printable
 
 
@@ -39,11 +41,22 @@ def _setup(args):
     return lambda it, desc="": tqdm(list(it), desc=desc, unit="step")
 
 
-def _finish(args, name, rows, plot, **plot_kw):
-    from tactile_studies.ep1.studies import write_csv
+def _ep1(run):
+    """``run(args, progress, studies, plots)`` as a subcommand's run: the options checked,
+    then EP1's studies and figures loaded (SciPy: a family module, above)."""
 
+    def checked(args):
+        progress = _setup(args)
+        from tactile_studies.ep1 import plots, studies
+
+        return run(args, progress, studies, plots)
+
+    return checked
+
+
+def _finish(args, name, rows, studies, plot, **plot_kw):
     csv_path = os.path.join(args.out, f"{name}.csv")
-    write_csv(csv_path, rows)
+    studies.write_csv(csv_path, rows)
     print(printable(csv_path))
     if not args.no_plot:
         for png in plot(rows, os.path.join(args.out, f"{name}.png"), **plot_kw):
@@ -51,39 +64,28 @@ def _finish(args, name, rows, plot, **plot_kw):
     return 0
 
 
-def run_noise(args):
-    progress = _setup(args)
-    from tactile_studies.ep1.plots import plot_noise
-    from tactile_studies.ep1.studies import study_noise
-
-    rows = study_noise(args.finger_radius, args.trials, args.seed, progress=progress)
-    return _finish(args, "ep1-noise", rows, plot_noise)
+@_ep1
+def run_noise(args, progress, studies, plots):
+    rows = studies.study_noise(args.finger_radius, args.trials, args.seed, progress=progress)
+    return _finish(args, "ep1-noise", rows, studies, plots.plot_noise)
 
 
-def run_paraboloid(args):
-    progress = _setup(args)
-    from tactile_studies.ep1.plots import plot_paraboloid
-    from tactile_studies.ep1.studies import study_paraboloid
-
-    rows = study_paraboloid(args.finger_radius, args.trials, args.seed, progress=progress)
-    return _finish(args, "ep1-paraboloid", rows, plot_paraboloid)
+@_ep1
+def run_paraboloid(args, progress, studies, plots):
+    rows = studies.study_paraboloid(args.finger_radius, args.trials, args.seed, progress=progress)
+    return _finish(args, "ep1-paraboloid", rows, studies, plots.plot_paraboloid)
 
 
-def run_resolution(args):
-    progress = _setup(args)
-    from tactile_studies.ep1.plots import plot_resolution
-    from tactile_studies.ep1.studies import study_resolution
-
-    rows = study_resolution(args.finger_radius, args.trials, args.seed, progress=progress)
-    return _finish(args, "ep1-resolution", rows, plot_resolution)
+@_ep1
+def run_resolution(args, progress, studies, plots):
+    rows = studies.study_resolution(args.finger_radius, args.trials, args.seed, progress=progress)
+    return _finish(args, "ep1-resolution", rows, studies, plots.plot_resolution)
 
 
-def run_arclength(args):
-    _setup(args)
-    from tactile_studies.ep1.plots import plot_arclength
-    from tactile_studies.ep1.studies import study_arclength
-
-    return _finish(args, "ep1-arclength", study_arclength(args.finger_radius), plot_arclength)
+@_ep1
+def run_arclength(args, progress, studies, plots):
+    rows = studies.study_arclength(args.finger_radius)
+    return _finish(args, "ep1-arclength", rows, studies, plots.plot_arclength)
 
 
 def add_dtheta(parser):
@@ -93,13 +95,9 @@ def add_dtheta(parser):
     parser.add_argument("--sensor", choices=("array", "gauss", "bias"), default="array")
 
 
-def run_dtheta(args):
-    _setup(args)
-    from tactile.output.jsonout import dumps
-    from tactile_studies.ep1.plots import plot_optimal
-    from tactile_studies.ep1.studies import study_optimal_dtheta
-
-    rows, summary = study_optimal_dtheta(
+@_ep1
+def run_dtheta(args, progress, studies, plots):
+    rows, summary = studies.study_optimal_dtheta(
         args.finger_radius,
         args.noise_theta,
         args.resolution,
@@ -113,7 +111,7 @@ def run_dtheta(args):
         f" noise in \u0394\u03b8 {args.noise_theta:g} rad, R1 = {args.finger_radius:g},"
         f" {args.trials} trials"
     )
-    return _finish(args, "ep1-dtheta", rows, plot_optimal, setup=setup)
+    return _finish(args, "ep1-dtheta", rows, studies, plots.plot_optimal, setup=setup)
 
 
 SUBCOMMANDS = {

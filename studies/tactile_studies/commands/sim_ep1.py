@@ -1,10 +1,19 @@
-"""``tactile sim ep1``: simulate EP1's rolling probes on an object, estimate, compare."""
+"""``tactile sim ep1``: simulate EP1's rolling probes on an object, estimate, compare.
+
+A family of ``tactile sim`` (``tactile.commands.groups``), from the studies: it runs the
+host's estimator on the simulator's probes (``tactile_studies.ep1.experiment``), which load
+NumPy and SciPy when it runs, not when ``tactile sim``'s parser is built."""
 
 import math
 
-from tactile.cli.cmd_ep1 import add_sensor_arguments, check_sensor_arguments, print_result
-from tactile.cli.words import add_out, renamed
+from tactile.commands.ep1_estimate import (
+    add_sensor_arguments,
+    check_sensor_arguments,
+    print_result,
+)
+from tactile.commands.words import add_out, renamed
 from tactile.errors import DataError, InputError
+from tactile.files.atomic import write_bytes
 from tactile.output.textout import printable
 
 OBJECTS = (
@@ -77,9 +86,7 @@ def run(args):
             raise InputError(f"object parameter {name}: must be a non-zero number, got {value}")
     import numpy as np
 
-    from tactile.ep1.estimator import EXIT_OK
-    from tactile.ep1.probes_csv import format_probes
-    from tactile.files.atomic import write_bytes
+    from tactile.ep1 import estimator, probes_csv  # NumPy and SciPy: a family module (above)
     from tactile_sim.ep1.surfaces import make
     from tactile_studies.ep1.experiment import run_ep1
 
@@ -101,7 +108,7 @@ def run(args):
         seed=args.seed,
     )
     if args.out:
-        write_bytes(args.out, format_probes(rows))  # a disk error: exit 5
+        write_bytes(args.out, probes_csv.format_probes(rows))  # a disk error: exit 5
     out = est.as_dict()
     out["truth"] = {k: np.asarray(v).tolist() for k, v in truth.items()}
     out["relative_error"] = {k: _rel(out[k], truth[k]) for k in ("kx", "ky", "k1", "k2")}
@@ -117,7 +124,7 @@ def run(args):
         )
     if stopped:
         raise DataError(f"a probe roll stopped early ({', '.join(stopped)}): reduce --dtheta")
-    if est.status not in EXIT_OK:
+    if est.status not in estimator.EXIT_OK:
         raise DataError(f"{est.status}: {est.message}")
     return 0
 

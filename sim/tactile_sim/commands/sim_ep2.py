@@ -1,6 +1,14 @@
-"""``tactile sim ep2``: simulate a three-finger EP2 sweep into a contacts CSV."""
+"""``tactile sim ep2``: simulate a three-finger EP2 sweep into a contacts CSV.
 
-from tactile.cli.words import add_out
+A family of ``tactile sim`` (``tactile.commands.groups``): the simulator's NumPy models load
+when it runs, not when ``tactile sim``'s parser is built."""
+
+import io
+
+from tactile import units
+from tactile.commands.words import add_out
+from tactile.errors import InputError
+from tactile.files.atomic import write_bytes
 from tactile.output.textout import printable
 
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")
@@ -47,13 +55,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    import io
-
-    from tactile import units
-    from tactile.errors import InputError
-    from tactile.files.atomic import write_bytes
-    from tactile_sim.ep2 import make, sweep
-    from tactile_sim.ep2.sweep import write_rows
+    from tactile_sim.ep2 import make, sweep, write_rows  # NumPy: a family module (above)
 
     try:
         unit = units.parse_length(args.units)

@@ -9,8 +9,11 @@ biquadratic patches on an 8x8 grid, and this prints S, sd S, R, sd R and
 radius beside the thesis's tables 5-7.
 """
 
-from tactile.cli.words import renamed
+import pathlib
+
+from tactile.commands.words import renamed
 from tactile.output.textout import printable
+from tactile_studies import replica
 
 # The surfaces by the one name EP2 labels them with -> the ch. 5 scene's rig object.
 KINDS = {"plane": "plane", "cylinder": "convex", "concave_cylinder": "concave"}
@@ -36,10 +39,6 @@ def add_arguments(parser):
 
 
 def run(args):
-    import pathlib
-
-    from tactile_studies import replica
-
     print("Chapter 5 replica on the board emulator (ch5_* scenes): biquadratic, 8x8 grid")
     head = ("S", "sd S", "R 1/cm", "sd 1/cm", "r cm")
     print(printable(f"{'surface':<17}{'fit':<9}{'':>6}" + "".join(f"{h:>{W}}" for h in head)))
