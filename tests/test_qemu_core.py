@@ -112,7 +112,7 @@ def _serve(scene, seconds, fast=True):
 
 
 def test_the_image_fits_a_micro_bit(elf):
-    from tactile_fw.host_only import cross
+    from tactile_fw_tools import cross
 
     flash, ram = cross.size(elf)
     assert 8_000 < flash < 256 * 1024 and ram < 16 * 1024
@@ -210,7 +210,7 @@ def test_a_scene_with_disconnects_is_refused_for_qemu(cli, tmp_path):
 
 
 def test_without_the_cross_compiler_qemu_is_refused_in_one_line(cli, mocker):
-    from tactile_fw.host_only import cross
+    from tactile_fw_tools import cross
 
     mocker.patch.object(cross.shutil, "which", return_value=None)
     code, out, err = cli("emulate", "press", "--core", "qemu")

@@ -30,7 +30,7 @@ import subprocess
 import sys
 import time
 
-from tactile.errors import BoardError, InputError, MissingExtra
+from tactile_protocol.errors import BoardError, InputError, MissingExtra
 
 HERE = pathlib.Path(__file__).resolve().parent
 CHIP_JS = HERE / "pico_chip.mjs"

@@ -37,7 +37,7 @@ import termios
 import time
 import tty
 
-from tactile.errors import InputError
+from tactile_protocol.errors import InputError
 from tactile_sim.emulator import pty_link
 
 OPEN_SETTLE_S = 0.05  # wait this long after the host opens before announcing

@@ -4,7 +4,7 @@ This module is the one place a scene's keys are declared.  ``validate(data)`` ch
 parsed scene against it before anything is built, and returns each section with its
 defaults filled in; the emulator's modules read those values and check nothing again.  The
 limits the wire or the firmware impose (sensor count, rates, thresholds, calibration id,
-debounce) are read from ``tactile_protocol`` and ``tactile_fw``, not restated.  A rule that
+debounce) are read from ``tactile_protocol`` (its messages and settings), not restated.  A rule that
 spans keys (``exit_threshold_N`` <= ``enter_threshold_N``) is one function in ``RULES``.
 ``markdown()`` renders the schema for docs/scenes.md, which a test keeps equal to it.
 
@@ -16,10 +16,10 @@ the file.
 import math
 import struct
 
-from tactile.board.settings import DEFAULTS, GATES, STREAMS, to_newtons
-from tactile_fw import settings
 from tactile_protocol import constants as C
+from tactile_protocol import settings
 from tactile_protocol.messages import BY_NAME
+from tactile_protocol.settings import DEFAULTS, GATES, STREAMS, to_newtons
 from tactile_sim.adc_model import FULL_SCALE_CODES
 from tactile_sim.emulator import sensor_faults
 from tactile_sim.emulator.cores import CORES, DEFAULT_CORE
