@@ -12,7 +12,6 @@ import json
 import shutil
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
@@ -82,32 +81,15 @@ def _serve(scene, seconds, fast=True):
     """Every message the QEMU board sent in ``seconds`` of its time, read through its pty."""
     from tactile_sim.emulator.qemu_server import QemuServer
 
-    server = QemuServer(EmulatedBoard(scene, core="qemu", boot_id=5), realtime=not fast)
-    path = server.open()
-    failed = []
-
-    def run():
-        try:
-            server.serve(seconds)
-        except BaseException as exc:  # surfaced below
-            failed.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    port = serial.Serial(path, timeout=0.05)
+    server = QemuServer(EmulatedBoard(scene, core="qemu", boot_id=5), realtime=not fast,
+                        duration_s=seconds)  # fmt: skip
     decoder, msgs = StreamDecoder(), []
     deadline = time.monotonic() + 120
-    try:
-        while (thread.is_alive() or port.in_waiting) and time.monotonic() < deadline:
+    with server, serial.Serial(server.path, timeout=0.05) as port:  # (raises what it raised)
+        while (server.serving or port.in_waiting) and time.monotonic() < deadline:
             data = port.read(1)
             if data:
                 msgs += decoder.feed(data + port.read(port.in_waiting))
-    finally:
-        port.close()
-        server.stop = True
-        thread.join(10)
-        server.close()
-    assert not failed, failed
     return msgs, decoder.counters, server
 
 
