@@ -31,6 +31,8 @@ def test_the_board_gets_firmware_and_protocol_but_not_host_ports():
     assert "lib/tactile_fw/board.py" in dests and "lib/tactile_protocol/framing.py" in dests
     assert "lib/tactile_fw/port_mpy.py" in dests
     assert not any("port_linux" in d for d in dests)
+    assert "lib/tactile_protocol/settings.py" in dests  # the firmware checks CONFIG with it
+    assert "lib/tactile_protocol/errors.py" not in dests  # CPython's error tree: host side
     native = [d for s, d in flashing.board_files() if s.suffix != ".py"]
     assert native == ["lib/tactile_native.mpy"]  # importable by its name
 

@@ -1,8 +1,10 @@
 """Layers run one way (issue 15): protocol -> firmware -> host library -> simulator ->
 application.  The host library (``tactile`` outside ``tactile.cli``) never imports the
 simulator, neither at module level nor inside a function; the simulator never imports the
-host's estimators (``tactile.ep1``, ``tactile.ep2``, ``tactile.localize``), only its
-vocabulary (errors, units, board settings, the robot-log format); the application layer
+host's estimators (``tactile.ep1``, ``tactile.ep2``, ``tactile.localize``), and the emulator
+checks the host with parts of its own: the vocabulary both need (errors, board settings) is
+the protocol's, the robot-log format is ``tactile.logs``, below the estimators; the
+application layer
 (``tactile.cli`` and the studies ``tactile_studies``: the CLI, the thesis's studies, the
 chapter 5 replica, the demo, sim:// ports) may import both, and nothing below imports it."""
 
@@ -95,6 +97,46 @@ def test_every_simulator_module_imports_with_the_estimators_absent():
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+# What the emulator may take from the host library: the robot-log format and the bounded file
+# reader.  Not the host's decoder, board settings or error tree: a bug the emulator shared
+# with the host it checks would hide (the vocabulary both need is tactile_protocol's).
+EMULATOR_MAY_USE = ("tactile.logs", "tactile.files")
+NEVER_IN_THE_SIMULATOR = ("tactile.board.stream_decoder", "tactile.board.settings")
+
+
+def test_the_emulator_does_not_check_the_host_with_the_hosts_own_parts():
+    emulator = list((SIMULATOR / "emulator").rglob("*.py"))
+    assert len(emulator) > 20
+    bad = [
+        f"{p.relative_to(ROOT)}:{line}: {name}"
+        for p in emulator
+        for line, name in _imports(p)
+        if _is(name, "tactile") and not any(_is(name, ok) for ok in EMULATOR_MAY_USE)
+    ]
+    bad += [
+        f"{p.relative_to(ROOT)}:{line}: {name}"
+        for p in SIMULATOR.rglob("*.py")
+        for line, name in _imports(p)
+        if any(_is(name, never) for never in NEVER_IN_THE_SIMULATOR)
+    ]
+    assert not bad, bad
+
+
+def test_the_flashed_firmware_package_holds_no_host_only_tooling():
+    """Every module of ``tactile_fw`` goes on the board (``tactile flash``'s list): no
+    subpackage left behind; the tooling is ``tactile_fw_tools``, which nothing flashes."""
+    from tactile.board import flashing
+
+    package = ROOT / "firmware" / "tactile_fw"
+    modules = sorted(str(p.relative_to(package.parent)) for p in package.rglob("*.py"))
+    flashed = sorted(
+        str(src.relative_to(src.parents[1])) for src, _ in flashing.board_files()
+        if src.suffix == ".py" and src.parent.name == "tactile_fw"
+    )  # fmt: skip
+    assert modules == flashed and len(modules) > 10
+    assert not any("tactile_fw_tools" in str(src) for src, _ in flashing.board_files())
 
 
 def test_nothing_below_the_application_imports_the_studies():
