@@ -3,23 +3,17 @@
 ``PtyServer`` steps an ``EmulatedBoard`` (the firmware on simulated time) for ``Server``,
 which owns the pty, host presence, hold, drain, keep and drop (``server``).  The board is
 told when a host is announced (it answers with HELLO); while nobody reads, its writes find
-no reader and the firmware drops and counts frames, as on USB.  A stable symlink
-(``--link``; ``pty_link`` makes it only over an emulator's own link) points at the current
-slave, so a scene's ``[link] disconnect`` window (the pty vanishes, then a new one appears)
-looks like a cable pulled and plugged back.
+no reader and the firmware drops and counts frames, as on USB.  A scene's ``[link]
+disconnect`` window closes the pty and opens a new one, behind the same ``--link``: a cable
+pulled and plugged back; as fast as possible the host first reads what is in flight.
 
-As fast as possible (``realtime=False``), simulated time runs in larger ticks and only while
-a host is there to read: it holds until a host is announced (so the host sees the scene from
-its start), while the pty is full, and before a scripted unplug and the end of the run until
-the host has read what is in flight (so a host that reads loses nothing the scene does not
-take away); in a run with a duration, each for at most ``HOLD_LIMIT_S`` at a time: a host
-that is gone or stopped reading for longer (or none, with ``--now``) does not stop the run,
-which goes on and ends at its duration, the firmware dropping and counting what nobody
-reads.  In real time the board runs regardless and a slow or absent host makes it drop
-frames, as a real board does.  An emulator that falls more than ``BEHIND_S`` behind the wall
-clock (a loaded machine, a heavy scene) does what an overloaded board does: the polls it had
-no time for are skipped, its clock catches up, and the firmware counts the missed periods as
-overruns and sets the sample-late flag on the next samples, so the host can tell.
+As fast as possible (``realtime=False``), simulated time runs in ticks of ``FAST_TICK_S`` and
+holds until a host is announced (so it sees the scene from its start) and while the pty is
+full.  In real time it runs in ticks of ``TICK_S``, never ahead of the wall clock, and a
+slow or absent host makes it drop frames, as a real board does.  An emulator more than
+``BEHIND_S`` behind the wall clock (a loaded machine, a heavy scene) does what an overloaded
+board does: the polls it had no time for are skipped, and the firmware counts the missed
+periods as overruns and sets the sample-late flag on the next samples, so the host can tell.
 """
 
 import time

@@ -2,8 +2,7 @@
 
 ``Server`` does, once for every core, all that lies between the core and its host:
 
-- **the endpoint** (``PtyEndpoint``): a real tty the host opens with pyserial exactly as it
-  opens ``/dev/ttyACM0``, and the stable ``--link`` to it (``pty_link``);
+- **the endpoint** (``pty_endpoint``) and the stable ``--link`` to it (``pty_link``);
 - **host presence:** a host is announced once it has had the port open for
   ``OPEN_SETTLE_S`` (pyserial flushes its input at the end of ``open()``: a HELLO written
   the instant the port opens would be discarded); only then does it read and write;
@@ -20,30 +19,19 @@
 A core supplies only ``step(held)`` (let the board run a little, not while ``held``; False
 once it has ended), ``read()`` (the bytes it sent its host since the last call) and
 ``write(data)`` (bytes from the host): a template method, as python-can's ``BusABC.recv``
-over each backend's ``_recv_internal``.  It may refine ``t_us`` (its time, for the
-duration), ``idle_s``, ``wants_hold`` and the hooks ``prepare``, ``start``, ``opened``,
-``finish``, ``check`` and ``halt``.
+over each backend's ``_recv_internal``.  It may refine ``t_us``, ``idle_s``, ``wants_hold``
+and the hooks ``prepare``, ``start``, ``opened``, ``finish``, ``check`` and ``halt``.
 
-There is one way to start a server, a context manager: entering opens the pty and serves
-in a thread, leaving stops, joins and closes it and raises what the run raised::
-
-    with PtyServer(EmulatedBoard(scene), realtime=False, duration_s=2.0) as server:
-        port = serial.Serial(server.path)
-
-``servers.serve(scene, core=...)`` builds the board and its core's server.
+One way to start a server: ``with server:`` serves in a thread until the block ends, then
+stops, joins and closes it and raises what the run raised (``servers.serve(scene, core=...)``
+builds the board and its core's server; docs/emulator.md).
 """
 
-import errno
-import fcntl
-import os
-import select
-import struct
-import termios
 import threading
 import time
-import tty
 
 from tactile_sim.emulator import pty_link
+from tactile_sim.emulator.pty_endpoint import PtyEndpoint
 
 OPEN_SETTLE_S = 0.05  # wait this long after the host opens before announcing
 DRAINED_S = 0.1  # ... the host has read all once the pty's input queue stays empty this long
@@ -52,83 +40,6 @@ HOLD_BYTES = 4096  # bytes waiting for the host beyond which a fast board's time
 KEEP_BYTES = 1 << 20  # bytes kept for a host that does not read (then dropped, counted)
 WAIT_FOR_HOST_S = 0.01  # ``when_opened``: look for a host this often
 JOIN_S = 10.0  # leaving the block: the serving thread ends within this
-
-
-class PtyEndpoint:
-    """One pseudo-terminal; ``path`` is the slave device the host opens."""
-
-    def __init__(self):
-        self.master, slave = os.openpty()
-        tty.setraw(slave)  # no echo or line editing even before the host configures it
-        self.path = os.ttyname(slave)
-        os.close(slave)
-        os.set_blocking(self.master, False)
-        self._poll = select.poll()
-        self._poll.register(self.master, select.POLLIN | select.POLLHUP)
-        self.host_present = False
-
-    def wait(self, timeout_s):
-        """Wait up to ``timeout_s`` for host input; return (readable, present).
-
-        While no host has the slave open the master reports POLLHUP, at once and for as long
-        as nobody opens it, so poll() cannot block then: the rest of the timeout is slept
-        instead and presence looked at again, never spun on (an idle emulator waiting for a
-        host took most of a core).  A host that opens the port is seen within ``timeout_s``.
-        """
-        deadline = time.monotonic() + max(0.0, timeout_s)
-        readable, present = self._look(timeout_s)
-        if not present and (left := deadline - time.monotonic()) > 0:
-            time.sleep(left)
-            readable, present = self._look(0.0)
-        return readable, present
-
-    def _look(self, timeout_s):
-        events = self._poll.poll(max(0.0, timeout_s) * 1000)
-        flags = 0
-        for _, ev in events:
-            flags |= ev
-        present = not (flags & select.POLLHUP)
-        return bool(flags & select.POLLIN) and present, present
-
-    def read(self):
-        try:
-            return os.read(self.master, 4096)
-        except OSError as exc:  # EIO: no host has the slave open
-            if exc.errno in (errno.EIO, errno.EAGAIN):
-                return b""
-            raise
-
-    def write(self, data):
-        """Write what the pty takes now; return bytes accepted."""
-        try:
-            return os.write(self.master, data)
-        except OSError as exc:
-            if exc.errno in (errno.EAGAIN, errno.EIO):
-                return 0
-            raise
-
-    def unread(self):
-        """Bytes waiting in the slave's input queue (the part the kernel counts); 0 if unknown.
-
-        Opens the slave briefly: only while a host has it open, so presence is unchanged.
-        Up to ~16 kB more can wait in the pty's internal buffer until the host reads.
-        """
-        try:
-            fd = os.open(self.path, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
-        except OSError:
-            return 0
-        try:
-            return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
-        except OSError:
-            return 0
-        finally:
-            os.close(fd)
-
-    def close(self):
-        """Close the master (the host's port dies); once, however often it is called."""
-        if self.master is not None:
-            os.close(self.master)
-            self.master = None
 
 
 class HoldLimit:
