@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import tactile_fw
 import tactile_protocol
-from tactile.board import mpy_files
+from tactile.board import mpy_files, serial_port
 from tactile.errors import BoardError, InputError, MissingExtra, PortError
 from tactile.extras import hint
 
@@ -87,7 +87,7 @@ def resolve(port):
 
 def _check_port(port):
     if port.startswith("/dev/") and not os.path.exists(port):
-        raise PortError(f"port {port} not found (is the board plugged in? see 'tactile ports')")
+        raise PortError(serial_port.no_such_port(port))
 
 
 def _check_options(n_sensors, wdt_ms):

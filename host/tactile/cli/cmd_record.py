@@ -14,6 +14,7 @@ written until the command ends: a second ``record`` or an ``export`` into it is 
 made is removed, one that was there is left as it was.
 """
 
+import functools
 import sys
 
 from tactile.cli import foxglove_args
@@ -69,16 +70,12 @@ def _run(args):
 
         connect(args)  # raises the 'no port given' message
     until = posed = None
-    if args.pose_log:
-        from tactile.recording.derive import check_log
-        from tactile.recording.log_clock import log_end
-
-        log = check_log(args.pose_log)  # a bad log is refused before recording, not after
-        end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
-        until = (log.clock, end, how)
-        posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
+    if args.pose_log:  # a bad log is refused before recording, not after
+        posed, _ = _read_log(args.pose_log)
     # a port in use is refused before anything is written
     live = foxglove_args.start(args, pose_log=posed)
+    if args.pose_log:  # read again once the board answers: a robot (an emulator) that
+        until = functools.partial(_log_again, args, live)  # starts anew writes it anew
     try:
         session = Session(
             args.port,
@@ -96,16 +93,6 @@ def _run(args):
     except BaseException:
         foxglove_args.stop(live, quiet=True)
         raise
-    if until is not None and not args.quiet:
-        from tactile.recording.log_clock import show_time
-
-        print(
-            printable(
-                f"record: stops when the pose log is done ({show_time(until[0], until[1])}:"
-                f" {until[2]}), or on Ctrl-C"
-            ),
-            file=sys.stderr,
-        )
     progress = None if args.quiet else Progress(args.duration, args.contacts)
     if progress:
         session.on_progress = progress.update
@@ -119,6 +106,7 @@ def _run(args):
         foxglove_args.stop(live)
     print(printable(summary(meta, args.out)))  # the folder is the user's
     print(printable(time_summary(meta.get("time_base"))))
+    _log_not_over(meta, args.pose_log, args.out)
     if args.pose_log:
         from tactile.recording.derive import derive
 
@@ -126,6 +114,51 @@ def _run(args):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
+
+
+def _read_log(path):
+    """(the ``PoseLog`` of an EP2 log or None, until = (clock, end us, how))."""
+    from tactile.recording.derive import check_log
+    from tactile.recording.log_clock import log_end
+
+    log = check_log(path)
+    end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
+    posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
+    return posed, (log.clock, end, how)
+
+
+def _log_again(args, live):
+    """The pose log as it is now the board has answered (and the Foxglove scene with it);
+    says where the run stops."""
+    from tactile.output.textout import printable
+    from tactile.recording.log_clock import show_time
+
+    posed, until = _read_log(args.pose_log)
+    foxglove_args.new_pose_log(live, posed)
+    if not args.quiet:
+        clock, end, how = until
+        print(printable(f"record: stops when the pose log is done ({show_time(clock, end)}:"
+                        f" {how}), or on Ctrl-C"), file=sys.stderr)  # fmt: skip
+    return until
+
+
+def _log_not_over(meta, pose_log, out):
+    """A robot log in the board's clock that had ended before the recording began: one line
+    saying so (exit 3), the recording kept."""
+    stop, segments = meta.get("stops_at"), (meta.get("time_base") or {}).get("segments")
+    if not stop or stop["clock"] != "board" or not segments:
+        return
+    first_us, end_us = segments[0]["board_first_us"], stop["time_us"]
+    if first_us < end_us:
+        return
+    from tactile.errors import DataError
+
+    raise DataError(
+        f"{pose_log}: the robot's log ended at board {end_us / 1e6:.3f} s, before this"
+        f" recording began (the board's clock read {first_us / 1e6:.3f} s): its run is over"
+        " and none of it was recorded; start the robot again (an emulator: 'tactile emulate'"
+        f" again, or without --once) and record again (what the board sent is kept in {out})"
+    )
 
 
 def _says_kept(exc, rec):

@@ -81,6 +81,13 @@ def start(args, device=None, pose_log=None):
     return server
 
 
+def new_pose_log(server, pose_log):
+    """The robot wrote its log anew as its run started (an emulator replaying its scene):
+    ``server``'s scene localises by ``pose_log`` from the first frame on."""
+    if server is not None and server.scene is not None and pose_log is not None:
+        server.scene.live.log = pose_log
+
+
 def _count(n, what, plural="s"):
     return f"{n:,} {what}{plural * (n != 1)}"
 

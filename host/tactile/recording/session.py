@@ -27,7 +27,9 @@ A board silent for half a second is PINGed: its ACK's stamp is a point of the fi
 One that answers nothing for ``SILENT_S`` (a firmware hung after its HELLO) ends the run:
 a ``BoardError`` (exit 4) saying so, ``ended`` "board silent", everything received kept.
 ``until`` = (clock, us, how): stop once that time of the pose log's clock has passed (the
-board's as its frames say, or the host's own clocks).
+board's as its frames say, or the host's own clocks); or a function giving it, called once
+the board has answered (a robot's log written as its run starts: an emulator's, for the
+session that has just opened the port).
 """
 
 import time
@@ -139,7 +141,7 @@ class Session:
         self._meta_at = 0.0
         self._reboots_prepared = 0  # the decoder's reboot count when last TAREd
         self.utc = utc
-        self.until = until
+        self.until, self._until_of = (None, until) if callable(until) else (until, None)
         self.timing = RecordingClock(self.rec.rows_offset)
         self._heard_at = None  # clock of the latest frame (or of the start)
         self._pinged_at = None
@@ -154,6 +156,8 @@ class Session:
             self.client.port = port
             self.client.info = None
         hello = self.client.handshake(self.handshake_s)
+        if self._until_of is not None:
+            self.until, self._until_of = self._until_of(), None
         self._reboots_prepared = self.client.decoder.counters.reboots
         if self.client.info.protocol_version != C.PROTOCOL_VERSION:
             raise BoardError(
