@@ -176,8 +176,15 @@ def time_summary(time_base):
         return "time base: none (no frame arrived)"
     s = segs[-1]
     more = f" (segment {len(segs)} of {len(segs)}, one per boot)" if len(segs) > 1 else ""
+    why = s.get("why", "no fit")
     if not s.get("usable"):
-        return f"time base: not usable{more}: {s.get('why', 'no fit')}"
+        return f"time base{more}: {why}" if why.startswith("fast mode") else (
+            f"time base: not usable{more}: {why}")  # fmt: skip
+    if s["bins"] < 2:  # (one bin: an offset, no drift to speak of)
+        return (
+            f"time base{more}: an offset only ({_count(s['frames'], 'frame')}, too few to"
+            " measure the board clock's drift)"
+        )
     return (
         f"time base{more}: board clock drift {s['drift_ppm']:+.1f} ppm, {s['bins']} bins;"
         f" arrival delay mean {s['arrival_delay_mean_ms']:.2f} ms, max"
