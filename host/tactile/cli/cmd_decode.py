@@ -24,7 +24,7 @@ def run(args):
     from tactile.board.stream_decoder import StreamDecoder
     from tactile.output.jsonout import dumps
 
-    decoder = StreamDecoder()
+    decoder = StreamDecoder(older=True)  # a capture of any version this host reads
     write = sys.stdout.write
     fmt = dumps if args.json else _text
     try:
