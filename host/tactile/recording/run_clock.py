@@ -68,4 +68,4 @@ def stall_words(pause):
         what = f"the host's clock stepped back {-step:.1f} s at {at:.1f} s (elapsed time goes on)"
     else:
         what = f"the host stood still for {step:.1f} s at {at:.1f} s (suspended? a slow disk?)"
-    return f"{what}; read the {read:,} bytes that waited on the port, and going on"
+    return f"{what}; read the {read:,} bytes that waited on the port; recording goes on"

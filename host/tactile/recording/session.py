@@ -372,7 +372,7 @@ class Session:
         now.  What the board could not send meanwhile shows as a sequence gap once its next
         frames come, and in its STATUS ``tx_dropped``."""
         pause = {
-            "at_s": round(self.elapsed(), 3),
+            "at_s": round(self.elapsed() - max(0.0, step), 3),  # when it stood still
             "clock_step_s": round(step, 3),
             "lost_frames_before": self.client.decoder.counters.lost_frames,
         }
