@@ -45,16 +45,30 @@ def analyze_patches(patches, *, chunk=CHUNK, **kw):
 
 
 WINDOW = 16
+STACK_ROWS = patch_input.MAX_ROWS  # rows of a padded stack (patches x the largest's rows)
 
 
 def _window(patches, chunk, kw):
     """``_chunk`` over ``patches`` sorted by size, the results in the patches' order."""
-    order = sorted(range(len(patches)), key=lambda j: _size(patches[j]))
+    sizes = [_size(p) for p in patches]
+    order = sorted(range(len(patches)), key=sizes.__getitem__)
     out = [None] * len(patches)
-    for s in range(0, len(order), chunk):
-        idx = order[s : s + chunk]
+    for idx in stacks(order, sizes, chunk):
         for j, res in zip(idx, _chunk([patches[j] for j in idx], kw), strict=True):
             out[j] = res
+    return out
+
+
+def stacks(order, sizes, chunk, rows=STACK_ROWS):
+    """``order`` (indices by ascending size) cut into stacks of at most ``chunk`` patches
+    whose padded rows (count x the last's size) stay within ``rows``, or one patch alone:
+    memory in proportion to the rows fitted, however unlike the patches' sizes."""
+    out = []
+    for j in order:
+        if out and len(out[-1]) < chunk and (len(out[-1]) + 1) * sizes[j] <= rows:
+            out[-1].append(j)
+        else:
+            out.append([j])
     return out
 
 
@@ -137,6 +151,7 @@ def _prepare_stacked(unpacked, kws):
         pts, nrm = np.asarray(points, float), np.asarray(normals, float)
         if (
             sound[own]
+            and len(pts) <= patch_input.MAX_ROWS
             and pts.ndim == 2
             and pts.shape[1] == 3
             and nrm.shape == pts.shape

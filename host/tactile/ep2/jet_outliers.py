@@ -53,10 +53,11 @@ def worst_contact(f, keep):
 
 def screen_normals(N, mask, max_angle):
     """Contacts whose normal is over MAX_ANGLE from the patch's mean normal (seeded at the
-    medoid: the normal closest to all others) are left out, with a warning each."""
+    medoid: the normal closest to all others) are left out, with a warning each.  A normal's
+    summed agreement with all the others, sum_j n_i . n_j, is n_i . (sum_j n_j): one pass
+    over the rows, no n x n matrix."""
     cosmax = math.cos(math.radians(max_angle))
-    dots = N @ np.swapaxes(N, -1, -2) * mask[:, None, :]
-    medoid = np.argmax(np.where(mask, dots.sum(-1), -np.inf), axis=-1)
+    medoid = np.argmax(np.where(mask, mv(N, vm(mask.astype(float), N)), -np.inf), axis=-1)
     seed = N[np.arange(len(N)), medoid]
     near = mask & (mv(N, seed) > cosmax)
     mean = unit(vm(near.astype(float), N))

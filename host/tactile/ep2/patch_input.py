@@ -15,6 +15,7 @@ from tactile.errors import InputError
 METHODS = ("jet", "spline")
 MAX_GRID = 256  # analysis grid N x N: memory grows as N^2
 MAX_SEGMENTS = 64  # spline segments per direction
+MAX_ROWS = 250_000  # contacts in one patch: its fit holds about 5 kB a contact (1.2 GB here)
 MAX_NOISE_SPREADS = 1e6  # a position noise beyond this many spreads leaves no shape to fit
 WEIGHTINGS = ("auto", "tangent", "position")
 JET_ORDER = 2  # the jet order of the default (--order is for method spline)
@@ -85,6 +86,8 @@ def validate(points, normals, method, weighting, lines=None):
     nrm = np.asarray(normals, float)
     if pts.ndim != 2 or pts.shape[1] != 3 or nrm.shape != pts.shape:
         raise InputError(f"points and normals must both be (n, 3); got {pts.shape} and {nrm.shape}")
+    if len(pts) > MAX_ROWS:
+        raise InputError(too_many_rows(len(pts)))
     if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm))):
         raise InputError("points and normals must be finite numbers")
     problem = extent.spread_problem(pts)
@@ -93,6 +96,14 @@ def validate(points, normals, method, weighting, lines=None):
         at = f"contact {row}" if lines is None else f"line {lines[row]}"
         raise InputError(f"{at}: column '{extent.AXES[axis]}': {why}")
     return pts, patch_frame.unit_normals(nrm)
+
+
+def too_many_rows(n):
+    """Why a patch of ``n`` contacts is refused (``MAX_ROWS``)."""
+    return (
+        f"{n:,} contacts in one patch, over the {MAX_ROWS:,} one patch may hold (its fit "
+        "takes memory in proportion): split it into patches"
+    )
 
 
 def check_options(pts, noise_pos, noise_normal, grid, segments, max_angle, break_angle):
