@@ -1,6 +1,6 @@
 """From the curvature at the patch centre and its covariance to what a user is told: S, k1,
-k2, radius and C with 95 % intervals and a label (``summary_many`` for a stack of patches,
-``summary`` for one), the thesis's grid statistics and maps (§4.8.2).
+k2, radius and C with 95 % intervals and a label (``summary``, for a stack of patches), the
+thesis's grid statistics and maps (§4.8.2).
 
 The label: a plane where the curvature tensor cannot be told from 0 (a 99.9 % test; the
 spline also asks both k intervals to hold 0); otherwise the S band holding 99.9 % of S's
@@ -24,39 +24,29 @@ def direction_text(d):
 
 
 def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zero=False):
-    """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside).
+    """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside) of
+    every patch of a stack: t (B, 3), cov and cov_noise (B, 3, 3), bias (B, 3) or None,
+    scale (B,); a list of dicts.  The linear algebra runs on the whole stack.
 
     ``cov`` (floored, widened) sets the intervals and the tests; the anisotropy is debiased
     with ``cov_noise``, the estimate's own scatter (default ``cov``): a floor meant to keep
     intervals honest must not pull a low-noise estimate's k1 and k2 together.
     ``plane_holds_zero``: "plane" only where the k1 and k2 intervals both hold 0 (the
     spline's: its model bias widens the flatness test beyond its intervals)."""
-    one = [None if v is None else np.asarray(v, float)[None] for v in (t, cov, bias, cov_noise)]
-    scale = np.array([scale], float)
-    return summary_many(one[0], one[1], one[2], scale, intervals, one[3], plane_holds_zero)[0]
-
-
-def summary_many(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zero=False):
-    """``summary`` of every patch of a stack: t (B, 3), cov and cov_noise (B, 3, 3), bias
-    (B, 3), scale (B,); a list of dicts.  The linear algebra runs on the whole stack."""
     d2 = classify.flatness_distance(t, cov)
     k1s, k2s = eigen(*np.moveaxis(t, -1, 0))
-    m, _, lam = uncertainty.anisotropy_many(t, cov)
-    _, h, _ = uncertainty.anisotropy_many(t, cov if cov_noise is None else cov_noise)
+    m, _, lam = uncertainty.anisotropy(t, cov)
+    _, h, _ = uncertainty.anisotropy(t, cov if cov_noise is None else cov_noise)
     r = np.sqrt(0.5 * (k1s * k1s + k2s * k2s))
     plane = (r <= classify.R_TOL) | (d2 < classify.CHI2_3_999)  # ``classify.is_plane``
     raw = np.hypot(0.5 * (t[:, 0] - t[:, 2]), t[:, 1])
     # no debiasing where the curvature itself is not resolved
-    iv = (
-        uncertainty.intervals_many(t, cov, m, np.where(plane, raw, h), lam, bias)
-        if intervals
-        else None
-    )
+    iv = uncertainty.intervals(t, cov, m, np.where(plane, raw, h), lam, bias) if intervals else None
     if iv is not None and plane_holds_zero:
         curved = (r > classify.R_TOL) & _excludes_zero(iv)
         if np.any(plane & curved):
             plane &= ~curved
-            iv = uncertainty.intervals_many(t, cov, m, np.where(plane, raw, h), lam, bias)
+            iv = uncertainty.intervals(t, cov, m, np.where(plane, raw, h), lam, bias)
     h = np.where(plane, raw, h)
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
@@ -73,7 +63,7 @@ def _excludes_zero(iv):
 
 
 def _summary_one(i, m, h, iv, flat, scale, c):
-    """Patch ``i``'s fields of ``summary_many`` from its stack's numbers (lists); ``flat`` =
+    """Patch ``i``'s fields of ``summary`` from its stack's numbers (lists); ``flat`` =
     (R, d^2, plane), ``c`` the curvedness C."""
     (r, d2, plane), scale = flat, scale[i]
     m, h = m[i], h[i]

@@ -5,7 +5,7 @@ quadric through them) or when the noise covariance of its 2-jet's curvature leav
 direction undetermined, named in world coordinates: a 95 % half-width over
 ``MAX_HALF_WIDTH`` / L.  The bias left widens the intervals; it refuses nothing.
 Otherwise: the headline curvature, intervals and label at the patch centre
-(``centre_result.summary_many``), the thesis's grid
+(``centre_result.summary``), the thesis's grid
 statistics (§4.8.2, ``grid_batch``) and the fields ``patch_result.from_fields`` takes.
 """
 
@@ -38,7 +38,7 @@ def outcomes(stack, opts, lines=None):
     ok = np.array([b for b in live if out[b] is None], int)
     if not len(ok):
         return out
-    heads = centre_result.summary_many(
+    heads = centre_result.summary(
         stack.t[ok], stack.cov[ok], None, stack.scale[ok], opts["intervals"],
         np.zeros_like(stack.cov[ok]),  # (k1, k2 as fitted: debiasing them cost RMS S)
     )  # fmt: skip

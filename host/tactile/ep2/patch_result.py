@@ -11,7 +11,7 @@ import numpy as np
 
 from tactile.ep2 import centre_result, patch_frame
 from tactile.ep2.centre_result import hk_eps
-from tactile.ep2.shape_index import hk_label
+from tactile.ep2.shape_index import hk_labels
 
 JSON_KEYS = (
     "n_points method model shape confidence S k1 k2 radius C S_interval k1_interval k2_interval"
@@ -133,7 +133,7 @@ def from_fields(out, n, method, maps, breaks, dropped, middle):
         **{k: out[k] for k in ("S_interval", "k1_interval", "k2_interval", "radius_interval")},
         **{k: out[k] for k in ("S_mean", "S_std", "R_mean", "R_std", "C_mean")},
         **{k: out[k] for k in ("k1_mean", "k2_mean", "k1_std", "k2_std")},
-        hk_label=hk_label(K, H, *eps),
+        hk_label=str(hk_labels(np.array(K), np.array(H), *eps)[()]),
         direction1=direction,
         order=out["order"],
         weighting=out["weighting"],

@@ -55,7 +55,7 @@ def hk_sign(K, H, eps_k=0.0, eps_h=0.0):
 
 
 def hk_labels(K, H, eps_k=0.0, eps_h=0.0, table=2):
-    """HK primitive names (table 1 or 2) for arrays of K and H.
+    """HK primitive names (table 1 or 2) for arrays of K and H (0-d for one pair).
 
     With table 2, K > 0 with H = 0 cannot occur (K <= H^2); a sign pattern
     the table lacks (round-off, or table 1 with a zero sign) reads "flat".
@@ -66,13 +66,6 @@ def hk_labels(K, H, eps_k=0.0, eps_h=0.0, table=2):
     for idx in np.ndindex(out.shape):
         out[idx] = names.get((int(sk[idx]), int(sh[idx])), "flat")
     return out
-
-
-def hk_label(K, H, eps_k=0.0, eps_h=0.0):
-    """``hk_labels`` (table 2) of one (K, H) pair of Python numbers, without arrays."""
-    sk = 1 if K > eps_k else -1 if K < -eps_k else 0
-    sh = 1 if H > eps_h else -1 if H < -eps_h else 0
-    return HK_TABLE2.get((sk, sh), "flat")
 
 
 # S regions (6.2.4, fig. 50): the S axis cut into Koenderink's named bands.

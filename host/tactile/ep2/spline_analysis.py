@@ -95,14 +95,16 @@ def _centre(fit, p, grid_xy, scale, s2, intervals):
     channels = [np.atleast_1d(v) for v in np.split(rows @ fit.coef, 5)]
     if s2 is None:  # no spare rows: no covariance, the label from S alone
         t = np.array([float(v[0]) for v in shape_entries(*channels)])
-        out = centre_result.summary(t, np.zeros((3, 3)), np.zeros(3), scale, False)
+        one = (t[None], np.zeros((1, 3, 3)), np.zeros((1, 3)), np.array([scale]), False)
+        (out,) = centre_result.summary(*one)
     else:
         t, G = uncertainty.tensor_and_jacobian(channels, rows)
         cov = uncertainty.tensor_cov(G, fit.cov_factor, s2)
         bias = np.zeros(3)
         if intervals and fit.data_map is not None:
             bias = model_bias.bias(fit, p[:, :2], centre, t, lambda c: _tensor(rows, c))
-        out = centre_result.summary(t, cov, bias, scale, intervals, plane_holds_zero=True)
+        one = (t[None], cov[None], bias[None], np.array([scale]), intervals)
+        (out,) = centre_result.summary(*one, plane_holds_zero=True)
     d = principal(*(v[0] for v in channels))["dir1"]
     out["direction1_patch"] = np.asarray(d, float)
     out["centre"] = centre

@@ -30,6 +30,9 @@ k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
 
 import numpy as np
 
+from tactile.ep2.shape_index import shape_index
+from tactile.ep2.surface_geometry import shape_entries
+
 Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
 CHI2_2_95 = 5.991464547107979
@@ -55,8 +58,6 @@ def tensor_and_jacobian(channels, rows):
     ``channels`` = (zx, zy, zxx, zxy, zyy) at the grid points (each (n,));
     ``rows`` the matching design rows stacked (5 n, p).
     """
-    from tactile.ep2.surface_geometry import shape_entries
-
     n = channels[0].size
     step = 1e-20
     ch = np.broadcast_to(np.asarray(channels, float), (5, 5, n)).astype(complex)
@@ -74,13 +75,9 @@ def tensor_cov(G, cov_factor, s2):
 
 
 def anisotropy(t, cov):
-    """(m, h, lambda): mean curvature, debiased anisotropy |v|, Mahalanobis |v_hat|."""
-    m, h, lam = anisotropy_many(np.asarray(t, float)[None], np.asarray(cov, float)[None])
-    return float(m[0]), float(h[0]), float(lam[0])
-
-
-def anisotropy_many(t, cov):
-    """``anisotropy`` of a stack: t (B, 3), cov (B, 3, 3) -> m, h, lambda each (B,)."""
+    """(m, h, lambda): mean curvature, debiased anisotropy |v|, Mahalanobis |v_hat|, for one
+    patch (t (3,), cov (3, 3)) or a stack (t (B, 3), cov (B, 3, 3)): each () or (B,)."""
+    t, cov = np.asarray(t, float), np.asarray(cov, float)
     a, b, c = np.moveaxis(t, -1, 0)
     m = 0.5 * (a + c)
     v = np.stack([0.5 * (a - c), b], axis=-1)
@@ -107,11 +104,11 @@ def critical_value_k(lam):
 
 
 def _mahalanobis(v, cov):
-    """|v| in the metric of ``cov`` per problem of the stack: v (B, k), cov (B, k, k)."""
+    """|v| in the metric of ``cov`` per problem: v (..., k), cov (..., k, k)."""
     w, V = np.linalg.eigh(cov)
     tiny = 1e-12 * np.maximum(w.max(axis=-1), 0.0) + 1e-300
-    proj = np.einsum("bij,bi->bj", V, v)
-    return np.sqrt(np.sum(proj * proj / np.maximum(w, tiny[:, None]), axis=-1))
+    proj = np.einsum("...ij,...i->...j", V, v)
+    return np.sqrt(np.sum(proj * proj / np.maximum(w, tiny[..., None]), axis=-1))
 
 
 def _sphere_dirs(n=160):
@@ -202,23 +199,15 @@ def _axis_crossing(t, w, V, crit):
 def intervals(t, cov, m, h, lam, bias=None):
     """95 % intervals for S, k1, k2 and kmax = |m| + h, each widened to hold the estimate.
 
-    ``lam`` is the anisotropy's Mahalanobis length (``anisotropy``); ``bias``
-    (3,) or None a model-bias vector whose outer product is added to Cov.
-    S uses ``critical_value(lam)``; k1, k2 and kmax use ``critical_value_k(lam)``.
-    """
-    one = (np.asarray(t, float)[None], np.asarray(cov, float)[None])
-    bias = None if bias is None else np.asarray(bias, float)[None]
-    many = intervals_many(*one, *(np.array([v], float) for v in (m, h, lam)), bias)
-    out = {k: (float(v[0, 0]), float(v[0, 1])) for k, v in many.items() if k != "crit"}
-    out["crit"] = float(many["crit"][0])
-    return out
-
-
-def intervals_many(t, cov, m, h, lam, bias=None):
-    """``intervals`` of a stack: t (B, 3), cov (B, 3, 3), m, h, lam (B,), bias (B, 3) or
-    None; each interval (B, 2), ``crit`` (B,)."""
-    from tactile.ep2.shape_index import shape_index
-
+    ``lam`` is the anisotropy's Mahalanobis length (``anisotropy``); ``bias`` a model-bias
+    vector whose outer product is added to Cov, or None.  S uses ``critical_value(lam)``;
+    k1, k2 and kmax use ``critical_value_k(lam)``.  One patch (t (3,), cov (3, 3), m, h,
+    lam numbers, bias (3,)): each interval (2,), ``crit`` (); a stack (t (B, 3) ...): each
+    (B, 2), ``crit`` (B,)."""
+    one = np.ndim(t) == 1
+    if one:  # a stack of one
+        t, cov, bias = (None if x is None else np.asarray(x, float)[None] for x in (t, cov, bias))
+        m, h, lam = (np.asarray(x, float).reshape(1) for x in (m, h, lam))
     if bias is not None:
         cov = cov + bias[:, :, None] * bias[:, None, :]
     crit_s = critical_value(lam)
@@ -237,4 +226,4 @@ def intervals_many(t, cov, m, h, lam, bias=None):
     inside = _mahalanobis(t, cov) ** 2 <= crit_k
     out["kmax"][:, 0] = np.where(inside, 0.0, out["kmax"][:, 0])
     out["crit"] = crit_s
-    return out
+    return {k: v[0] for k, v in out.items()} if one else out
