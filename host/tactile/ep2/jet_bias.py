@@ -1,7 +1,7 @@
 """What the default fit's answer may miss beyond its noise (``local_jet``, item 6 of its
 docstring): the Wald test of two jets' difference, the positive part of a measured bias,
 and the size of the terms a jet leaves out, from a sphere's or cylinder's of the measured
-curvature.  Functions of the fit dict ``local_jet`` builds (``Q``, ``Rinv``, ``cn``, ``Aw``)."""
+curvature.  Functions of the fit ``local_jet.JetFit`` (``Q``, ``Rinv``, ``cn``, ``Aw``)."""
 
 import numpy as np
 
@@ -75,7 +75,7 @@ def signal(c, C):
 
 def fit_cov(f, o, sel):
     p = size(o)
-    F = f["Rinv"][sel][:, :p, :p] / f["cn"][sel][:, :p, None]
+    F = f.Rinv[sel][:, :p, :p] / f.cn[sel][:, :p, None]
     return F @ np.swapaxes(F, -1, -2)
 
 
@@ -83,6 +83,6 @@ def regress_omitted(f, o, cols, sel):
     """Coefficients of the omitted columns ``cols`` regressed on the order-o jet's, (b, p_o, q):
     how each omitted term, were it there with coefficient 1, moves the fit."""
     p = size(o)
-    Rinv, cn = f["Rinv"][sel][:, :p, :p], f["cn"][sel]
-    X = np.swapaxes(f["Q"][sel][..., :p], -1, -2) @ f["Aw"][sel][..., cols]
+    Rinv, cn = f.Rinv[sel][:, :p, :p], f.cn[sel]
+    X = np.swapaxes(f.Q[sel][..., :p], -1, -2) @ f.Aw[sel][..., cols]
     return Rinv @ X / cn[:, :p, None]

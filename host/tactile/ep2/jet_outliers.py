@@ -19,23 +19,23 @@ def worst_contact(f, keep):
     and what is wrong with it, in words.  The test: the contact's three residuals in the top
     jet, each over (1 - its leverage), against the patch's robust scale (their median), at
     1e-3 / n; and gross: its point GROSS_POSITION off, or its normal GROSS_ANGLE."""
-    n = f["n"]
-    r, h = pick(f["resid"], f["quiet"]), pick(f["hat"], f["quiet"])
+    n = f.n
+    r, h = pick(f.resid, f.quiet), pick(f.hat, f.quiet)
     part = r * r / (1.0 - np.minimum(h, 0.999))
     pos, slope = part[:, :n], part[:, n : 2 * n] + part[:, 2 * n :]
     stat = np.where(keep, pos + slope, np.nan)
-    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in f["quiet"]])
+    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in f.quiet])
     s2 = np.nanmedian(stat, axis=-1) / 2.366  # (the median of chi^2_3)
-    s2 = np.where(f["stated"].all(-1), np.maximum(s2, 1.0), s2)
+    s2 = np.where(f.stated.all(-1), np.maximum(s2, 1.0), s2)
     s2 = np.where(np.isfinite(s2) & (s2 > 0), s2, 1.0)
     z = np.where(keep, stat / s2[:, None], -1.0)
     worst = np.argmax(z, -1)
     idx = np.arange(len(z))
-    w = f["w"]
+    w = f.w
     off = np.abs(r[:, :n]) / np.where(w[:, :n] > 0, w[:, :n], 1.0)  # (in L)
     ds = np.hypot(r[:, n : 2 * n] / np.where(w[:, n : 2 * n] > 0, w[:, n : 2 * n], 1.0),
                   r[:, 2 * n :] / np.where(w[:, 2 * n :] > 0, w[:, 2 * n :], 1.0))  # fmt: skip
-    turn = np.degrees(np.arctan(ds / (1.0 + f["g2"])))  # (a slope change, as an angle)
+    turn = np.degrees(np.arctan(ds / (1.0 + f.g2)))  # (a slope change, as an angle)
     gross = (off[idx, worst] > GROSS_POSITION) | (turn[idx, worst] > GROSS_ANGLE)
     limit = 16.27 + 2.0 * np.log(np.maximum(keep.sum(-1), 1))
     third = -np.sort(-z, -1)[:, min(MAX_OUTLIERS, z.shape[1] - 1)]
@@ -45,7 +45,7 @@ def worst_contact(f, keep):
     for b in np.flatnonzero(bad):
         k = worst[b]
         if pos[b, k] >= slope[b, k]:
-            why[b] = f"its point is {off[b, k] * f['L'][b]:.3g} off the surface the others describe"
+            why[b] = f"its point is {off[b, k] * f.L[b]:.3g} off the surface the others describe"
         else:
             why[b] = f"its normal is {turn[b, k]:.0f} deg off the surface's there"
     return np.where(bad, worst, -1), why

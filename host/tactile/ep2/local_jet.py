@@ -26,7 +26,8 @@ In one's head (thesis §4.5-4.6 made local; §5.1.2's frame):
    noise, and the order above the top, sized as a sphere or cylinder of the measured
    curvature would size it (a circle's z6 = 5 z4^2 / z2).
 
-``fit`` returns a ``JetStack``; ``jet_answers`` turns it into results and refusals.
+``fit`` returns a ``JetStack``; ``jet_answers`` turns it into results and refusals.  Each pass
+of the fit is a ``JetFit``.
 """
 
 import math
@@ -78,6 +79,59 @@ class JetStack:
     warnings: list = field(default_factory=list)  # per patch: list of lines
 
 
+@dataclass
+class JetFit:
+    """One pass of the fit over a stack (B patches, n rows each, 3n weighted rows): the QR of
+    the top jet and what each order and the frame need; lengths / L."""
+
+    Q: np.ndarray  # (B, 3n, p_top) the weighted, column-scaled jet's Q
+    Rinv: np.ndarray  # (B, p_top, p_top) its R's inverse (a singular pivot taken as 1)
+    cn: np.ndarray  # (B, p_top) the column scales
+    qb: np.ndarray  # (B, p_top) Q^T (weighted right-hand side)
+    top: np.ndarray  # (B,) the highest order the rows determine
+    quiet: np.ndarray  # (B,) the order the noise and outlier tests use
+    ok2: np.ndarray  # (B,) whether the 2-jet is determined
+    Aw: np.ndarray  # (B, 3n, p) the weighted jet, with the order above the top
+    w: np.ndarray  # (B, 3n) the rows' weights (0: left out)
+    resid: dict  # order -> (B, 3n) weighted residuals
+    hat: dict  # order -> (B, 3n) leverages
+    origin: np.ndarray = None  # (B, 3) the frame (world), its axes' rows (B, 3, 3), L (B,)
+    axes: np.ndarray = None
+    L: np.ndarray = None
+    centre: np.ndarray = None  # (B, 2) the box middle in the frame
+    xy: np.ndarray = None  # (B, n, 2) contacts about the centre
+    g2: np.ndarray = None  # (B, n) squared slopes
+    sig: np.ndarray = None  # (B, 2) sigma_p (/ L), sigma_n (rad) the weights used
+    stated: np.ndarray = None  # (B, 2) which of them were stated
+    spread: np.ndarray = None  # (B,) L, 0 for one point
+    heights: np.ndarray = None  # (B, n)
+    slopes: np.ndarray = None  # (B, n, 2)
+
+    @property
+    def n(self):
+        return self.xy.shape[1]
+
+    def take(self, idx):
+        """The fit of the patches ``idx`` only."""
+        return JetFit(**{k: _rows(v, idx) for k, v in vars(self).items()})
+
+    def put(self, idx, other):
+        """Write ``other``, the fit of the patches ``idx``, into this one."""
+        for k, v in vars(other).items():
+            mine = getattr(self, k)
+            if isinstance(v, dict):
+                for o, a in v.items():
+                    mine[o][idx] = a
+            elif v is not None:
+                mine[idx] = v
+
+
+def _rows(v, idx):
+    if isinstance(v, dict):
+        return {o: a[idx] for o, a in v.items()}
+    return None if v is None else v[idx]
+
+
 def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     """Fit every patch of the stack: P, N (B, n, 3) world points and unit normals (rows
     beyond a patch's contacts masked out by ``mask`` (B, n)).  ``noise_pos`` (input unit)
@@ -96,7 +150,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     live = np.arange(len(P))
     f = _fit_once(P, N, keep, noise, top_cap, limit)
     for _ in range(MAX_OUTLIERS + 1):
-        worst, why = jet_outliers.worst_contact(_take(f, live), keep[live])
+        worst, why = jet_outliers.worst_contact(f.take(live), keep[live])
         again = []
         for k in np.flatnonzero(worst >= 0):
             b = int(live[k])
@@ -112,7 +166,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
         if not again:
             break
         live = np.array(again)
-        _put(f, live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap, limit))
+        f.put(live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap, limit))
     return _answer(f, keep, reason, warnings, np.isfinite(noise))
 
 
@@ -121,30 +175,6 @@ def _per_patch(v, B):
     if v is None:
         return np.full(B, np.nan)
     return np.broadcast_to(np.asarray(v, float), (B,)).copy()
-
-
-def _take(f, idx):
-    """The fit dict ``f`` of the patches ``idx`` only."""
-    out = {}
-    for k, v in f.items():
-        if isinstance(v, dict):
-            out[k] = {o: a[idx] for o, a in v.items()}
-        else:
-            out[k] = v[idx] if isinstance(v, np.ndarray) and v.ndim and k not in _SHARED else v
-    return out
-
-
-def _put(f, idx, g):
-    """Write the fit dict ``g`` of the patches ``idx`` into ``f``."""
-    for k, v in g.items():
-        if isinstance(v, dict):
-            for o, a in v.items():
-                f[k][o][idx] = a
-        elif isinstance(v, np.ndarray) and v.ndim and k not in _SHARED:
-            f[k][idx] = v
-
-
-_SHARED = ()  # fit-dict arrays that are not per patch (none yet)
 
 
 # --- 1. screening and the frame -------------------------------------------------------------
@@ -192,9 +222,9 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
         if rnd == 1 or stated.all():
             break
         sig = _reml(f, s, stated, keep)
-    f.update(origin=origin, axes=axes, L=L, centre=centre, xy=np.stack([x, y], -1), g2=g2,
-             sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1], spread=spread,
-             heights=q[..., 2], slopes=np.stack([sx, sy], -1))  # fmt: skip
+    f.origin, f.axes, f.L, f.centre, f.xy, f.g2 = origin, axes, L, centre, np.stack([x, y], -1), g2
+    f.sig, f.stated, f.spread = np.maximum(sig, FLOOR), stated, spread
+    f.heights, f.slopes = q[..., 2], np.stack([sx, sy], -1)
     return f
 
 
@@ -226,9 +256,8 @@ def _qr_fits(A, b, w, top_cap, n_kept):
         r = r - mv(Q[..., cols], qb[:, cols])
         h = h + np.sum(Q[..., cols] ** 2, -1)
         resid[o], hat[o] = r, h
-    return {"Q": Q, "Rinv": _upper_inverse(R, d), "cn": cn, "qb": qb, "top": top, "quiet": quiet,
-            "ok2": d[:, :6].min(-1) > 1e-9 * d[:, 0], "Aw": Aw, "w": w, "p_top": p_top,
-            "resid": resid, "hat": hat}  # fmt: skip
+    ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
+    return JetFit(Q, _upper_inverse(R, d), cn, qb, top, quiet, ok2, Aw, w, resid, hat)
 
 
 def _upper_inverse(R, d):
@@ -243,18 +272,18 @@ def _upper_inverse(R, d):
 def order_fit(f, o):
     """(coef (B, p_o), cov factor F (B, p_o, p_o): coef cov = F F^T, weighted residuals)."""
     p = size(o)
-    cn = f["cn"][:, :p]
-    Rinv = f["Rinv"][:, :p, :p]  # (the inverse of R's leading block: its leading block)
-    coef = mv(Rinv, f["qb"][:, :p]) / cn
-    return coef, Rinv / cn[:, :, None], f["resid"][o]
+    cn = f.cn[:, :p]
+    Rinv = f.Rinv[:, :p, :p]  # (the inverse of R's leading block: its leading block)
+    coef = mv(Rinv, f.qb[:, :p]) / cn
+    return coef, Rinv / cn[:, :, None], f.resid[o]
 
 
 def _reml(f, s, stated, keep):
     """Each row type's sigma from its residuals in the top jet: RSS over (rows - leverage)."""
     n = keep.shape[1]
     out = s.copy()
-    r = pick(f["resid"], f["quiet"])
-    h = pick(f["hat"], f["quiet"])
+    r = pick(f.resid, f.quiet)
+    h = pick(f.hat, f.quiet)
     kk = np.tile(keep, 3)
     for t, cols in ((0, slice(0, n)), (1, slice(n, 3 * n))):
         rss = np.sum((r[:, cols] ** 2) * kk[:, cols], -1)
@@ -267,7 +296,7 @@ def _reml(f, s, stated, keep):
 # --- 5. the answer and its covariance ----------------------------------------------------------
 def _answer(f, keep, reason, warnings, stated):
     """The ``JetStack`` of the final fit (see the module docstring, item 5)."""
-    B, top = len(keep), f["top"]
+    B, top = len(keep), f.top
     hi = np.where(top >= 4, top - 1, top)
     orders = range(2, int(top.max()) + 1)
     theta, cov, coefs = {}, {}, {}
@@ -302,32 +331,32 @@ def _answer(f, keep, reason, warnings, stated):
     ch = _pick_coef(coefs, hi, coef.shape[1])
     coef = coef + w[:, None] * (ch - coef)
     t, J = _entries_and_jacobian(est)
-    width, line, across = _width(f["xy"], keep)
-    thin = line < np.minimum(LINE_NOISE * f["sig"][:, 0], LINE_THIN)
+    width, line, across = _width(f.xy, keep)
+    thin = line < np.minimum(LINE_NOISE * f.sig[:, 0], LINE_THIN)
     width = np.where(thin, np.minimum(width, line), width)
-    for b in np.flatnonzero(f["spread"] == 0.0):
+    for b in np.flatnonzero(f.spread == 0.0):
         reason[b] = reason[b] or (
             "all contacts at one point: the patch needs contacts spread in two directions"
         )
     one_line = (width < LINE_WIDTH) | thin
     for b in np.flatnonzero(one_line):
-        v = ", ".join(f"{c:.2f}" for c in across[b] @ f["axes"][b][:2])
+        v = ", ".join(f"{c:.2f}" for c in across[b] @ f.axes[b][:2])
         reason[b] = reason[b] or (
             f"the contacts lie on one line or path (their spread across it is {width[b]:.2g} of "
             f"the patch size): the curvature across ({v}) is not determined; sweep across it"
         )
-    for b in np.flatnonzero(~f["ok2"]):
+    for b in np.flatnonzero(~f.ok2):
         reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
     cov_t = J @ C_mse @ np.swapaxes(J, -1, -2)
     cov_noise = J @ C_noise @ np.swapaxes(J, -1, -2)
     cov_quadric = J @ C2 @ np.swapaxes(J, -1, -2)
-    sig = f["sig"] * np.stack([f["L"], np.ones(B)], -1)
+    sig = f.sig * np.stack([f.L, np.ones(B)], -1)
     return JetStack(
         t=t, cov=cov_t, cov_noise=cov_noise, cov_quadric=cov_quadric, coef=coef,
         order=np.where(w > 0.5, hi, 2), top=top, weight=w, noise=sig, stated=stated,
-        origin=f["origin"], axes=f["axes"],
-        scale=f["L"], centre=f["centre"], xy=f["xy"], heights=f["heights"],
-        slopes=f["slopes"], keep=keep, reason=reason,
+        origin=f.origin, axes=f.axes,
+        scale=f.L, centre=f.centre, xy=f.xy, heights=f.heights,
+        slopes=f.slopes, keep=keep, reason=reason,
         warnings=warnings,
     )  # fmt: skip
 
