@@ -30,58 +30,40 @@ from tactile.ep2 import (
     patch_input,
     patch_result,
 )
+from tactile.ep2.patch_input import JetOptions, SplineOptions
 from tactile.ep2.patch_result import PatchResult
 from tactile.errors import DataError
 
-__all__ = ["PatchResult", "analyze_patch", "analyze_sweep"]
+__all__ = ["JetOptions", "PatchResult", "SplineOptions", "analyze_patch", "analyze_sweep"]
 
 
 def analyze_patch(
-    points,
-    normals,
-    *,
-    method="jet",
-    order=None,
-    segments=1,
-    weighting="auto",
-    noise_pos=None,
-    noise_normal=None,
-    grid=8,
-    align=False,
-    solver="svd",
-    max_normal_angle=patch_frame.MAX_NORMAL_ANGLE_DEG,
-    shrink=None,
-    intervals=True,
-    finger=None,
-    break_angle=discontinuity.BREAK_ANGLE_DEG,
-    lines=None,
-    maps=False,
-):
+    points, normals, *, method="jet", jet=None, spline=None, finger=None, lines=None,
+    maps=False, **options,
+):  # fmt: skip
     """Fit and analyse one patch of contacts (world frame) with outward normals.
 
     points, normals: (n, 3), normals pointing from the object toward the finger.
-    ``method`` "jet" (default) or "spline" (the thesis's B-spline; ``order``
-    2-4 per direction, default 2, ``segments``, ``weighting`` "tangent" /
-    "position" 100:1 as in §4.9 or "auto", ``align``, ``solver``, ``shrink``
-    apply to it alone).  ``noise_pos`` (input unit) and ``noise_normal`` (rad)
-    state the noise; what is not stated is estimated.  ``finger`` (one label
-    per row, sweep order) enables the discontinuity check (§6.2.5);
-    ``lines`` (CSV line per row) names rows in messages; ``maps`` keeps the
-    grid maps (fig. 50).
+    ``method`` "jet" (default) or "spline" (the thesis's B-spline).  ``jet``
+    (``JetOptions``) holds the options both methods read: ``noise_pos`` (input
+    unit) and ``noise_normal`` (rad) state the noise, what is not stated is
+    estimated; ``max_normal_angle``, ``break_angle``, ``grid``, ``intervals``.
+    ``spline`` (``SplineOptions``) holds the spline's own: ``order`` 2-4 per
+    direction (default 2), ``segments``, ``weighting`` "tangent" / "position"
+    100:1 as in §4.9 or "auto", ``align``, ``solver``, ``shrink``.  Any of them
+    may be given by name instead (``noise_pos=0.01``, ``order=3``), over the
+    dataclasses.  ``finger`` (one label per row, sweep order) enables the
+    discontinuity check (§6.2.5); ``lines`` (CSV line per row) names rows in
+    messages; ``maps`` keeps the grid maps (fig. 50).
 
     Raises ``InputError`` for malformed input and ``DataError`` when the
     contacts do not determine the curvature (the message says why).
     """
-    kw = dict(
-        method=method, order=order, segments=segments, weighting=weighting,
-        noise_pos=noise_pos, noise_normal=noise_normal, grid=grid, align=align, solver=solver,
-        max_normal_angle=max_normal_angle, shrink=shrink, intervals=intervals,
-        break_angle=break_angle,
-    )  # fmt: skip
+    kw = patch_input.keywords(method, jet, spline, maps, **options)
     prep = patch_input.prepare(points, normals, finger, lines, kw)
     pts, nrm, opts = prep.points, prep.normals, prep.opts
     if method == "spline":
-        from tactile.ep2 import spline_analysis
+        from tactile.ep2 import spline_analysis  # (start-up: scipy only for the spline)
 
         out = spline_analysis.analyze(pts, nrm, opts)
     else:
@@ -110,9 +92,11 @@ def _analyze_jet(pts, nrm, opts):
 def analyze_sweep(points, normals, finger=None, split=False, **kw):
     """Like ``analyze_patch``; with ``split`` a sweep broken by discontinuities
     (§6.2.5) is cut into parts analysed separately.  Returns a list of results."""
-    parts = sweep_parts(points, normals, finger, kw.pop("lines", None), split, kw)
+    lines = kw.pop("lines", None)
+    kw = patch_input.keywords(**kw)
+    parts = sweep_parts(points, normals, finger, lines, split, kw)
     if parts is None:
-        return [analyze_patch(points, normals, finger=finger, **kw)]
+        return [analyze_patch(points, normals, finger=finger, lines=lines, **kw)]
     return [
         analyze_patch(p["points"], p["normals"], finger=p["finger"], lines=p["lines"], **kw)
         for p in parts

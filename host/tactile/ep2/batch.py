@@ -97,8 +97,8 @@ def _own(p, kw):
 
 
 def _chunk(patches, kw):
-    kw = {**_defaults(), **kw}
-    maps = kw.pop("maps", False)
+    kw = patch_input.keywords(**kw)
+    maps = kw.pop("maps")
     if kw["method"] == "spline":
         return [_one(p, dict(_own(p, kw), maps=maps)) for p in patches]
     prepared, results = [], [None] * len(patches)
@@ -242,12 +242,3 @@ def _one(p, kw):
         return api.analyze_patch(points, normals, finger=finger, lines=lines, **kw)
     except (DataError, InputError) as exc:
         return exc
-
-
-def _defaults():
-    """``analyze_patch``'s keyword defaults (one source: its signature)."""
-    import inspect
-
-    sig = inspect.signature(api.analyze_patch)
-    skip = {"points", "normals", "finger", "lines"}
-    return {k: v.default for k, v in sig.parameters.items() if k not in skip}

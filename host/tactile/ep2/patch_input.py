@@ -5,7 +5,7 @@ Malformed input raises ``InputError`` naming the contact (or CSV line) and colum
 the keyword and its CLI option.
 """
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
@@ -19,6 +19,51 @@ MAX_ROWS = 250_000  # contacts in one patch: its fit holds about 5 kB a contact 
 MAX_NOISE_SPREADS = 1e6  # a position noise beyond this many spreads leaves no shape to fit
 WEIGHTINGS = ("auto", "tangent", "position")
 JET_ORDER = 2  # the jet order of the default (--order is for method spline)
+
+
+@dataclass(frozen=True)
+class JetOptions:
+    """The estimator's options, which both methods read: the noise (input unit, rad; None:
+    estimated), the normals' angle limits (deg), the grid of the thesis's statistics and
+    whether to compute intervals."""
+
+    noise_pos: float | None = None
+    noise_normal: float | None = None
+    max_normal_angle: float = patch_frame.MAX_NORMAL_ANGLE_DEG
+    break_angle: float = discontinuity.BREAK_ANGLE_DEG
+    grid: int = 8
+    intervals: bool = True
+
+
+@dataclass(frozen=True)
+class SplineOptions:
+    """The thesis's B-spline's own options (``method="spline"``): degree per direction
+    (None: 2), segments, row weighting, a refit in the principal frame, the solver, the
+    shrinkage toward the 2-jet (None: on for ``auto`` weighting)."""
+
+    order: int | None = None
+    segments: int = 1
+    weighting: str = "auto"
+    align: bool = False
+    solver: str = "svd"
+    shrink: bool | None = None
+
+
+_JET = tuple(f.name for f in fields(JetOptions))
+_SPLINE = tuple(f.name for f in fields(SplineOptions))
+
+
+def keywords(method="jet", jet=None, spline=None, maps=False, **named):
+    """The flat options the steps read (``method``, ``maps`` and every field of both option
+    sets): ``jet`` and ``spline`` (or their defaults) with options ``named`` over them, as
+    ``analyze_patch(points, normals, noise_pos=0.01)`` writes them.  ``TypeError`` for a
+    name neither set has, as Python gives for an unknown keyword."""
+    unknown = sorted(set(named) - set(_JET) - set(_SPLINE))
+    if unknown:
+        raise TypeError(f"analyze_patch() got an unexpected keyword argument {unknown[0]!r}")
+    jet = replace(jet or JetOptions(), **{k: v for k, v in named.items() if k in _JET})
+    spline = replace(spline or SplineOptions(), **{k: v for k, v in named.items() if k in _SPLINE})
+    return dict(method=method, maps=maps, **asdict(jet), **asdict(spline))
 
 
 @dataclass
