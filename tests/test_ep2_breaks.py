@@ -1,11 +1,11 @@
-"""``discontinuity.find_breaks_many`` (a stack of patches at once) gives exactly what
+"""``patch_input.find_breaks_many`` (a stack of patches at once) gives exactly what
 ``find_breaks`` gives patch by patch: the same rows, finger labels (value and type) and
 angles, in the same order, whatever the labels."""
 
 import numpy as np
 import pytest
 
-from tactile.ep2.discontinuity import find_breaks, find_breaks_many
+from tactile.ep2.patch_input import find_breaks, find_breaks_many
 
 
 def _normals(rng, n):

@@ -6,19 +6,19 @@ import math
 import numpy as np
 import pytest
 
-from tactile.ep2 import classify
-from tactile.ep2.shape_index import S_EDGES, S_NAMES
+from tactile.ep2 import centre_result
+from tactile.ep2.surface_geometry import S_EDGES, S_NAMES
 
 
 def _vote_with_arrays(s_est, s_sd, p_flat):
-    """``classify.vote`` as numpy writes it (np.diff, np.argmax), the reference."""
+    """``centre_result.vote`` as numpy writes it (np.diff, np.argmax), the reference."""
     lo, hi = s_sd
     edges = [-np.inf, *S_EDGES.tolist(), np.inf]
-    shares = np.diff([classify.split_normal_cdf(e, s_est, lo, hi) for e in edges])
+    shares = np.diff([centre_result.split_normal_cdf(e, s_est, lo, hi) for e in edges])
     shares = shares * (1.0 - p_flat)
     best = int(np.argmax(shares))
     votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}
-    label = S_NAMES[best] if shares[best] >= classify.MIN_VOTE else "uncertain"
+    label = S_NAMES[best] if shares[best] >= centre_result.MIN_VOTE else "uncertain"
     return label, float(shares[best]), votes
 
 
@@ -32,7 +32,7 @@ def test_vote_is_its_array_form(seed):
         if not any(sd):
             continue
         p = float(rng.choice([0.0, rng.uniform(), 1.0]))
-        got, want = classify.vote(s, sd, p), _vote_with_arrays(s, sd, p)
+        got, want = centre_result.vote(s, sd, p), _vote_with_arrays(s, sd, p)
         assert repr(got) == repr(want)  # NaN confidences included
         seen.add(got[0] == "uncertain")
     assert seen == {True, False}

@@ -16,14 +16,13 @@ bounding box in the patch frame); ``S_mean``, ``S_std``, ``R_mean``,
 (§4.8.2).  Lengths are in the input unit, curvatures in 1/unit.
 
 The steps: ``patch_input`` (validation, duplicates, centring), ``local_jet`` (the fit),
-``jet_answers`` and ``consistency`` (refusals, intervals, labels), ``patch_result``
+``jet_answers`` (refusals, positions against normals, intervals, labels), ``patch_result``
 (the ``PatchResult``).
 """
 
 import numpy as np
 
 from tactile.ep2 import (
-    discontinuity,
     jet_answers,
     local_jet,
     patch_frame,
@@ -108,8 +107,8 @@ def sweep_parts(points, normals, finger, lines, split, kw):
     ``analyze_patches`` takes them), or None when it fits the patch whole (no ``split``, or
     no break).  Raises as ``analyze_sweep`` does for normals it cannot use."""
     nrm = patch_frame.unit_normals(np.asarray(normals, float))
-    breaks = discontinuity.find_breaks(
-        nrm, finger, kw.get("break_angle", discontinuity.BREAK_ANGLE_DEG)
+    breaks = patch_input.find_breaks(
+        nrm, finger, kw.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     )
     if not (split and breaks):
         return None
@@ -121,5 +120,5 @@ def sweep_parts(points, normals, finger, lines, split, kw):
             "finger": fing[rows],
             "lines": None if lines is None else [lines[i] for i in rows],
         }
-        for rows in discontinuity.split_parts(len(nrm), finger, breaks)
+        for rows in patch_input.split_parts(len(nrm), finger, breaks)
     ]

@@ -51,8 +51,8 @@ def round_bias(f, coefs, cov):
     """(B, 5): how far the 2-jet's values move from those of the surface whose shape operator
     is the measured Hessian H everywhere, its quartic left out: to fourth order that surface
     is z = p + p r / 8, p = x^T H x, r = x^T H^2 x (exact for spheres and cylinders; the
-    spline's ``model_bias`` uses the same surface).  Its quartic, mapped through the 2-jet's
-    regression on the omitted columns, is the shift."""
+    spline's ``uncertainty.model_bias`` uses the same surface).  Its quartic, mapped through
+    the 2-jet's regression on the omitted columns, is the shift."""
     zxx, zxy, zyy = np.moveaxis(coefs[2][:, 3:6], -1, 0)
     p20, p11, p02 = zxx, 2.0 * zxy, zyy
     r20, r11, r02 = zxx * zxx + zxy * zxy, 2.0 * zxy * (zxx + zyy), zxy * zxy + zyy * zyy

@@ -105,12 +105,12 @@ def _breaks(groups, opts):
     """[bool] per ``Contacts`` group: whether ``analyze_sweep`` would cut it (its normals
     break, §6.2.5, or a zero normal makes it refuse, as ``analyze_one`` then says), for the
     groups of one size at once: ``patch_frame.unit_normals`` and
-    ``discontinuity.find_breaks_many`` on their stack."""
+    ``patch_input.find_breaks_many`` on their stack."""
     import numpy as np
 
-    from tactile.ep2 import discontinuity
+    from tactile.ep2 import patch_input
 
-    angle = opts.get("break_angle", discontinuity.BREAK_ANGLE_DEG)
+    angle = opts.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     out = [False] * len(groups)
     sizes = {}
     for i, g in enumerate(groups):
@@ -128,7 +128,7 @@ def _breaks(groups, opts):
         N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
         N = N / np.linalg.norm(N, axis=-1)[..., None]
         live = [i for (i, _), keep in zip(same, ok.tolist(), strict=True) if keep]
-        found = discontinuity.find_breaks_many(N, [groups[i].finger for i in live], angle)
+        found = patch_input.find_breaks_many(N, [groups[i].finger for i in live], angle)
         for i, _ in same:
             out[i] = True
         for i, brk in zip(live, found, strict=True):
@@ -140,11 +140,11 @@ def _breaks_one(group, angle):
     """``_breaks`` of one group (normals of another shape than (n, 3))."""
     import numpy as np
 
-    from tactile.ep2 import discontinuity, patch_frame
+    from tactile.ep2 import patch_frame, patch_input
 
     try:
         nrm = patch_frame.unit_normals(np.asarray(group.normals, float))
-        return bool(discontinuity.find_breaks(nrm, group.finger, angle))
+        return bool(patch_input.find_breaks(nrm, group.finger, angle))
     except (DataError, InputError):
         return True  # ``analyze_one`` gives the refusal as ``analyze_sweep`` does
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from tactile.ep2 import centre_result, patch_frame
 from tactile.ep2.centre_result import hk_eps
-from tactile.ep2.shape_index import hk_labels
+from tactile.ep2.surface_geometry import hk_labels
 
 JSON_KEYS = (
     "n_points method model shape confidence S k1 k2 radius C S_interval k1_interval k2_interval"
