@@ -17,7 +17,11 @@ from collections import deque
 from dataclasses import dataclass
 from itertools import islice
 
-from tactile.ep2.batch import CHUNK
+import numpy as np
+
+from tactile.ep2 import patch_frame, patch_input
+from tactile.ep2.api import analyze_sweep, sweep_parts
+from tactile.ep2.batch import CHUNK, analyze_patches
 from tactile.errors import DataError, InputError
 
 MAX_JOBS = 256
@@ -39,8 +43,6 @@ class Outcome:
 
 def analyze_one(group, name, opts, split):
     """``Outcome`` of one ``Contacts`` group labelled ``name``, by ``analyze_sweep``."""
-    from tactile.ep2.api import analyze_sweep
-
     try:
         results = analyze_sweep(
             group.points, group.normals, finger=group.finger, split=split, lines=group.lines, **opts
@@ -66,8 +68,6 @@ def analyze_chunk(work, opts, split):
     call for every patch of the chunk and every part of the ones ``split`` cuts (§6.2.5;
     ``api.sweep_parts``).  A cut patch is refused, as ``analyze_sweep`` refuses it, by its
     first part that is."""
-    from tactile.ep2.batch import analyze_patches
-
     out = [None] * len(work)
     cut = _breaks([g for g, _ in work], opts) if split else [False] * len(work)
     patches, owners = [], []  # owners[k]: the work index patches[k] belongs to
@@ -93,8 +93,6 @@ def analyze_chunk(work, opts, split):
 
 def _parts(group, opts):
     """``api.sweep_parts`` of a group ``_breaks`` found cut, or the exception it raised."""
-    from tactile.ep2.api import sweep_parts
-
     try:
         return sweep_parts(group.points, group.normals, group.finger, group.lines, True, opts)
     except (DataError, InputError) as exc:
@@ -106,10 +104,6 @@ def _breaks(groups, opts):
     break, §6.2.5, or a zero normal makes it refuse, as ``analyze_one`` then says), for the
     groups of one size at once: ``patch_frame.unit_normals`` and
     ``patch_input.find_breaks_many`` on their stack."""
-    import numpy as np
-
-    from tactile.ep2 import patch_input
-
     angle = opts.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     out = [False] * len(groups)
     sizes = {}
@@ -138,10 +132,6 @@ def _breaks(groups, opts):
 
 def _breaks_one(group, angle):
     """``_breaks`` of one group (normals of another shape than (n, 3))."""
-    import numpy as np
-
-    from tactile.ep2 import patch_frame, patch_input
-
     try:
         nrm = patch_frame.unit_normals(np.asarray(group.normals, float))
         return bool(patch_input.find_breaks(nrm, group.finger, angle))
