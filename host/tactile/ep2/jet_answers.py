@@ -1,4 +1,4 @@
-"""From a ``local_jet.JetStack`` to each patch's result fields, or the refusal in its place.
+"""From a ``jet_estimate.JetStack`` to each patch's result fields, or the refusal in its place.
 
 A patch is refused only when its fit says so (too few consistent contacts, one line, no
 quadric through them) or when the noise covariance of its 2-jet's curvature leaves a
