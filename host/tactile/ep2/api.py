@@ -107,8 +107,8 @@ def sweep_parts(points, normals, finger, lines, split, kw):
     ``analyze_patches`` takes them), or None when it fits the patch whole (no ``split``, or
     no break).  Raises as ``analyze_sweep`` does for normals it cannot use."""
     nrm = patch_frame.unit_normals(np.asarray(normals, float))
-    breaks = patch_input.find_breaks(
-        nrm, finger, kw.get("break_angle", patch_input.BREAK_ANGLE_DEG)
+    (breaks,) = patch_input.find_breaks(
+        nrm[None], [finger], kw.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     )
     if not (split and breaks):
         return None

@@ -204,7 +204,7 @@ def _prepare_group(group, unpacked, kws):
     out = [None] * len(group)
     live = np.flatnonzero(good)
     fingers = [unpacked[group[b][0]][2] for b in live.tolist()]
-    breaks = patch_input.find_breaks_many(N[live], fingers, kws[0]["break_angle"])
+    breaks = patch_input.find_breaks(N[live], fingers, kws[0]["break_angle"])
     for b, brk in zip(live.tolist(), breaks, strict=True):
         lines = unpacked[group[b][0]][3]
         opts = dict(patch_input.options(kws[b], lines), names=patch_input.row_names(lines))

@@ -103,7 +103,7 @@ def _breaks(groups, opts):
     """[bool] per ``Contacts`` group: whether ``analyze_sweep`` would cut it (its normals
     break, §6.2.5, or a zero normal makes it refuse, as ``analyze_one`` then says), for the
     groups of one size at once: ``patch_frame.unit_normals`` and
-    ``patch_input.find_breaks_many`` on their stack."""
+    ``patch_input.find_breaks`` on their stack."""
     angle = opts.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     out = [False] * len(groups)
     sizes = {}
@@ -122,7 +122,7 @@ def _breaks(groups, opts):
         N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
         N = N / np.linalg.norm(N, axis=-1)[..., None]
         live = [i for (i, _), keep in zip(same, ok.tolist(), strict=True) if keep]
-        found = patch_input.find_breaks_many(N, [groups[i].finger for i in live], angle)
+        found = patch_input.find_breaks(N, [groups[i].finger for i in live], angle)
         for i, _ in same:
             out[i] = True
         for i, brk in zip(live, found, strict=True):
@@ -134,7 +134,7 @@ def _breaks_one(group, angle):
     """``_breaks`` of one group (normals of another shape than (n, 3))."""
     try:
         nrm = patch_frame.unit_normals(np.asarray(group.normals, float))
-        return bool(patch_input.find_breaks(nrm, group.finger, angle))
+        return bool(patch_input.find_breaks(nrm[None], [group.finger], angle)[0])
     except (DataError, InputError):
         return True  # ``analyze_one`` gives the refusal as ``analyze_sweep`` does
 
