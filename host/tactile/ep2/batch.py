@@ -20,6 +20,7 @@ from tactile.ep2 import (
     extent,
     jet_answers,
     local_jet,
+    patch_frame,
     patch_input,
     patch_result,
 )
@@ -193,11 +194,8 @@ def _prepare_group(group, unpacked, kws):
     noise = np.array([np.nan if kw["noise_pos"] is None else kw["noise_pos"] for kw in kws])
     top = patch_input.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
     good &= np.isnan(noise) | ((noise >= 0.0) & (noise <= top))
-    big = np.max(np.abs(N), axis=-1)  # ``patch_frame.unit_normals``
-    good &= np.all(big > 0, axis=-1)
-    big = np.where(good[:, None], big, 1.0)
-    N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
-    N = N / np.where(good[:, None], np.linalg.norm(N, axis=-1), 1.0)[..., None]
+    N, ok = patch_frame.unit_rows(N)
+    good &= np.all(ok, axis=-1)
     good &= ~_has_duplicates(P, N)
     middle = 0.5 * lo + 0.5 * hi  # ``extent.centred``
     P = P - middle[:, None, :]

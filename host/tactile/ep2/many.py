@@ -115,12 +115,9 @@ def _breaks(groups, opts):
             else:
                 sizes.setdefault(len(nrm), []).append((i, nrm))
     for same in sizes.values():
-        N = np.stack([nrm for _, nrm in same])
-        big = np.max(np.abs(N), axis=-1) if N.size else np.zeros(N.shape[:2])
-        ok = np.all(big > 0, axis=-1)  # else ``unit_normals`` refuses: a zero normal
-        N, big = N[ok], big[ok]
-        N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
-        N = N / np.linalg.norm(N, axis=-1)[..., None]
+        N, ok = patch_frame.unit_rows(np.stack([nrm for _, nrm in same]))
+        ok = np.all(ok, axis=-1)  # else ``unit_normals`` refuses: a zero normal
+        N = N[ok]
         live = [i for (i, _), keep in zip(same, ok.tolist(), strict=True) if keep]
         found = patch_input.find_breaks(N, [groups[i].finger for i in live], angle)
         for i, _ in same:
