@@ -22,7 +22,6 @@ from tactile.ep2 import (
     local_jet,
     patch_frame,
     patch_input,
-    patch_result,
 )
 from tactile.errors import DataError, InputError
 
@@ -126,7 +125,7 @@ def _chunk(patches, kw):
         outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):
             if not isinstance(res, DataError):
-                res = patch_result.from_fields(
+                res = api.from_fields(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
             results[j] = res

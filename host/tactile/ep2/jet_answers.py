@@ -6,7 +6,7 @@ direction undetermined, named in world coordinates: a 95 % half-width over
 ``MAX_HALF_WIDTH`` / L.  The bias left widens the intervals; it refuses nothing.
 Otherwise: the headline curvature, intervals and label at the patch centre
 (``centre_result.summary``), the thesis's grid
-statistics (§4.8.2, ``centre_result.statistics``) and the fields ``patch_result.from_fields`` takes.
+statistics (§4.8.2, ``centre_result.statistics``) and the fields ``api.from_fields`` takes.
 """
 
 import math

@@ -90,9 +90,7 @@ def prepare(points, normals, finger, lines, kw):
     )  # fmt: skip
     rows = np.arange(len(pts))
     pts, nrm, finger, lines, rows, dropped = _drop_duplicates(pts, nrm, finger, lines, rows)
-    pts, middle = extent.centred(
-        pts
-    )  # the frame's origin moves back in ``patch_result.from_fields``
+    pts, middle = extent.centred(pts)  # the frame's origin moves back in ``api.from_fields``
     (breaks,) = find_breaks(nrm[None], [finger], kw["break_angle"])
     check_order(method, order)
     opts = options(kw, lines)
