@@ -85,19 +85,8 @@ DEFERRED = {
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },
-    "host/tactile/ep1/from_ft.py": {
-        "read_probe_log: tactile.files.csv_dialect": LIFT_RECORDING,
-        "read_probe_log: tactile": LIFT,
-        "read_probe_log: tactile.files.tabular": LIFT,
-        "read_probe_log: tactile.recording.log_clock": LIFT,
-        "_derive: tactile.localize.contact": LIFT,
-        "_derive: tactile.localize.sphere": LIFT,
-    },
-    "host/tactile/ep1/probes_csv.py": {
-        "read_probes: tactile": LIFT,
-        "read_probes: tactile.files.tabular": LIFT,
-        "format_probes: tactile": LIFT,
-    },
+    "host/tactile/ep1/from_ft.py": {},
+    "host/tactile/ep1/probes_csv.py": {},
     "host/tactile/ep2/api.py": {
         "analyze_patch: tactile.ep2": SPLINE_SCIPY,
     },
