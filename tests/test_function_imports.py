@@ -90,17 +90,8 @@ DEFERRED = {
     "host/tactile/ep2/api.py": {
         "analyze_patch: tactile.ep2": SPLINE_SCIPY,
     },
-    "host/tactile/ep2/many.py": {
-        "analyze_one: tactile.ep2.api": LIFT_EP2,
-        "analyze_chunk: tactile.ep2.batch": LIFT_EP2,
-        "_parts: tactile.ep2.api": LIFT_EP2,
-        "_breaks: tactile.ep2": LIFT_EP2,
-        "_breaks_one: tactile.ep2": LIFT_EP2,
-    },
-    "host/tactile/ep2/uncertainty.py": {
-        "tensor_and_jacobian: tactile.ep2.surface_geometry": CYCLE_EP2,
-        "intervals_many: tactile.ep2.shape_index": CYCLE_EP2,
-    },
+    "host/tactile/ep2/many.py": {},
+    "host/tactile/ep2/uncertainty.py": {},
     "host/tactile/localize/pose_log.py": {
         "_scan: tactile.files.csv_dialect": LIFT_RECORDING,
         "read_pose_log: tactile.files.tabular": LIFT,
