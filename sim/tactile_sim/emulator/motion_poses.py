@@ -11,7 +11,7 @@ sensor (``orientation.rpy_matrix``).  Hold i lasts from i (hold + move) to that 
 whole microseconds, so the pose log's windows and the load agree; the scene ends with the last
 hold.
 
-The robot's log (``write_pose_log``): the sensor-pose format of ``tactile.recording.robot_log``,
+The robot's log (``write_pose_log``): the sensor-pose format of ``tactile.logs.robot_log``,
 one window per hold and sensor (``finger`` = the board's sensor index), each sensor at the
 world's origin, turned; ``# sensor:`` states the sensor's noise and ``# end:`` the last hold's
 end, where ``tactile record`` stops.
@@ -22,7 +22,7 @@ Keys (types, ranges and defaults in ``scene_schema.MOTION["poses"]``): ``orienta
 
 import numpy as np
 
-from tactile.recording.robot_log import write_log
+from tactile.logs.robot_log import write_log
 from tactile_sim.emulator.orientation import Track, quaternion, rpy_matrix, turn
 
 
@@ -64,7 +64,7 @@ class PosesMotion:
         ]
 
     def write_pose_log(self, path):
-        """The robot's pose log (``tactile.recording.robot_log``): the holds, the sensor's
+        """The robot's pose log (``tactile.logs.robot_log``): the holds, the sensor's
         noise and the scene's end."""
         end_us = int(self.windows_us[-1, 1])
         write_log(path, "pose", self.poses(), sensor=self.noise, end_us=end_us)

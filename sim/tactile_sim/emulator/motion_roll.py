@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from tactile.recording.robot_log import ATTITUDE, write_log
+from tactile.logs.robot_log import ATTITUDE, write_log
 from tactile_sim.emulator.orientation import Track, quaternion
 
 HOLD_FRACTION = 0.8  # the central part of each hold that the log offers for reading
@@ -93,7 +93,7 @@ class RollMotion:
         return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
 
     def write_probe_log(self, path):
-        """The robot's probe log (``tactile.recording.robot_log``; ``tactile.ep1.from_ft`` reads
+        """The robot's probe log (``tactile.logs.robot_log``; ``tactile.ep1.from_ft`` reads
         it): the
         fingertip, the readable half width of a hold and the scene's end in comments."""
         g = self.geometry
