@@ -21,20 +21,26 @@ the last; between stations the load moves linearly from one station's to the nex
 and after the sweep the finger is off (zero load), so the firmware's gate emits one contact
 (BEGIN, IN..., END) per finger.  Noise belongs to the sensor model, so nothing here is random.
 
-The hand keeps its orientation: the fingers point down (-z of the object frame), finger k
-turned about its own pole by ``roll_deg[k]``; ``tilt_deg`` turns object and hand about the
-world x axis, so the world is not the patch frame.  ``poses()`` gives, per finger and
-station, the window in which the pose is held and the sensor's pose in the world: the pose
-is exactly constant within each window (the moves happen between windows, in ``settle_s``),
-so the pose log is exact, not an approximation.  Frames sampled during a move fall outside
-every window and the host drops them.  The log also states the sensor's noise (``[sensor]``
-of the scene, as a datasheet would), by which the host drops the frames of the load ramps
-whose normals the noise swamps (``tactile.localize.posed.normal_sd``).
+With ``wrist = "fixed"`` the hand keeps its orientation: the fingers point down (-z of the
+object frame), finger k turned about its own pole by ``roll_deg[k]``.  With ``wrist =
+"normal"`` the hand turns as a 6-axis arm does, so that at each station the pole points into
+the surface along -n (the shortest turn from -z, then ``roll_deg[k]`` about the pole; the
+contact is then at the pole): the turn between stations happens in ``settle_s``, along the
+shortest arc (``orientation.turn``), and ``orientation_at`` follows it.  ``tilt_deg`` turns
+object and hand about the world x axis, so the world is not the patch frame.
+
+``poses()`` gives, per finger and station, the window in which the pose is held and the
+sensor's pose in the world: the pose is exactly constant within each window (the moves
+happen between windows, in ``settle_s``), so the pose log is exact, not an approximation.
+Frames sampled during a move fall outside every window and the host drops them.  The log
+also states the sensor's noise (``[sensor]`` of the scene, as a datasheet would), by which
+the host drops the frames of the load ramps whose normals the noise swamps
+(``tactile.localize.posed.normal_sd``).
 
 Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``): ``object``
 (``objects.KINDS``), ``radius_m``, ``rotation_deg``, ``tilt_deg``, ``fingers``, ``spacing_m``,
 ``length_m``, ``samples``, ``speed_mps``, ``settle_s``, ``fingertip_radius_m``,
-``sensor_offset_m``, ``normal_force_N``, ``mu``, ``ramp_s``, ``rest_s``, ``roll_deg``.
+``sensor_offset_m``, ``normal_force_N``, ``mu``, ``ramp_s``, ``rest_s``, ``roll_deg``, ``wrist``.
 """
 
 import numpy as np
