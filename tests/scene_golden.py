@@ -52,7 +52,17 @@ def gauges_digest(scene):
     return _sha(np.array(rows, "<f8").tobytes())
 
 
-def log_digest(scene):
+def strip_columns(text, names):
+    """A CSV's text without the columns ``names`` (after its ``#`` lines)."""
+    lines = text.splitlines(keepends=True)
+    head = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    keep = [i for i, c in enumerate(lines[head].rstrip("\n").split(",")) if c not in names]
+    rows = [",".join(line.rstrip("\n").split(",")[i] for i in keep) + "\n" for line in lines[head:]]
+    return "".join(lines[:head] + rows)
+
+
+def log_digest(scene, strip=()):
+    """The robot log's digest, the columns ``strip`` names taken out (a format's new ones)."""
     motion = EmulatedBoard(scene, boot_id=BOOT_ID, core="python").motion
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
@@ -60,14 +70,14 @@ def log_digest(scene):
     with tempfile.TemporaryDirectory() as tmp:
         path = pathlib.Path(tmp) / "log.csv"
         write(path)
-        return _sha(path.read_bytes())
+        return _sha(strip_columns(path.read_text(), strip).encode())
 
 
-def digests(name):
+def digests(name, strip=()):
     scene = load_scene(SCENE_DIR / f"{name}.toml")
     frames, n = frames_digest(scene)
     return {"frames": frames, "frame_bytes": n, "gauges": gauges_digest(scene),
-            "log": log_digest(scene)}  # fmt: skip
+            "log": log_digest(scene, strip)}  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -4,9 +4,10 @@ Every motion kind answers ``orientation_at(t_s, sensor)`` with R, the 3x3 rotati
 sensor-frame vectors to the world (world from sensor), the frame the robot's pose log is
 written in.  A motion that turns keeps a ``Track``: unit quaternions (scalar first, as the
 pose log writes them) at knot times, held before the first and after the last, linearly
-interpolated and normalised in between (nlerp; the knots of a turn are ``TURN_KNOTS`` apart
-along it, so nlerp is within 1e-4 rad of the exact slerp).  ``turn`` gives the knots of the
-shortest arc from one orientation to another with the (1 - cos)/2 profile the roll uses.
+interpolated and normalised in between (nlerp).  ``turn`` gives ``TURN_KNOTS`` + 1 knots of
+the shortest arc from one orientation to another with the (1 - cos)/2 profile the roll uses;
+between them the track is within 2 mrad of the exact turn for a half turn (the worst case,
+``tests/test_emulator_gravity.py``), and exact wherever the hand holds still.
 
 Conventions (docs/emulator.md): ``rpy_matrix(roll, pitch, yaw)`` = Rz(yaw) Ry(pitch) Rx(roll),
 turned about world x, then y, then z.
