@@ -1,11 +1,13 @@
 """Digests of what the shipped scenes produce, to hold them bit for bit across model changes.
 
-Per scene (MicroPython core, a fixed boot id): the bytes the board sends in the first
-``SECONDS`` of simulated time with a host reading (HELLO, then frames), the six gauge counts of
-every sensor at ``GAUGE_TIMES`` instants across the motion, and the robot log the scene
-writes, if any.  ``python tests/scene_golden.py`` prints them as JSON
-(``tests/data/scene_golden.json`` was computed on the code before the tool's weight and the
-gauges' drift were modelled).
+Per scene (MicroPython core, a fixed boot id and board id): the bytes the board sends in the
+first ``SECONDS`` of simulated time with a host reading (HELLO, then frames), the six gauge
+counts of every sensor at ``GAUGE_TIMES`` instants across the motion, and the robot log the
+scene writes, if any.  ``python tests/scene_golden.py`` prints them as JSON;
+``tests/data/scene_golden.json`` holds them as computed on main (a tree of ``git archive
+main`` with its source folders on PYTHONPATH), the code without the tool's weight and the
+gauges' drift.  A change on main to what the firmware sends (a new HELLO field) means
+recomputing them there.
 """
 
 import hashlib
@@ -22,7 +24,7 @@ from tactile_sim.emulator.scene import SCENE_DIR
 
 SECONDS = 4.0
 GAUGE_TIMES = 400
-BOOT_ID = 0x1234ABCD
+BOOT_ID, BOARD_ID = 0x1234ABCD, b"GOLDEN38"
 GOLDEN = pathlib.Path(__file__).with_name("data") / "scene_golden.json"
 # the scenes on the code before the weight and the drift (the newer ones have no past)
 SCENES = ("ch5_concave", "ch5_convex", "ch5_plane", "ep1_roll", "ep2_sweep_saddle",
@@ -34,7 +36,7 @@ def _sha(data):
 
 
 def frames_digest(scene):
-    board = EmulatedBoard(scene, boot_id=BOOT_ID, core="python")
+    board = EmulatedBoard(scene, boot_id=BOOT_ID, core="python", board_id=BOARD_ID)
     board.host_opened()
     out = bytearray()
     end = round(SECONDS * 1e6)
@@ -45,7 +47,7 @@ def frames_digest(scene):
 
 
 def gauges_digest(scene):
-    board = EmulatedBoard(scene, boot_id=BOOT_ID, core="python")
+    board = EmulatedBoard(scene, boot_id=BOOT_ID, core="python", board_id=BOARD_ID)
     span = getattr(board.motion, "duration_s", 0.0) or 5.0
     times = np.linspace(0, round(span * 1e6), GAUGE_TIMES).astype(np.int64)
     rows = [m.gauges(int(t)).copy() for t in times for m in board.models]
@@ -63,7 +65,7 @@ def strip_columns(text, names):
 
 def log_digest(scene, strip=()):
     """The robot log's digest, the columns ``strip`` names taken out (a format's new ones)."""
-    motion = EmulatedBoard(scene, boot_id=BOOT_ID, core="python").motion
+    motion = EmulatedBoard(scene, boot_id=BOOT_ID, core="python", board_id=BOARD_ID).motion
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
         return None
