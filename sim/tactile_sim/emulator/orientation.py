@@ -39,6 +39,17 @@ def matrix(q):
     return Rotation.from_quat(np.roll(q, -1, axis=-1)).as_matrix()
 
 
+def _matrix(w, x, y, z):
+    """The rotation (3, 3) of one quaternion, normalised here (plain arithmetic: the track is
+    asked once per conversion instant)."""
+    n = 2.0 / (w * w + x * x + y * y + z * z)
+    return np.array([
+        [1.0 - n * (y * y + z * z), n * (x * y - w * z), n * (x * z + w * y)],
+        [n * (x * y + w * z), 1.0 - n * (x * x + z * z), n * (y * z - w * x)],
+        [n * (x * z - w * y), n * (y * z + w * x), 1.0 - n * (x * x + y * y)],
+    ])  # fmt: skip
+
+
 def shortest_turn(a, b):
     """The rotation (3, 3) by the smallest angle that takes unit vector ``a`` onto ``b``."""
     a, b = np.asarray(a, float), np.asarray(b, float)
@@ -87,8 +98,7 @@ class Track:
         f = (t_s - t[j]) / (t[j + 1] - t[j])
         if f <= 0.0:
             return self.R[j]
-        q = (1.0 - f) * self.q[j] + f * self.q[j + 1]
-        return matrix(q / np.linalg.norm(q))
+        return _matrix(*((1.0 - f) * self.q[j] + f * self.q[j + 1]).tolist())
 
     def quaternion_at(self, t_s):
         """(qw, qx, qy, qz) at ``t_s``, qw >= 0."""

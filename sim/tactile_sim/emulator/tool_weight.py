@@ -32,8 +32,9 @@ class ToolWeight:
 
     def wrench(self, R):
         """(6,) F, T in the sensor frame at orientation R (3, 3), world from sensor."""
-        F = self.mass * (self.gravity @ R)  # R^T g
-        return np.concatenate([F, np.cross(self.com, F)])
+        fx, fy, fz = (self.mass * (self.gravity @ R)).tolist()  # m R^T g
+        cx, cy, cz = self.com.tolist()
+        return np.array([fx, fy, fz, cy * fz - cz * fy, cz * fx - cx * fz, cx * fy - cy * fx])
 
     def loaded(self, motion, sensor):
         """The wrench on ``sensor`` at t_s: the motion's contact load plus the tool's weight
