@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2 import centre_result, jet_answers, local_jet, patch_frame, patch_input
+from tactile.ep2 import centre_result, edges, jet_answers, local_jet, patch_frame, patch_input
 from tactile.ep2.centre_result import hk_eps
 from tactile.ep2.patch_input import JetOptions, SplineOptions
 from tactile.ep2.surface_geometry import hk_labels
@@ -57,6 +57,7 @@ def analyze_patch(
     """
     kw = patch_input.keywords(method, jet, spline, maps, **options)
     prep = patch_input.prepare(points, normals, finger, lines, kw)
+    edges.check(prep)
     pts, nrm, opts = prep.points, prep.normals, prep.opts
     if method == "spline":
         from tactile.ep2 import spline_analysis  # (start-up: scipy only for the spline)

@@ -17,6 +17,7 @@ import numpy as np
 
 from tactile.ep2 import (
     api,
+    edges,
     extent,
     jet_answers,
     local_jet,
@@ -106,7 +107,9 @@ def _chunk(patches, kw):
     quick = _prepare_stacked(unpacked, kws)
     for j, (item, kw_j) in enumerate(zip(unpacked, kws, strict=True)):
         try:
-            prepared.append((j, quick[j] or patch_input.prepare(*item, kw_j)))
+            prep = quick[j] or patch_input.prepare(*item, kw_j)
+            edges.check(prep)
+            prepared.append((j, prep))
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:

@@ -1,0 +1,181 @@
+"""Edges and creases: a patch whose contacts lie on two faces is refused, naming the edge.
+
+A smooth surface's normals vary smoothly over the patch; two faces meeting at an edge give
+normals that jump.  ``find`` compares, along the direction in which the normals turn most
+(``a``, along which two faces' normals differ), two models of the normals' tangential components:
+
+- a step: one constant normal either side of a cut across ``a`` (two faces);
+- a smooth field: a quadratic in the patch coordinates (any 2-jet surface, and more).
+
+Where the step's residual is under 1/9 of the smooth field's (``STEP_RATIO``), each side
+holds at least ``MIN_SIDE`` contacts and the normals turn at least ``MIN_TURN_DEG`` (and
+by over ``MIN_Z`` standard errors), the patch straddles an edge.  Each face is a plane
+through its contacts' centroid with its mean normal; the edge is the planes' intersection
+(the point nearest the contacts' middle, its direction), the dihedral angle between the
+faces is 180 deg less the normals' turn, with a 95 % interval from the normals' scatter
+about each face's mean (Student t).  A ridge's faces fall away from the edge, a valley's
+rise.
+
+``check`` raises ``EdgeError`` (a ``DataError``, exit 3) for such a patch, naming the edge's
+location, direction and dihedral angle; and where more than two normals disagree with the
+rest (beyond ``max_normal_angle``) but no edge explains them, it refuses the patch as a bad
+patch: the normal screen leaves out at most two contacts.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tactile.errors import DataError
+
+STEP_RATIO = 1 / 9
+MIN_SIDE = 3
+MIN_POINTS = 8
+MIN_TURN_DEG = 15.0  # a turn below this is left to the smooth fit
+MAX_TURN_DEG = 165.0  # faces this close to back to back: flipped normals, not an edge
+MIN_Z = 6.0
+MAX_LEFT_OUT = 2  # the normal screen's most (docs/ep2.md)
+
+
+@dataclass
+class Edge:
+    """An edge between two faces; lengths in the input unit, directions unit vectors."""
+
+    kind: str  # "ridge" or "valley"
+    point: np.ndarray  # (3,) on the edge, nearest the contacts' middle
+    direction: np.ndarray  # (3,)
+    dihedral_deg: float
+    dihedral_interval: tuple  # 95 % (deg)
+    sides: tuple  # (rows of face 1, rows of face 2), indices into the patch's rows
+    normals: tuple  # each face's mean normal
+
+    def describe(self, unit=""):
+        p = ", ".join(f"{v:.4g}" for v in self.point)
+        d = ", ".join(f"{v:.3f}" for v in self.direction)
+        lo, hi = self.dihedral_interval
+        u = f" {unit}" if unit else ""
+        return (
+            f"the patch straddles an edge (a {self.kind}) at ({p}){u} along ({d}), dihedral"
+            f" {self.dihedral_deg:.1f} deg (95 %: {lo:.1f}-{hi:.1f} deg), faces of"
+            f" {len(self.sides[0])} and {len(self.sides[1])} contacts: fit each face alone"
+        )
+
+
+class EdgeError(DataError):
+    """The patch straddles an edge; ``edge`` holds it."""
+
+    def __init__(self, edge):
+        self.edge = edge
+        super().__init__(edge.describe())
+
+
+def _t975(dof):
+    """Student t's 97.5 % quantile (Cornish-Fisher, within 1 % for dof >= 3)."""
+    z = 1.959964
+    dof = max(dof, 1)
+    return z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
+
+
+def _basis(m):
+    """Two unit vectors across the unit vector m."""
+    ref = np.array([1.0, 0.0, 0.0]) if abs(m[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t1 = np.cross(m, ref)
+    t1 /= np.linalg.norm(t1)
+    return np.stack([t1, np.cross(m, t1)], axis=1)
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+def _best_cut(x, g):
+    """(order, k, rss): the cut of the rows sorted by x into [:k], [k:] whose two means
+    leave the least squared residual of g (n, d)."""
+    order = np.argsort(x)
+    gs = g[order]
+    n = len(x)
+    c1 = np.cumsum(gs, axis=0)
+    c2 = np.cumsum(np.sum(gs**2, axis=1))
+    k = np.arange(1, n)
+    left = c2[:-1] - np.sum(c1[:-1] ** 2, axis=1) / k
+    right = (c2[-1] - c2[:-1]) - np.sum((c1[-1] - c1[:-1]) ** 2, axis=1) / (n - k)
+    rss = left + right
+    ok = (k >= MIN_SIDE) & (n - k >= MIN_SIDE)
+    if not ok.any():
+        return order, None, np.inf
+    rss = np.where(ok, rss, np.inf)
+    j = int(np.argmin(rss))
+    return order, int(k[j]), float(rss[j])
+
+
+def _smooth_rss(pts, g, T):
+    xy = pts @ T
+    xy = (xy - xy.mean(axis=0)) / max(np.ptp(xy), 1e-300)
+    x, y = xy.T
+    A = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+    coef, *_ = np.linalg.lstsq(A, g, rcond=None)
+    return float(np.sum((g - A @ coef) ** 2))
+
+
+def find(points, normals, noise_normal=None):
+    """The ``Edge`` the contacts straddle, or None (module docstring).  points (n, 3),
+    normals (n, 3) unit; ``noise_normal`` the stated normal sigma (rad), if any."""
+    pts, nrm = np.asarray(points, float), np.asarray(normals, float)
+    n = len(pts)
+    if n < MIN_POINTS:
+        return None
+    T = _basis(_unit(nrm.sum(axis=0)) if np.linalg.norm(nrm.sum(axis=0)) > 1e-9 else nrm[0])
+    a = np.linalg.eigh(np.cov(nrm.T))[1][:, -1]  # the normals vary most along a
+    order, k, rss_step = _best_cut(pts @ a, nrm)
+    if k is None or rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
+        return None
+    sides = (np.sort(order[:k]), np.sort(order[k:]))
+    n1, n2 = (_unit(nrm[s].mean(axis=0)) for s in sides)
+    turn = float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
+    if not MIN_TURN_DEG <= turn <= MAX_TURN_DEG:
+        return None
+    dof = 2 * n - 4
+    s2 = rss_step / dof
+    if noise_normal is not None:
+        s2 = max(s2, noise_normal**2)
+    se = np.degrees(np.sqrt(s2 * (1 / k + 1 / (n - k))))
+    if turn < MIN_Z * se:
+        return None
+    return _edge(pts, sides, n1, n2, turn, _t975(dof) * se)
+
+
+def _edge(pts, sides, n1, n2, turn, half):
+    c1, c2 = (pts[s].mean(axis=0) for s in sides)
+    direction = _unit(np.cross(n1, n2))
+    A = np.stack([n1, n2])
+    mid = pts.mean(axis=0)
+    b = np.array([n1 @ c1, n2 @ c2])
+    point = mid + A.T @ np.linalg.solve(A @ A.T, b - A @ mid)
+    kind = "ridge" if (c1 - c2) @ (n2 - n1) < 0 else "valley"
+    dihedral = 180.0 - turn
+    lo, hi = max(dihedral - half, 0.0), min(dihedral + half, 180.0)
+    return Edge(kind, point, direction, dihedral, (lo, hi), sides, (n1, n2))
+
+
+def check(prep):
+    """Raise ``EdgeError`` for a prepared patch (``patch_input.Prepared``) that straddles an
+    edge, ``DataError`` where over ``MAX_LEFT_OUT`` normals disagree with the rest and no
+    edge explains them.  The edge's point is in the input frame."""
+    opts = prep.opts
+    edge = find(prep.points, prep.normals, opts.get("noise_normal"))
+    if edge is not None:
+        edge.point = edge.point + prep.middle
+        raise EdgeError(edge)
+    nrm = prep.normals
+    total = nrm.sum(axis=0)
+    medoid = nrm[int(np.argmax(nrm @ total))]
+    far = np.flatnonzero(nrm @ medoid < np.cos(np.radians(opts["max_normal_angle"])))
+    if len(far) > MAX_LEFT_OUT:
+        names = opts.get("names")
+        rows = ", ".join(names[i] if names is not None else f"contact {i}" for i in far[:6])
+        more = " ..." if len(far) > 6 else ""
+        raise DataError(
+            f"a bad patch: {len(far)} normals ({rows}{more}) are over"
+            f" {opts['max_normal_angle']:g} deg off the others' and no edge explains them"
+            " (flipped normals?)"
+        )
