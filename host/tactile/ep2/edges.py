@@ -2,14 +2,16 @@
 
 A smooth surface's normals vary smoothly over the patch; two faces meeting at an edge give
 normals that jump.  ``find`` compares, along the direction in which the normals turn most
-(``a``, along which two faces' normals differ), two models of the normals' tangential components:
+(``a``, along which two faces' normals differ), two models of the normals:
 
-- a step: one constant normal either side of a cut across ``a`` (two faces);
+- a step: two constant normals, the contacts cut in two by their normals along ``a``;
 - a smooth field: a quadratic in the patch coordinates (any 2-jet surface, and more).
 
-Where the step's residual is under 1/9 of the smooth field's (``STEP_RATIO``), each side
-holds at least ``MIN_SIDE`` contacts and the normals turn at least ``MIN_TURN_DEG`` (and
-by over ``MIN_Z`` standard errors), the patch straddles an edge.  Each face is a plane
+Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``), each side
+holds at least ``MIN_SIDE`` contacts spread across the edge (over ``MIN_DEPTH`` of the
+patch: two lines along a tight cylinder look like two faces), the normals turn at least
+``MIN_TURN_DEG`` (by over ``MIN_Z`` standard errors) and at least ``MIN_APART`` of the
+contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a plane
 through its contacts' centroid with its mean normal; the edge is the planes' intersection
 (the point nearest the contacts' middle, its direction), the dihedral angle between the
 faces is 180 deg less the normals' turn, with a 95 % interval from the normals' scatter
@@ -28,12 +30,14 @@ import numpy as np
 
 from tactile.errors import DataError
 
-STEP_RATIO = 1 / 9
+STEP_RATIO = 1 / 5
 MIN_SIDE = 3
 MIN_POINTS = 8
 MIN_TURN_DEG = 15.0  # a turn below this is left to the smooth fit
 MAX_TURN_DEG = 165.0  # faces this close to back to back: flipped normals, not an edge
 MIN_Z = 6.0
+MIN_APART = 0.8  # share of contacts on their face's side of the edge
+MIN_DEPTH = 0.05  # each face's contacts span this share of the patch across the edge
 MAX_LEFT_OUT = 2  # the normal screen's most (docs/ep2.md)
 
 
@@ -126,10 +130,13 @@ def find(points, normals, noise_normal=None):
         return None
     T = _basis(_unit(nrm.sum(axis=0)) if np.linalg.norm(nrm.sum(axis=0)) > 1e-9 else nrm[0])
     a = np.linalg.eigh(np.cov(nrm.T))[1][:, -1]  # the normals vary most along a
-    order, k, rss_step = _best_cut(pts @ a, nrm)
+    order, k, rss_step = _best_cut(nrm @ a, nrm)
     if k is None or rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
         return None
     sides = (np.sort(order[:k]), np.sort(order[k:]))
+    x = pts @ a
+    if min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
+        return None  # a face seen along one line: as much a strongly bent curve
     n1, n2 = (_unit(nrm[s].mean(axis=0)) for s in sides)
     turn = float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
     if not MIN_TURN_DEG <= turn <= MAX_TURN_DEG:
@@ -141,7 +148,11 @@ def find(points, normals, noise_normal=None):
     se = np.degrees(np.sqrt(s2 * (1 / k + 1 / (n - k))))
     if turn < MIN_Z * se:
         return None
-    return _edge(pts, sides, n1, n2, turn, _t975(dof) * se)
+    edge = _edge(pts, sides, n1, n2, turn, _t975(dof) * se)
+    across = (pts - edge.point) @ (n2 - n1)
+    apart = np.mean(np.concatenate([across[sides[0]] < 0, across[sides[1]] > 0]))
+    apart = max(apart, 1.0 - apart)  # a ridge's faces lie one way of n2 - n1, a valley's the other
+    return edge if apart >= MIN_APART else None  # else the faces interleave: no edge
 
 
 def _edge(pts, sides, n1, n2, turn, half):
