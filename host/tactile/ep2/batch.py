@@ -23,6 +23,7 @@ from tactile.ep2 import (
     local_jet,
     patch_frame,
     patch_input,
+    tilt,
 )
 from tactile.errors import DataError, InputError
 
@@ -101,7 +102,7 @@ def _chunk(patches, kw):
     maps = kw.pop("maps")
     if kw["method"] == "spline":
         return [_one(p, dict(_own(p, kw), maps=maps)) for p in patches]
-    prepared, results = [], [None] * len(patches)
+    prepared, results, tilted = [], [None] * len(patches), {}
     unpacked = [_unpack(p) for p in patches]
     kws = [_own(p, kw) for p in patches]
     quick = _prepare_stacked(unpacked, kws)
@@ -109,6 +110,7 @@ def _chunk(patches, kw):
         try:
             prep = quick[j] or patch_input.prepare(*item, kw_j)
             edges.check(prep)
+            prep, tilted[j] = tilt.untilt(prep)
             prepared.append((j, prep))
         except (DataError, InputError) as exc:
             results[j] = exc
@@ -131,6 +133,7 @@ def _chunk(patches, kw):
                 res = api.from_fields(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
+                res.warnings[:0] = [tilted[j]] if tilted[j] else []
             results[j] = res
     return results
 
