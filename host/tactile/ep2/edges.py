@@ -38,6 +38,7 @@ MAX_TURN_DEG = 165.0  # faces this close to back to back: flipped normals, not a
 MIN_Z = 6.0
 MIN_APART = 0.8  # share of contacts on their face's side of the edge
 MIN_DEPTH = 0.05  # each face's contacts span this share of the patch across the edge
+HALF_FLOOR_DEG = 1e-6  # noise-free faces: the interval holds the round-off
 MAX_LEFT_OUT = 2  # the normal screen's most (docs/ep2.md)
 
 
@@ -142,13 +143,13 @@ def find(points, normals, noise_normal=None):
     if not MIN_TURN_DEG <= turn <= MAX_TURN_DEG:
         return None
     dof = 2 * n - 4
-    s2 = rss_step / dof
+    s2 = max(rss_step, 0.0) / dof  # (a cumulative sum's round-off can go below 0)
     if noise_normal is not None:
         s2 = max(s2, noise_normal**2)
     se = np.degrees(np.sqrt(s2 * (1 / k + 1 / (n - k))))
     if turn < MIN_Z * se:
         return None
-    edge = _edge(pts, sides, n1, n2, turn, _t975(dof) * se)
+    edge = _edge(pts, sides, n1, n2, turn, max(_t975(dof) * se, HALF_FLOOR_DEG))
     across = (pts - edge.point) @ (n2 - n1)
     apart = np.mean(np.concatenate([across[sides[0]] < 0, across[sides[1]] > 0]))
     apart = max(apart, 1.0 - apart)  # a ridge's faces lie one way of n2 - n1, a valley's the other
@@ -177,16 +178,20 @@ def check(prep):
     if edge is not None:
         edge.point = edge.point + prep.middle
         raise EdgeError(edge)
-    nrm = prep.normals
-    total = nrm.sum(axis=0)
-    medoid = nrm[int(np.argmax(nrm @ total))]
-    far = np.flatnonzero(nrm @ medoid < np.cos(np.radians(opts["max_normal_angle"])))
+    nrm, limit = prep.normals, opts["max_normal_angle"]
+    cosmax = np.cos(np.radians(limit))
+    seed = nrm[int(np.argmax(nrm @ nrm.sum(axis=0)))]  # the medoid, as the screen's
+    mean = _unit(nrm[nrm @ seed > cosmax].sum(axis=0))
+    cos = nrm @ mean
+    far = np.flatnonzero(cos <= cosmax)
     if len(far) > MAX_LEFT_OUT:
         names = opts.get("names")
-        rows = ", ".join(names[i] if names is not None else f"contact {i}" for i in far[:6])
-        more = " ..." if len(far) > 6 else ""
+        rows = ", ".join(names[i] if names is not None else f"contact {i}" for i in far[:4])
+        more = f" and {len(far) - 4} more" if len(far) > 4 else ""
+        deg = np.degrees(np.arccos(np.clip(cos[far], -1.0, 1.0)))
         raise DataError(
-            f"a bad patch: {len(far)} normals ({rows}{more}) are over"
-            f" {opts['max_normal_angle']:g} deg off the others' and no edge explains them"
-            " (flipped normals?)"
+            f"a bad patch: {len(far)} normals ({rows}{more}) are {deg.min():.0f}-{deg.max():.0f}"
+            f" deg from their neighbours' (limit {limit:g} deg, --max-normal-angle; at most"
+            f" {MAX_LEFT_OUT} are left out) and no edge explains them: flipped normals, or a"
+            " surface bent beyond one fit (take a smaller patch)"
         )

@@ -9,7 +9,7 @@ second derivatives the curvature, which a constant tilt does not move.  Rows are
 by each kind's noise: stated, or the residual scatter of the heights' own quadratic and of
 the slopes' own plane.  The constants' covariance is the fit's at chi^2/dof (at least 1).
 
-Where the tilt is over ``MIN_DEG`` and over ``MIN_Z`` of its standard error, ``untilt``
+Where the tilt is ``MIN_DEG``-``MAX_DEG`` and over ``MIN_Z`` of its standard error, ``untilt``
 turns the normals back by it and names it in a warning, ``normals tilted 3.1 deg +/- 0.4
 from the positions: a mis-tared or weighted sensor?``; the curvature is then fitted from
 the corrected normals and the positions, instead of the patch being refused as "positions
@@ -23,6 +23,7 @@ import numpy as np
 
 MIN_POINTS = 10
 MIN_DEG = 1.0
+MAX_DEG = 10.0  # beyond this it is no sensor's tare: the normals are another surface's
 MIN_Z = 5.0
 NOISE_FLOOR = 1e-6  # of the patch size and rad: no noise is taken as zero
 
@@ -99,7 +100,7 @@ def untilt(prep):
     u = b / size
     se = float(np.sqrt(max(u @ cov @ u, 0.0)))
     deg = np.degrees(np.arctan(size))
-    if deg < MIN_DEG or size < MIN_Z * se:
+    if not MIN_DEG <= deg <= MAX_DEG or size < MIN_Z * se:
         return prep, None
     nl = prep.normals @ R.T
     s = np.column_stack([-nl[:, 0] / nl[:, 2] - b[0], -nl[:, 1] / nl[:, 2] - b[1]])
