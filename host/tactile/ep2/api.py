@@ -74,6 +74,7 @@ def analyze_patch(
         out = spline_analysis.analyze(pts, nrm, opts)
     else:
         out = _analyze_jet(pts, nrm, opts)
+    edges.check_plane(prep, out["shape"])
     res = from_fields(out, len(pts), method, maps, prep.breaks, prep.dropped, prep.middle)
     res.warnings[:0] = [tilted] if tilted else []
     return res

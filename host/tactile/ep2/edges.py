@@ -34,6 +34,7 @@ STEP_RATIO = 1 / 5
 MIN_SIDE = 3
 MIN_POINTS = 8
 MIN_TURN_DEG = 15.0  # a turn below this is left to the smooth fit
+GATE_DEG = 7.0  # two faces MIN_TURN_DEG apart put a normal at least half of it off the mean
 MAX_TURN_DEG = 165.0  # faces this close to back to back: flipped normals, not an edge
 MIN_Z = 6.0
 MIN_APART = 0.8  # share of contacts on their face's side of the edge
@@ -122,21 +123,26 @@ def _smooth_rss(pts, g, T):
     return float(np.sum((g - A @ coef) ** 2))
 
 
-def find(points, normals, noise_normal=None):
+def find(points, normals, noise_normal=None, strict=True):
     """The ``Edge`` the contacts straddle, or None (module docstring).  points (n, 3),
-    normals (n, 3) unit; ``noise_normal`` the stated normal sigma (rad), if any."""
+    normals (n, 3) unit; ``noise_normal`` the stated normal sigma (rad), if any.  With
+    ``strict`` False the step need not beat the smooth field, nor each face span the patch:
+    for a patch whose fit says ``plane`` while its normals turn (``check_plane``)."""
     pts, nrm = np.asarray(points, float), np.asarray(normals, float)
     n = len(pts)
     if n < MIN_POINTS:
         return None
-    T = _basis(_unit(nrm.sum(axis=0)) if np.linalg.norm(nrm.sum(axis=0)) > 1e-9 else nrm[0])
+    total = nrm.sum(axis=0)
+    if np.min(nrm @ total) > np.cos(np.radians(GATE_DEG)) * np.linalg.norm(total):
+        return None  # every normal within GATE_DEG of the mean: no turn of MIN_TURN_DEG
+    T = _basis(_unit(total) if np.linalg.norm(total) > 1e-9 else nrm[0])
     a = np.linalg.eigh(np.cov(nrm.T))[1][:, -1]  # the normals vary most along a
     order, k, rss_step = _best_cut(nrm @ a, nrm)
-    if k is None or rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
+    if k is None or strict and rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
         return None
     sides = (np.sort(order[:k]), np.sort(order[k:]))
     x = pts @ a
-    if min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
+    if strict and min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
         return None  # a face seen along one line: as much a strongly bent curve
     n1, n2 = (_unit(nrm[s].mean(axis=0)) for s in sides)
     turn = float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
@@ -195,3 +201,15 @@ def check(prep):
             f" {MAX_LEFT_OUT} are left out) and no edge explains them: flipped normals, or a"
             " surface bent beyond one fit (take a smaller patch)"
         )
+
+
+def check_plane(prep, shape):
+    """Raise ``EdgeError`` where the fit says ``plane`` but the normals fall in two groups
+    turned by over ``MIN_TURN_DEG`` (no plane has that): an edge seen along lines that a
+    bent surface would fit as well (two lines along it), named all the same."""
+    if shape != "plane":
+        return
+    edge = find(prep.points, prep.normals, prep.opts.get("noise_normal"), strict=False)
+    if edge is not None:
+        edge.point = edge.point + prep.middle
+        raise EdgeError(edge)

@@ -7,7 +7,9 @@ lengths in units of the patch), one quadratic to the heights and its gradient pl
 constants (``bx``, ``by``) to the slopes: the constants are the tilt, the quadratic's
 second derivatives the curvature, which a constant tilt does not move.  Rows are weighted
 by each kind's noise: stated, or the residual scatter of the heights' own quadratic and of
-the slopes' own plane.  The constants' covariance is the fit's at chi^2/dof (at least 1).
+the slopes' own plane.  The constants' covariance is the fit's at chi^2/dof (at least
+1); a chi^2/dof over ``MAX_CHI2`` means a tilt does not explain what the positions and
+normals disagree on.
 
 Where the tilt is ``MIN_DEG``-``MAX_DEG`` and over ``MIN_Z`` of its standard error, ``untilt``
 turns the normals back by it and names it in a warning, ``normals tilted 3.1 deg +/- 0.4
@@ -25,6 +27,7 @@ MIN_POINTS = 10
 MIN_DEG = 1.0
 MAX_DEG = 10.0  # beyond this it is no sensor's tare: the normals are another surface's
 MIN_Z = 5.0
+MAX_CHI2 = 4.0  # per spare row, with each kind's own noise: the tilt must explain the rest
 NOISE_FLOOR = 1e-6  # of the patch size and rad: no noise is taken as zero
 
 
@@ -68,9 +71,11 @@ def estimate(points, normals, noise_pos=None, noise_normal=None):
         return None  # a normal near the tangent plane: slopes are not the right rows
     sx, sy = -nl[:, 0] / nl[:, 2], -nl[:, 1] / nl[:, 2]
     H, Sx, Sy = _rows(x, y)
-    if np.linalg.matrix_rank(H[:, :6]) < 6:
+    coef, _, rank, _ = np.linalg.lstsq(H[:, :6], z, rcond=None)
+    if rank < 6:
         return None
-    sp = noise_pos / L if noise_pos is not None else _rms(H[:, :6], z, n - 6)
+    sp = noise_pos / L if noise_pos is not None else np.sqrt(np.sum((H[:, :6] @ coef - z) ** 2)
+                                                             / (n - 6))  # fmt: skip
     Pn = np.column_stack([np.ones_like(x), x, y])
     sn = (
         noise_normal
@@ -82,7 +87,9 @@ def estimate(points, normals, noise_pos=None, noise_normal=None):
     b = np.concatenate([z / sp, sx / sn, sy / sn])
     coef, *_ = np.linalg.lstsq(A, b, rcond=None)
     chi2 = np.sum((A @ coef - b) ** 2) / max(3 * n - 8, 1)
-    cov = np.linalg.pinv(A.T @ A) * max(chi2, 1.0)
+    cov = np.linalg.inv(A.T @ A) * max(chi2, 1.0)  # full rank: the heights' quadratic is
+    if chi2 > MAX_CHI2:
+        return None  # a tilt does not explain the disagreement (a crease, another surface)
     return coef[6:], cov[6:, 6:], R
 
 
