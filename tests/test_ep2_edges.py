@@ -102,3 +102,12 @@ def test_edge_cases_are_seeded_and_split():
     h = edge_cases.make("holdout", "ridge", 4)
     assert not np.allclose(a["points"][:3], h["points"][:3])
     assert 30 <= a["truth"]["dihedral_deg"] <= 150
+
+
+def test_a_batch_names_the_tilt_and_the_edge_as_one_patch_alone():
+    tilted = edge_cases.make("bench", "tilt", 1)
+    crease = edge_cases.make("bench", "ridge", 0)
+    alone = analyze_patch(tilted["points"], tilted["normals"], finger=tilted["finger"])
+    batch = analyze_patches([tilted, crease])
+    assert batch[0].warnings == alone.warnings and batch[0].k1 == pytest.approx(alone.k1)
+    assert isinstance(batch[1], EdgeError) and batch[1].edge.kind == "ridge"

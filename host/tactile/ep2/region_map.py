@@ -9,8 +9,10 @@ regions separated by edges and curvature jumps, and each region is described:
 3. **Local shape.**  Each contact's neighbourhood (itself and its neighbours) is fitted by
    ``analyze_patches``: a local S, k1, k2 and label (neighbourhoods that straddle an edge
    or are refused have none).
-4. **Curvature jumps.**  A link between two contacts whose local labels differ (a plane
-   beside a cylinder, a cylinder beside a sphere) is cut too.
+4. **Curvature jumps.**  A contact whose neighbourhood is ``uncertain`` or not fitted (it
+   straddles a join) takes its labelled neighbours' most common label; then a link between
+   two contacts whose labels differ (a plane beside a cylinder, a cylinder beside a sphere)
+   is cut too.
 5. **Regions** are the connected contacts; regions under ``min_region`` contacts join the
    neighbouring region they share most links with.
 6. **Each region** is described by its contacts' local fits: the label most of them carry,
@@ -135,12 +137,28 @@ def map_contacts(points, normals, finger=None, *, neighbours_k=NEIGHBOURS,
     links = np.column_stack([np.repeat(np.arange(len(pts)), nb.shape[1]), nb.ravel()])
     crease = np.sum(nrm[links[:, 0]] * nrm[links[:, 1]], axis=1) < np.cos(np.radians(edge_angle))
     local = _local(pts, nrm, nb, kw)
-    label = np.array([None if isinstance(r, Exception) else r.shape for r in local], object)
+    label = _settled([None if isinstance(r, Exception) else r.shape for r in local], nb)
     jump = np.array([label[a] is not None and label[b] is not None and label[a] != label[b]
                      for a, b in links])  # fmt: skip
     region = _components(len(pts), links[~crease & ~jump])
     region = _merge_small(region, links, min_region)
     return _describe(pts, nrm, region, links, local, kw)
+
+
+def _settled(labels, nb, passes=4):
+    """Labels with ``uncertain`` and unfitted neighbourhoods (they straddle a join) given
+    the most common label of their labelled neighbours, a few passes over."""
+    label = np.array([None if v == "uncertain" else v for v in labels], object)
+    for _ in range(passes):
+        todo = [i for i in range(len(label)) if label[i] is None]
+        if not todo:
+            break
+        new = label.copy()
+        for i in todo:
+            votes = Counter(v for v in label[nb[i]] if v is not None)
+            new[i] = votes.most_common(1)[0][0] if votes else None
+        label = new
+    return label
 
 
 def _merge_small(region, links, min_region):
