@@ -108,6 +108,8 @@ def test_a_batch_names_the_tilt_and_the_edge_as_one_patch_alone():
     tilted = edge_cases.make("bench", "tilt", 1)
     crease = edge_cases.make("bench", "ridge", 0)
     alone = analyze_patch(tilted["points"], tilted["normals"], finger=tilted["finger"])
-    batch = analyze_patches([tilted, crease])
+    batch = analyze_patches(
+        [{k: d[k] for k in ("points", "normals", "finger")} for d in (tilted, crease)]
+    )
     assert batch[0].warnings == alone.warnings and batch[0].k1 == pytest.approx(alone.k1)
     assert isinstance(batch[1], EdgeError) and batch[1].edge.kind == "ridge"
