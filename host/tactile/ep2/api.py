@@ -74,7 +74,9 @@ def analyze_patch(
         out = spline_analysis.analyze(pts, nrm, opts)
     else:
         out = _analyze_jet(pts, nrm, opts)
-    edges.check_plane(prep, out["shape"])
+    edges.check_answer(prep, out)
+    if isinstance(out, DataError):
+        raise out
     res = from_fields(out, len(pts), method, maps, prep.breaks, prep.dropped, prep.middle)
     res.warnings[:0] = [tilted] if tilted else []
     return res
@@ -91,9 +93,7 @@ def _analyze_jet(pts, nrm, opts):
         opts["max_normal_angle"],
     )
     (out,) = jet_answers.outcomes(stack, opts, [opts["names"]])
-    if isinstance(out, DataError):
-        raise out
-    return out
+    return out  # or the DataError refusing it
 
 
 def analyze_sweep(points, normals, finger=None, split=False, **kw):

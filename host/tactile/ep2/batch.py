@@ -129,12 +129,11 @@ def _chunk(patches, kw):
         lines = [prep.opts["names"] for _, prep in prepared]
         outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):
+            try:
+                edges.check_answer(prep, res)
+            except DataError as exc:
+                res = exc
             if not isinstance(res, DataError):
-                try:
-                    edges.check_plane(prep, res["shape"])
-                except DataError as exc:
-                    results[j] = exc
-                    continue
                 res = api.from_fields(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )

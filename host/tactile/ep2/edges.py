@@ -37,6 +37,7 @@ MIN_TURN_DEG = 15.0  # a turn below this is left to the smooth fit
 GATE_DEG = 7.0  # two faces MIN_TURN_DEG apart put a normal at least half of it off the mean
 MAX_TURN_DEG = 165.0  # faces this close to back to back: flipped normals, not an edge
 MIN_Z = 6.0
+LOOSE_SCATTER = 8.0  # without the smooth field's test, the turn is 8 x a contact's scatter
 MIN_APART = 0.8  # share of contacts on their face's side of the edge
 MIN_DEPTH = 0.05  # each face's contacts span this share of the patch across the edge
 HALF_FLOOR_DEG = 1e-6  # noise-free faces: the interval holds the round-off
@@ -54,7 +55,7 @@ class Edge:
     dihedral_interval: tuple  # 95 % (deg)
     sides: tuple  # (rows of face 1, rows of face 2), indices into the patch's rows
     normals: tuple  # each face's mean normal
-    ambiguous: bool = False  # a bent surface fits the contacts as well (``check_plane``)
+    ambiguous: bool = False  # a bent surface fits the contacts as well (``check_answer``)
 
     def describe(self, unit=""):
         p = ", ".join(f"{v:.4g}" for v in self.point)
@@ -130,7 +131,7 @@ def find(points, normals, noise_normal=None, strict=True):
     """The ``Edge`` the contacts straddle, or None (module docstring).  points (n, 3),
     normals (n, 3) unit; ``noise_normal`` the stated normal sigma (rad), if any.  With
     ``strict`` False the step need not beat the smooth field, nor each face span the patch:
-    for a patch whose fit says ``plane`` while its normals turn (``check_plane``)."""
+    for a patch whose fit says ``plane`` while its normals turn (``check_answer``)."""
     pts, nrm = np.asarray(points, float), np.asarray(normals, float)
     n = len(pts)
     if n < MIN_POINTS:
@@ -156,8 +157,8 @@ def find(points, normals, noise_normal=None, strict=True):
     if noise_normal is not None:
         s2 = max(s2, noise_normal**2)
     se = np.degrees(np.sqrt(s2 * (1 / k + 1 / (n - k))))
-    if turn < MIN_Z * se:
-        return None
+    if turn < MIN_Z * se or not strict and turn < LOOSE_SCATTER * np.degrees(np.sqrt(s2)):
+        return None  # (loose: each face's normals must scatter as noise does, not as lines)
     edge = _edge(pts, sides, n1, n2, turn, max(_t975(dof) * se, HALF_FLOOR_DEG))
     across = (pts - edge.point) @ (n2 - n1)
     apart = np.mean(np.concatenate([across[sides[0]] < 0, across[sides[1]] > 0]))
@@ -194,6 +195,7 @@ def check(prep):
     cos = nrm @ mean
     far = np.flatnonzero(cos <= cosmax)
     if len(far) > MAX_LEFT_OUT:
+        _ambiguous(prep)  # two groups of normals: an edge along the lines, said as such
         names = opts.get("names")
         rows = ", ".join(names[i] if names is not None else f"contact {i}" for i in far[:4])
         more = f" and {len(far) - 4} more" if len(far) > 4 else ""
@@ -206,14 +208,22 @@ def check(prep):
         )
 
 
-def check_plane(prep, shape):
-    """Raise ``EdgeError`` where the fit says ``plane`` but the normals fall in two groups
+def check_answer(prep, out):
+    """Raise ``EdgeError`` where the fit says ``plane``, or refuses the patch as "positions
+    and normals disagree" (``out`` a ``DataError``), but the normals fall in two groups
     turned by over ``MIN_TURN_DEG`` (no plane has that): an edge seen along lines that a
     bent surface would fit as well (two lines along it), named as the edge it may be, and
     the message says the other reading.  (Of 4,400 smooth held-out patches, 11 answered
     ``plane`` on a strongly bent surface's parallel lines are refused so.)"""
-    if shape != "plane":
+    if isinstance(out, DataError):
+        if not str(out).startswith("positions and normals disagree"):
+            return
+    elif out["shape"] != "plane":
         return
+    _ambiguous(prep)
+
+
+def _ambiguous(prep):
     edge = find(prep.points, prep.normals, prep.opts.get("noise_normal"), strict=False)
     if edge is not None:
         edge.point = edge.point + prep.middle
