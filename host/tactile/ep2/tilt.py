@@ -15,8 +15,8 @@ Where the tilt is ``MIN_DEG``-``MAX_DEG`` and over ``MIN_Z`` of its standard err
 turns the normals back by it and names it in a warning, ``normals tilted 3.1 deg +/- 0.4
 from the positions: a mis-tared or weighted sensor?``; the curvature is then fitted from
 the corrected normals and the positions, instead of the patch being refused as "positions
-and normals disagree".  Patches of fewer than ``MIN_POINTS`` contacts, or whose contacts
-are too few across some direction to fit the heights' quadratic, are left as they are.
+and normals disagree".  Patches of fewer than ``MIN_POINTS`` contacts, or whose heights
+and slopes together cannot tell a tilt from the surface's own slope, are left as they are.
 """
 
 from dataclasses import replace
@@ -26,7 +26,7 @@ import numpy as np
 MIN_POINTS = 10
 MIN_DEG = 1.0
 MAX_DEG = 10.0  # beyond this it is no sensor's tare: the normals are another surface's
-MIN_Z = 5.0
+MIN_Z = 4.0
 MAX_CHI2 = 4.0  # per spare row, with each kind's own noise: the tilt must explain the rest
 NOISE_FLOOR = 1e-6  # of the patch size and rad: no noise is taken as zero
 
@@ -72,10 +72,8 @@ def estimate(points, normals, noise_pos=None, noise_normal=None):
     sx, sy = -nl[:, 0] / nl[:, 2], -nl[:, 1] / nl[:, 2]
     H, Sx, Sy = _rows(x, y)
     coef, _, rank, _ = np.linalg.lstsq(H[:, :6], z, rcond=None)
-    if rank < 6:
-        return None
     sp = noise_pos / L if noise_pos is not None else np.sqrt(np.sum((H[:, :6] @ coef - z) ** 2)
-                                                             / (n - 6))  # fmt: skip
+                                                             / (n - rank))  # fmt: skip
     Pn = np.column_stack([np.ones_like(x), x, y])
     sn = (
         noise_normal
@@ -85,7 +83,9 @@ def estimate(points, normals, noise_pos=None, noise_normal=None):
     sp, sn = max(sp, NOISE_FLOOR), max(sn, NOISE_FLOOR)
     A = np.vstack([H / sp, Sx / sn, Sy / sn])
     b = np.concatenate([z / sp, sx / sn, sy / sn])
-    coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+    coef, _, rank, _ = np.linalg.lstsq(A, b, rcond=None)
+    if rank < 8:
+        return None  # the tilt cannot be told from the surface's own slope
     chi2 = np.sum((A @ coef - b) ** 2) / max(3 * n - 8, 1)
     cov = np.linalg.inv(A.T @ A) * max(chi2, 1.0)  # full rank: the heights' quadratic is
     if chi2 > MAX_CHI2:
