@@ -5,6 +5,7 @@ import json
 import numpy as np
 
 from tactile.ep2.region_map import map_contacts
+from tactile_sim.ep2 import map_objects
 
 
 def _box_corner(seed=0, n=8):
@@ -88,3 +89,13 @@ def test_cli_map_refuses_bad_options_in_one_line(tmp_path, cli):
     path.write_text("x,y,z,nx,ny,nz\n" + rows + "\n", encoding="utf-8")
     code, out, err = cli("ep2", "map", path, "--neighbours", "2")
     assert code == 2 and "--neighbours" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_four_map_objects_get_their_regions_and_labels():
+    """A box corner, a capped cylinder, a rounded cube edge and a saddle (bench/ep2_map.py
+    runs the noisy trials and the edges' placement)."""
+    for name in map_objects.NAMES:
+        d = map_objects.make(name)
+        found = map_contacts(d["points"], d["normals"])
+        assert sorted(r.shape for r in found.regions) == sorted(r["shape"] for r in d["regions"])
+        assert sorted(e.kind for e in found.edges) == sorted(e["kind"] for e in d["edges"])

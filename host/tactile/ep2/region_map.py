@@ -215,8 +215,19 @@ def _edge(pts, nrm, region, links, pair, kw):
     mid = pts[near].mean(axis=0)
     e = edges.find(pts[near] - mid, nrm[near], kw.get("noise_normal"))
     if e is None:
-        return RegionEdge(pair, "curvature jump", [float(v) for v in pts[rows].mean(axis=0)],
-                          None, 180.0, None)  # fmt: skip
+        return _jump(pair, pts, links[cross])
     return RegionEdge(pair, e.kind, [float(v) for v in e.point + mid],
                       [float(v) for v in e.direction], float(e.dihedral_deg),
                       tuple(float(v) for v in e.dihedral_interval))  # fmt: skip
+
+
+def _jump(pair, pts, crossing):
+    """A curvature jump: the crossing links' midpoint nearest their mean, and the line
+    the midpoints run along (their principal axis)."""
+    mids = 0.5 * (pts[crossing[:, 0]] + pts[crossing[:, 1]])
+    centre = mids.mean(axis=0)
+    point = mids[int(np.argmin(np.sum((mids - centre) ** 2, axis=1)))]
+    direction = None
+    if len(mids) > 1 and np.ptp(mids, axis=0).max() > 0:
+        direction = [float(v) for v in np.linalg.svd(mids - centre)[2][0]]
+    return RegionEdge(pair, "curvature jump", [float(v) for v in point], direction, 180.0, None)
