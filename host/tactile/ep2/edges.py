@@ -161,8 +161,12 @@ def find(points, normals, noise_normal=None, strict=True):
         return None  # (loose: each face's normals must scatter as noise does, not as lines)
     edge = _edge(pts, sides, n1, n2, turn, max(_t975(dof) * se, HALF_FLOOR_DEG))
     across = (pts - edge.point) @ (n2 - n1)
-    apart = np.mean(np.concatenate([across[sides[0]] < 0, across[sides[1]] > 0]))
-    apart = max(apart, 1.0 - apart)  # a ridge's faces lie one way of n2 - n1, a valley's the other
+    eps = 1e-9 * np.ptp(pts)  # a contact on the edge itself lies on both faces
+    a0, a1 = across[sides[0]], across[sides[1]]
+    apart = max(  # a ridge's faces lie one way of n2 - n1, a valley's the other
+        np.mean(np.concatenate([a0 <= eps, a1 >= -eps])),
+        np.mean(np.concatenate([a0 >= -eps, a1 <= eps])),
+    )
     return edge if apart >= MIN_APART else None  # else the faces interleave: no edge
 
 
