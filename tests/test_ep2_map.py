@@ -5,6 +5,7 @@ import json
 import numpy as np
 
 from tactile.ep2.region_map import map_contacts
+from tactile_sim.commands.sim_ep2 import MAP_OBJECTS
 from tactile_sim.ep2 import map_objects
 
 
@@ -99,3 +100,14 @@ def test_the_four_map_objects_get_their_regions_and_labels():
         found = map_contacts(d["points"], d["normals"])
         assert sorted(r.shape for r in found.regions) == sorted(r["shape"] for r in d["regions"])
         assert sorted(e.kind for e in found.edges) == sorted(e["kind"] for e in d["edges"])
+
+
+def test_sim_writes_a_map_object_that_ep2_map_reads(tmp_path, cli):
+    assert [n.replace("saddle_map", "saddle") for n in MAP_OBJECTS] == list(map_objects.NAMES)
+    path = tmp_path / "corner.csv"
+    code, out, err = cli("sim", "ep2", "--object", "box_corner", "--noise-pos", "0.005", "-o", path)
+    assert code == 0, err
+    code, out, err = cli("ep2", "map", path, "--json")
+    rec = json.loads(out)
+    assert code == 0 and [r["shape"] for r in rec["regions"]] == ["plane"] * 3
+    assert rec["units"]["length"] == "cm" and len(rec["edges"]) == 3
