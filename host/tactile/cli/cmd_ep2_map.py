@@ -14,6 +14,7 @@ from tactile.ep2.contacts_csv import read_contacts
 from tactile.ep2.region_map import EDGE_ANGLE_DEG, NEIGHBOURS, map_contacts
 from tactile.errors import InputError
 from tactile.output.jsonout import dumps
+from tactile.output.textout import printable
 
 
 def add_arguments(subs):
@@ -99,13 +100,13 @@ def _heads(unit):
 
 def _csv(rec, unit):
     regions, edges = _heads(unit)
-    print(",".join(regions))
+    print(printable(",".join(regions)))
     for row in _region_rows(rec):
-        print(",".join(str(v) for v in row))
+        print(printable(",".join(str(v) for v in row)))
     print("# edges")
-    print(",".join(edges))
+    print(printable(",".join(edges)))
     for row in _edge_rows(rec):
-        print(",".join(str(v) for v in row))
+        print(printable(",".join(str(v) for v in row)))
 
 
 def _table(rec, unit):
@@ -114,7 +115,7 @@ def _table(rec, unit):
         cells = [head] + [[str(v) for v in r] for r in rows]
         width = [max(len(c[i]) for c in cells) for i in range(len(head))]
         for c in cells:
-            print("  ".join(v.rjust(w) for v, w in zip(c, width)).rstrip())
+            print(printable("  ".join(v.rjust(w) for v, w in zip(c, width)).rstrip()))
         print()
     adj = "; ".join(f"{k}: {', '.join(map(str, v)) or '-'}" for k, v in rec["adjacency"].items())
-    print(f"adjacent regions: {adj}")
+    print(printable(f"adjacent regions: {adj}"))
