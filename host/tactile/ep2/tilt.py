@@ -87,7 +87,10 @@ def estimate(points, normals, noise_pos=None, noise_normal=None):
     if rank < 8:
         return None  # the tilt cannot be told from the surface's own slope
     chi2 = np.sum((A @ coef - b) ** 2) / max(3 * n - 8, 1)
-    cov = np.linalg.inv(A.T @ A) * max(chi2, 1.0)  # full rank: the heights' quadratic is
+    try:  # (near a line: huge, so no tilt is named)
+        cov = np.linalg.inv(A.T @ A) * max(chi2, 1.0)
+    except np.linalg.LinAlgError:
+        return None  # on one line: the tilt across it is not determined
     if chi2 > MAX_CHI2:
         return None  # a tilt does not explain the disagreement (a crease, another surface)
     return coef[6:], cov[6:, 6:], R
