@@ -8,7 +8,7 @@ lost in the gap are counted from the sequence numbers.  A board that
 rebooted (the decoder sees a new boot id) is counted in ``reboots``, not as
 lost frames, and TAREd again.  Ctrl-C ends the recording
 normally.  Port and clock are injectable for tests.  ``on_frames(session, msgs, host_times)``
-sees every batch once it is written (``tactile.output.foxglove_live`` serves it live).
+sees every batch once it is written (``tactile.foxglove.live`` serves it live).
 
 A run that fails before the board sent a byte (no such port, nothing answering) is undone
 (``Recording.discard``): no meta.json, no file of it left.
@@ -224,7 +224,7 @@ class Session:
         """What the run waits for, in words (None: a duration, a count or Ctrl-C)."""
         if self.until is None:
             return None
-        from tactile.recording.log_clock import show_time
+        from tactile.logs.clock import show_time
 
         clock, end, _ = self.until
         left = self.until_left_s()
