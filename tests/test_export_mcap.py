@@ -11,7 +11,7 @@ import pytest
 from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, variant
 
 import tactile
-from tactile.recording.scene import normal_quaternions
+from tactile.foxglove.scene import normal_quaternions
 
 
 def _rows(recorded_msgs, host=None):
@@ -68,9 +68,9 @@ def test_a_wrenchstamped_per_frame_on_a_topic_per_sensor_in_board_time(
         mine = [m for m in recorded_msgs if m.sensor == s]
         got = topics[f"/tactile/sensor{s}/wrench"]
         assert len(got) == len(mine) > 400
-        for m, (schema, log_ns, seq, w) in zip(mine, got):
+        for m, (schema, log_ns, _, w) in zip(mine, got):
             assert schema == "geometry_msgs/msg/WrenchStamped"
-            assert w.header.frame_id == f"tactile_sensor{s}" and seq == m.seq
+            assert w.header.frame_id == f"tactile_sensor{s}"
             assert _stamp_ns(w.header) == log_ns == m.timestamp_us * 1000  # no wrap here
             assert _vector(w.wrench.force) == [m.fx / 1e6, m.fy / 1e6, m.fz / 1e6]  # N
             assert _vector(w.wrench.torque) == [m.tx / 1e6, m.ty / 1e6, m.tz / 1e6]  # N*m
@@ -169,8 +169,7 @@ def test_help_shows_the_defaults(capsys):
 def test_without_the_extra_the_command_says_how_to_install_it(
     recorded_run, tmp_path, cli, monkeypatch
 ):
-    for name in ("mcap_ros2", "mcap_ros2.writer"):
-        monkeypatch.setitem(sys.modules, name, None)  # import -> ImportError
+    monkeypatch.setitem(sys.modules, "foxglove", None)  # import -> ImportError: the writer
     code, out, err = cli("export", recorded_run, "-o", tmp_path / "x.mcap")
     assert code == 2 and out == ""
     assert err == "tactile export: error: MCAP export needs the 'export' extra:" \
@@ -187,10 +186,10 @@ def test_other_commands_and_the_loader_do_not_import_mcap(recorded_run):
         "from tactile.cli.main import main\n"
         f"main(['decode', {str(recorded_run / 'capture.bin')!r}])\n"
         f"tactile.load_recording({str(recorded_run)!r})\n"
-        "print('mcap' in sys.modules, 'mcap_ros2' in sys.modules)\n"
+        "print('mcap' in sys.modules, 'mcap_ros2' in sys.modules, 'foxglove' in sys.modules)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert done.stdout.splitlines()[-1] == "False False"
+    assert done.stdout.splitlines()[-1] == "False False False"
 
 
 def test_normal_quaternions_turn_x_onto_any_normal():
@@ -204,8 +203,8 @@ def test_normal_quaternions_turn_x_onto_any_normal():
 
 def test_each_frame_has_its_contact_state_beside_its_wrench(recorded_run, tmp_path, cli):
     """``/tactile/sensorN/contact``: the live server's JSON schema
-    (``tactile.recording.topics``), one
-    message per frame at the wrench's stamp, with the gate's thresholds in N."""
+    (``tactile.foxglove.topics``), one message per frame at the wrench's stamp, with the
+    frame's sequence number and the gate's thresholds in N."""
     assert cli("export", recorded_run, "-o", tmp_path / "s.mcap")[0] == 0
     _, topics = read_mcap(tmp_path / "s.mcap")
     rec = tactile.load_recording(recorded_run)
@@ -215,9 +214,9 @@ def test_each_frame_has_its_contact_state_beside_its_wrench(recorded_run, tmp_pa
         states = topics[f"/tactile/sensor{s}/contact"]
         wrenches = topics[f"/tactile/sensor{s}/wrench"]
         assert len(states) == len(wrenches) == len(rows)
-        for i, (schema, log_ns, seq, c), w in zip(rows, states, wrenches):
-            assert schema == "tactile/ContactState" and (log_ns, seq) == w[1:3]
-            assert c["seq"] == seq == rec.seq[i] and c["sensor"] == s
+        for i, (schema, log_ns, _, c), w in zip(rows, states, wrenches):
+            assert schema == "tactile/ContactState" and log_ns == w[1]
+            assert c["seq"] == rec.seq[i] and c["sensor"] == s
             assert c["timestamp"]["sec"] * 10**9 + c["timestamp"]["nsec"] == log_ns
             assert c["frame"] == ("contact" if rec.is_contact[i] else "sample")
             if rec.is_contact[i]:
