@@ -48,6 +48,7 @@ from tactile import units
 from tactile.board.settings import wrench_si
 from tactile.errors import HostFileError, InputError
 from tactile.files import atomic, bounded, folder_lock
+from tactile.files.tabular import read_csv
 from tactile.output.jsonout import clean, dumps
 from tactile.recording.meta import count_rows, document, previous_sessions
 from tactile_protocol import constants as C
@@ -383,8 +384,6 @@ def read_frames(path, end=None):
     """frames.csv as a ``tabular.Table`` (``FRAME_NUMBERS``, ``FRAME_BLANKS`` as NaN where
     empty, ``type`` as text), after checking that a ``# units:`` line names SI units;
     ``end``: only its first ``end`` bytes."""
-    from tactile.files.tabular import read_csv
-
     units.check_stated(path, units.FRAME_WORDS, "frames.csv holds N, N*m, us and s (SI)")
     return read_csv(
         path,

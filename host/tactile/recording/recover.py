@@ -26,7 +26,9 @@ import pathlib
 import stat
 from array import array
 
+from tactile import units
 from tactile.board.settings import wrench_si
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import InputError
 from tactile.files.tabular import Table
 from tactile.recording.files import (
@@ -141,8 +143,6 @@ def complete_frames(run):
         return 0
     text = "".join(_frame_row(m) for m in extra)
     if not frames.exists() or frames.stat().st_size == 0:
-        from tactile import units
-
         text = units.line(units.FRAMES) + FRAME_COLUMNS + "\n" + text
     with open(frames, "a", encoding="utf-8") as fh:
         _put(fh, text, frames)
@@ -177,8 +177,6 @@ def beyond(path, meta, table):
 
 def readings(path, meta):
     """Yield the SAMPLE and CONTACT messages of capture.bin, decoded session by session."""
-    from tactile.board.stream_decoder import StreamDecoder
-
     size = _capture_size(path)
     if not size:
         return
