@@ -273,6 +273,8 @@ COLS = "probe,t_start_us,t_end_us,dtheta_x,dtheta_y"
         (["\ufeff" + HEAD, COLS, "0,1,2,0.5,0", "1,2,3,x,0"], 4, "dtheta_x"),  # Excel's BOM
         ([HEAD, "# hold: half_width_us=abc", COLS, "0,1,2,0.5,0"], 2, "half_width_us"),
         ([HEAD, COLS, "0,5,2,0.5,0"], 3, "t_end_us"),
+        ([HEAD + " axis=0,0,1", COLS, "0,1,2,0.5,0"], 1, "pole on the sensor's +x"),
+        ([HEAD + " sphere=1", COLS, "0,1,2,0.5,0"], 1, "unknown field 'sphere=1'"),
     ],
 )
 def test_bad_probe_logs_give_one_line_with_file_and_line(tmp_path, lines, line, needle):

@@ -225,3 +225,64 @@ def test_each_frame_has_its_contact_state_beside_its_wrench(recorded_run, tmp_pa
             assert c["exit_threshold_N"] == device["exit_threshold_N"]
             assert c["gate"] == device["gate"] and c["debounce_readings"] == device["debounce"]
         assert any(c[3]["in_contact"] for c in states)
+
+
+@pytest.mark.parametrize("sensor", [0, 7, 10, 123, 99_999])  # frame ids of 15 to 19 bytes
+@pytest.mark.parametrize("ns", [0, 1_763_900_000_123_456_789, 2**31 * 10**9 - 1])
+def test_the_wrench_is_the_cdr_ros2_decodes(sensor, ns):
+    """``wrench_cdr`` against ``mcap_ros2``'s public decoder: the padding before the float64s
+    follows the frame id's length, every value comes back to the last bit."""
+    from mcap.records import Schema
+    from mcap_ros2.decoder import DecoderFactory
+
+    from tactile.foxglove.topics import WRENCH_STAMPED, WRENCH_STAMPED_DEF, wrench_cdr
+
+    schema = Schema(id=1, data=WRENCH_STAMPED_DEF.encode(), encoding="ros2msg", name=WRENCH_STAMPED)
+    decode = DecoderFactory().decoder_for("cdr", schema)
+    w = [1.5, -2.25, 1e-300, -0.0, 3.0e7, np.nextafter(1.0, 2.0)]  # N, N*m
+    msg = decode(wrench_cdr(sensor, ns, w))
+    assert msg.header.frame_id == f"tactile_sensor{sensor}" and _stamp_ns(msg.header) == ns
+    got = [*_vector(msg.wrench.force), *_vector(msg.wrench.torque)]
+    assert np.array_equal(np.array(got).view(np.int64), np.array(w).view(np.int64))
+
+
+def _private_modules(source):
+    """Each private module of another package that ``source`` imports or asks ``need`` for,
+    and each ``._writer`` it reaches into."""
+    import ast
+
+    names = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            names += [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Call) and getattr(node.func, "id", None) == "need":
+            names += [a.value for a in node.args if isinstance(a, ast.Constant)]
+        elif isinstance(node, ast.Attribute) and node.attr == "_writer":
+            names.append(ast.unparse(node))
+    ours = ("tactile", "tactile_protocol", "tactile_fw", "tactile_sim", "tactile_studies")
+    return [
+        n for n in names
+        if isinstance(n, str) and n.split(".")[0] not in ours
+        and any(part.startswith("_") and not part.startswith("__") for part in n.split(".")[1:])
+    ]  # fmt: skip
+
+
+def test_the_writers_use_public_apis_only():
+    """No ``mcap_ros2._dynamic``, no ``writer._writer``: the MCAP file and the live server are
+    written through foxglove-sdk's public API, the wrench encoded by ``wrench_cdr``."""
+    from conftest import ROOT
+    from import_graph import product_files
+
+    bad = {
+        str(p.relative_to(ROOT)): _private_modules(p.read_text(encoding="utf-8"))
+        for p in product_files()
+    }
+    assert not {p: names for p, names in bad.items() if names}
+    before = (  # what the export and the live server did
+        "from mcap_ros2._dynamic import serialize_dynamic\n"
+        "fox, dyn = need('foxglove', '--foxglove', 'foxglove', 'mcap_ros2._dynamic')\n"
+        "raw = writer._writer\n"
+    )
+    assert len(_private_modules(before)) == 4  # module, name, need's string, attribute

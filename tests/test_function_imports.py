@@ -39,13 +39,9 @@ LIVE_FIT = (
 )
 SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_imports.py)"
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
-CYCLE_LOCALIZE = "cycle through tactile.localize's __init__, which imports this module"
-CYCLE_RECORDING = (
-    "cycle: recover imports files (test_layers.KNOWN_CYCLES); recording is being split"
-)
 CYCLE_EMULATOR = "cycle: the cores import cores.cache_dir (test_layers.KNOWN_CYCLES)"
 RECORD_EXPORT = "to lift: cmd_record and cmd_export are being reworked against data loss"
-LIFT_RECORDING = "to lift: tactile.recording is being split"
+LIFT_SESSION = "to lift: the recorder's loop (session.py) is being reworked"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
 LIFT_EMULATOR = "to lift: the emulator's cores and servers are being redesigned"
 LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
@@ -110,11 +106,8 @@ DEFERRED = {
         "tensor_and_jacobian: tactile.ep2.surface_geometry": CYCLE_EP2,
         "intervals_many: tactile.ep2.shape_index": CYCLE_EP2,
     },
-    "host/tactile/recording/files.py": {
-        "Recording._start: tactile.recording.recover": LIFT_RECORDING,
-    },
     "host/tactile/recording/session.py": {
-        "Session.waiting_for: tactile.logs.clock": LIFT_RECORDING,
+        "Session.waiting_for: tactile.logs.clock": LIFT_SESSION,
     },
     "host/tactile/units.py": {
         "stated: tactile.files.csv_dialect": LIFT,

@@ -2,6 +2,7 @@
 the loader and the tabular export.
 
 - ``session``: ``tactile record``'s loop (reconnects, PINGs, stop conditions);
+- ``frames``: frames.csv's row, the run's file names, whole lines, the reader;
 - ``files``: capture.bin, frames.csv, device.jsonl and meta.json as they are written;
 - ``meta``, ``recover``, ``load``: meta.json, runs cut short, ``load_recording``;
 - ``timebase``, ``timefit``: board time to host time (a robot log in a host clock is joined

@@ -2,7 +2,7 @@
 
 It reads what the recorder wrote, through the modules that own each file:
 
-- ``frames.csv`` (``tactile.recording.files.read_frames``): one row per SAMPLE or CONTACT frame,
+- ``frames.csv`` (``tactile.recording.frames.read_frames``): one row per SAMPLE or CONTACT frame,
   forces in N, torques in N*m, the board's stamp in us and, from a recorder that maps the
   board's clock to the host's, the host time of each row (``host_monotonic_s``,
   ``host_utc_s``);
@@ -44,7 +44,7 @@ from tactile.ep2.contacts_csv import REQUIRED
 from tactile.errors import InputError
 from tactile.files.tabular import read_csv
 from tactile.logs.pose import log_columns
-from tactile.recording.files import META
+from tactile.recording.frames import META
 from tactile.recording.meta import sessions_of
 from tactile.recording.recover import frames_of, meta_of
 from tactile_protocol import constants as C
