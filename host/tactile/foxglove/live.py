@@ -76,6 +76,9 @@ class _Listener:
         if self.server.scene is not None:
             self.server.scene.resend(channel.topic)
 
+    def on_unsubscribe(self, client, channel):
+        """Nothing to do; the SDK calls it on every listener it is given."""
+
 
 class LiveServer:
     """The server on ``host``:``port`` (0: any free port; ``port`` says which)."""
