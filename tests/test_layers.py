@@ -244,7 +244,9 @@ def test_the_host_package_shows_its_components():
 
     top = sorted(p.name for p in LIBRARY.glob("*.py"))
     assert len(top) <= 12, top
-    for package in ("board", "recording", "files", "output", "commands"):
+    for package in ("board", "recording", "files", "output", "commands", "logs", "foxglove"):
         doc = (LIBRARY / package / "__init__.py").read_text(encoding="utf-8")
         assert doc.startswith('"""') and len(doc.splitlines()) >= 3, package
+    folders = {p.parent for p in LIBRARY.rglob("*.py")} - {LIBRARY}
+    assert all((f / "__init__.py").is_file() for f in folders), folders  # packages.find
     assert callable(tactile.load_recording) and tactile.__version__
