@@ -107,6 +107,8 @@ class LiveContacts:
 
     def _entered(self, rows, sensors, stamps):
         found = entered(rows, sensors, self.window)
+        if not found:
+            return []
         R, t = sensor_poses(self.log, [row for _, _, row in found])
         return [(s, R[k], t[k], stamps[i]) for k, (i, s, _) in enumerate(found)]
 

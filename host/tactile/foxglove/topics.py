@@ -12,11 +12,11 @@ WebSocket server (``tactile.foxglove.live``) and the MCAP file (``tactile.foxglo
   ``tactile.foxglove.scene``): the localised contacts as arrows along their normals, the
   latest EP2 patch, and each sensor's pose from the robot's pose log.
 
-``Topics`` makes each topic's channel in a foxglove-sdk context the first time it is logged,
-from the declarations here; whichever sinks listen to that context (``tactile.foxglove
-.sinks``) get the same messages.  ``wrench_cdr`` encodes a WrenchStamped: its layout is
-fixed (XCDR1, little-endian), and the one library encoder there is (``mcap_ros2``'s) is
-private; the tests decode it with ``mcap_ros2``'s public decoder.
+``Topics`` makes each topic's channel in a foxglove-sdk context the first time it is logged
+(or when ``declare``d), from the declarations here; whichever sinks listen to that context
+(``tactile.foxglove.sinks``) get the same messages.  ``wrench_cdr`` encodes a WrenchStamped:
+its layout is fixed (XCDR1, little-endian), and the one library encoder there is
+(``mcap_ros2``'s) is private; the tests decode it with ``mcap_ros2``'s public decoder.
 """
 
 import json
