@@ -41,7 +41,6 @@ SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
 CYCLE_EMULATOR = "cycle: the cores import cores.cache_dir (test_layers.KNOWN_CYCLES)"
 RECORD_EXPORT = "to lift: cmd_record and cmd_export are being reworked against data loss"
-LIFT_SESSION = "to lift: the recorder's loop (session.py) is being reworked"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
 LIFT_EMULATOR = "to lift: the emulator's cores and servers are being redesigned"
 LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
@@ -50,6 +49,7 @@ LIFT_URL = "to lift: pyserial loads this handler only to open a sim:// port"
 LIFT = "to lift"
 
 DEFERRED = {
+    "sim/tactile_sim/commands/emulate.py": {},
     "firmware/tactile_fw/frontend.py": {
         "make_sensor: tactile_fw.ads122c04": SENSOR_RAM,
     },
@@ -83,11 +83,12 @@ DEFERRED = {
         "_run: tactile.recording.session": RECORD_EXPORT,
         "_run: tactile.logs.clock (x2)": RECORD_EXPORT,
         "_run: tactile.commands.derive (x2)": RECORD_EXPORT,
-        "_run: tactile.output.textout": RECORD_EXPORT,
         "_run: tactile.errors": RECORD_EXPORT,
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },
+    "host/tactile/ep1/from_ft.py": {},
+    "host/tactile/ep1/probes_csv.py": {},
     "host/tactile/foxglove/live.py": {
         "LiveServer.__init__: tactile.foxglove.live_scene": LIVE_SCENE,
         "LiveServer._stamp: tactile.recording.timebase": LIVE_FIT,
@@ -95,20 +96,9 @@ DEFERRED = {
     "host/tactile/ep2/api.py": {
         "analyze_patch: tactile.ep2": SPLINE_SCIPY,
     },
-    "host/tactile/ep2/many.py": {
-        "analyze_one: tactile.ep2.api": LIFT_EP2,
-        "analyze_chunk: tactile.ep2.batch": LIFT_EP2,
-        "_parts: tactile.ep2.api": LIFT_EP2,
-        "_breaks: tactile.ep2": LIFT_EP2,
-        "_breaks_one: tactile.ep2": LIFT_EP2,
-    },
-    "host/tactile/ep2/uncertainty.py": {
-        "tensor_and_jacobian: tactile.ep2.surface_geometry": CYCLE_EP2,
-        "intervals_many: tactile.ep2.shape_index": CYCLE_EP2,
-    },
-    "host/tactile/recording/session.py": {
-        "Session.waiting_for: tactile.logs.clock": LIFT_SESSION,
-    },
+    "host/tactile/ep2/many.py": {},
+    "host/tactile/ep2/uncertainty.py": {},
+    "host/tactile/recording/session.py": {},
     "host/tactile/units.py": {
         "stated: tactile.files.csv_dialect": LIFT,
     },
@@ -151,6 +141,7 @@ DEFERRED = {
         "npm_prefix: tactile_sim.emulator.cores": LIFT_EMULATOR,
     },
     "sim/tactile_sim/emulator/qemu_core.py": {
+        "QemuBoard.__init__: tactile_fw.identity": LIFT,
         "QemuBoard.__init__: tactile_fw": LIFT_EMULATOR,
         "image: tactile_sim.emulator.cores": LIFT_EMULATOR,
     },

@@ -1,7 +1,9 @@
 """A recording: the session that reads a board into files, the files, their time base,
 the loader and the tabular export.
 
-- ``session``: ``tactile record``'s loop (reconnects, PINGs, stop conditions);
+- ``session``: ``tactile record``'s loop (reconnects, PINGs, stop conditions), with
+  ``board_identity`` (the same board after a reconnection), ``run_clock`` (the run's own time,
+  the host's stalls), ``run_stats`` (its counts) and ``log_end`` (a pose log's end);
 - ``frames``: frames.csv's row, the run's file names, whole lines, the reader;
 - ``files``: capture.bin, frames.csv, device.jsonl and meta.json as they are written;
 - ``meta``, ``recover``, ``load``: meta.json, runs cut short, ``load_recording``;
