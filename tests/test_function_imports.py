@@ -107,6 +107,7 @@ DEFERRED = {
     },
     "sim/tactile_sim/commands/sim_ep2.py": {
         "run: tactile_sim.ep2": FAMILY,
+        "_map_object: tactile_sim.ep2": FAMILY,
     },
     "sim/tactile_sim/emulator/adc_bank.py": {
         "library: tactile_sim.emulator.cores": LIFT_EMULATOR,
