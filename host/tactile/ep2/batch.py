@@ -17,11 +17,13 @@ import numpy as np
 
 from tactile.ep2 import (
     api,
+    edges,
     extent,
     jet_answers,
     local_jet,
     patch_frame,
     patch_input,
+    tilt,
 )
 from tactile.errors import DataError, InputError
 
@@ -100,13 +102,16 @@ def _chunk(patches, kw):
     maps = kw.pop("maps")
     if kw["method"] == "spline":
         return [_one(p, dict(_own(p, kw), maps=maps)) for p in patches]
-    prepared, results = [], [None] * len(patches)
+    prepared, results, tilted = [], [None] * len(patches), {}
     unpacked = [_unpack(p) for p in patches]
     kws = [_own(p, kw) for p in patches]
     quick = _prepare_stacked(unpacked, kws)
     for j, (item, kw_j) in enumerate(zip(unpacked, kws, strict=True)):
         try:
-            prepared.append((j, quick[j] or patch_input.prepare(*item, kw_j)))
+            prep = quick[j] or patch_input.prepare(*item, kw_j)
+            edges.check(prep)
+            prep, tilted[j] = tilt.untilt(prep)
+            prepared.append((j, prep))
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:
@@ -124,10 +129,15 @@ def _chunk(patches, kw):
         lines = [prep.opts["names"] for _, prep in prepared]
         outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):
+            try:
+                edges.check_answer(prep, res)
+            except DataError as exc:
+                res = exc
             if not isinstance(res, DataError):
                 res = api.from_fields(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
+                res.warnings[:0] = [tilted[j]] if tilted[j] else []
             results[j] = res
     return results
 
