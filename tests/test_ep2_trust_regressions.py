@@ -4,7 +4,7 @@
   onto two stops: refused with "not determined" naming the direction (exit 3, one line)
   or, if answered, never confidently wrong (``bench/ep2_trust.py:wrong_label``);
 - curved positions with flat or mirrored normals: "positions and normals disagree"
-  (``tactile.ep2.consistency``); planes are never mislabelled;
+  (``tactile.ep2.jet_answers``); planes are never mislabelled;
 - the JSON record: a plane has S, C, radius null and k1/k2 intervals; ``model`` explains
   itself in one line and names how far the answer moved toward the 3-jet;
 - exact duplicate rows count once (a warning), intervals unchanged;
@@ -538,17 +538,17 @@ def test_strongly_curved_noise_free_shapes_at_the_centre(family, kw, params):
 # -- the normal-angle limit ---------------------------------------------------------------
 
 
-def test_steep_normals_are_left_out_named_and_the_option_moves_the_limit(tmp_path, cli):
-    """A cylinder r 2.02 across a 4-wide patch: its edge normals are 82 deg from the mean.
-    They are left out by name (the limit and its option in the line); what is left, one
-    finger, is refused as a line.  At 85 deg they stay, and a 2-jet cannot follow a
-    surface this bent over the patch: refused, with the hint to take a smaller patch."""
+def test_steep_normals_beyond_two_are_a_bad_patch_and_the_option_moves_the_limit(tmp_path, cli):
+    """A cylinder r 2.02 across a 4-wide patch: twelve edge normals are 82 deg from the
+    mean, more than the two the screen leaves out: a bad patch, the limit and its option in
+    the line.  At 85 deg they stay, and a 2-jet cannot follow a surface this bent over the
+    patch: refused, with the hint to take a smaller patch."""
     path = tmp_path / "steep.csv"
     write_csv(path, sweep(make("cylinder", 2.02)))
     code, out, err = cli("ep2", "analyze", path)
     assert code == 3 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
-    assert "82 deg" in err and "limit 80 deg" in err and "--max-normal-angle" in err
-    assert "more left out" in err  # twelve of them: the line stays short
+    assert "82-82 deg" in err and "limit 80 deg" in err and "--max-normal-angle" in err
+    assert "a bad patch: 12 normals" in err and "smaller patch" in err
     code, out, err = cli("ep2", "analyze", path, "--max-normal-angle", "85")
     assert code == 3 and "limit 80" not in err and "smaller patch" in err
 
@@ -561,8 +561,8 @@ def _emulated_contacts(tmp_path, seed, noiseless=False):
     the world through the pose log, as tests/test_emulator_sweep.py does."""
     from sweep_record import record_sweep
 
-    from tactile.localize.pose_log import read_pose_log
     from tactile.localize.posed import posed_world_contacts
+    from tactile.logs.pose import read_pose_log
     from tactile_sim.emulator.scene import SCENE_DIR
 
     text = (SCENE_DIR / "ep2_sweep_sphere.toml").read_text(encoding="utf-8")

@@ -65,7 +65,7 @@ def _device(client):
 
 def _view(client, duration, live=None):
     """Draw the board's state until ``duration`` s have passed (or Ctrl-C); ``live``: a
-    ``tactile.output.foxglove_live.LiveServer`` fed every batch."""
+    ``tactile.foxglove.live.LiveServer`` fed every batch."""
     state, tty = LiveState(), sys.stdout.isatty()
     start = last = time.monotonic()
     drawn = 0

@@ -5,13 +5,21 @@ MicroPython firmware (``tactile_fw.board.Board``) or the C core (``firmware/c``)
 
 Per sensor: six ADS122C04 register models on a simulated I2C bus
 (``tactile_sim.adc_model``, ``tactile_sim.i2c_bus``), each converting one
-gauge of the transducer model.  The clock is simulated and jumps straight
+gauge of the transducer model, which the motion loads (plus the tool's weight at the
+sensor's orientation, ``tool_weight``).  The clock is simulated and jumps straight
 to the next thing that can happen (a due sample or a conversion end), so
 "as fast as possible" costs only the firmware's own work.  The byte link is
 the firmware's ``PipeLink``; the host side reads with ``take`` and writes
 with ``put``.  Nothing here frames, checksums or encodes: the firmware does.
+
+Each emulated board has its own board id (HELLO/INFO ``board_id``, the id a host checks
+after a lost port): 8 random bytes unless the caller names one (``board_id``; ``tactile
+emulate --link`` derives it from the link, so that an emulator restarted behind the same
+link is the same board, rebooted: ``link_board_id``).  An emulated Pico's is its flash
+chip's, one per flash file (``pico_core.flash_board_id``).
 """
 
+import hashlib
 import importlib
 import math
 import os
@@ -26,11 +34,21 @@ from tactile_protocol import settings as vocabulary
 from tactile_sim.adc_model import FULL_SCALE_CODES, ADS122C04Model
 from tactile_sim.emulator import cores
 from tactile_sim.emulator.ft_model import FTModel
+from tactile_sim.emulator.gauge_drift import GaugeDrift
 from tactile_sim.emulator.scene import MOTIONS
 from tactile_sim.emulator.sensor_faults import FaultSchedule
+from tactile_sim.emulator.tool_weight import ToolWeight
 from tactile_sim.i2c_bus import SimI2C
 
 LINK_CAPACITY = 1 << 16  # bytes the host side may leave unread (a USB/pty buffer)
+
+
+def link_board_id(path):
+    """The board id of the emulated board behind the link ``path`` (8 bytes): the same for
+    every emulator served there, another for another path."""
+    return hashlib.sha256(
+        b"tactile emulated board\0" + os.fsencode(os.path.abspath(path))
+    ).digest()[:8]
 
 
 def build_motion(scene):
@@ -75,7 +93,7 @@ class EmulatedBoard:
     settings and calibration are not stored: the chip's flash holds what its user put there).
     """
 
-    def __init__(self, scene, motion=None, boot_id=None, core=None):
+    def __init__(self, scene, motion=None, boot_id=None, core=None, board_id=None):
         self.scene = scene
         self.core = core or scene.board["core"]
         if self.core not in cores.SERVED:
@@ -94,6 +112,9 @@ class EmulatedBoard:
         storage = MemoryStorage()
         if boot_id is None:  # a new one per power-up, as a real board draws it
             boot_id = boot_id_from(os.urandom(8))
+        if board_id is None and self.core != "rp2040":  # (a Pico's is its flash chip's)
+            board_id = os.urandom(8)
+        self.board_id = board_id
         self.board = cores.make_board(
             self.core,
             self.buses,
@@ -103,6 +124,7 @@ class EmulatedBoard:
             storage,
             max_rate_hz=override,
             boot_id=boot_id,
+            board_id=self.board_id,
         )
         if self.core != "rp2040":  # (a Pico's own flash holds what its user stored)
             board_settings(scene, self.board.max_rate_hz).save(storage)
@@ -119,11 +141,16 @@ class EmulatedBoard:
         while bus_index >= len(self.buses):
             self.buses.append(SimI2C())
         bus = self.buses[bus_index]
+        weight = ToolWeight.from_scene(self.scene)
         model = FTModel(
             self.scene.sensor,
-            lambda t, i=i: self.motion.wrench_at(t - self.scene_start_us * 1e-6, i),
+            self._scene_time(
+                (lambda t, i=i: self.motion.wrench_at(t, i)) if weight is None
+                else weight.loaded(self.motion, i)
+            ),
             seed=self.scene.seed * 7919 + i,
-        )
+            drift=GaugeDrift.from_sensor(self.scene.sensor, self.scene.seed, i),
+        )  # fmt: skip
         self.models.append(model)
         for j, addr in enumerate(ADDRESS_PLAN[slot]):
             adc = ADS122C04Model(self._now)
@@ -145,6 +172,10 @@ class EmulatedBoard:
 
     def _now(self):
         return self.clock.t_us
+
+    def _scene_time(self, wrench_at):
+        """``wrench_at(t_s)`` of the scene's time, taken at the models' time ``t_s``."""
+        return lambda t: wrench_at(t - self.scene_start_us * 1e-6)
 
     def restart_scene(self, t_us, faults=True):
         """Play the scene from its start at the models' time ``t_us`` (the board runs on,
