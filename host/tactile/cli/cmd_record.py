@@ -131,8 +131,8 @@ def _read_log(path):
 def _log_again(args, live):
     """The pose log as it is now the board has answered (and the Foxglove scene with it);
     says where the run stops."""
-    from tactile.output.textout import printable
     from tactile.logs.clock import show_time
+    from tactile.output.textout import printable
 
     posed, until = _read_log(args.pose_log)
     foxglove_args.new_pose_log(live, posed)
