@@ -81,9 +81,6 @@ DEFERRED = {
     "host/tactile/cli/cmd_record.py": {
         "run: tactile.files.folder_lock": RECORD_EXPORT,
         "_run: tactile.recording.session": RECORD_EXPORT,
-        "_run: tactile.logs.clock (x2)": RECORD_EXPORT,
-        "_run: tactile.commands.derive (x2)": RECORD_EXPORT,
-        "_run: tactile.errors": RECORD_EXPORT,
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },

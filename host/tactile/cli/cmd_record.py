@@ -19,8 +19,10 @@ import sys
 
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument
+from tactile.commands.derive import check_log, derive
 from tactile.commands.words import add_quiet
-from tactile.errors import BoardError
+from tactile.errors import BoardError, DataError, InputError
+from tactile.logs.clock import log_end, show_time
 from tactile.output.textout import printable
 
 
@@ -57,7 +59,6 @@ def run(args):
 
 
 def _run(args):
-    from tactile.errors import InputError
     from tactile.recording.session import Session
 
     if args.duration is not None and not args.duration > 0:
@@ -109,8 +110,6 @@ def _run(args):
     print(printable(time_summary(meta.get("time_base"))))
     _log_not_over(meta, args.pose_log, args.out)
     if args.pose_log:
-        from tactile.commands.derive import derive
-
         for line in derive(args.out, args.pose_log, per_contact=args.per_contact):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
@@ -119,9 +118,6 @@ def _run(args):
 
 def _read_log(path):
     """(the ``PoseLog`` of an EP2 log or None, until = (clock, end us, how))."""
-    from tactile.commands.derive import check_log
-    from tactile.logs.clock import log_end
-
     log = check_log(path)
     end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
     posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
@@ -131,9 +127,6 @@ def _read_log(path):
 def _log_again(args, live):
     """The pose log as it is now the board has answered (and the Foxglove scene with it);
     says where the run stops."""
-    from tactile.logs.clock import show_time
-    from tactile.output.textout import printable
-
     posed, until = _read_log(args.pose_log)
     foxglove_args.new_pose_log(live, posed)
     if not args.quiet:
@@ -152,8 +145,6 @@ def _log_not_over(meta, pose_log, out):
     first_us, end_us = segments[0]["board_first_us"], stop["time_us"]
     if first_us < end_us:
         return
-    from tactile.errors import DataError
-
     raise DataError(
         f"{pose_log}: the robot's log ended at board {end_us / 1e6:.3f} s, before this"
         f" recording began (the board's clock read {first_us / 1e6:.3f} s): its run is over"

@@ -9,8 +9,10 @@ a run folder (its ``contacts.csv``) or a CSV.
 """
 
 import argparse
+import pathlib
 import sys
 
+from tactile.errors import InputError
 from tactile.output.textout import printable
 
 OUT = ("-o", "--out")
@@ -72,10 +74,6 @@ def renamed(old_to_new, prog=""):
 def contacts_of(path):
     """The contacts CSV that ``path`` names: the file itself, or a ``tactile record -o DIR``
     folder's ``contacts.csv`` (InputError, exit 2, for a folder without one)."""
-    import pathlib
-
-    from tactile.errors import InputError
-
     path = pathlib.Path(path)
     if not path.is_dir():
         return path
