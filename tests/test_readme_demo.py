@@ -1,10 +1,15 @@
 """The README's demo part is the demo's own output, pasted by ``bench/readme_demo.py``: one run
 of ``tactile demo`` here, as ``make demo`` runs it, must agree with the README's table within
 the tolerances the README states, and the README's sentences must be what the script makes
-of its table.  The same run checks the replica itself (the suite runs the demo once)."""
+of its table.  The same run checks the replica itself, end to end over a pty, and its three
+recordings as ``tactile ep2 analyze`` reads them (the suite runs the demo once)."""
+
+import json
 
 import pytest
 from conftest import ROOT, load_bench
+
+from tactile_studies import replica
 
 README = ROOT / "README.md"
 
@@ -28,3 +33,16 @@ def test_the_readme_shows_what_the_demo_prints(cli, tmp_path, monkeypatch):
         assert f"label {name}; 36 contacts, 72 localised, 0 lost" in out
         for file in ("capture.bin", "frames.csv", "meta.json", "contacts.csv", "poses.csv"):
             assert (tmp_path / "demo-out" / name / file).stat().st_size > 0
+    # each recording over the pty: the scene's end, nothing lost, TAREd, every reading
+    # localised; the thesis's tangent-weighted spline labels it and finds its radius
+    args = ("--method", "spline", "--weighting", "tangent", "--units", "cm", "--json")
+    for kind, name in (("plane", "plane"), ("convex", "cylinder"), ("concave", "concave_cylinder")):
+        run = tmp_path / "demo-out" / name
+        meta = json.loads((run / "meta.json").read_text())
+        assert meta["ended"] == "scene end" and meta["decoder"]["lost_frames"] == 0
+        assert meta["contacts_ended"] == 36 and meta["tared"]
+        code, out, err = cli("ep2", "analyze", run, *args)  # the run folder, in m
+        result = json.loads(out.splitlines()[0])
+        assert code == 0 and result["shape"] == name, err
+        true = replica.TRUE_RADIUS_CM[kind]
+        assert true is None or abs(result["radius"] - true) / true < 0.10
