@@ -1,0 +1,97 @@
+"""The sensor's orientation at any reading's time, from a robot's log.
+
+A robot log gives, per sensor, windows in which the sensor is held at a known pose
+(``tactile.localize.pose_log``: a generic log's quaternions, a SCARA log's joints).  A
+reading inside a window has that window's orientation.  Between two windows of its sensor
+the robot is moving and the log does not say how: the orientation is interpolated along
+the shortest rotation from the end of one window to the start of the next, with a
+(1 - cos)/2 profile in time (a move that starts and stops smoothly, as a robot's does and
+the simulator's ``poses`` and ``sweep`` motions do).  Before the first window and after the
+last, the nearest window's orientation holds.  ``at`` also says which readings are inside a
+window (exact) and which are interpolated (as good as the robot's path is that arc).
+"""
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from tactile.errors import InputError
+from tactile.localize.kinematics import scara_pose
+
+__all__ = ["ANY", "Orientations"]
+
+ANY = -1  # the key of windows that hold for every sensor (a SCARA log has one sensor)
+
+
+class Orientations:
+    """Per sensor, windows [t_start, t_end] (us, the log's clock) and the sensor's
+    orientation in each (``Rotation``, the sensor frame's axes in the world's)."""
+
+    def __init__(self, windows, path=""):
+        self.path = str(path)
+        self.windows = {}
+        for sensor, (t0, t1, rot) in windows.items():
+            order = np.argsort(np.asarray(t0), kind="stable")
+            self.windows[int(sensor)] = (
+                np.asarray(t0, dtype=np.int64)[order],
+                np.asarray(t1, dtype=np.int64)[order],
+                rot[order],
+            )
+
+    @classmethod
+    def from_pose_log(cls, log):
+        """From a ``PoseLog``: a generic log's R per window and finger; a SCARA log's
+        joints through eq. 62 (one sensor, every window)."""
+        if log.kind == "scara":
+            q1, q2, q3, z = log.joints.T
+            R, _ = scara_pose(q1, q2, q3, z)
+            return cls({ANY: (log.t_start, log.t_end, Rotation.from_matrix(R))}, log.path)
+        if log.R is None:
+            raise InputError(f"{log.path}: the log has no orientations (columns qw,qx,qy,qz)")
+        out = {}
+        for f in np.unique(log.finger):
+            rows = np.flatnonzero(log.finger == f)
+            out[int(f)] = (log.t_start[rows], log.t_end[rows], Rotation.from_matrix(log.R[rows]))
+        return cls(out, log.path)
+
+    def sensors(self):
+        """The sensor indices the log has windows for (``ANY``: every sensor)."""
+        return sorted(self.windows)
+
+    def covers(self, sensor):
+        """Whether the log says anything of ``sensor``'s orientation."""
+        return int(sensor) in self.windows or ANY in self.windows
+
+    def _of(self, sensor):
+        got = self.windows.get(int(sensor), self.windows.get(ANY))
+        if got is None:
+            raise InputError(
+                f"{self.path}: no window of sensor {int(sensor)} (the log has"
+                f" {', '.join(str(s) for s in self.sensors())})"
+            )
+        return got
+
+    def at(self, sensor, t_us):
+        """(R (n, 3, 3), held (n,) bool) of ``sensor`` at times ``t_us`` (n,): a window's
+        orientation inside it, interpolated between windows (module docstring)."""
+        t0, t1, rot = self._of(sensor)
+        t = np.asarray(t_us, dtype=np.int64).ravel()
+        k = np.searchsorted(t0, t, side="right") - 1
+        inside = (k >= 0) & (t <= t1[np.clip(k, 0, None)])
+        k = np.clip(k, 0, len(t0) - 1)
+        out = rot[k]
+        moving = np.flatnonzero(~inside & (t > t1[k]) & (k + 1 < len(t0)))
+        if moving.size:
+            a, b = k[moving], k[moving] + 1
+            span = np.maximum(t0[b] - t1[a], 1).astype(float)
+            frac = (1.0 - np.cos(np.pi * np.clip((t[moving] - t1[a]) / span, 0.0, 1.0))) / 2
+            step = (rot[a].inv() * rot[b]).as_rotvec()
+            between = rot[a] * Rotation.from_rotvec(frac[:, None] * step)
+            R = out.as_matrix()
+            R[moving] = between.as_matrix()
+            return R, inside
+        return out.as_matrix().reshape(-1, 3, 3), inside
+
+    def held_windows(self, sensor):
+        """(t_start (k,), t_end (k,), R (k, 3, 3)) of ``sensor``'s windows, in time order."""
+        t0, t1, rot = self._of(sensor)
+        return t0, t1, rot.as_matrix().reshape(-1, 3, 3)
