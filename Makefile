@@ -36,13 +36,13 @@ lint: $(STAMP)
 # The C core cross-compiled for a Cortex-M0 (micro:bit, as QEMU runs it): needs
 # gcc-arm-none-eabi and libnewlib-arm-none-eabi (Debian).
 firmware-c: $(STAMP)
-	$(BIN)/python -m tactile_fw.host_only.cross build/firmware-c
+	$(BIN)/python -m tactile_fw_tools.cross build/firmware-c
 
 # The C core as a MicroPython native module for the Pico, rebuilt into the package
 # (firmware/tactile_fw/tactile_native.mpy, committed: tactile flash copies it). Needs
 # gcc-arm-none-eabi, pyelftools and ar (the test extra) and ../shared/rp2's natmod sources.
 natmod: $(STAMP)
-	$(BIN)/python -m tactile_fw.host_only.natmod
+	$(BIN)/python -m tactile_fw_tools.natmod
 
 bench: $(STAMP)
 	for f in bench/*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done

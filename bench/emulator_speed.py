@@ -22,7 +22,6 @@ Every run simulates ``--seconds`` of scene time.
 """
 
 import argparse
-import threading
 import time
 
 import numpy as np
@@ -54,27 +53,22 @@ def scene(rate_hz, streams=("contacts", "samples")):
 
 def pty_run(rate_hz, seconds, realtime, core):
     board = EmulatedBoard(scene(rate_hz), core=core)
-    server = PtyServer(board, realtime=realtime)
-    path = server.open()
-    port = serial.Serial(path, timeout=0.02)
     decoder = StreamDecoder()
     arrivals = []  # (wall time, message) for CONTACT BEGIN
-    thread = threading.Thread(target=server.serve, args=(seconds,), daemon=True)
-    t0 = time.monotonic()
-    thread.start()
     n = 0
-    while thread.is_alive() or port.in_waiting:
-        data = port.read(1)
-        if data:
-            data += port.read(port.in_waiting)
-            now = time.monotonic()
-            for m in decoder.feed(data):
-                n += m.type_name == "SAMPLE"
-                if m.type_name == "CONTACT" and m.phase == C.PHASE_BEGIN:
-                    arrivals.append((now - t0, m.timestamp_us))
-    wall = time.monotonic() - t0
-    port.close()
-    server.close()
+    t0 = time.monotonic()
+    with PtyServer(board, realtime=realtime, duration_s=seconds) as server:
+        with serial.Serial(server.path, timeout=0.02) as port:
+            while server.serving or port.in_waiting:
+                data = port.read(1)
+                if data:
+                    data += port.read(port.in_waiting)
+                    now = time.monotonic()
+                    for m in decoder.feed(data):
+                        n += m.type_name == "SAMPLE"
+                        if m.type_name == "CONTACT" and m.phase == C.PHASE_BEGIN:
+                            arrivals.append((now - t0, m.timestamp_us))
+        wall = time.monotonic() - t0
     return n, wall, decoder.counters, arrivals, board
 
 

@@ -17,7 +17,6 @@ samples the board flagged late (its device channel to the Python ADC models is t
 
 import argparse
 import sys
-import threading
 import time
 
 import serial
@@ -37,21 +36,18 @@ def served(seconds, fast):
     """(samples, late samples, wall s) for ``seconds`` of the press scene's board time."""
     from tactile_sim.emulator.qemu_server import QemuServer
 
-    server = QemuServer(EmulatedBoard(load_scene("press"), core="qemu"), realtime=not fast)
-    port = serial.Serial(server.open(), timeout=0.05)
-    thread = threading.Thread(target=server.serve, args=(seconds,), daemon=True)
-    t0 = time.monotonic()
-    thread.start()
+    server = QemuServer(EmulatedBoard(load_scene("press"), core="qemu"), realtime=not fast,
+                        duration_s=seconds)  # fmt: skip
     decoder, n, late = StreamDecoder(), 0, 0
-    while thread.is_alive() or port.in_waiting:
-        data = port.read(1)
-        for m in decoder.feed(data + port.read(port.in_waiting)):
-            if m.type_name == "SAMPLE":
-                n += 1
-                late += bool(m.flags & C.FLAG_LATE)
-    wall = time.monotonic() - t0
-    port.close()
-    server.close()
+    t0 = time.monotonic()
+    with server, serial.Serial(server.path, timeout=0.05) as port:
+        while server.serving or port.in_waiting:
+            data = port.read(1)
+            for m in decoder.feed(data + port.read(port.in_waiting)):
+                if m.type_name == "SAMPLE":
+                    n += 1
+                    late += bool(m.flags & C.FLAG_LATE)
+        wall = time.monotonic() - t0
     return n, late, wall
 
 

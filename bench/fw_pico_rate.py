@@ -23,11 +23,9 @@ About 3-5 minutes on a 2-core machine (the chip runs at ~0.2x real time).
 
 import argparse
 import ast
-import contextlib
 import pathlib
 import sys
 import tempfile
-import threading
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -45,25 +43,11 @@ def two_sensor_scene(tmp):
     return path
 
 
-@contextlib.contextmanager
 def chip(scene, flash, bus_time):
     """An emulated Pico served on a pty in a thread (as tests/pico_target.serve)."""
-    from tactile_sim.emulator import load_scene
-    from tactile_sim.emulator.device import EmulatedBoard
-    from tactile_sim.emulator.pico_server import PicoServer
+    from tactile_sim.emulator.servers import serve
 
-    server = PicoServer(EmulatedBoard(load_scene(str(scene)), core="rp2040"), flash=flash,
-                        bus_time=bus_time)  # fmt: skip
-    server.open()
-    server.launch()
-    thread = threading.Thread(target=server.serve, daemon=True)
-    thread.start()
-    try:
-        yield server
-    finally:
-        server.stop = True
-        thread.join(10)
-        server.close()
+    return serve(str(scene), core="rp2040", flash=flash, bus_time=bus_time)
 
 
 def on_chip(transport, params, timeout_s=900):

@@ -19,7 +19,6 @@ import os
 import pathlib
 import sys
 import tempfile
-import threading
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -28,23 +27,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 @contextlib.contextmanager
 def chip(flash, spin):
     """An emulated Pico in fast mode on a pty, in a thread (as tests/pico_target.serve)."""
-    from tactile_sim.emulator import load_scene
-    from tactile_sim.emulator.device import EmulatedBoard
-    from tactile_sim.emulator.pico_server import PicoServer
+    from tactile_sim.emulator.servers import serve
 
     os.environ["TACTILE_PICO_SPIN"] = "1" if spin else "0"
-    server = PicoServer(EmulatedBoard(load_scene("press"), core="rp2040"), flash=flash,
-                        realtime=False)  # fmt: skip
-    server.open()
-    server.launch()
-    thread = threading.Thread(target=server.serve, daemon=True)
-    thread.start()
-    try:
+    with serve("press", core="rp2040", flash=flash, realtime=False) as server:
         yield server
-    finally:
-        server.stop = True
-        thread.join(10)
-        server.close()
 
 
 def booted(server, timeout_s=60.0):

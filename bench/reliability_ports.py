@@ -88,11 +88,8 @@ def outcome(*whys):
 def _dying_command(args, tmp):
     from tactile_sim.emulator.dying import DyingBoard
 
-    board = DyingBoard()
-    try:
+    with DyingBoard() as board:
         code, _, err = tactile(*args, "--port", board.path)
-    finally:
-        board.join()
     why = one_line(code, err, 4) or ("" if "port lost while" in err else f"said: {err.strip()}")
     if why or args[0] != "record":
         return outcome(why)
@@ -232,17 +229,15 @@ def probe_silent_board(tmp):
     from tactile_sim.emulator.dying import DyingBoard
 
     board = DyingBoard(at_command=10**9)  # never dies: it hangs instead
-    emulated, said, opened = board.server.board, board.server.board.read_host, []
+    emulated, said, opened = board.board, board.board.read_host, []
     open_port = emulated.host_opened
     emulated.host_opened = lambda: (opened.append(emulated.t_us), open_port())
     # 0.3 s after the host came (HELLO, its setup, a few readings), nothing more leaves it
     emulated.read_host = lambda: b"" if opened and emulated.t_us > opened[0] + 3e5 else said()
     out = tmp / "silent"
-    try:
+    with board:
         code, _, err = tactile("record", "--port", board.path, "--duration", 30, "--no-tare",
                                "-o", out, "--quiet", timeout=60)  # fmt: skip
-    finally:
-        board.join()
     why = one_line(code, err, 4) or ("" if "said nothing for 5 s" in err else err.strip())
     return (
         "`record` from a board that hangs after HELLO and its setup: no frame, no PING reply",

@@ -21,7 +21,6 @@ only an emulator can do (a scripted load, injected faults, an unplug) is asked f
 """
 
 import contextlib
-import threading
 import time
 
 import pytest
@@ -83,31 +82,16 @@ class BoardTarget:
         if not self.emulated:
             yield self.port
             return
-        from tactile_sim.emulator import load_scene
-        from tactile_sim.emulator.device import EmulatedBoard
-        from tactile_sim.emulator.pty_server import PtyServer
+        from tactile_sim.emulator.servers import serve
 
-        loaded = load_scene(scene) if isinstance(scene, str) else scene
-        server = PtyServer(
-            EmulatedBoard(loaded, core=self.core),
-            link_path=link_path,
-            realtime=realtime,
-            disconnects=disconnects,
-        )
-        path = server.open()
-        thread = threading.Thread(target=server.serve, args=(duration_s,), daemon=True)
-        thread.start()
-        self.server, self._thread = server, thread
-        try:
-            yield path
-        finally:
-            server.stop = True
-            thread.join(5)
-            server.close()
+        with serve(scene, core=self.core, link_path=link_path, realtime=realtime,
+                   disconnects=disconnects, duration_s=duration_s) as server:  # fmt: skip
+            self.server = server
+            yield server.path
 
     def serving(self):
         """Whether the emulator of ``serve`` still runs (a real board always does)."""
-        return not self.emulated or self._thread.is_alive()
+        return not self.emulated or self.server.serving
 
 
 def read_for(client, seconds, until=None):
@@ -152,27 +136,17 @@ class Served:
 
     @contextlib.contextmanager
     def _qemu(self):
-        from tactile_sim.emulator import load_scene
-        from tactile_sim.emulator.device import EmulatedBoard
         from tactile_sim.emulator.qemu_core import QemuUnavailable, image
-        from tactile_sim.emulator.qemu_server import QemuServer
+        from tactile_sim.emulator.servers import serve
 
         try:
             image()
         except QemuUnavailable as exc:
             missing(str(exc))
-        scene = load_scene(rest_scene(self.session_dir))
-        server = QemuServer(EmulatedBoard(scene, core="qemu"), realtime=False)  # -icount
-        server.open()
-        thread = threading.Thread(target=server.serve, kwargs={"when_opened": False},
-                                  daemon=True)  # fmt: skip
-        thread.start()
-        try:
+        # -icount, QEMU started at once: the board at rest, as on the bench
+        with serve(rest_scene(self.session_dir), core="qemu", realtime=False,
+                   when_opened=False) as server:  # fmt: skip
             yield server
-        finally:
-            server.stop = True
-            thread.join(10)
-            server.close()
 
     @contextlib.contextmanager
     def _rp2040(self):

@@ -10,7 +10,7 @@ import pathlib
 from fw_rig import Rig
 from toolchain import missing
 
-from tactile_fw.host_only import ccore
+from tactile_fw_tools import ccore
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 

@@ -94,7 +94,7 @@ def ccore_lib(tmp_path_factory):
     """The C firmware core (firmware/c), built by ``cc`` for this run and loaded by ctypes."""
     from ccore_twin import build_or_skip
 
-    from tactile_fw.host_only import ccore
+    from tactile_fw_tools import ccore
 
     return ccore.load(build_or_skip(tmp_path_factory.mktemp("ccore")))
 

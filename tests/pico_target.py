@@ -3,17 +3,15 @@
 - ``need_pico()``: node, the npm packages (installed once) and ``../shared/rp2``; without
   one a test is skipped with the line naming what to install, and fails instead under CI
   (``CI=true``), where everything must be there.
-- ``serve(scene, flash)``: a ``PicoServer`` on a pty in a thread, as ``tactile emulate
-  SCENE --core rp2040 --flash FILE`` serves it; yields the server (``.path``, ``.chip``).
+- ``serve(scene, flash)``: a ``PicoServer`` on a pty, as ``tactile emulate SCENE --core
+  rp2040 --flash FILE`` serves it: ``with serve(...) as server`` (``.path``, ``.chip``).
 - ``flash_master(dir)``: a flash file with the firmware on it, flashed once per test session
   the way a user flashes a board (``tactile flash``); the ``pico_flashed`` fixture (conftest)
   gives each test its own copy.
 """
 
-import contextlib
 import fcntl
 import os
-import threading
 
 from toolchain import missing
 
@@ -30,38 +28,14 @@ def need_pico():
         missing(str(exc))
 
 
-@contextlib.contextmanager
 def serve(scene="press", flash=None, fast=False, bus_time=True, flash_journal=None):
-    """An emulated Pico serving ``scene`` on a pty until the block ends (``flash_journal``:
-    a file that gets every erase and program of its flash)."""
-    from tactile_sim.emulator import load_scene
-    from tactile_sim.emulator.device import EmulatedBoard
-    from tactile_sim.emulator.pico_server import PicoServer
+    """An emulated Pico serving ``scene`` on a pty until the block ends (a ``PicoServer``;
+    ``flash_journal``: a file that gets every erase and program of its flash)."""
+    from tactile_sim.emulator import servers
 
     need_pico()
-    loaded = load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
-    server = PicoServer(EmulatedBoard(loaded, core="rp2040"), flash=flash, realtime=not fast,
-                        bus_time=bus_time, flash_journal=flash_journal)  # fmt: skip
-    server.open()
-    server.launch()
-    errors = []
-
-    def run():
-        try:
-            server.serve()
-        except Exception as exc:  # reported when the block ends
-            errors.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    try:
-        yield server
-    finally:
-        server.stop = True
-        thread.join(10)
-        server.close()
-    if errors:
-        raise errors[0]
+    return servers.serve(scene, core="rp2040", flash=flash, realtime=not fast,
+                         bus_time=bus_time, flash_journal=flash_journal)  # fmt: skip
 
 
 def wait_booted(server, timeout_s=60.0):

@@ -9,7 +9,6 @@ read that wrench (to the converters' quantisation) through whatever matrix the b
 
 import json
 import re
-import threading
 import time
 
 import numpy as np
@@ -61,14 +60,8 @@ def _scene(tmp_path, sensors=1):
 def board(tmp_path):
     """(pty path, EmulatedBoard) served as fast as possible while a host reads."""
     emu = EmulatedBoard(load_scene(str(_scene(tmp_path))))
-    server = PtyServer(emu, realtime=False)
-    path = server.open()
-    thread = threading.Thread(target=server.serve, daemon=True)
-    thread.start()
-    yield path, emu
-    server.stop = True
-    thread.join(5)
-    server.close()
+    with PtyServer(emu, realtime=False) as server:
+        yield server.path, emu
 
 
 def _readings(path, n=40):

@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from toolchain import arm_gcc, arm_tool, missing
 
-from tactile_fw.host_only import ccore
+from tactile_fw_tools import ccore
 from tactile_protocol import constants as C
 from tactile_protocol.cobs_codec import encode as cobs_encode
 from tactile_protocol.crc16 import crc16

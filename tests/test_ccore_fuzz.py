@@ -21,7 +21,7 @@ from test_ccore_diff import framed, hostile, sensible
 from toolchain import missing
 
 from tactile.board.stream_decoder import StreamDecoder
-from tactile_fw.host_only import ccore
+from tactile_fw_tools import ccore
 from tactile_protocol import constants as C
 
 

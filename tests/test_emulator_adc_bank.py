@@ -9,7 +9,7 @@ import random
 import pytest
 from toolchain import missing
 
-from tactile_fw.host_only import ccore
+from tactile_fw_tools import ccore
 from tactile_protocol import constants as C
 from tactile_protocol.framing import FrameEncoder
 from tactile_sim.adc_model import CMD_RDATA, CMD_RREG, CMD_START, ADS122C04Model

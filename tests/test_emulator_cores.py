@@ -124,7 +124,7 @@ def test_an_unknown_core_in_a_sim_url_is_one_line(cli):
 
 
 def test_without_a_compiler_the_c_core_is_refused_in_one_line(cli, mocker, tmp_path):
-    from tactile_fw.host_only import ccore
+    from tactile_fw_tools import ccore
 
     mocker.patch.object(ccore.shutil, "which", return_value=None)
     mocker.patch.dict("os.environ", {"CC": ""})

@@ -3,14 +3,12 @@ the firmware counts the missed periods and flags the next samples late, and ``re
 reports the late readings in its summary and in meta.json (pty_server.BEHIND_S)."""
 
 import json
-import threading
 import time
 
 from tactile.cli.cmd_record import summary
 from tactile_protocol import constants as C
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
-from tactile_sim.emulator.host_wait import serve_when_opened
 from tactile_sim.emulator.pty_server import BEHIND_S, PtyServer
 
 
@@ -26,16 +24,10 @@ def test_a_board_that_falls_behind_skips_ahead_and_flags_late_samples(cli, tmp_p
             stall["at"] = board.t_us
         return time.monotonic() - t0 + (0.3 if stall["at"] is not None else 0.0)
 
-    server = PtyServer(board, realtime=True, clock=lambda: t0 + wall())
-    path = server.open()
-    thread = threading.Thread(target=serve_when_opened, args=(server, 1.2), daemon=True)
-    thread.start()
-    try:
-        code, out, err = cli("record", "--port", path, "--duration", "0.8", "-o", tmp_path / "r")
-    finally:
-        server.stop = True
-        thread.join(5)
-        server.close()
+    server = PtyServer(board, duration_s=1.2, when_opened=True, clock=lambda: t0 + wall())
+    with server:
+        code, out, err = cli("record", "--port", server.path, "--duration", "0.8",
+                             "-o", tmp_path / "r")  # fmt: skip
     assert code == 0, err
     assert server.skipped >= 1 and 0.3 > BEHIND_S
     meta = json.loads((tmp_path / "r" / "meta.json").read_text())

@@ -3,7 +3,6 @@
 Unplugging and replugging, on both firmware cores: ``test_board_suite.py``.
 """
 
-import threading
 import time
 
 import pytest
@@ -16,12 +15,6 @@ from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.pty_server import PtyServer
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
-
-
-def _serve(server, duration):
-    thread = threading.Thread(target=server.serve, args=(duration,), daemon=True)
-    thread.start()
-    return thread
 
 
 def _read_for(port, decoder, seconds):
@@ -38,18 +31,10 @@ def _read_for(port, decoder, seconds):
 
 @pytest.mark.slow
 def test_ten_seconds_at_1khz_lose_nothing():
-    server = PtyServer(EmulatedBoard(load_scene("press")), realtime=True)
-    path = server.open()
-    port = serial.Serial(path, timeout=0.05)
-    thread = _serve(server, 10.5)
     decoder = StreamDecoder()
-    try:
-        msgs = _read_for(port, decoder, 10.0)
-    finally:
-        port.close()
-        server.stop = True
-        thread.join(5)
-        server.close()
+    with PtyServer(EmulatedBoard(load_scene("press")), duration_s=10.5) as server:
+        with serial.Serial(server.path, timeout=0.05) as port:
+            msgs = _read_for(port, decoder, 10.0)
     samples = [m for m in msgs if m.type_name == "SAMPLE"]
     seqs = [m.seq for m in msgs]
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))  # contiguous: nothing lost
@@ -63,10 +48,10 @@ def test_ten_seconds_at_1khz_lose_nothing():
     assert decoder.counters.lost_frames == 0 and decoder.counters.damaged == 0
 
 
-def _drain(port, decoder, thread, slow_reads=0):
+def _drain(port, decoder, server, slow_reads=0):
     """Read until the server is done and the pty is empty; the first reads lag (a slow host)."""
     msgs = []
-    while thread.is_alive() or port.in_waiting:
+    while server.serving or port.in_waiting:
         data = port.read(1)
         if data:
             msgs += decoder.feed(data + port.read(port.in_waiting))
@@ -78,20 +63,12 @@ def _drain(port, decoder, thread, slow_reads=0):
 
 def test_fast_mode_waits_for_the_host_and_loses_nothing():
     board = EmulatedBoard(load_scene("press"))
-    server = PtyServer(board, realtime=False)
-    path = server.open()
-    thread = _serve(server, 2.0)
-    time.sleep(0.1)
-    assert board.t_us == 0  # nobody is reading: simulated time holds
-    port = serial.Serial(path, timeout=0.05)
     decoder = StreamDecoder()
-    try:
-        msgs = _drain(port, decoder, thread, slow_reads=10)
-    finally:
-        port.close()
-        server.stop = True
-        thread.join(5)
-        server.close()
+    with PtyServer(board, realtime=False, duration_s=2.0) as server:
+        time.sleep(0.1)
+        assert board.t_us == 0  # nobody is reading: simulated time holds
+        with serial.Serial(server.path, timeout=0.05) as port:
+            msgs = _drain(port, decoder, server, slow_reads=10)
     assert msgs[0].type_name == "HELLO" and msgs[0].timestamp_us == 0  # the scene from its start
     seqs = [m.seq for m in msgs]
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))

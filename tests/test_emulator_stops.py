@@ -4,7 +4,6 @@ a host reads, in real time and as fast as possible, and a full pty never holds i
 import itertools
 import subprocess
 import sys
-import threading
 
 import pytest
 import serial
@@ -13,7 +12,8 @@ from toolchain import missing
 from tactile.board.stream_decoder import StreamDecoder
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
-from tactile_sim.emulator.pty_server import HOLD_LIMIT_S, PtyServer
+from tactile_sim.emulator.pty_server import PtyServer
+from tactile_sim.emulator.server import HOLD_LIMIT_S
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
 BOUND_S = 60  # far beyond what each run takes (HOLD_LIMIT_S and a second of scene)
@@ -50,22 +50,14 @@ def test_a_host_that_stops_reading_holds_a_fast_run_for_a_bounded_time():
     the board's ring fill), then the board runs on to the end, dropping and counting what
     nobody read; the host finds the frames it left as lost, not a hang."""
     ticks = itertools.count(step=HOLD_LIMIT_S / 4)  # each look at the clock: a quarter hold
-    server = PtyServer(EmulatedBoard(load_scene("press")), realtime=False,
+    server = PtyServer(EmulatedBoard(load_scene("press")), realtime=False, duration_s=2.0,
                        clock=lambda: next(ticks))  # fmt: skip
-    path = server.open()
-    port = serial.Serial(path, timeout=0.2)
-    try:
-        decoder = StreamDecoder()
-        thread = threading.Thread(target=server.serve, args=(2.0,))
-        thread.start()
+    decoder = StreamDecoder()
+    with server, serial.Serial(server.path, timeout=0.2) as port:
         first = decoder.feed(port.read(2000))  # then nothing more is read
-        thread.join(BOUND_S)
-        assert not thread.is_alive(), "the run held for a host that stopped reading"
+        assert server.wait(BOUND_S), "the run held for a host that stopped reading"
         assert server.board.t_us >= 2_000_000
         rest = decoder.feed(port.read(port.in_waiting or 1))
-    finally:
-        port.close()
-        server.close()
     assert first and first[0].type_name == "HELLO"
     assert rest  # what the pty held is still there for the host
 

@@ -12,7 +12,7 @@ import struct
 import numpy as np
 import pytest
 from test_foxglove_live import Client, _in_thread, free_port
-from test_record_pty import ServeWhenOpened, _scene_with
+from test_record_pty import _scene_with, served_when_opened
 
 import tactile
 
@@ -94,22 +94,20 @@ def patch(update):
 
 @pytest.mark.slow
 def test_the_scene_shows_the_contacts_and_the_patch_the_files_hold(cli, tmp_path):
-    served = ServeWhenOpened(_scene_with(tmp_path, "ep2_sweep_sphere", "rest_s = 0.3"), False)
+    served = served_when_opened(_scene_with(tmp_path, "ep2_sweep_sphere", "rest_s = 0.3"), False)
     log = tmp_path / "poses.csv"
-    served.server.board.motion.write_pose_log(log)
+    served.board.motion.write_pose_log(log)
     out, port = tmp_path / "run", free_port()
-    args = ("record", "--port", served.path, "--no-tare", "--contacts", "3", "--pose-log", log,
-            "-o", out, "--quiet", "--foxglove", "--foxglove-port", port)  # fmt: skip
-    thread, result = _in_thread(lambda: cli(*args))
-    try:
+    with served:
+        args = ("record", "--port", served.path, "--no-tare", "--contacts", "3", "--pose-log",
+                log, "-o", out, "--quiet", "--foxglove", "--foxglove-port", port)  # fmt: skip
+        thread, result = _in_thread(lambda: cli(*args))
         client = Client(port)
         topics = ["/tactile/contacts", "/tactile/patch", "/tactile/tf"]
         advertised = client.wait_for(topics)
         client.subscribe(topics)
         client.drain()
         thread.join(60)
-    finally:
-        served.close()
     code, stdout, err = result["r"]
     assert code == 0, err
     assert "Traceback" not in err and "foxglove: scene:" in err and "failed" not in err, err

@@ -66,20 +66,27 @@ DEFERRED = {
     },
     "host/tactile/cli/cmd_export.py": {
         "run: tactile.errors": RECORD_EXPORT,
-        "run: tactile.recording.load": RECORD_EXPORT,
-        "run: tactile.recording.export_parquet (x2)": RECORD_EXPORT,
+        "run: tactile.recording.export_target": RECORD_EXPORT,
+        "run: tactile.recording.export_parquet (x3)": RECORD_EXPORT,
+        "run: tactile.output.textout": RECORD_EXPORT,
+        "run: tactile.files.folder_lock": RECORD_EXPORT,
+        "_export: tactile.recording.load": RECORD_EXPORT,
+        "_export: tactile.output.textout": RECORD_EXPORT,
         "run: tactile.recording.export_mcap (x2)": RECORD_EXPORT,
         "run: tactile.localize.pose_log": RECORD_EXPORT,
     },
     "host/tactile/cli/cmd_record.py": {
-        "run: tactile.errors": RECORD_EXPORT,
-        "run: tactile.output.textout": RECORD_EXPORT,
-        "run: tactile.recording.session": RECORD_EXPORT,
-        "run: tactile.cli.board_args": RECORD_EXPORT,
-        "run: tactile.recording.derive (x2)": RECORD_EXPORT,
-        "run: tactile.recording.log_clock (x2)": RECORD_EXPORT,
+        "run: tactile.files.folder_lock": RECORD_EXPORT,
+        "_run: tactile.recording.session": RECORD_EXPORT,
+        "_run: tactile.recording.log_clock (x2)": RECORD_EXPORT,
+        "_run: tactile.recording.derive (x2)": RECORD_EXPORT,
+        "_run: tactile.output.textout": RECORD_EXPORT,
+        "_run: tactile.errors": RECORD_EXPORT,
+        "_run: tactile.cli.board_args": RECORD_EXPORT,
+        "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },
     "host/tactile/ep1/from_ft.py": {
+        "read_probe_log: tactile.files.csv_dialect": LIFT_RECORDING,
         "read_probe_log: tactile": LIFT,
         "read_probe_log: tactile.files.tabular": LIFT,
         "read_probe_log: tactile.recording.log_clock": LIFT,
@@ -106,10 +113,10 @@ DEFERRED = {
         "intervals_many: tactile.ep2.shape_index": CYCLE_EP2,
     },
     "host/tactile/localize/pose_log.py": {
+        "_scan: tactile.files.csv_dialect": LIFT_RECORDING,
         "read_pose_log: tactile.files.tabular": LIFT,
         "read_pose_log: tactile.recording.log_clock": LIFT,
         "read_pose_log: tactile.localize.kinematics": CYCLE_LOCALIZE,
-        "_scan: tactile.files.tabular": LIFT,
         "_start_column: tactile.recording.log_clock": LIFT,
     },
     "host/tactile/localize/posed.py": {
@@ -153,7 +160,7 @@ DEFERRED = {
         "_write_scene: tactile.recording": LIFT_RECORDING,
     },
     "host/tactile/recording/files.py": {
-        "Recording.__init__: tactile.recording.recover": CYCLE_RECORDING,
+        "Recording._start: tactile.recording.recover": LIFT_RECORDING,
         "read_frames: tactile.files.tabular": LIFT_RECORDING,
     },
     "host/tactile/recording/live_contacts.py": {
@@ -184,7 +191,7 @@ DEFERRED = {
         "recorded_times: tactile.errors": LIFT_RECORDING,
     },
     "host/tactile/units.py": {
-        "stated: tactile.files.tabular": LIFT,
+        "stated: tactile.files.csv_dialect": LIFT,
     },
     "protocol/make_vectors.py": {
         "decode_case: tactile.board.stream_decoder": TOOL,
@@ -196,12 +203,9 @@ DEFERRED = {
         "library: tactile_sim.emulator.cores": LIFT_EMULATOR,
     },
     "sim/tactile_sim/emulator/cores.py": {
-        "c_library: tactile_fw.host_only": LIFT_EMULATOR,
         "python_board: tactile_fw.board": LIFT_EMULATOR,
         "python_board: tactile_fw.frontend": LIFT_EMULATOR,
-        "c_i2c: tactile_fw.host_only": LIFT_EMULATOR,
         "c_i2c: tactile_sim.emulator": CYCLE_EMULATOR,
-        "c_board: tactile_fw.host_only.ccore": LIFT_EMULATOR,
         "qemu_board: tactile_sim.emulator.qemu_core": CYCLE_EMULATOR,
         "pico_board: tactile_sim.emulator.pico_core": CYCLE_EMULATOR,
     },
@@ -229,13 +233,9 @@ DEFERRED = {
     },
     "sim/tactile_sim/emulator/qemu_core.py": {
         "QemuBoard.__init__: tactile_fw": LIFT_EMULATOR,
-        "image: tactile_fw.host_only": LIFT_EMULATOR,
         "image: tactile_sim.emulator.cores": LIFT_EMULATOR,
-        "_blob: tactile_fw.host_only.ccore": LIFT_EMULATOR,
     },
-    "sim/tactile_sim/emulator/qemu_server.py": {
-        "QemuServer._run_out: tactile.board.stream_decoder": LIFT_EMULATOR,
-    },
+    "sim/tactile_sim/emulator/qemu_server.py": {},
     "sim/tactile_sim/urlhandler/protocol_sim.py": {
         "Serial.open: tactile_sim.emulator": LIFT_URL,
         "Serial.open: tactile_sim.emulator.device": LIFT_URL,

@@ -31,6 +31,8 @@ def test_the_board_gets_firmware_and_protocol_but_not_host_ports():
     assert "lib/tactile_fw/board.py" in dests and "lib/tactile_protocol/framing.py" in dests
     assert "lib/tactile_fw/port_mpy.py" in dests
     assert not any("port_linux" in d for d in dests)
+    assert "lib/tactile_protocol/settings.py" in dests  # the firmware checks CONFIG with it
+    assert "lib/tactile_protocol/errors.py" not in dests  # CPython's error tree: host side
     native = [d for s, d in flashing.board_files() if s.suffix != ".py"]
     assert native == ["lib/tactile_native.mpy"]  # importable by its name
 
@@ -89,7 +91,12 @@ def test_linux_port_is_the_only_smbus2_user():
     import pathlib
 
     import tactile_fw
+    import tactile_fw_tools
 
-    root = pathlib.Path(list(tactile_fw.__path__)[0])
-    users = [str(p.relative_to(root)) for p in root.rglob("*.py") if "smbus2" in dict(imports(p))]
-    assert users == ["host_only/port_linux.py"]
+    users = [
+        f"{p.parent.name}/{p.name}"
+        for pkg in (tactile_fw, tactile_fw_tools)
+        for p in pathlib.Path(list(pkg.__path__)[0]).rglob("*.py")
+        if "smbus2" in dict(imports(p))
+    ]
+    assert users == ["tactile_fw_tools/port_linux.py"]

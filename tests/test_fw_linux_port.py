@@ -4,8 +4,8 @@ import os
 import pty
 
 from tactile_fw.ads122c04 import ADS122C04
-from tactile_fw.host_only import port_linux
 from tactile_fw.link import TxRing
+from tactile_fw_tools import port_linux
 
 
 class FakeSMBus:
@@ -75,7 +75,7 @@ def test_a_missing_i2c_bus_is_one_line_and_exit_4(tmp_path):
     import sys
 
     r = subprocess.run(
-        [sys.executable, "-m", "tactile_fw.host_only.port_linux", "--tty", "/dev/null"]
+        [sys.executable, "-m", "tactile_fw_tools.port_linux", "--tty", "/dev/null"]
         + ["--i2c", "250", "--storage", str(tmp_path)],
         capture_output=True,
         text=True,

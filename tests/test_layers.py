@@ -6,8 +6,9 @@ circle.  The host library is ``tactile`` but its CLI.  The application is the CL
 (``tactile.cli``, and ``python -m tactile``) and the studies (``tactile_studies``), side by
 side: neither imports the other, and the CLI finds the simulator's and the studies'
 commands through entry points (``tactile.commands``), never by importing them.  The
-simulator takes the host's vocabulary (errors, units, board settings, the robot-log
-format), never its estimators."""
+simulator never imports the host's estimators, and its emulator checks the host with parts
+of its own: the vocabulary both need (errors, board settings) is the protocol's, the
+robot-log format is ``tactile.logs``, below the estimators."""
 
 import subprocess
 import sys
@@ -166,6 +167,46 @@ def test_without_the_simulator_the_cli_runs_and_says_what_is_missing():
     )
     first, help_ = r.stdout.split("\n", 1)
     assert first == "1" and "  ports " in help_ and "  emulate " not in help_
+
+
+# What the emulator may take from the host library: the robot-log format, the bounded file
+# reader and atomic writer, and the escaping of what it prints.  Not the host's decoder,
+# board settings or error tree: a bug the emulator shared with the host it checks would hide
+# (the vocabulary both need is tactile_protocol's).
+EMULATOR_MAY_USE = ("tactile.logs", "tactile.files", "tactile.output.textout")
+NEVER_IN_THE_SIMULATOR = ("tactile.board.stream_decoder", "tactile.board.settings")
+
+
+def test_the_emulator_does_not_check_the_host_with_the_hosts_own_parts():
+    found = list(imports())
+    emulator = [i for i in found if _in(i.module, "tactile_sim.emulator")]
+    assert len({i.module for i in emulator}) > 10
+    bad = [
+        f"{i.path}:{i.line}: {i.target}"
+        for i in emulator
+        if _in(i.target, "tactile") and not any(_in(i.target, ok) for ok in EMULATOR_MAY_USE)
+    ]
+    bad += [
+        f"{i.path}:{i.line}: {i.target}"
+        for i in found
+        if _in(i.module, "tactile_sim") and any(_in(i.target, n) for n in NEVER_IN_THE_SIMULATOR)
+    ]
+    assert not bad, bad
+
+
+def test_the_flashed_firmware_package_holds_no_host_only_tooling():
+    """Every module of ``tactile_fw`` goes on the board (``tactile flash``'s list): no
+    subpackage left behind; the tooling is ``tactile_fw_tools``, which nothing flashes."""
+    from tactile.board import flashing
+
+    package = ROOT / "firmware" / "tactile_fw"
+    modules = sorted(str(p.relative_to(package.parent)) for p in package.rglob("*.py"))
+    flashed = sorted(
+        str(src.relative_to(src.parents[1])) for src, _ in flashing.board_files()
+        if src.suffix == ".py" and src.parent.name == "tactile_fw"
+    )  # fmt: skip
+    assert modules == flashed and len(modules) > 10
+    assert not any("tactile_fw_tools" in str(src) for src, _ in flashing.board_files())
 
 
 def test_a_sim_port_without_the_simulator_registered_says_how_in_one_line():

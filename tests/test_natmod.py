@@ -1,6 +1,6 @@
 """The C core as a MicroPython native module (``tactile_native.mpy``) on the Pico.
 
-- The module shipped in the package is what ``tactile_fw.host_only.natmod`` builds from
+- The module shipped in the package is what ``tactile_fw_tools.natmod`` builds from
   ``firmware/c`` today, byte for byte (skipped with the missing tool named, failing under
   ``CI=true``), and is an armv6m native .mpy of the Pico image's version (6.3).
 - On the emulated Pico, the Python ``Board`` and the module's ``Board`` run one scenario
@@ -25,7 +25,7 @@ from toolchain import missing
 from tactile.board.client import BoardClient
 from tactile.board.stream_decoder import decode_bytes
 from tactile_fw import calibration
-from tactile_fw.host_only import natmod
+from tactile_fw_tools import natmod
 from tactile_protocol import constants as C
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py

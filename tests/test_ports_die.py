@@ -38,32 +38,23 @@ PTY_COMMANDS = {
 
 @pytest.mark.parametrize("command", list(PTY_COMMANDS))
 def test_a_board_gone_while_a_command_waits_is_one_line(cli, command):
-    board = DyingBoard()
-    try:
+    with DyingBoard() as board:
         code, _, err = cli(*PTY_COMMANDS[command], "--port", board.path)
-    finally:
-        board.join()
     _one_line_exit_4(code, err)
 
 
 def test_live_with_the_emulator_gone_mid_stream_restores_nothing_and_says_it_once(cli):
     """ch5_plane streams contacts only, so live switched SAMPLE on and owes a restore."""
-    board = DyingBoard("ch5_plane", at_command=2, after_s=1.2)  # GET_INFO, CONFIG
-    try:
+    with DyingBoard("ch5_plane", at_command=2, after_s=1.2) as board:  # GET_INFO, CONFIG
         code, out, err = cli("live", "--port", board.path, "--duration", "5")
-    finally:
-        board.join()
     _one_line_exit_4(code, err)
     assert "sensor 0  |F|" in out and "  F [" in out  # drawn once a second: it was streaming
 
 
 def test_record_whose_board_dies_at_its_tare_is_one_line_and_keeps_the_bytes(cli, tmp_path):
-    board = DyingBoard()
-    try:
+    with DyingBoard() as board:
         code, _, err = cli("record", "--port", board.path, "--duration", "5", "-o", tmp_path,
                            "--quiet")  # fmt: skip
-    finally:
-        board.join()
     _one_line_exit_4(code, err)
     meta = json.loads((tmp_path / "meta.json").read_text())
     assert meta["ended"] == "error" and meta["device"]["sensor_model"] == "FT6/ADS122C04x6"
@@ -76,12 +67,9 @@ def test_record_whose_board_dies_at_its_tare_is_one_line_and_keeps_the_bytes(cli
 
 
 def test_record_whose_board_dies_mid_stream_waits_then_keeps_everything(cli, tmp_path):
-    board = DyingBoard(after_s=0.5)  # the TARE is answered; half a second of stream
-    try:
+    with DyingBoard(after_s=0.5) as board:  # the TARE is answered; half a second of stream
         code, _, err = cli("record", "--port", board.path, "--duration", "10", "-o", tmp_path,
                            "--reconnect", "0.5", "--quiet")  # fmt: skip
-    finally:
-        board.join()
     assert code == 4 and err.count("\n") == 1 and "Traceback" not in err
     assert "port lost and not back within 0.5 s" in err
     meta = json.loads((tmp_path / "meta.json").read_text())

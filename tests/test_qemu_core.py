@@ -12,7 +12,6 @@ import json
 import shutil
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
@@ -82,37 +81,20 @@ def _serve(scene, seconds, fast=True):
     """Every message the QEMU board sent in ``seconds`` of its time, read through its pty."""
     from tactile_sim.emulator.qemu_server import QemuServer
 
-    server = QemuServer(EmulatedBoard(scene, core="qemu", boot_id=5), realtime=not fast)
-    path = server.open()
-    failed = []
-
-    def run():
-        try:
-            server.serve(seconds)
-        except BaseException as exc:  # surfaced below
-            failed.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    port = serial.Serial(path, timeout=0.05)
+    server = QemuServer(EmulatedBoard(scene, core="qemu", boot_id=5), realtime=not fast,
+                        duration_s=seconds)  # fmt: skip
     decoder, msgs = StreamDecoder(), []
     deadline = time.monotonic() + 120
-    try:
-        while (thread.is_alive() or port.in_waiting) and time.monotonic() < deadline:
+    with server, serial.Serial(server.path, timeout=0.05) as port:  # (raises what it raised)
+        while (server.serving or port.in_waiting) and time.monotonic() < deadline:
             data = port.read(1)
             if data:
                 msgs += decoder.feed(data + port.read(port.in_waiting))
-    finally:
-        port.close()
-        server.stop = True
-        thread.join(10)
-        server.close()
-    assert not failed, failed
     return msgs, decoder.counters, server
 
 
 def test_the_image_fits_a_micro_bit(elf):
-    from tactile_fw.host_only import cross
+    from tactile_fw_tools import cross
 
     flash, ram = cross.size(elf)
     assert 8_000 < flash < 256 * 1024 and ram < 16 * 1024
@@ -210,7 +192,7 @@ def test_a_scene_with_disconnects_is_refused_for_qemu(cli, tmp_path):
 
 
 def test_without_the_cross_compiler_qemu_is_refused_in_one_line(cli, mocker):
-    from tactile_fw.host_only import cross
+    from tactile_fw_tools import cross
 
     mocker.patch.object(cross.shutil, "which", return_value=None)
     code, out, err = cli("emulate", "press", "--core", "qemu")

@@ -45,6 +45,7 @@ README = ROOT / "README.md"
 MAKE = ["make demo", "make test"]
 SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere"}
 ASSIGN = re.compile(r"^([A-Z_][A-Z0-9_]*)=(\S+)\s*(#.*)?$")
+SOURCES = ("protocol", "firmware", "firmware/tools", "host", "sim", "studies")  # import roots
 
 
 def _blocks():
@@ -98,7 +99,7 @@ def test_every_block_runs_as_written(tmp_path):
     assert ran == len(blocks) - 1 and ran >= 3  # every block but the two make commands
     # the Python example, on the recording the walkthrough made (run1)
     (python,) = _python_blocks()
-    roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim", "studies")]
+    roots = [str(ROOT / d) for d in SOURCES]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))
     r = subprocess.run([sys.executable, "-c", python], cwd=tmp_path, env=env,
                        capture_output=True, text=True, timeout=120)  # fmt: skip
@@ -125,7 +126,7 @@ def test_the_cli_reference_sweep_runs_as_written(tmp_path):
 def _run_blocks(blocks, cwd):
     """Run ``blocks`` in order in ``cwd``, as one terminal session; returns how many ran."""
     os.symlink(Path(sys.executable).absolute().parents[1], cwd / ".venv")
-    roots = [str(ROOT / d) for d in ("protocol", "firmware", "host", "sim", "studies")]
+    roots = [str(ROOT / d) for d in SOURCES]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     env["XDG_STATE_HOME"] = str(cwd / "state")  # a new emulated Pico's flash for this run
     emulators, pty, ran, scene = [], None, 0, None

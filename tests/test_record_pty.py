@@ -6,13 +6,11 @@ The host side is exactly what runs against a board: ``tactile record`` (or the r
 """
 
 import json
-import threading
 
 import pytest
 
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
-from tactile_sim.emulator.host_wait import serve_when_opened
 from tactile_sim.emulator.pty_server import PtyServer
 from tactile_studies import replica
 
@@ -42,22 +40,12 @@ def test_ch5_recorded_over_a_pty_is_classified_right(cli, tmp_path, kind):
         assert abs(result["radius"] - true) / true < 0.10
 
 
-class ServeWhenOpened:
-    """Serve ``scene`` on a pty once a host has the port open (a board powered by USB)."""
-
-    def __init__(self, scene, realtime=True):
-        self.server = PtyServer(EmulatedBoard(scene), realtime=realtime)
-        self.path = self.server.open()
-        duration = self.server.board.motion.duration_s + 0.1
-        self.thread = threading.Thread(
-            target=serve_when_opened, args=(self.server, duration), daemon=True
-        )
-        self.thread.start()
-
-    def close(self):
-        self.server.stop = True
-        self.thread.join(5)
-        self.server.close()
+def served_when_opened(scene, realtime=True):
+    """``scene`` served on a pty once a host has the port open (a board powered by USB),
+    for its motion's duration: ``with served_when_opened(scene) as served``."""
+    board = EmulatedBoard(scene)
+    duration = board.motion.duration_s + 0.1
+    return PtyServer(board, realtime=realtime, duration_s=duration, when_opened=True)
 
 
 def _scene_with(tmp_path, name, extra):
@@ -71,15 +59,11 @@ def test_record_cli_over_a_pty_gives_ep2_contacts_for_a_three_finger_sweep(cli, 
     scene = _scene_with(tmp_path, "ep2_sweep_sphere", "rest_s = 0.3")  # time to connect
     # As fast as possible: the board's time holds for the host, so the readings (and the
     # fit) are the scene's whatever the machine's load; real time drops or flags late.
-    served = ServeWhenOpened(scene, realtime=False)
-    log = tmp_path / "poses.csv"
-    served.server.board.motion.write_pose_log(log)
-    out = tmp_path / "run"
-    try:
+    log, out = tmp_path / "poses.csv", tmp_path / "run"
+    with served_when_opened(scene, realtime=False) as served:
+        served.board.motion.write_pose_log(log)
         code, stdout, err = cli("record", "--port", served.path, "--no-tare", "--contacts", "3",
                                 "--pose-log", log, "-o", out, "--quiet")  # fmt: skip
-    finally:
-        served.close()
     assert code == 0, err
     assert "contact readings localised (m)" in stdout and "lost 0 frames" in stdout
     result = _analyze(cli, out / "contacts.csv")
@@ -88,16 +72,12 @@ def test_record_cli_over_a_pty_gives_ep2_contacts_for_a_three_finger_sweep(cli, 
 
 @pytest.mark.slow
 def test_record_cli_over_a_pty_gives_ep1_probes_for_a_rolling_fingertip(cli, tmp_path):
-    served = ServeWhenOpened(load_scene("ep1_roll"), realtime=False)  # (as the sweep above)
-    motion = served.server.board.motion
-    log = tmp_path / "probes_log.csv"
-    motion.write_probe_log(log)
-    out = tmp_path / "run"
-    try:
+    log, out = tmp_path / "probes_log.csv", tmp_path / "run"
+    with served_when_opened(load_scene("ep1_roll"), realtime=False) as served:  # (as above)
+        motion = served.board.motion
+        motion.write_probe_log(log)
         code, stdout, err = cli("record", "--port", served.path, "--contacts", "1",
                                 "--pose-log", log, "-o", out, "--quiet")  # fmt: skip
-    finally:
-        served.close()
     assert code == 0, err
     assert "8 of 8 probes usable" in stdout
     code, est, err = cli("ep1", "estimate", out / "probes.csv", "--finger-radius", "0.01", "--json")

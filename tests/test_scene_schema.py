@@ -8,8 +8,8 @@ import sys
 import pytest
 from conftest import ROOT
 
-from tactile_fw import settings
 from tactile_protocol import constants as C
+from tactile_protocol import settings
 from tactile_sim.emulator import load_scene, scene_schema
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.scene import MOTIONS, SCENE_DIR

@@ -8,7 +8,7 @@
  * nanopb's streams; errors are return values.
  *
  * Protocol tables and constants are generated from the Python sources into tc_gen.h
- * (tactile_fw/host_only/c_tables.py), so the two cannot drift.
+ * (tactile_fw_tools/c_tables.py), so the two cannot drift.
  */
 #ifndef TACTILE_CORE_H
 #define TACTILE_CORE_H

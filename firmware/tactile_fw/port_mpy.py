@@ -5,7 +5,7 @@ The only board file that imports ``machine``.  ``/main.py`` on the board is
 
 Two boards run here, the same protocol and the same bytes: the C core as a native module
 (``tactile_native.mpy`` in ``/lib``, built from ``firmware/c`` by
-``tactile_fw.host_only.natmod``), used when it is there and built from this firmware, and the
+``tactile_fw_tools.natmod``), used when it is there and built from this firmware, and the
 Python ``Board`` otherwise (or when ``main(core="python")`` asks for it).  Both get the same
 buses, USB link rules, storage and boot id, and the same loop (``run``).
 

@@ -1,35 +1,27 @@
-"""Board settings (rate, contact gate, streams, autostart): limits and persistence.
+"""Board settings (rate, contact gate, streams, autostart): persistence, within the limits.
 
-Defaults follow the thesis (§5.1, §5.1.3): a contact is |F| in the x-y plane
-above "5 units"; the sensor's stated accuracy is 0.20 oz in x and y, so the
-units are read as ounces-force (1 ozf = 0.278 N).  Enter at 5 ozf
-(1.390 N), exit at 4 ozf (1.112 N): the 1 ozf hysteresis band is five times
-the stated accuracy, and a 3-sample debounce rejects single-sample spikes.
+The limits, defaults and the rule (``check``) are the protocol's settings vocabulary
+(``tactile_protocol.settings``), which the host and the emulator read too; this module
+stores and loads the settings a board keeps (``settings.bin``).
 """
 
 import struct
 
-from tactile_protocol.constants import CFG_PERSIST, CFG_STREAM_CONTACTS, CFG_WRITABLE
+from tactile_protocol.constants import CFG_PERSIST, CFG_WRITABLE
 from tactile_protocol.crc16 import crc16
+from tactile_protocol.settings import (
+    DEFAULT_DEBOUNCE,
+    DEFAULT_ENTER_UN,
+    DEFAULT_EXIT_UN,
+    DEFAULT_FLAGS,
+    DEFAULT_RATE_HZ,
+    check,
+)
 
 FILE_NAME = "settings.bin"
-DEFAULT_RATE_HZ = 1000
-DEFAULT_ENTER_UN = 1390000  # 5 ozf in uN
-DEFAULT_EXIT_UN = 1112000  # 4 ozf in uN
-DEFAULT_DEBOUNCE = 3
-DEFAULT_FLAGS = CFG_STREAM_CONTACTS
-MIN_RATE_HZ = 1
-MAX_DEBOUNCE = 255
 _MAGIC = b"TSET"
 _FMT = "<4sBHiiBB"
 _SIZE = struct.calcsize(_FMT)
-
-# CONFIG field indices, reported in NAK.detail
-F_RATE = 0
-F_ENTER = 1
-F_EXIT = 2
-F_DEBOUNCE = 3
-F_FLAGS = 4
 
 
 class Settings:
@@ -57,21 +49,6 @@ class Settings:
 
     def save(self, storage):
         storage.write(FILE_NAME, self.to_bytes())
-
-
-def check(rate_hz, enter, exit_, debounce, flags, max_rate_hz):
-    """Index of the first CONFIG field out of range, or -1 if all are valid."""
-    if not MIN_RATE_HZ <= rate_hz <= max_rate_hz:
-        return F_RATE
-    if enter < 0:
-        return F_ENTER
-    if not 0 <= exit_ <= enter:
-        return F_EXIT
-    if not 1 <= debounce <= MAX_DEBOUNCE:
-        return F_DEBOUNCE
-    if flags & ~CFG_WRITABLE:
-        return F_FLAGS
-    return -1
 
 
 def load(storage, max_rate_hz):

@@ -1,5 +1,8 @@
 """The host's error tree.  The CLI turns any of these into one line and an exit code.
 
+The tree and its exit codes are the protocol layer's (``tactile_protocol.errors``), shared
+with the emulator; the host adds the refinements of ``BoardError`` and ``where``.
+
 - ``TactileError``: base; ``exit_code`` is what the CLI returns.
 - ``InputError`` (2): bad user input; the message names file, line, column/field.
 - ``MissingExtra`` (2): the command needs an optional extra that is not installed; the
@@ -12,29 +15,18 @@
   limit, an I/O error); the message names the file and what was kept.
 """
 
+from tactile_protocol.errors import (
+    BoardError,
+    DataError,
+    HostFileError,
+    InputError,
+    MissingExtra,
+    TactileError,
+)
 
-class TactileError(Exception):
-    exit_code = 1
-
-
-class InputError(TactileError, ValueError):
-    exit_code = 2
-
-
-class MissingExtra(TactileError):
-    exit_code = 2
-
-
-class DataError(TactileError):
-    exit_code = 3
-
-
-class BoardError(TactileError, IOError):
-    exit_code = 4
-
-
-class HostFileError(TactileError):
-    exit_code = 5
+__all__ = ["BoardError", "BoardTimeout", "DataError", "HostFileError", "InputError",
+           "MissingExtra", "PortError", "PortLost", "ProtocolVersionError", "TactileError",
+           "where"]  # fmt: skip
 
 
 class BoardTimeout(BoardError):

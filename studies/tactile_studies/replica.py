@@ -90,31 +90,19 @@ def _on_sim(scene):
 
 @contextlib.contextmanager
 def _on_pty(scene):
-    """A PtyServer thread: real time until the host is ready (its TARE done, inside the
-    scene's lead-in), then as fast as possible; stop when served and drained."""
-    import threading
-
+    """A PtyServer: real time until the host is ready (its TARE done, inside the scene's
+    lead-in), then as fast as possible; stop when served and drained."""
     from tactile_sim.emulator.device import EmulatedBoard
     from tactile_sim.emulator.pty_server import PtyServer
 
     board = EmulatedBoard(scene)
-    server = PtyServer(board, realtime=True)
-    path = server.open()
-    thread = threading.Thread(
-        target=server.serve, args=(board.motion.duration_s + 0.2,), daemon=True
-    )
-    thread.start()
 
     def on_ready(session):
         server.realtime = False
 
     def stop_when(session):
-        done = not thread.is_alive() and session.client.port.in_waiting == 0
+        done = not server.serving and session.client.port.in_waiting == 0
         return "scene end" if done else None
 
-    try:
-        yield path, board.motion, stop_when, on_ready
-    finally:
-        server.stop = True
-        thread.join(5)
-        server.close()
+    with PtyServer(board, realtime=True, duration_s=board.motion.duration_s + 0.2) as server:
+        yield server.path, board.motion, stop_when, on_ready

@@ -19,9 +19,9 @@
  *   settings.bin and cal<N>.bin, in the Python firmware's byte layouts.
  *
  * An OSError from a Python callable is the HAL's error code (its errno), as
- * tactile_fw.host_only.ccore does on the host; any other exception propagates.
+ * tactile_fw_tools.ccore does on the host; any other exception propagates.
  *
- * Built by tactile_fw.host_only.natmod with MicroPython's py/dynruntime.mk (ARCH=armv6m).
+ * Built by tactile_fw_tools.natmod with MicroPython's py/dynruntime.mk (ARCH=armv6m).
  */
 #include "py/dynruntime.h"
 #include "py/stream.h"
@@ -105,7 +105,7 @@ int memcmp(const void *a, const void *b, size_t n)
 
 /* --- calling Python from the HAL --------------------------------------------------------- */
 /* An OSError as the HAL's nonzero error code: its errno (errno 0 still a failure), 0xFF
- * without one; tactile_fw.host_only.ccore._code does the same. */
+ * without one; tactile_fw_tools.ccore._code does the same. */
 static int oserror_code(mp_obj_t exc)
 {
     mp_obj_t args = mp_load_attr(exc, MP_QSTR_args);
@@ -458,7 +458,7 @@ static mp_obj_t board_idle_us(mp_obj_t self_in)
 }
 static MP_DEFINE_CONST_FUN_OBJ_1(board_idle_us_obj, board_idle_us);
 
-/* Counters read as attributes (board.samples, ...), as tactile_fw.host_only.ccore.STATS
+/* Counters read as attributes (board.samples, ...), as tactile_fw_tools.ccore.STATS
  * names them; last_error can be set (port_mpy.run records an exception there). */
 static void board_attr(mp_obj_t self_in, qstr attr, mp_obj_t *dest)
 {

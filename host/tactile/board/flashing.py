@@ -2,7 +2,7 @@
 
 The board holds ``/lib/tactile_fw``, ``/lib/tactile_protocol`` and a two-line
 ``/main.py`` that starts ``tactile_fw.port_mpy.main``.  Files that only run
-on a Linux controller (the ``tactile_fw.host_only`` subpackage) stay behind:
+on a Linux controller (the ``tactile_fw_tools`` subpackage) stay behind:
 only each package's top-level modules are copied.
 
 ``flash`` works through mpremote's raw REPL (``tactile.board.raw_repl``), every step within a
@@ -52,6 +52,11 @@ def main_py(n_sensors=1, wdt_ms=0):
     )
 
 
+# The protocol's modules that only CPython imports: the error tree of the host and the emulator
+# (MicroPython cannot derive a class from two built-in exceptions); the firmware raises builtins.
+HOST_SIDE = ("tactile_protocol/errors.py",)
+
+
 def board_files():
     """(source path, path on the board) for every module that goes on the board.
 
@@ -60,8 +65,9 @@ def board_files():
     out = []
     for pkg in (tactile_fw, tactile_protocol):
         src_dir = pathlib.Path(list(pkg.__path__)[0])  # also for a namespace-mode install
-        for src in sorted(src_dir.glob("*.py")):  # top level only: host_only/ stays behind
-            out.append((src, f"lib/{src_dir.name}/{src.name}"))
+        for src in sorted(src_dir.glob("*.py")):
+            if f"{src_dir.name}/{src.name}" not in HOST_SIDE:
+                out.append((src, f"lib/{src_dir.name}/{src.name}"))
         for src in sorted(src_dir.glob("*.mpy")):
             out.append((src, f"lib/{src.name}"))
     return out

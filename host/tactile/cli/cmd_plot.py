@@ -15,6 +15,7 @@ from tactile.ep2 import analyze_patch
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError
 from tactile.output import plots
+from tactile.output.textout import printable
 from tactile.recording.meta import read_meta
 
 WHAT = ("contacts", "patch", "maps")
@@ -140,8 +141,6 @@ def run(args):
 def _draw(plot, *args, **kw):
     """Call a ``tactile.output.plots`` function and print the path it wrote (its file is
     replaced whole: not a file there, exit 2; a disk error, exit 5)."""
-    from tactile.output.textout import printable
-
     print(printable(plot(*args, **kw)), flush=True)
 
 

@@ -19,18 +19,14 @@ import signal
 import sys
 
 from tactile.calib.ati import format_cal
-from tactile.errors import BoardError, InputError
+from tactile.errors import InputError
 from tactile.files.atomic import write_bytes
 from tactile.output.textout import printable
 from tactile_sim.emulator import load_scene, pty_link
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.ft_model import per_volt_matrix
-from tactile_sim.emulator.host_wait import serve_when_opened
 from tactile_sim.emulator.link_faults import LinkFaults
-from tactile_sim.emulator.pico_server import PicoServer
-from tactile_sim.emulator.pty_server import PtyServer
-from tactile_sim.emulator.qemu_core import image
-from tactile_sim.emulator.qemu_server import QemuServer
+from tactile_sim.emulator.servers import server_for
 
 
 def add_arguments(parser):
@@ -92,16 +88,12 @@ def run(args):
     faults = None if args.no_faults else LinkFaults.from_scene(scene.link)
     if args.flash and args.core != "rp2040":
         raise InputError("--flash: only with --core rp2040 (the emulated Pico's flash file)")
-    if args.core == "qemu":
-        image()  # built (or refused in one line) before the port is offered
-        server = QemuServer(board, link_path=args.link, realtime=not args.fast, faults=faults)
-        _exit_on_sigterm()  # so that QEMU's work directory and the --link go too
-    elif args.core == "rp2040":
-        server = PicoServer(board, args.flash, args.link, not args.fast, faults)
-        server.launch()  # powered (or refused in one line) before the port is offered
-        _exit_on_sigterm()
-    else:
-        server = PtyServer(board, args.link, not args.fast, faults, disconnects)
+    flash = {"flash": args.flash} if args.flash else {}  # (the emulated Pico's)
+    server = server_for(board, link_path=args.link, realtime=not args.fast, faults=faults,
+                        disconnects=disconnects, duration_s=args.duration,
+                        when_opened=not args.now, **flash)  # fmt: skip
+    server.prepare()  # built or powered (or refused in one line) before the port is offered
+    _exit_on_sigterm()  # so that QEMU, the chip and the --link go too
     if args.pose_log:
         _write_log(board.motion, args.pose_log)
     if args.cal_file:
@@ -113,33 +105,13 @@ def run(args):
         when = "now, running while a host has the port open" if args.fast else "now"
     print(printable(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
                     f"starting {when}; Ctrl-C to stop"), file=sys.stderr)  # fmt: skip
-    try:
-        if args.core == "qemu":
-            server.serve(args.duration, when_opened=not args.now)
-            _qemu_ended(server)
-        elif args.core == "rp2040":
-            server.serve(args.duration)
-        elif args.now:
-            server.serve(args.duration)
-        else:
-            serve_when_opened(server, args.duration)
-    finally:
-        server.close()
+    with server:  # serves until its duration, the board's end or Ctrl-C; then closes
+        server.wait()
     return 0
 
 
 def _exit_on_sigterm():
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
-
-
-def _qemu_ended(server):
-    """QEMU stops with status 0 only when told; the image's own exit is a fault (one line)."""
-    if server.exit_status:
-        why = {1: "a CPU fault", 2: "no device channel", 3: "the device channel broke"}
-        raise BoardError(
-            f"the QEMU image stopped: {why.get(server.exit_status, 'exit status')} "
-            f"({server.exit_status})"
-        )
 
 
 def _write_log(motion, path):

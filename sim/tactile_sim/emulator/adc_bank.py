@@ -18,7 +18,7 @@ import ctypes
 import functools
 import pathlib
 
-from tactile_fw.host_only import ccore
+from tactile_fw_tools import ccore
 from tactile_sim.adc_model import ADS122C04Model
 
 SOURCE = pathlib.Path(__file__).with_name("adc_bank.c")

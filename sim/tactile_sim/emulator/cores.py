@@ -3,7 +3,7 @@
 - ``python``: ``tactile_fw.board.Board``, the MicroPython firmware, on the simulated buses;
 - ``c``: the C core (``firmware/c``) built by ``cc`` into ``$XDG_CACHE_HOME/tactile/ccore``
   (once per version of its sources, named by their hash) and driven through ctypes
-  (``tactile_fw.host_only.ccore``): its HAL's I2C calls reach the same simulated buses
+  (``tactile_fw_tools.ccore``): its HAL's I2C calls reach the same simulated buses
   and ADC models (the sampling reads answered by their C mirror, ``adc_bank``); its byte
   link, clock and flash are the same ``PipeLink``, ``ManualClock`` and ``MemoryStorage``.
 
@@ -20,7 +20,7 @@ import functools
 import os
 import pathlib
 
-from tactile.errors import BoardError
+from tactile_protocol.errors import BoardError
 
 CORES = ("python", "c")  # a scene's [board] core, sim://?core=
 SERVED = (*CORES, "qemu", "rp2040")  # also on a pty only: QEMU's image, the emulated Pico
@@ -40,7 +40,7 @@ def cache_dir():
 @functools.lru_cache(maxsize=1)
 def c_library():
     """The C core as a loaded shared library, built on first use (cached across runs)."""
-    from tactile_fw.host_only import ccore
+    from tactile_fw_tools import ccore
 
     try:
         return ccore.load(ccore.build(cache_dir(), name="libtactile_core-{digest}.so"))
@@ -64,7 +64,7 @@ def python_board(buses, layout, link, clock, storage, **kw):
 def c_i2c(buses):
     """What answers the C core's I2C: the converters mirrored in C (``adc_bank``) when
     ``C_I2C`` is ``"bank"`` and they can be, else None (a Python callback per transaction)."""
-    from tactile_fw.host_only import ccore
+    from tactile_fw_tools import ccore
     from tactile_sim.emulator import adc_bank
 
     if C_I2C != "bank" or not adc_bank.mirrorable(buses):
@@ -76,7 +76,7 @@ def c_i2c(buses):
 
 
 def c_board(buses, layout, link, clock, storage, **kw):
-    from tactile_fw.host_only.ccore import CBoard
+    from tactile_fw_tools.ccore import CBoard
 
     lib = c_library()
     return CBoard(lib, buses, layout, link, clock, storage, i2c=c_i2c(buses), **kw)

@@ -16,13 +16,13 @@ import importlib
 import math
 import os
 
-from tactile.board import settings as bs
 from tactile_fw import calibration, settings
 from tactile_fw.board import boot_id_from
 from tactile_fw.frontend import ADDRESS_PLAN
 from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
 from tactile_fw.timing import ManualClock
+from tactile_protocol import settings as vocabulary
 from tactile_sim.adc_model import FULL_SCALE_CODES, ADS122C04Model
 from tactile_sim.emulator import cores
 from tactile_sim.emulator.ft_model import FTModel
@@ -46,13 +46,13 @@ def board_settings(scene, max_rate_hz):
     b = scene.board
     s = settings.Settings(
         b["rate_hz"],
-        bs.to_counts(b["enter_threshold_N"]),
-        bs.to_counts(b["exit_threshold_N"]),
+        vocabulary.to_counts(b["enter_threshold_N"]),
+        vocabulary.to_counts(b["exit_threshold_N"]),
         b["debounce"],
-        bs.config_flags(b["gate"], b["streams"], b["autostart"]),
+        vocabulary.config_flags(b["gate"], b["streams"], b["autostart"]),
     )
-    bad = settings.check(*s.fields(), max_rate_hz)
-    if bad == settings.F_RATE:
+    bad = vocabulary.check(*s.fields(), max_rate_hz)
+    if bad == vocabulary.F_RATE:
         n = b["sensors"]
         why = (
             f"[board] max_rate_hz ({max_rate_hz})"

@@ -14,7 +14,7 @@ Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
 
 import numpy as np
 
-from tactile.recording.robot_log import write_log
+from tactile.logs.robot_log import write_log
 
 MAX_TIMELINE = 1_000_000  # load rows (one per board sample): ~17 min of probing at 1 kHz
 
@@ -49,7 +49,7 @@ class RigMotion:
     def write_pose_log(self, path):
         """The robot controller's log: joints per touch, the rig's lengths (m) and the scene's
         end (board us, where ``tactile record`` stops) in comments
-        (``tactile.recording.robot_log``)."""
+        (``tactile.logs.robot_log``)."""
         end_us = round(self.duration_s * 1e6)
         write_log(path, "scara", self.poses(), rig=self.lengths, end_us=end_us)
 

@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from tactile.recording.robot_log import write_log
+from tactile.logs.robot_log import write_log
 
 HOLD_FRACTION = 0.8  # the central part of each hold that the log offers for reading
 ROLL_KNOTS = 65  # path samples per roll (wrench linearly interpolated in between)
@@ -80,7 +80,7 @@ class RollMotion:
         return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
 
     def write_probe_log(self, path):
-        """The robot's probe log (``tactile.recording.robot_log``; ``tactile.ep1.from_ft`` reads
+        """The robot's probe log (``tactile.logs.robot_log``; ``tactile.ep1.from_ft`` reads
         it): the
         fingertip, the readable half width of a hold and the scene's end in comments."""
         g = self.geometry

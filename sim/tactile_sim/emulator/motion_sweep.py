@@ -39,7 +39,7 @@ Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``):
 
 import numpy as np
 
-from tactile.recording.robot_log import write_log
+from tactile.logs.robot_log import write_log
 
 # Sensor axes in the object frame for an untwisted finger: pole +x_S = -z, y_S = +y, z_S = +x.
 _R0 = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
@@ -173,7 +173,7 @@ class SweepMotion:
         fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
         accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
         scene's end (``# end:``), where ``tactile record`` stops
-        (``tactile.recording.robot_log``)."""
+        (``tactile.logs.robot_log``)."""
         centre, radius, axis = self.probe()
         end_us = round(self.duration_s * 1e6)
         write_log(path, "pose", self.poses(), probe=(radius, centre, axis), sensor=self.noise,

@@ -30,8 +30,8 @@ import subprocess
 import sys
 import time
 
-from tactile.errors import BoardError, InputError, MissingExtra
 from tactile.output.textout import printable
+from tactile_protocol.errors import BoardError, InputError, MissingExtra
 
 HERE = pathlib.Path(__file__).resolve().parent
 CHIP_JS = HERE / "pico_chip.mjs"

@@ -13,7 +13,7 @@ path out.
 import os
 import re
 
-from tactile.errors import InputError
+from tactile_protocol.errors import InputError
 
 _PTY = re.compile(r"^/dev/(pts/\d+|ttys\d+)$")
 

@@ -23,7 +23,7 @@ import socket
 import subprocess
 import time
 
-from tactile.errors import BoardError
+from tactile_protocol.errors import BoardError
 
 QEMU = "qemu-system-arm"
 INSTALL = "apt-get install qemu-system-arm"
@@ -165,7 +165,7 @@ def _die_with_parent():
 
 def image():
     """The cross-compiled image, built once per source version in the user's cache."""
-    from tactile_fw.host_only import cross
+    from tactile_fw_tools import cross
     from tactile_sim.emulator.cores import cache_dir
 
     try:
@@ -331,6 +331,6 @@ def _int(data, at, n):
 
 
 def _blob(key):
-    from tactile_fw.host_only.ccore import blob_name
+    from tactile_fw_tools.ccore import blob_name
 
     return blob_name(key)

@@ -1,28 +1,27 @@
-"""Serve the C core's Cortex-M0 image, running in QEMU, on a pseudo-terminal.
+"""The C core's Cortex-M0 image, running in QEMU, on a pseudo-terminal.
 
 ``QemuServer(emulated)`` takes an ``EmulatedBoard`` built with ``core="qemu"`` (its
-simulated sensors, buses, flash and faults) and, once a host opens the pty (or at once),
-starts QEMU (``qemu_core``).  One loop then moves bytes between the host's pty and the
-nRF51 UART's socket, applies the scene's ``[link]`` faults to what the board sends, and
-answers the image's device channel.  As with ``PtyServer``:
+simulated sensors, buses, flash and faults) and, once a host has the pty open (or at once,
+``when_opened=False``), starts QEMU (``qemu_core``).  Its step moves bytes between the
+nRF51 UART's socket and the host's queue, and answers the image's device channel; ``Server``
+(``server``) owns the pty, host presence, hold, drain, keep and drop:
 
-- QEMU starts only when a host has had the port open for ``OPEN_SETTLE_S`` (pyserial
-  flushes its input at the end of ``open()``), so the host sees the boot's HELLO; the
+- QEMU starts only once the host is announced, so the host sees the boot's HELLO; the
   image has no ``opened`` signal afterwards, so a host that reopens asks GET_INFO, as it
   does of a Pico;
 - real time: QEMU's clock is the host's; a host that does not read makes the firmware's
   TX ring drop and count frames, as on a board;
-- ``fast``: QEMU counts instructions (``-icount``, time skips WFI), and the device channel
-  is not answered while more than ``HOLD_BYTES`` wait for the host, so the board's time
-  holds until the host reads, for at most ``HOLD_LIMIT_S`` (pty_server) in a row: then it
-  runs on, and what the host leaves beyond ``KEEP_BYTES`` is dropped and counted
-  (``dropped``).  At the end the board runs on until a frame stamped at or after the end
+- ``fast``: QEMU counts instructions (``-icount``, time skips WFI); what it sends waits for
+  a host to come, and the device channel is not answered while more than ``HOLD_BYTES``
+  wait for the host, so the board's time holds (at most ``HOLD_LIMIT_S`` in a row in a run
+  with an end: then it runs on, and what the host leaves beyond ``KEEP_BYTES`` is dropped
+  and counted).  At the end the board runs on until a frame stamped at or after the end
   has left its UART (what its TX ring still held when its clock passed the end would
-  otherwise die with QEMU: how much depends on the host machine's load), then the server
-  waits for the host to read it all.
+  otherwise die with QEMU: how much depends on the host machine's load), then the host
+  reads it all.
 
-Disconnect windows are not served (the UART is QEMU's): ``qemu_server`` refuses a scene
-that has them.
+Disconnect windows are not served (the UART is QEMU's).  An image that exits by itself
+(a CPU fault, a broken device channel) ends the run with a ``BoardError``.
 """
 
 import select
@@ -30,187 +29,132 @@ import shutil
 import tempfile
 import time
 
-from tactile_sim.emulator import pty_link
-from tactile_sim.emulator.pty_server import (
-    DRAINED_S,
-    OPEN_SETTLE_S,
-    HoldLimit,
-    PtyEndpoint,
-    Stalled,
-)
-from tactile_sim.emulator.qemu_core import connect_uart
+from tactile_protocol.errors import BoardError
+from tactile_protocol.framing import FRAME_OK, FrameAssembler
+from tactile_sim.emulator.qemu_core import connect_uart, image
+from tactile_sim.emulator.server import Server
 
-HOLD_BYTES = 4096  # fast: bytes for the host beyond which the board's time holds
-KEEP_BYTES = 1 << 20  # fast: bytes kept for a host that does not read (then dropped, counted)
 RUN_OUT_US = 500_000  # fast, at the end: board time allowed for the TX ring to empty
 RUN_OUT_S = 10.0  # ... and wall time
-CONNECT_TIMEOUT_S = 10.0
 IDLE_S = 0.005
+EXITS = {1: "a CPU fault", 2: "no device channel", 3: "the device channel broke"}
 
 
-class QemuServer:
+class LastFrame:
+    """Fast mode's end: whether a frame stamped ``end_us`` or later has left the board.
+    Read with the protocol's own framing (the emulator checks the host, not with it)."""
+
+    def __init__(self, end_us):
+        self.end_us, self.seen = end_us, False
+        self._frames = FrameAssembler()
+
+    def feed(self, data):
+        frames = self._frames
+        for byte in data:
+            if frames.feed(byte) == FRAME_OK:
+                try:
+                    t_us = frames.message()[2]
+                except ValueError:  # a frame of the wrong layout: not a stamp to go by
+                    continue
+                self.seen = self.seen or t_us >= self.end_us
+
+
+class QemuServer(Server):
     """See the module docstring; ``board`` is an ``EmulatedBoard(scene, core="qemu")``."""
 
-    def __init__(self, board, link_path=None, realtime=True, faults=None):
+    def __init__(self, board, link_path=None, realtime=True, faults=None, when_opened=True,
+                 **options):  # fmt: skip
         if board.core != "qemu":
             raise ValueError("QemuServer serves an EmulatedBoard built with core='qemu'")
-        self.board, self.link_path, self.realtime, self.faults = board, link_path, realtime, faults
-        self.endpoint = None
-        self.proc = self.device = self.uart = None
-        self.workdir = None
-        self.to_host, self.to_board = bytearray(), bytearray()
-        self.stop = False
+        super().__init__(board, link_path, realtime, faults, when_opened=when_opened, **options)
+        self.proc = self.device = self.uart = self.workdir = None
+        self.to_board, self.from_board = bytearray(), bytearray()
         self.exit_status = None
-        self._tail = None  # fast, at the end: (decoder, end_us) watching for the last frame
-        self._held = HoldLimit()
-        self.dropped = 0  # fast: bytes for a host that did not read, beyond KEEP_BYTES
-        self._tail_done = False
+        self._last = None  # fast, at the end: a LastFrame watching for the last frame
 
+    # --- the core ---------------------------------------------------------------------------
     @property
-    def path(self):
-        return self.link_path or self.endpoint.path
+    def keeps_for_absent_host(self):
+        return not self.realtime  # (the image has no opened signal: its HELLO waits)
 
-    def open(self):
-        self.endpoint = PtyEndpoint()
-        if self.link_path:
-            try:
-                pty_link.point(self.link_path, self.endpoint.path)
-            except Exception:
-                self.endpoint.close()
-                raise
-        return self.path
+    def prepare(self):
+        image()  # built (or refused in one line) before the port is offered
 
-    # --- the run ----------------------------------------------------------------------
-    def serve(self, duration_s=None, when_opened=True):
-        """Start QEMU (when a host has opened the port, unless ``when_opened`` is False) and
-        serve until ``stop``, ``duration_s`` of the board's time, or QEMU's exit."""
-        if self.endpoint is None:
-            self.open()
-        if when_opened and not self._wait_for_host():
-            return
-        self._launch()
-        end_us = None if duration_s is None else int(duration_s * 1e6)
-        self._held.bounded = end_us is not None  # (a run without an end may hold)
-        try:
-            running = True
-            while running and not self.stop and (end_us is None or self.board.t_us < end_us):
-                running = self._step()
-            if not self.realtime:
-                if running and end_us is not None:
-                    self._run_out(end_us)
-                self._let_host_read()
-        finally:
-            self._halt()
-
-    def _run_out(self, end_us):
-        """Fast mode's end: run the board until a frame stamped ``end_us`` or later has left
-        its UART, so the frames its TX ring held at the end reach the host."""
-        from tactile.board.stream_decoder import StreamDecoder
-
-        self._tail = (StreamDecoder(), end_us)
-        deadline = time.monotonic() + RUN_OUT_S
-        try:
-            while not (self._tail_done or self.stop) and time.monotonic() < deadline:
-                if self.board.t_us >= end_us + RUN_OUT_US or not self._step():
-                    return
-        finally:
-            self._tail = None
-
-    def _wait_for_host(self):
-        since = None
-        while not self.stop:
-            _, present = self.endpoint.wait(0.01)
-            now = time.monotonic()
-            since = (since or now) if present else None
-            if since is not None and now - since >= OPEN_SETTLE_S:
-                self.endpoint.host_present = True
-                return True
-        return False
-
-    def _launch(self):
+    def start(self):
         self.workdir = tempfile.mkdtemp(prefix="tactile-qemu-")
         self.proc, self.device = self.board.board.launch(self.workdir, fast=not self.realtime)
         self.uart = connect_uart(self.workdir, self.proc)
         self.device.open_reply()
 
-    def _step(self, device=True):
-        """One exchange: host input, board output, device requests (unless ``device`` is
-        False: the board's time then holds); False once QEMU has ended."""
-        ep = self.endpoint
-        readable, present = ep._look(0.0)
-        ep.host_present = present
-        if readable:
-            self.to_board += ep.read()
-        held = self._held(not self.realtime and len(self.to_host) > HOLD_BYTES)
+    def read(self):
+        data = bytes(self.from_board)
+        self.from_board.clear()
+        return data
+
+    def write(self, data):
+        self.to_board += data
+
+    def step(self, held):
+        """Host bytes to the UART, the UART's bytes in, and the device requests unless
+        ``held`` (the board's time then holds); False once QEMU has ended."""
         poller = select.poll()
         poller.register(self.uart, select.POLLIN | (select.POLLOUT if self.to_board else 0))
-        if device and not held:
+        if not held:
             poller.register(self.device.req_fd, select.POLLIN)
-        wait_ms = 0 if readable or (self.to_host and present) else IDLE_S * 1000
-        for fd, ev in poller.poll(wait_ms):
+        busy = self.readable or (self.to_host and self.endpoint.host_present)
+        for fd, ev in poller.poll(0 if busy else IDLE_S * 1000):
             if fd == self.uart.fileno():
-                if ev & select.POLLIN and not self._from_board():
+                if ev & select.POLLIN and not self._from_uart():
                     return False
                 if ev & select.POLLOUT and self.to_board:
-                    self._to_board()
+                    self._to_uart()
             elif not self.device.serve_burst():
                 return False
-        self._to_host()
         if self.proc.poll() is not None:
             self.exit_status = self.proc.returncode
             return False
         return True
 
-    def _from_board(self):
+    def _from_uart(self):
         try:
             data = self.uart.recv(65536)
         except BlockingIOError:
             return True
         if not data:
             return False
-        if self.faults is not None:
-            data = self.faults.apply(data)
-        if self._tail is not None:
-            decoder, end_us = self._tail
-            stamps = (getattr(m, "timestamp_us", -1) for m in decoder.feed(data))
-            self._tail_done = self._tail_done or max(stamps, default=-1) >= end_us
-        if not (self.endpoint.host_present or not self.realtime):
-            return True  # (real time, nobody there: the bytes go nowhere, as on USB)
-        if len(self.to_host) < KEEP_BYTES:
-            self.to_host += data
-        else:
-            self.dropped += len(data)
+        if self._last is not None:
+            self._last.feed(data)
+        self.from_board += data
         return True
 
-    def _to_board(self):
+    def _to_uart(self):
         try:
             n = self.uart.send(self.to_board)
         except BlockingIOError:
             return
         del self.to_board[:n]
 
-    def _to_host(self):
-        if self.to_host and self.endpoint.host_present:
-            n = self.endpoint.write(bytes(self.to_host))
-            del self.to_host[:n]
+    def finish(self):
+        """Fast mode's end: run the board until a frame stamped at the end or later has left
+        its UART, so the frames its TX ring held at the end reach the host."""
+        if self.realtime or self.end_us is None:
+            return
+        self._last = LastFrame(self.end_us)
+        deadline = time.monotonic() + RUN_OUT_S
+        try:
+            while not (self._last.seen or self.stop) and time.monotonic() < deadline:
+                if self.board.t_us >= self.end_us + RUN_OUT_US or not self._turn():
+                    return
+        finally:
+            self._last = None
 
-    def _let_host_read(self):
-        """Fast mode's end: the host reads what is queued or in flight before QEMU goes."""
-        empty_since, stalled = None, Stalled()
-        while self.endpoint.host_present and not self.stop:
-            if not self._step(device=False):
-                return
-            state = (len(self.to_host), self.endpoint.unread())
-            if stalled(state):
-                return
-            if any(state):
-                empty_since = None
-            elif empty_since is None:
-                empty_since = time.monotonic()
-            elif time.monotonic() - empty_since >= DRAINED_S:
-                return
+    def check(self):
+        """QEMU stops with status 0 only when told; the image's own exit is a fault."""
+        if self.exit_status:
+            why = EXITS.get(self.exit_status, "exit status")
+            raise BoardError(f"the QEMU image stopped: {why} ({self.exit_status})")
 
-    def _halt(self):
+    def halt(self):
         if self.proc is not None and self.proc.poll() is None:
             self.proc.kill()
         if self.proc is not None:
@@ -223,10 +167,3 @@ class QemuServer:
         if self.workdir is not None:
             shutil.rmtree(self.workdir, ignore_errors=True)
         self.proc = self.uart = self.device = self.workdir = None
-
-    def close(self):
-        self._halt()
-        if self.endpoint is not None:
-            self.endpoint.close()
-        if self.link_path:
-            pty_link.remove(self.link_path)

@@ -11,8 +11,8 @@ one-line ``SceneError`` (exit 2) naming the file, section and key:
 import pathlib
 import tomllib
 
-from tactile.errors import InputError
 from tactile.files import bounded
+from tactile_protocol.errors import InputError
 from tactile_sim.emulator import scene_schema
 from tactile_sim.emulator.scene_schema import Bad
 

@@ -1,5 +1,5 @@
 """The scene schema: ``KEYS``, a row per key of a scene TOML file (section ``motion.KIND``
-for a motion kind's keys), with limits from ``tactile_protocol`` and ``tactile_fw``, and the
+for a motion kind's keys), with limits from ``tactile_protocol`` (its messages and settings), and the
 rules across keys (``broken_rules``).  ``validate(data)`` checks a parsed scene whole and
 fills in the defaults; ``markdown()`` is docs/scenes.md's tables.  An error is ``Bad`` with
 ``where`` = ``[section] key`` (``[[sensor_fault]] #2 kind``, ``[sensor] noise_force_N[1]``).
@@ -15,10 +15,10 @@ from collections import namedtuple
 from functools import partial
 from typing import NamedTuple
 
-from tactile.board.settings import DEFAULTS, GATES, STREAMS, to_newtons
-from tactile_fw import settings
 from tactile_protocol import constants as C
+from tactile_protocol import settings
 from tactile_protocol.messages import BY_NAME
+from tactile_protocol.settings import DEFAULTS, GATES, STREAMS, to_newtons
 from tactile_sim.adc_model import FULL_SCALE_CODES
 from tactile_sim.emulator import sensor_faults
 from tactile_sim.emulator.cores import CORES, DEFAULT_CORE

@@ -4,7 +4,7 @@
 (``firmware/c/qemu``: startup, UART/TIMER HAL, semihosting device channel, bench) with
 Debian's ``arm-none-eabi-gcc -mcpu=cortex-m0plus -mthumb -Os`` into an ELF, reused while
 the sources, flags and compiler are unchanged.  ``NoToolchain`` when the cross compiler is
-missing.  ``python -m tactile_fw.host_only.cross [OUT_DIR]`` (what ``make firmware-c``
+missing.  ``python -m tactile_fw_tools.cross [OUT_DIR]`` (what ``make firmware-c``
 runs) prints the image's path and size.  Host only: never copied to a board.
 """
 

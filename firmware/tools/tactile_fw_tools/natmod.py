@@ -10,7 +10,7 @@ imports (mpy version 6.3).  MicroPython's sources come from ``micropython-natmod
 working folder) with ``PYTHONHASHSEED=0`` (mpy_ld orders libgcc's members through a set), so
 the same sources and compiler give the same bytes.
 
-``python -m tactile_fw.host_only.natmod [OUT]`` (``make natmod``) writes the module shipped in
+``python -m tactile_fw_tools.natmod [OUT]`` (``make natmod``) writes the module shipped in
 the package, ``firmware/tactile_fw/tactile_native.mpy``, which ``tactile flash`` copies to the
 board's ``/lib``: users need no cross-compiler.  ``tests/test_natmod.py`` rebuilds it and
 checks it is byte-identical.  Host only: never copied to a board.

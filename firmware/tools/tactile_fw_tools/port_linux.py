@@ -2,7 +2,7 @@
 
 Not copied to MicroPython boards.  Run as::
 
-    python -m tactile_fw.host_only.port_linux --tty /dev/ttyGS0 --i2c 1 --sensors 1
+    python -m tactile_fw_tools.port_linux --tty /dev/ttyGS0 --i2c 1 --sensors 1
 
 ``SMBusI2C`` gives smbus2 the ``machine.I2C`` method names the driver calls;
 a command byte followed by a repeated-start read is one ``i2c_rdwr``.
@@ -95,7 +95,7 @@ class MonotonicClock:
 
 def main(argv=None):
     p = argparse.ArgumentParser(
-        prog="tactile_fw.host_only.port_linux", description=__doc__.split("\n")[0]
+        prog="tactile_fw_tools.port_linux", description=__doc__.split("\n")[0]
     )
     p.add_argument("--tty", required=True, help="serial device towards the host")
     p.add_argument("--i2c", type=int, action="append", help="I2C bus number (repeat)")
