@@ -159,7 +159,8 @@ class Compensator:
                     f"{orient.path}: no pose of sensor {tool.sensor}, whose tool is given"
                 )
             start = (bias or {}).get(tool.sensor)
-            self.sensors[tool.sensor] = _Sensor(tool.sensor, tool, orient, gate, start, track)
+            follow = track and self.samples  # CONTACT frames alone are all loaded
+            self.sensors[tool.sensor] = _Sensor(tool.sensor, tool, orient, gate, start, follow)
 
     def report(self):
         """Per sensor: readings, host contacts, the bias now and where it came from, and the
@@ -170,6 +171,21 @@ class Compensator:
         for s in self.sensors.values():
             s.tracker.flush()
 
+    def _readings(self, s, sensor, is_sample):
+        mine = sensor == s
+        return mine, np.flatnonzero(mine & (is_sample if self.samples else ~is_sample))
+
+    def prime(self, sensor, is_sample, t_us, wrench):
+        """Tare each sensor from the first steady stretch of these rows (a whole recording,
+        before ``arrays`` runs over it from its start): every reading then has the bias,
+        those before the tare too."""
+        sensor, is_sample = np.asarray(sensor), np.asarray(is_sample, dtype=bool)
+        t_us, W = np.asarray(t_us, dtype=np.int64), np.asarray(wrench, dtype=float)
+        for s, state in self.sensors.items():
+            _, rows = self._readings(s, sensor, is_sample)
+            if state.track and state.tracker.bias is None and rows.size:
+                state.tracker.bias = first_tare(state, t_us[rows], W[rows], state.tracker.log)
+
     def arrays(self, sensor, is_sample, t_us, wrench, phase, contact_id):
         """Per row (n,) of frames: (wrench (n, 6) compensated, host phase (n,), host contact
         id (n,)).  Rows of sensors without a tool keep theirs; a CONTACT row that repeats a
@@ -179,8 +195,7 @@ class Compensator:
         sensor, is_sample = np.asarray(sensor), np.asarray(is_sample, dtype=bool)
         t_us = np.asarray(t_us, dtype=np.int64)
         for s, state in self.sensors.items():
-            mine = sensor == s
-            rows = np.flatnonzero(mine & (is_sample if self.samples else ~is_sample))
+            mine, rows = self._readings(s, sensor, is_sample)
             W[rows], ph[rows], cid[rows] = state.process(t_us[rows], W[rows])
             twins = np.flatnonzero(mine & ~is_sample) if self.samples else rows[:0]
             if twins.size and rows.size:
@@ -236,3 +251,19 @@ class Compensator:
         if phase != NONE:
             out.append(Contact(m.seq, m.timestamp_us, m.sensor, phase, cid & 0xFFFF, flags, *ft))
         return out
+
+
+def first_tare(state, t_us, wrench, log):
+    """The bias a fresh tracker takes at the first steady stretch of one sensor's readings
+    (``t_us``, ``wrench``) at ``state``'s orientations, or None; its entry goes to ``log``."""
+    R, _ = state.orient.at(state.sensor, t_us)
+    x = np.asarray(wrench, dtype=float) - weight(R, state.tool)
+    tracker = BiasTracker()
+    t_s = np.asarray(t_us, dtype=np.int64) * 1e-6
+    step = max(1, round(len(x) * 0.02))
+    for a in range(0, len(x), step):  # in pieces: stop at the tare, not the end
+        tracker.add(t_s[a : a + step], x[a : a + step], np.ones(len(x[a : a + step]), bool))
+        if tracker.bias is not None:
+            log.extend(tracker.log)
+            return tracker.bias
+    return None
