@@ -34,9 +34,9 @@ def _start(*args):
 
 
 @contextlib.contextmanager
-def emulator(scene, link):
-    """``tactile emulate SCENE --link LINK`` until the block ends (or it is killed in it)."""
-    proc = _start("emulate", scene, "--link", link, "--duration", 60)
+def emulator(scene, link, *more):
+    """``tactile emulate SCENE --link LINK [MORE]`` until the block ends (or it is killed)."""
+    proc = _start("emulate", scene, "--link", link, "--duration", 60, *more)
     try:
         if not proc.stdout.readline().strip():
             raise RuntimeError(f"emulate did not start: {proc.stderr.read().strip()}")

@@ -17,7 +17,13 @@ from tactile_protocol import constants as C
 from tactile_protocol.cobs_codec import encode
 from tactile_protocol.crc16 import crc16
 from tactile_protocol.framing import encode_frame
-from tactile_protocol.messages import BY_NAME, SPECS, cal_checksum, field_codes
+from tactile_protocol.messages import (
+    BY_NAME,
+    INFO_FIELDS_SINCE,
+    SPECS,
+    cal_checksum,
+    field_codes,
+)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -87,6 +93,7 @@ TYPICAL = {
         0,
         0,
         0,
+        bytes.fromhex("e6613852834b2c29"),  # as an RP2040's flash answers 0x4B
     ),
     "INFO": (
         1,
@@ -110,6 +117,7 @@ TYPICAL = {
         "IDENTITY",
         0xFFFF,
         0,
+        bytes.fromhex("0102030405060708"),
     ),
     "SAMPLE": (0, 0x40, 1234567, -2345678, 45, -1000, 2000, 0),
     "CONTACT": (2, C.PHASE_BEGIN, 7, 0x40, 5100000, 0, -12, 1, 2, 3),
@@ -178,6 +186,33 @@ def frame_cases():
                 "body_len": len(body) - 2,
             }
         )
+    return out
+
+
+def older_cases():
+    """HELLO and INFO as each older version sent them (today's fields, cut to that version's:
+    ``INFO_FIELDS_SINCE``), which a reader of recordings made then still decodes."""
+    out = []
+    for version, n_fields in sorted(INFO_FIELDS_SINCE.items()):
+        for name in ("HELLO", "INFO"):
+            mtype, fields = BY_NAME[name][0], BY_NAME[name][4][:n_fields]
+            values = list(TYPICAL[name][:n_fields])
+            values[fields.index("protocol_version")] = version
+            fmt = "".join(BY_NAME[name][5][:n_fields])
+            body = struct.pack("<BBHI" + fmt, version, mtype, 7, 123456, *values)
+            crc = crc16(body)
+            frame = encode(body + bytes((crc & 0xFF, crc >> 8))) + b"\x00"
+            out.append(
+                {
+                    "protocol_version": version,
+                    "type": name,
+                    "seq": 7,
+                    "timestamp_us": 123456,
+                    "format": fmt,
+                    "fields": _fields_json(name, values),
+                    "frame_hex": _hex(frame),
+                }
+            )
     return out
 
 
@@ -282,6 +317,7 @@ def main():
         "cal_checksum": cal_checksum_cases(),
         "cobs": cobs_cases(),
         "frames": frame_cases(),
+        "older": older_cases(),
         "streams": streams,
     }
     with open(os.path.join(HERE, "vectors.json"), "w") as fh:

@@ -62,7 +62,7 @@ def _frame_v(version, mtype, values, seq=0):
 
 
 HELLO = (0, 1, 0, C.PROTOCOL_VERSION, b"SIM", 1, 1000, 1, 0, 0, 0, 1000, 1390000, 1112000, 3, 0x0B,
-         0xB0071D, 0x1234, 0, 0, 0)  # fmt: skip
+         0xB0071D, 0x1234, 0, 0, 0, b"board-01")  # fmt: skip
 
 
 def test_frames_arriving_while_a_command_waits_are_kept_in_order():
@@ -102,6 +102,23 @@ def test_another_protocol_version_names_both_versions():
     client = BoardClient(port, "/dev/ttyACM0", clock=StepClock())
     expect = f"speaks protocol version {newer}, this host speaks version {C.PROTOCOL_VERSION}"
     with pytest.raises(ProtocolVersionError, match=expect):
+        client.handshake(1.0)
+
+
+def test_a_board_of_the_previous_version_is_refused_live_by_name():
+    """Its HELLO (without board_id) decodes from a recording, but a live board of protocol 3
+    cannot be talked to: the host names both versions and what to update."""
+    import struct
+
+    from tactile_protocol.cobs_codec import encode
+    from tactile_protocol.crc16 import crc16
+
+    old = (*HELLO[:3], 3, *HELLO[4:21])  # version 3's 21 fields
+    body = struct.pack("<BBHIBBBB16sBH4IHiiBBI4H", 3, C.MSG_HELLO, 0, 0, *old)
+    crc = crc16(body)
+    port = FakePort([encode(body + bytes((crc & 0xFF, crc >> 8))) + b"\0"])
+    client = BoardClient(port, "/dev/ttyACM0", clock=StepClock())
+    with pytest.raises(ProtocolVersionError, match="speaks protocol version 3, .* the firmware"):
         client.handshake(1.0)
 
 

@@ -15,7 +15,7 @@ def _capture(tmp_path, junk=b""):
             MSG_HELLO,
             0,
             (1, 2, 3, PROTOCOL_VERSION, b"SIM", 1, 1000, 5, 0, 0, 0, 500, 5, 4, 2, 3, 9)
-            + (7, 0, 0, 0),
+            + (7, 0, 0, 0, b"\x01\x02\x03\x04\x05\x06\x07\x08"),
         )
     )
     for i in range(5):

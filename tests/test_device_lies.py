@@ -65,7 +65,7 @@ def test_info_escapes_escape_codes_in_the_sensor_model():
         assert code == 0 and err == ""
         assert_terminal_safe(out)
         assert r"sensor        \x1b[31mRED\x1b[0m\nX x 1" in out
-        assert len(out.splitlines()) == 5  # the newline did not forge a line
+        assert len(out.splitlines()) == 6  # the newline did not forge a line
         code, out, _ = run("info", "--port", "lie", "--json")
     assert code == 0 and json.loads(out)["sensor_model"] == ESC_MODEL.decode()
     assert "\x1b" not in out
@@ -208,6 +208,7 @@ _BY_CODE = {
     "I": st.integers(0, 0xFFFFFFFF),
     "i": st.integers(-(2**31), 2**31 - 1),
     "16s": st.binary(max_size=16),
+    "8s": st.binary(max_size=8),
 }
 _TYPES = {f: _BY_CODE[c] for f, c in zip(FIELDS, CODES)}  # any value the field's type holds
 
@@ -253,7 +254,7 @@ def test_any_hello_and_info_through_info(hello, info):
     lie = _bad(hello) or _bad(info)
     if lie is None:
         assert code == 0 and err == "" and out.startswith("firmware ")
-        assert len(out.splitlines()) == 5
+        assert len(out.splitlines()) == 6  # (one line per field group: no field forges one)
     else:
         assert_one_line_error(code, out, err)
         assert lie in err

@@ -59,7 +59,7 @@ def _scene(tmp_path, base, extra="", board=""):
 
 def _session(scene, core, host=()):
     """All bytes the board wrote in ``scene``; ``host``: (time in us, bytes the host sends)."""
-    emu = EmulatedBoard(scene, boot_id=0xC0FFEE, core=core)
+    emu = EmulatedBoard(scene, boot_id=0xC0FFEE, core=core, board_id=b"emulated")
     out, t = bytearray(), 0
     plan = sorted(host)
     while t < 1_000_000:

@@ -131,5 +131,6 @@ def test_silence_is_said_and_the_bound_kept():
 def test_what_answered_in_one_line():
     (info,) = StreamDecoder().feed(frame(C.MSG_HELLO, GOOD_INFO))
     assert firmware_answer.describe(info) == (
-        "tactile firmware 1.2.3 (protocol 3), 1 sensor FT6, 1000 Hz (ceiling 1730 Hz)"
+        f"tactile firmware 1.2.3 (protocol {C.PROTOCOL_VERSION}), 1 sensor FT6, 1000 Hz"
+        " (ceiling 1730 Hz)"
     )

@@ -60,10 +60,13 @@ def test_a_new_pico_is_flashed_and_answers(tmp_path, cli):
         assert out.startswith(
             f"flashed {len(flashing.board_files()) + 1} files as .mpy v6 to {pico.path}"
             " (1 stale removed) and reset it;"
-            " it answers: tactile firmware 0.1.0 (protocol 3), 1 sensor FT6/ADS122C04x6,"
+            f" it answers: tactile firmware 0.1.0 (protocol {C.PROTOCOL_VERSION}), 1 sensor"
+            " FT6/ADS122C04x6,"
         )
         code, out, err = cli("info", "--port", pico.path, "--wait", "10")
-        assert (code, err) == (0, "") and out.startswith("firmware      0.1.0  (protocol 3)")
+        assert (code, err) == (0, "") and out.startswith(
+            f"firmware      0.1.0  (protocol {C.PROTOCOL_VERSION})"
+        )
         # then it samples at 1 kHz (the native module flash copied), every frame whole
         # (--wait: an emulated chip on a loaded machine runs slower than a real one)
         code, _, err = cli("config", "--port", pico.path, "--rate", "1000", "--streams",

@@ -47,6 +47,7 @@ LIFT_URL = "to lift: pyserial loads this handler only to open a sim:// port"
 LIFT = "to lift"
 
 DEFERRED = {
+    "sim/tactile_sim/commands/emulate.py": {},
     "firmware/tactile_fw/frontend.py": {
         "make_sensor: tactile_fw.ads122c04": SENSOR_RAM,
     },
@@ -80,7 +81,6 @@ DEFERRED = {
         "_run: tactile.recording.session": RECORD_EXPORT,
         "_run: tactile.recording.log_clock (x2)": RECORD_EXPORT,
         "_run: tactile.recording.derive (x2)": RECORD_EXPORT,
-        "_run: tactile.output.textout": RECORD_EXPORT,
         "_run: tactile.errors": RECORD_EXPORT,
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
@@ -183,9 +183,7 @@ DEFERRED = {
         "fit_patch: tactile.ep2.api": LIFT_RECORDING,
         "fit_patch: tactile.errors": LIFT_RECORDING,
     },
-    "host/tactile/recording/session.py": {
-        "Session.waiting_for: tactile.recording.log_clock": LIFT_RECORDING,
-    },
+    "host/tactile/recording/session.py": {},
     "host/tactile/recording/timebase.py": {
         "recorded_times: tactile.board.stream_decoder": LIFT_RECORDING,
         "recorded_times: tactile.errors": LIFT_RECORDING,
@@ -232,6 +230,7 @@ DEFERRED = {
         "npm_prefix: tactile_sim.emulator.cores": LIFT_EMULATOR,
     },
     "sim/tactile_sim/emulator/qemu_core.py": {
+        "QemuBoard.__init__: tactile_fw.identity": LIFT,
         "QemuBoard.__init__: tactile_fw": LIFT_EMULATOR,
         "image: tactile_sim.emulator.cores": LIFT_EMULATOR,
     },

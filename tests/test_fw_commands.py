@@ -76,6 +76,7 @@ def info(rig):
                 "crc1",
                 "crc2",
                 "crc3",
+                "board_id",
             ),
             inf[3],
             strict=True,
@@ -97,6 +98,25 @@ def test_ping_and_get_info(rig):
     assert i["model"].rstrip(b"\0") == b"FT6/ADS122C04x6"
     assert i["max_rate"] == rig.board.max_rate_hz == 1730
     assert (i["rate"], i["enter"], i["exit"], i["debounce"]) == (1000, 1_390_000, 1_112_000, 3)
+
+
+@pytest.mark.parametrize(
+    "given, sent",
+    [
+        (bytes.fromhex("e6613852834b2c29"), "e6613852834b2c29"),  # an RP2040's: as it is
+        (b"\x01\x02\x03\x04\x05\x06", "0102030405060000"),  # shorter: NUL-padded
+        (bytes(range(1, 11)), "0808030405060708"),  # longer: folded (1 ^ 9, 2 ^ 10, 3, ...)
+    ],
+)
+def test_hello_and_info_carry_the_board_id_the_entry_point_gives(given, sent):
+    r = Rig(board_id=given)
+    r.board.boot()
+    (hello,) = [f for f in r.frames() if name(f) == "HELLO"]  # the power-up HELLO
+    assert hello[3][-1].hex() == sent
+    assert info(r)["board_id"].hex() == sent
+    bare = Rig()
+    bare.board.boot()
+    assert info(bare)["board_id"] == bytes(8)  # none given: a board without an id
 
 
 def test_config_applies_and_info_reports_it(rig):

@@ -234,7 +234,8 @@ def test_the_cli_says_what_it_flashed_and_what_answered_in_one_line(board, cli):
     assert code == 0 and err == ""
     assert out == (
         f"flashed {len(MODULES) + 1} files as .mpy v6 to {PORT} and reset it; it answers: "
-        "tactile firmware 1.2.3 (protocol 3), 1 sensor FT6, 1000 Hz (ceiling 1730 Hz)\n"
+        f"tactile firmware 1.2.3 (protocol {C.PROTOCOL_VERSION}), 1 sensor FT6, 1000 Hz"
+        " (ceiling 1730 Hz)\n"
     )
 
 

@@ -12,6 +12,7 @@ import serial
 from pico_target import serve, wait_booted
 
 from tactile.board.client import BoardClient
+from tactile_sim.emulator.pico_core import flash_board_id
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
 
@@ -59,6 +60,8 @@ def test_a_flashed_board_answers_with_its_sensor_read_over_i2c(pico_flashed):
         requests = server.chip.requests
     assert info.n_sensors == 1 and info.sensor_model.rstrip(b"\0") == b"FT6/ADS122C04x6"
     assert requests >= 12  # RESET, CONFIG0/1 written and read back, START: six converters
+    # machine.unique_id(): its flash chip's id, one per emulated Pico (rp2040js's own: 0)
+    assert info.board_id == flash_board_id(pico_flashed) != bytes(8)
 
 
 def _emulate(tmp_path, *args, env=None):

@@ -172,3 +172,64 @@ def test_memory_stays_bounded_without_delimiters():
 def test_field_codes_expand_counts():
     assert field_codes("BB6i") == ["B", "B"] + ["i"] * 6
     assert field_codes("4I16sH") == ["I"] * 4 + ["16s", "H"]
+
+
+def test_hello_and_info_end_with_the_board_id(vectors):
+    """Version 4 appends the board's unique id (8 bytes) to HELLO and INFO, nothing else."""
+    for name in ("HELLO", "INFO"):
+        layout = vectors["layouts"][name]
+        assert layout["fields"][-1] == "board_id" and layout["format"].endswith("4H8s")
+    typical = {c["type"]: c for c in vectors["frames"] if c["group"] == "typical"}
+    (msg,) = StreamDecoder().feed(bytes.fromhex(typical["HELLO"]["frame_hex"]))
+    assert (
+        msg.board_id
+        == bytes.fromhex("e6613852834b2c29")
+        == bytes.fromhex(typical["HELLO"]["fields"]["board_id"])
+    )
+    assert msg.to_dict()["board_id"] == "e6613852834b2c29"  # hex, not text
+
+
+def test_older_hello_and_info_decode_from_recordings_and_are_refused_live(vectors):
+    """A HELLO/INFO of versions 1-3 (a recording made then) decodes with the fields its
+    version lacks as None; a live decoder counts it as another version and delivers nothing."""
+    assert {c["protocol_version"] for c in vectors["older"]} == {1, 2, 3}
+    for case in vectors["older"]:
+        frame = bytes.fromhex(case["frame_hex"])
+        fields = BY_NAME[case["type"]][4]
+        (msg,) = StreamDecoder(older=True).feed(frame)
+        assert msg.type_name == case["type"] and (msg.seq, msg.timestamp_us) == (7, 123456)
+        got = msg._asdict()
+        for f in fields:
+            want = case["fields"].get(f)
+            if isinstance(want, str):
+                want = bytes.fromhex(want).ljust(16, b"\0")
+            assert got[f] == want, (case["protocol_version"], f)
+        assert msg.board_id is None and msg.to_dict()["board_id"] is None
+        live = StreamDecoder()
+        assert live.feed(frame) == []
+        assert (live.counters.version_mismatch, live.counters.last_version) == (
+            1,
+            case["protocol_version"],
+        )
+
+
+def test_a_version_3_capture_decodes_whole():
+    """A capture recorded with protocol 3: its HELLO, samples and a reboot, as they were."""
+    from tactile.board.stream_decoder import decode_bytes
+
+    def v3(mtype, seq, ts, fmt, values):
+        body = struct.pack("<BBHI" + fmt, 3, mtype, seq, ts, *values)
+        return cobs.encode(body + struct.pack("<H", binascii.crc_hqx(body, 0xFFFF))) + b"\0"
+
+    hello_fmt = "BBBB16sBH4IHiiBBI4H"
+    hello = (1, 0, 0, 3, b"FT6", 1, 1000, 0, 0, 0, 0, 1000, 5, 4, 3, 1)
+
+    def sample(seq):
+        return v3(0x03, seq, 1000 * seq, "BB6i", (0, 0, seq, 0, 0, 0, 0, 0))
+
+    data = v3(0x01, 0, 0, hello_fmt, (*hello, 0xB0071D01, 0, 0, 0, 0)) + sample(1) + sample(2)
+    data += v3(0x01, 1, 500, hello_fmt, (*hello, 0xB0071D02, 0, 0, 0, 0)) + sample(2)
+    messages, counters = decode_bytes(data)
+    assert [m.type_name for m in messages] == ["HELLO", "SAMPLE", "SAMPLE", "HELLO", "SAMPLE"]
+    assert (counters.reboots, counters.lost_frames, counters.version_mismatch) == (1, 0, 0)
+    assert messages[0].boot_id == 0xB0071D01 and messages[0].board_id is None

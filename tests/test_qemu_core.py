@@ -81,8 +81,8 @@ def _serve(scene, seconds, fast=True):
     """Every message the QEMU board sent in ``seconds`` of its time, read through its pty."""
     from tactile_sim.emulator.qemu_server import QemuServer
 
-    server = QemuServer(EmulatedBoard(scene, core="qemu", boot_id=5), realtime=not fast,
-                        duration_s=seconds)  # fmt: skip
+    board = EmulatedBoard(scene, core="qemu", boot_id=5, board_id=b"qemu-id5")
+    server = QemuServer(board, realtime=not fast, duration_s=seconds)
     decoder, msgs = StreamDecoder(), []
     deadline = time.monotonic() + 120
     with server, serial.Serial(server.path, timeout=0.05) as port:  # (raises what it raised)
@@ -116,6 +116,7 @@ def test_on_a_steady_load_it_reports_the_python_firmwares_integers(elf, tmp_path
     msgs, counters, server = _serve(scene, 1.2)
     samples = [m for m in msgs if m.type_name == "SAMPLE"]
     assert msgs[0].type_name == "HELLO" and msgs[0].boot_id == 5
+    assert msgs[0].board_id == b"qemu-id5"  # the id the emulator served the image
     assert len(samples) > 600 and counters.damaged == 0
     assert samples[-1].timestamp_us >= 1_199_000  # the run's end reached the host, however loaded
     last = [m for m in msgs if m.type_name == "STATUS"][-1]
@@ -126,7 +127,7 @@ def test_on_a_steady_load_it_reports_the_python_firmwares_integers(elf, tmp_path
     steps = {b - a for a, b in zip(times, times[1:])}
     assert steps <= {999, 1000, 1001}  # TIMER0's microseconds: the poll after the WFI wakes
     assert abs(times[-1] - times[0] - 90_000) <= 2  # ... on fixed deadlines: 1 kHz exactly
-    py = EmulatedBoard(scene, core="python", boot_id=5)
+    py = EmulatedBoard(scene, core="python", boot_id=5, board_id=b"qemu-id5")
     py.run_until(300_000)
     values = lambda m: (m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)  # noqa: E731
     ref = {

@@ -62,12 +62,18 @@ def test_record_stops_after_n_contacts_and_refuses_to_overwrite(cli, tmp_path):
     assert code == 0 and (out / "capture.bin").read_bytes().startswith(before)
 
 
-class Delivered:
-    """Wrap sim:// ports: remember every byte handed to the host; fail the Nth read."""
+ONE_BOARD = "sim://press?board_id=0123456789abcdef"  # each open: this board, rebooted
 
-    def __init__(self, mocker, fail_at, exc, gone):
+
+class Delivered:
+    """Wrap sim:// ports: remember every byte handed to the host; fail the Nth read.
+    ``urls``: the port each open gives, in turn (the last one from then on)."""
+
+    def __init__(self, mocker, fail_at, exc, gone, urls=(ONE_BOARD,)):
         self.mocker, self.fail_at, self.exc = mocker, fail_at, exc
+        self.urls = list(urls)
         self.bytes = bytearray()
+        self.by_open = []  # the bytes each opened port handed over
         self.reads = 0
         self.gone_after = gone  # opens refused (the device node vanished) after the failure
         self.gone = 0
@@ -76,8 +82,10 @@ class Delivered:
         if self.gone > 0:
             self.gone -= 1
             raise PortError(f"{name}: no such port")
-        port = open_port("sim://press")
+        port = open_port(self.urls.pop(0) if len(self.urls) > 1 else self.urls[0])
         real_read = port.read
+        mine = bytearray()
+        self.by_open.append(mine)
 
         def read(size=1):
             self.reads += 1
@@ -86,6 +94,7 @@ class Delivered:
                 raise self.exc
             data = real_read(size)
             self.bytes += data
+            mine.extend(data)
             return data
 
         self.mocker.patch.object(port, "read", side_effect=read)

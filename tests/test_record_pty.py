@@ -146,15 +146,12 @@ def _emulate(*args):
     return proc
 
 
-@pytest.mark.slow
-def test_a_board_killed_and_restarted_behind_link_is_one_reboot_and_nothing_lost(tmp_path):
-    """The new board's seq-0 HELLO goes to nobody: the host first sees HELLO seq 1 of a
-    new boot id, which is a reboot, not a gap of lost (or out-of-order) frames."""
+def _record_across_a_restart(tmp_path, *second):
+    """``record`` on an emulator behind --link that is killed half a second in and started
+    again behind the same link (``second``: its extra arguments); (record process, out)."""
     import subprocess
     import sys
     import time
-
-    from tactile.board.stream_decoder import decode_bytes
 
     link, out = tmp_path / "ttyTACTILE", tmp_path / "run"
     first = _emulate("press", "--link", link, "--duration", "30")
@@ -163,7 +160,7 @@ def test_a_board_killed_and_restarted_behind_link_is_one_reboot_and_nothing_lost
          "--duration", "3", "-o", str(out), "--quiet", "--reconnect", "10"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    second = None
+    again = None
     try:
         deadline = time.monotonic() + 10
         while not (out / "meta.json").exists() and time.monotonic() < deadline:
@@ -171,17 +168,45 @@ def test_a_board_killed_and_restarted_behind_link_is_one_reboot_and_nothing_lost
         time.sleep(0.5)  # half a second of stream from the first board
         first.kill()  # the board dies: no goodbye, the pty just goes
         first.wait(5)
-        second = _emulate("press", "--link", link, "--duration", "30")
+        again = _emulate("press", "--link", link, "--duration", "30", *second)
         stdout, err = record.communicate(timeout=30)
     finally:
-        for proc in (first, record, second):
+        for proc in (first, record, again):
             if proc is not None and proc.poll() is None:
                 proc.kill()
                 proc.wait(5)
-    assert record.returncode == 0 and "Traceback" not in err, err
+    return record.returncode, err, out
+
+
+@pytest.mark.slow
+def test_a_board_killed_and_restarted_behind_link_is_one_reboot_and_nothing_lost(tmp_path):
+    """The new board's seq-0 HELLO goes to nobody: the host first sees HELLO seq 1 of a
+    new boot id, which is a reboot, not a gap of lost (or out-of-order) frames.  The same
+    link is the same board (its board id), so the run goes on."""
+    from tactile.board.stream_decoder import decode_bytes
+
+    code, err, out = _record_across_a_restart(tmp_path)
+    assert code == 0 and "Traceback" not in err, err
     meta = json.loads((out / "meta.json").read_text())
-    assert meta["reboots"] == 1 and len(meta["gaps"]) == 1
+    assert meta["reboots"] == 1 and len(meta["gaps"]) == 1 and meta["gaps"][0]["rebooted"]
     d = meta["decoder"]
     assert (d["reboots"], d["lost_frames"], d["out_of_order"]) == (1, 0, 0)
     _, replayed = decode_bytes((out / "capture.bin").read_bytes())
     assert (replayed.reboots, replayed.lost_frames) == (1, 0)  # the capture says the same
+
+
+@pytest.mark.slow
+def test_another_board_behind_the_link_ends_the_run_in_one_line(tmp_path):
+    """The issue's shared machine: another board takes the path while this one is gone."""
+    from tactile.board.stream_decoder import decode_bytes
+
+    code, err, out = _record_across_a_restart(tmp_path, "--board-id", "0badb0a2d0000001")
+    assert code == 4 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert "another board answered after the port was lost (board id 0badb0a2d0000001" in err
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["ended"] == "other board" and meta["reboots"] == 0
+    messages, replayed = decode_bytes((out / "capture.bin").read_bytes())
+    assert replayed.reboots == 0 and meta["bytes"] == replayed.bytes > 0
+    assert {m.board_id for m in messages if m.type_name in ("HELLO", "INFO")} == {
+        bytes.fromhex(meta["board"]["board_id"])
+    }  # nothing of the other board's in the capture

@@ -8,7 +8,7 @@ INFO = (0, 1, 0, C.PROTOCOL_VERSION, b"FT6", 1, 1730, 7, 0, 0, 0, 1000, 1390000,
 
 
 def hello(seq, ts, boot_id, mtype=C.MSG_HELLO):
-    return encode_frame(mtype, seq, ts, INFO + (boot_id, 0x1234, 0, 0, 0))
+    return encode_frame(mtype, seq, ts, INFO + (boot_id, 0x1234, 0, 0, 0, b"board-01"))
 
 
 def sample(seq, ts):

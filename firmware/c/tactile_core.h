@@ -162,6 +162,7 @@ typedef struct {
     uint32_t drdy_timeout_us;  /* 0: four conversion periods of the slowest converter */
     uint32_t status_period_us; /* 0: TC_STATUS_PERIOD_US */
     uint32_t boot_id;          /* differs per power-up (HELLO/INFO) */
+    uint8_t board_id[TC_BOARD_ID_SIZE]; /* names the board for its life (HELLO/INFO) */
     uint8_t ticks_bits;        /* 0: 32; MicroPython's ticks_us wraps at 2^30 */
     uint8_t *tx_buf;           /* the TX ring, owned by the caller */
     size_t tx_size;            /* >= TC_TX_MIN */
@@ -174,6 +175,7 @@ typedef struct {
     uint8_t n;
     uint16_t max_rate_hz;
     uint32_t drdy_timeout_us, status_period_us, boot_id;
+    uint8_t board_id[TC_BOARD_ID_SIZE];
     uint32_t ticks_mask, ticks_half;
     tc_encoder_t enc;
     tc_assembler_t asm_;

@@ -182,6 +182,7 @@ void tc_board_send_info(tc_board_t *b, uint8_t type)
     m.debounce = b->settings.debounce;
     m.flags = (uint8_t)(b->settings.flags | (b->streaming ? TC_CFG_STREAMING : 0));
     m.boot_id = b->boot_id;
+    memcpy(m.board_id, b->board_id, TC_BOARD_ID_SIZE);
     tc_board_send(b, type, &m);
 }
 
@@ -298,6 +299,7 @@ int tc_board_init(tc_board_t *b, const tc_config_t *cfg, const tc_hal_t *hal)
     b->drdy_timeout_us = cfg->drdy_timeout_us ? cfg->drdy_timeout_us : 4 * (1000000u / slowest);
     b->status_period_us = cfg->status_period_us ? cfg->status_period_us : TC_STATUS_PERIOD_US;
     b->boot_id = cfg->boot_id;
+    memcpy(b->board_id, cfg->board_id, TC_BOARD_ID_SIZE);
     b->tx = cfg->tx_buf;
     b->tx_size = cfg->tx_size;
     tc_assembler_init(&b->asm_);

@@ -57,6 +57,7 @@ static const tc_field_t fields_hello[] = {
     {TC_U8, 1, 58, offsetof(tc_msg_hello_t, flags)},
     {TC_U32, 1, 59, offsetof(tc_msg_hello_t, boot_id)},
     {TC_U16, 4, 63, offsetof(tc_msg_hello_t, cal_crc)},
+    {TC_BYTES, 8, 71, offsetof(tc_msg_hello_t, board_id)},
 };
 static const tc_field_t fields_sample[] = {
     {TC_U8, 1, 8, offsetof(tc_msg_sample_t, sensor)},
@@ -118,8 +119,8 @@ static const tc_field_t fields_set_cal[] = {
     {TC_F32, 36, 13, offsetof(tc_msg_set_cal_t, c)},
 };
 const tc_msg_desc_t tc_messages[TC_N_MESSAGES] = {
-    {0x01, TC_HELLO_BODY_LEN, 15, fields_hello, "HELLO"},
-    {0x02, TC_INFO_BODY_LEN, 15, fields_hello, "INFO"},
+    {0x01, TC_HELLO_BODY_LEN, 16, fields_hello, "HELLO"},
+    {0x02, TC_INFO_BODY_LEN, 16, fields_hello, "INFO"},
     {0x03, TC_SAMPLE_BODY_LEN, 8, fields_sample, "SAMPLE"},
     {0x04, TC_CONTACT_BODY_LEN, 10, fields_contact, "CONTACT"},
     {0x05, TC_STATUS_BODY_LEN, 9, fields_status, "STATUS"},

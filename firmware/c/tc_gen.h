@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 /* --- tactile_protocol.constants --- */
+#define TC_BOARD_ID_SIZE 8
 #define TC_CFG_AUTOSTART 8
 #define TC_CFG_GATE_3D 4
 #define TC_CFG_PERSIST 16
@@ -58,7 +59,7 @@
 #define TC_PHASE_BEGIN 0
 #define TC_PHASE_END 2
 #define TC_PHASE_IN 1
-#define TC_PROTOCOL_VERSION 3
+#define TC_PROTOCOL_VERSION 4
 #define TC_SENSOR_ALL 255
 #define TC_SEQ_MODULO 65536
 #define TC_HEADER_SIZE_CHECK 8 /* struct.calcsize('<BBHI') */
@@ -144,7 +145,7 @@ typedef struct {
     const char *name;
 } tc_msg_desc_t;
 
-#define TC_HELLO_BODY_LEN 71
+#define TC_HELLO_BODY_LEN 79
 typedef struct {
     uint8_t fw_major;
     uint8_t fw_minor;
@@ -161,8 +162,9 @@ typedef struct {
     uint8_t flags;
     uint32_t boot_id;
     uint16_t cal_crc[4];
+    uint8_t board_id[8];
 } tc_msg_hello_t;
-#define TC_INFO_BODY_LEN 71
+#define TC_INFO_BODY_LEN 79
 typedef tc_msg_hello_t tc_msg_info_t;
 #define TC_SAMPLE_BODY_LEN 34
 typedef struct {

@@ -4,7 +4,9 @@ Everything is injected: the sensors (``frontend.Sensor``, each on its bus),
 the byte link (``link``), the clock (``timing``), the storage for settings
 and calibration, and ``boot_id``, a 32-bit number that differs from one
 power-up to the next (the entry point draws it: ``boot_id_from(os.urandom(8))``),
-which HELLO and INFO carry so the host can tell a reboot from lost frames.
+which HELLO and INFO carry so the host can tell a reboot from lost frames, and
+``board_id``, 8 bytes that name the board for its life (the entry point reads the chip's
+unique id: ``tactile_fw.identity``), so that a host can tell its board from another.
 ``poll()`` does one bounded step and returns; a real board calls it forever
 (``run``), the emulator calls it on simulated time.  Per-sample work reuses
 preallocated lists and the encoder's buffers.
@@ -29,7 +31,12 @@ except ImportError:  # CPython
 
 from tactile_fw import calibration, frontend, gate, settings
 from tactile_fw.commands import dispatch
-from tactile_fw.identity import FW_VERSION, boot_id_from  # noqa: F401 (boot_id_from: re-exported)
+from tactile_fw.identity import (  # noqa: F401 (boot_id_from, board_id_from: re-exported)
+    FW_VERSION,
+    NO_BOARD_ID,
+    board_id_from,
+    boot_id_from,
+)
 from tactile_fw.link import TxRing
 from tactile_fw.timing import Scheduler
 from tactile_protocol.constants import (
@@ -88,6 +95,7 @@ class Board:
         status_period_us=STATUS_PERIOD_US,
         tx_size=4096,
         boot_id=0,
+        board_id=NO_BOARD_ID,
     ):
         if not 1 <= len(sensors) <= MAX_SENSORS:
             raise ValueError("a board reads 1..%d sensors" % MAX_SENSORS)
@@ -102,6 +110,7 @@ class Board:
         self.drdy_timeout_us = drdy_timeout_us or 4 * (1000000 // slowest)
         self.status_period_us = status_period_us
         self.boot_id = boot_id & 0xFFFFFFFF
+        self.board_id = board_id_from(board_id)
         self.enc = FrameEncoder()
         self.asm = FrameAssembler()
         self.tx = TxRing(link, tx_size)
@@ -414,6 +423,7 @@ class Board:
             crcs[1],
             crcs[2],
             crcs[3],
+            self.board_id,
         )
 
     def send_info(self, mtype=MSG_INFO):

@@ -7,7 +7,8 @@ Two boards run here, the same protocol and the same bytes: the C core as a nativ
 (``tactile_native.mpy`` in ``/lib``, built from ``firmware/c`` by
 ``tactile_fw_tools.natmod``), used when it is there and built from this firmware, and the
 Python ``Board`` otherwise (or when ``main(core="python")`` asks for it).  Both get the same
-buses, USB link rules, storage and boot id, and the same loop (``run``).
+buses, USB link rules, storage, boot id and board id (the flash chip's unique id,
+``machine.unique_id()``), and the same loop (``run``).
 
 Wiring (docs/firmware.md): I2C0 on GP4 (SDA) / GP5 (SCL), I2C1 on GP6 (SDA) /
 GP7 (SCL), 1 MHz (Fast-mode Plus; keep the bus short, 2.2 kOhm pull-ups).
@@ -23,7 +24,7 @@ import time
 import machine
 import micropython
 
-from tactile_fw.identity import FW_VERSION, boot_id_from
+from tactile_fw.identity import FW_VERSION, board_id_from, boot_id_from
 from tactile_fw.storage import DirStorage
 from tactile_protocol.constants import PROTOCOL_VERSION
 
@@ -31,7 +32,7 @@ I2C_PINS = ((0, 4, 5), (1, 6, 7))  # (controller, SDA GPIO, SCL GPIO)
 WATCHDOG_CTRL = 0x40058000  # RP2040 datasheet §4.7.6: machine.WDT cannot be stopped
 WATCHDOG_ENABLE = 1 << 30
 TIMERAWL = 0x40054028  # RP2040 datasheet §4.6.5: the 1 MHz timer's low word, read unlatched
-NATIVE_API = 1  # the contract with firmware/c/natmod/tactile_native.c
+NATIVE_API = 2  # the contract with firmware/c/natmod/tactile_native.c (2: board_id)
 
 
 # MicroPython's REPL ends a program at Ctrl-C (0x03), and every command frame holds a 0x03
@@ -166,13 +167,16 @@ def make_board(n_sensors=1, freq=1000000, core="auto", max_rate_hz=0):
     buses = make_buses(freq)
     storage = DirStorage("")
     boot_id = boot_id_from(boot_entropy())
+    board_id = board_id_from(machine.unique_id())  # the RP2040's: its flash chip's 64-bit id
     native = None if core == "python" else native_module()
     if native is not None:
         micropython.kbd_intr(-1)  # (as UsbLink does: frames hold Ctrl-C bytes)
         layout = [(i % 2, i // 2, freq) for i in range(n_sensors)]
         usb = (sys.stdin.buffer, sys.stdout.buffer)
         ceiling = max_rate_hz or chip_ceiling(n_sensors, freq, "native")
-        return native.Board(buses, layout, usb, TIMERAWL, storage, boot_id, ceiling, BreakIn)
+        return native.Board(
+            buses, layout, usb, TIMERAWL, storage, boot_id, ceiling, BreakIn, board_id
+        )
     if core == "native":
         raise ImportError("tactile_native is not in /lib or not built from this firmware")
     from tactile_fw.board import Board
@@ -182,7 +186,9 @@ def make_board(n_sensors=1, freq=1000000, core="auto", max_rate_hz=0):
         make_sensor(buses[i % 2], i // 2, bus_key=i % 2, bus_hz=freq) for i in range(n_sensors)
     ]
     ceiling = max_rate_hz or chip_ceiling(n_sensors, freq, "python")
-    return Board(sensors, UsbLink(), time, storage, max_rate_hz=ceiling, boot_id=boot_id)
+    return Board(
+        sensors, UsbLink(), time, storage, max_rate_hz=ceiling, boot_id=boot_id, board_id=board_id
+    )
 
 
 def run(board, feed=None, sleep_us=time.sleep_us):

@@ -12,7 +12,7 @@ except ImportError:  # CPython
         return x
 
 
-PROTOCOL_VERSION = const(3)  # 2: HELLO/INFO carry boot_id; 3: and cal_crc per sensor
+PROTOCOL_VERSION = const(4)  # 2: HELLO/INFO carry boot_id; 3: cal_crc per sensor; 4: board_id
 
 # --- sizes (bytes) -----------------------------------------------------------
 HEADER_SIZE = const(8)  # version u8, type u8, seq u16, timestamp_us u32
@@ -22,6 +22,8 @@ MAX_BODY = const(250)  # HEADER_SIZE + MAX_PAYLOAD + CRC_SIZE
 MAX_ENCODED = const(251)  # COBS adds exactly one byte to a body under 254 bytes
 MAX_FRAME = const(252)  # MAX_ENCODED + the 0x00 delimiter
 DELIMITER = const(0)
+
+BOARD_ID_SIZE = const(8)  # HELLO/INFO board_id: the RP2040's flash unique id
 
 SEQ_MODULO = const(65536)
 TIMESTAMP_MODULO = 1 << 32  # not const(): exceeds a MicroPython small int

@@ -5,6 +5,10 @@ One table, ``SPECS``, defines every message: type code, name, payload
 type, which the host's resynchronisation relies on.  All fields are
 little-endian.  ``pack_into`` validates ranges and raises ValueError naming
 the message and field; ``unpack`` checks version, type and length.
+
+Each version so far changed one thing: it appended fields to HELLO and INFO.  A frame of
+an older version therefore has today's layout, except that its HELLO or INFO holds only the
+first ``INFO_FIELDS_SINCE[version]`` fields (a host reads recordings of those versions).
 """
 
 import struct
@@ -48,14 +52,14 @@ _INFO = (
         "cal_id_3",
     )
     + _CONFIG
-    + ("boot_id", "cal_crc_0", "cal_crc_1", "cal_crc_2", "cal_crc_3")
+    + ("boot_id", "cal_crc_0", "cal_crc_1", "cal_crc_2", "cal_crc_3", "board_id")
 )
 _CAL = ("sensor", "cal_id") + tuple("c%d%d" % (r, c) for r in range(6) for c in range(6))
 
 # (type, name, payload format without byte-order prefix, field names)
 SPECS = (
-    (MSG_HELLO, "HELLO", "BBBB16sBH4IHiiBBI4H", _INFO),
-    (MSG_INFO, "INFO", "BBBB16sBH4IHiiBBI4H", _INFO),
+    (MSG_HELLO, "HELLO", "BBBB16sBH4IHiiBBI4H8s", _INFO),
+    (MSG_INFO, "INFO", "BBBB16sBH4IHiiBBI4H8s", _INFO),
     (MSG_SAMPLE, "SAMPLE", "BB6i", ("sensor", "flags") + _FT),
     (MSG_CONTACT, "CONTACT", "BBHB6i", ("sensor", "phase", "contact_id", "flags") + _FT),
     (
@@ -84,6 +88,10 @@ SPECS = (
     (CMD_STOP, "STOP", "", ()),
     (CMD_SET_CAL, "SET_CAL", "BI36f", _CAL),
 )
+
+# HELLO / INFO fields per older protocol version: 1 ends at flags, 2 adds boot_id, 3 the
+# cal_crc_N (today's version adds board_id).
+INFO_FIELDS_SINCE = {1: 16, 2: 17, 3: 21}
 
 _FLOAT32_MAX = 3.4028234663852886e38
 _RANGES = {

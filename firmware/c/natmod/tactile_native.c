@@ -4,7 +4,8 @@
  * framing, TX ring) on the hardware it is given; the Python loop (port_mpy.run) calls
  * poll(), sleeps idle_us() and feeds the watchdog, as it does for tactile_fw.board.Board.
  *
- *   Board(buses, layout, link, clock, storage[, boot_id[, max_rate_hz[, break_in]]])
+ *   Board(buses, layout, link, clock, storage[, boot_id[, max_rate_hz[, break_in[,
+ *         board_id]]]])
  *
  * - buses: a sequence of I2C buses by number. A machine.I2C or machine.SoftI2C object is
  *   driven through its C protocol (mp_machine_i2c_p_t's `transfer`, below); any other
@@ -17,6 +18,7 @@
  *   0x40054028); or an object with ticks_us() wrapping at 2^30 (time, ManualClock).
  * - storage: an object with read(name) -> bytes or None and write(name, data) (DirStorage):
  *   settings.bin and cal<N>.bin, in the Python firmware's byte layouts.
+ * - board_id: HELLO/INFO's board id, 8 bytes (tactile_fw.identity.board_id_from); none: zeros.
  *
  * An OSError from a Python callable is the HAL's error code (its errno), as
  * tactile_fw_tools.ccore does on the host; any other exception propagates.
@@ -28,7 +30,7 @@
 
 #include "tactile_core.h"
 
-#define TN_API 1              /* the Python side's contract with this file (port_mpy) */
+#define TN_API 2              /* the Python side's contract with this file (port_mpy) */
 #define TN_MAX_BUSES 4
 #define TN_TX_SIZE 4096       /* the TX ring, as tactile_fw.board.Board's default */
 #define TN_TICKS_BITS_PY 30   /* MicroPython's ticks_us wraps at 2^30 */
@@ -339,7 +341,7 @@ static const tn_i2c_p_t *i2c_protocol(mp_obj_t bus, mp_obj_t machine)
 static mp_obj_t board_make_new(const mp_obj_type_t *type, size_t n_args, size_t n_kw,
                                const mp_obj_t *args)
 {
-    mp_arg_check_num(n_args, n_kw, 5, 8, false);
+    mp_arg_check_num(n_args, n_kw, 5, 9, false);
     tn_board_obj_t *self = mp_obj_malloc(tn_board_obj_t, type);
     memset((uint8_t *)self + sizeof(mp_obj_base_t), 0, sizeof(*self) - sizeof(mp_obj_base_t));
     mp_obj_t machine = mp_import_name(MP_QSTR_machine, mp_const_none, MP_OBJ_NEW_SMALL_INT(0));
@@ -405,6 +407,14 @@ static mp_obj_t board_make_new(const mp_obj_type_t *type, size_t n_args, size_t 
     self->storage = args[4];
     cfg.boot_id = n_args > 5 ? (uint32_t)mp_obj_get_int_truncated(args[5]) : 0;
     cfg.max_rate_hz = n_args > 6 ? (uint16_t)mp_obj_get_int(args[6]) : 0;
+    if (n_args > 8 && args[8] != mp_const_none) {
+        mp_buffer_info_t id;
+        mp_get_buffer_raise(args[8], &id, MP_BUFFER_READ);
+        if (id.len != TC_BOARD_ID_SIZE) {
+            mp_raise_ValueError("board_id: 8 bytes");
+        }
+        memcpy(cfg.board_id, id.buf, TC_BOARD_ID_SIZE);
+    }
     self->tx = m_new(uint8_t, TN_TX_SIZE);
     cfg.tx_buf = self->tx;
     cfg.tx_size = TN_TX_SIZE;

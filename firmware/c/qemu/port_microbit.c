@@ -10,7 +10,8 @@
  *
  * Requests (little-endian), each answered before the next:
  *   'C'                                  -> n, mode, max_rate_hz u16, boot_id u32,
- *                                           tx_size u16, then (bus, slot) per sensor
+ *                                           tx_size u16, board_id[8], then (bus, slot)
+ *                                           per sensor
  *   'R' bus addr cmd n t_us u32          -> err u16, n bytes
  *   'W' bus addr n t_us u32 data[n]      -> err u16
  *   'B' key cap u16                      -> len i16 (-1: none), min(len, cap) bytes
@@ -268,7 +269,7 @@ static void report(const uint32_t *values, uint8_t count)
 /* --- main ------------------------------------------------------------------------------- */
 int main(void)
 {
-    uint8_t head[10], layout[2 * TC_MAX_SENSORS];
+    uint8_t head[10 + TC_BOARD_ID_SIZE], layout[2 * TC_MAX_SENSORS];
     tc_config_t cfg;
     tc_hal_t hal;
     int i, r;
@@ -293,6 +294,7 @@ int main(void)
     cfg.max_rate_hz = (uint16_t)(head[2] | (head[3] << 8));
     cfg.boot_id = (uint32_t)head[4] | ((uint32_t)head[5] << 8) | ((uint32_t)head[6] << 16) |
                   ((uint32_t)head[7] << 24);
+    memcpy(cfg.board_id, head + 10, TC_BOARD_ID_SIZE);
     cfg.ticks_bits = 32;
     cfg.tx_buf = tx_ring;
     cfg.tx_size = (size_t)(head[8] | (head[9] << 8));

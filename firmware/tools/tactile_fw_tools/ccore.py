@@ -15,7 +15,9 @@ import pathlib
 import shutil
 import subprocess
 
+from tactile_fw.identity import NO_BOARD_ID, board_id_from
 from tactile_fw.timing import TICKS_PERIOD
+from tactile_protocol.constants import BOARD_ID_SIZE
 
 SRC = pathlib.Path(__file__).resolve().parents[2] / "c"
 CFLAGS = ("-std=c99", "-O2", "-fPIC", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
@@ -129,6 +131,7 @@ class Config(ctypes.Structure):
         ("drdy_timeout_us", _u32),
         ("status_period_us", _u32),
         ("boot_id", _u32),
+        ("board_id", _u8 * BOARD_ID_SIZE),
         ("ticks_bits", _u8),
         ("tx_buf", _pu8),
         ("tx_size", _sz),
@@ -253,6 +256,7 @@ class CBoard:
         status_period_us=None,
         tx_size=4096,
         boot_id=0,
+        board_id=NO_BOARD_ID,
         ticks_bits=TICKS_BITS,
         i2c=None,
     ):
@@ -274,6 +278,7 @@ class CBoard:
         cfg.drdy_timeout_us = drdy_timeout_us or 0
         cfg.status_period_us = status_period_us or 0
         cfg.boot_id = boot_id & 0xFFFFFFFF
+        cfg.board_id[:] = board_id_from(board_id)
         cfg.ticks_bits = ticks_bits
         cfg.tx_buf = ctypes.cast(self._tx, _pu8)
         cfg.tx_size = tx_size

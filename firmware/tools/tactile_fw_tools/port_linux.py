@@ -5,20 +5,36 @@ Not copied to MicroPython boards.  Run as::
     python -m tactile_fw_tools.port_linux --tty /dev/ttyGS0 --i2c 1 --sensors 1
 
 ``SMBusI2C`` gives smbus2 the ``machine.I2C`` method names the driver calls;
-a command byte followed by a repeated-start read is one ``i2c_rdwr``.
+a command byte followed by a repeated-start read is one ``i2c_rdwr``.  The board id
+(HELLO/INFO ``board_id``) is ``machine_board_id()``: derived from the machine's
+``/etc/machine-id`` (hashed, as systemd asks of ids shown to others).
 """
 
 import argparse
+import hashlib
 import os
 import sys
 import termios
 import time
 import tty
 
-from tactile_fw.board import Board, boot_id_from
+from tactile_fw.board import NO_BOARD_ID, Board, boot_id_from
 from tactile_fw.frontend import make_sensor
 from tactile_fw.storage import DirStorage
 from tactile_fw.timing import TICKS_HALF, TICKS_MAX
+
+
+def machine_board_id(path="/etc/machine-id"):
+    """8 bytes that name this controller for its life: SHA-256 of its machine id and this
+    firmware's name; ``NO_BOARD_ID`` when the file cannot be read."""
+    try:
+        with open(path, "rb") as fh:
+            machine_id = fh.read(64).strip()
+    except OSError:
+        return NO_BOARD_ID
+    if not machine_id:
+        return NO_BOARD_ID
+    return hashlib.sha256(b"tactile board id\0" + machine_id).digest()[:8]
 
 
 class SMBusI2C:
@@ -119,7 +135,9 @@ def main(argv=None):
     ]
     clock = MonotonicClock()
     boot_id = boot_id_from(os.urandom(8))
-    board = Board(sensors, link, clock, DirStorage(a.storage), boot_id=boot_id)
+    board = Board(
+        sensors, link, clock, DirStorage(a.storage), boot_id=boot_id, board_id=machine_board_id()
+    )
     board.boot()
     board.run(sleep_us=clock.sleep_us)
 

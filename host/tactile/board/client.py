@@ -137,6 +137,15 @@ class BoardClient:
             return msgs
         return []
 
+    def waiting(self):
+        """Bytes waiting on the port (a dead port raises PortLost)."""
+        try:
+            return self.port.in_waiting
+        except TactileError:
+            raise
+        except OSError as exc:
+            raise PortLost(describe_lost(self.name, exc, "reading")) from None
+
     def read(self):
         """Messages received since the last call (the backlog first)."""
         return self.read_timed()[0]
@@ -188,7 +197,8 @@ class BoardClient:
         name = COMMAND_NAMES.get(mtype, f"0x{mtype:02x}")
         log.info("%s: %s %s (seq %d)", self.name, name, values, seq)
         deadline = self.clock() + timeout
-        while self.clock() < deadline:
+        while True:  # one read at least after the deadline: what waits (a host that stalled)
+            past = self.clock() >= deadline
             reply = None
             for m in self._pull():  # keep everything else, including what follows the reply
                 if reply is None and m.type_code in (C.MSG_ACK, C.MSG_NAK) and m.cmd_seq == seq:
@@ -204,6 +214,8 @@ class BoardClient:
             if reply is not None:
                 log.debug("%s: ACK for %s (seq %d)", self.name, name, seq)
                 return reply
+            if past:
+                break
         raise BoardTimeout(f"{self.name}: no answer to {name} within {timeout:g} s")
 
     def handshake(self, timeout=2.0, ask_after=None):

@@ -2,7 +2,9 @@
 
 Each message type is a named tuple ``(seq, timestamp_us, *fields)`` with
 class attributes ``type_code`` and ``type_name``.  ``to_dict`` gives the
-JSON form used by ``tactile decode``.  Units: PROTOCOL.md §4.
+JSON form used by ``tactile decode``: text fields (``sensor_model``) as text, the binary
+``board_id`` as hex digits (None in a HELLO/INFO of a version without it).  Units:
+PROTOCOL.md §4.
 
 ``Invalid`` stands in for a frame whose framing and layout are good but whose
 content breaks the protocol's limits (``tactile_protocol.limits``): it names the
@@ -14,12 +16,20 @@ from collections import namedtuple
 
 from tactile_protocol.messages import SPECS
 
+BINARY = ("board_id",)  # bytes fields that are not text
+
+
+def board_id_text(board_id):
+    """A HELLO/INFO ``board_id`` in words: 16 hex digits, or "none" (a version without it)."""
+    return "none" if board_id is None else bytes(board_id).hex()
+
 
 def _to_dict(self):
     out = {"type": self.type_name}
     for name, value in zip(self._fields, self):
         if isinstance(value, bytes):
-            value = value.rstrip(b"\0").decode("ascii", "replace")
+            binary = name in BINARY
+            value = value.hex() if binary else value.rstrip(b"\0").decode("ascii", "replace")
         out[name] = value
     return out
 

@@ -15,6 +15,11 @@ A frame whose content breaks the protocol's field limits
 sensor the device never announced) comes out as an ``Invalid`` message naming
 the field, counted in ``invalid``; its sequence number still counts, so
 refusing it is not mistaken for loss.
+
+A frame of another protocol version is counted (``version_mismatch``, ``last_version``) and
+not delivered: a board speaking it cannot be talked to.  ``StreamDecoder(older=True)``, for
+reading recordings, delivers frames of the older versions too (``INFO_FIELDS_SINCE``: each
+only appended fields to HELLO and INFO), with the fields their HELLO/INFO lacks as None.
 """
 
 import struct
@@ -32,7 +37,7 @@ from tactile_protocol.constants import (
 )
 from tactile_protocol.constants import PROTOCOL_VERSION as VERSION
 from tactile_protocol.limits import RULES, SENSOR, violation
-from tactile_protocol.messages import BY_TYPE
+from tactile_protocol.messages import BY_TYPE, INFO_FIELDS_SINCE, field_codes
 
 try:  # the C extension of the ``cobs`` package
     from cobs.cobs import DecodeError as _CobsError
@@ -103,6 +108,24 @@ def _layouts():
 
 
 _LAYOUTS = _layouts()
+
+
+def _older_layouts():
+    """version -> type -> layout, as ``_layouts`` but HELLO/INFO cut to that version's
+    fields (the others as today's: PROTOCOL.md, version history)."""
+    out = {}
+    for version, n_fields in INFO_FIELDS_SINCE.items():
+        layouts = dict(_LAYOUTS)
+        for mtype in (MSG_HELLO, MSG_INFO):
+            full = BY_TYPE[mtype][2]
+            fmt = "<xxHI" + "".join(field_codes(full[len("<BBHI") :])[:n_fields])
+            unpacker = struct.Struct(fmt)
+            layouts[mtype] = (unpacker, CLASSES[mtype], unpacker.size, -1)
+        out[version] = layouts
+    return out
+
+
+_OLDER_LAYOUTS = _older_layouts()
 # Encoded length of each type's frame (body + CRC < 254 bytes: COBS adds one byte).
 _ENCODED_LENGTHS = sorted({lay[2] + CRC_SIZE + 1 for lay in _LAYOUTS.values()}, reverse=True)
 
@@ -110,8 +133,9 @@ _ENCODED_LENGTHS = sorted({lay[2] + CRC_SIZE + 1 for lay in _LAYOUTS.values()}, 
 class StreamDecoder:
     """Decode a device's byte stream; see the module docstring."""
 
-    def __init__(self, cobs_decode=None, check_limits=True):
+    def __init__(self, cobs_decode=None, check_limits=True, older=False):
         self.counters = Counters()
+        self._older = older  # also deliver frames of older protocol versions
         self._pending = b""
         self._truncated = False  # the pending span lost its head (too long)
         self._expected_seq = None
@@ -180,17 +204,26 @@ class StreamDecoder:
             if count:
                 c.crc_errors += 1
             return None
+        layouts = _LAYOUTS
         if body[0] != VERSION:
-            if count:
-                c.version_mismatch += 1
-                c.last_version = body[0]
-            return None
-        layout = _LAYOUTS.get(body[1])
+            layouts = _OLDER_LAYOUTS.get(body[0]) if self._older else None
+            if layouts is None:
+                if count:
+                    c.version_mismatch += 1
+                    c.last_version = body[0]
+                return None
+        layout = layouts.get(body[1])
         if layout is None or layout[2] != n:
             if count:
                 c.undecodable += 1
             return None
-        msg = layout[1]._make(layout[0].unpack_from(body))
+        values = layout[0].unpack_from(body)
+        cls = layout[1]
+        if len(values) < len(cls._fields):  # an older HELLO/INFO: the fields it lacks
+            return self._older_info(
+                cls._make(values + (None,) * (len(cls._fields) - len(values))), body[0]
+            )
+        msg = cls._make(values)
         limited = layout[3]
         if limited is None or not self._check_limits:
             return msg
@@ -201,6 +234,18 @@ class StreamDecoder:
             return Invalid(msg.seq, msg.timestamp_us, msg.type_name, why)
         if msg.type_code == MSG_HELLO or msg.type_code == MSG_INFO:
             self.n_sensors = self._sensors = msg.n_sensors
+        return msg
+
+    def _older_info(self, msg, version):
+        """An older version's HELLO/INFO, checked against the limits of its own version."""
+        if not self._check_limits:
+            return msg
+        why = violation(msg.type_name, msg._replace(protocol_version=VERSION), self.n_sensors, 2)
+        if msg.protocol_version != version:
+            why = f"protocol_version = {msg.protocol_version} (the frame's version is {version})"
+        if why is not None:
+            return Invalid(msg.seq, msg.timestamp_us, msg.type_name, why)
+        self.n_sensors = self._sensors = msg.n_sensors
         return msg
 
     def _salvage(self, span, out):
@@ -250,8 +295,9 @@ class StreamDecoder:
 
 
 def decode_bytes(data, chunk=65536):
-    """Decode a whole capture; return ``(messages, counters)``."""
-    decoder = StreamDecoder()
+    """Decode a whole capture (of any protocol version this host reads); return
+    ``(messages, counters)``."""
+    decoder = StreamDecoder(older=True)
     messages = []
     view = memoryview(data)
     for start in range(0, len(data), chunk):

@@ -24,7 +24,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    decoder = StreamDecoder()
+    decoder = StreamDecoder(older=True)  # a capture of any version this host reads
     write = sys.stdout.write
     fmt = dumps if args.json else _text
     try:

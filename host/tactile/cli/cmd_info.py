@@ -30,6 +30,7 @@ def info_lines(d):
     return [
         f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"
         f"  (protocol {d['protocol_version']})",
+        f"board id      {d['board_id']}  (boot id 0x{d['boot_id']:08x})",
         f"sensor        {d['sensor_model']} x {d['n_sensors']}, "
         f"calibration ids {d['cal_ids']} (checksums "
         f"{', '.join(f'0x{c:04x}' for c in d['cal_crcs'])})",

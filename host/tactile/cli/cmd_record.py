@@ -20,6 +20,7 @@ from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument
 from tactile.commands.words import add_quiet
 from tactile.errors import BoardError
+from tactile.output.textout import printable
 
 
 def add_arguments(parser):
@@ -56,7 +57,6 @@ def run(args):
 
 def _run(args):
     from tactile.errors import InputError
-    from tactile.output.textout import printable
     from tactile.recording.session import Session
 
     if args.duration is not None and not args.duration > 0:
@@ -109,6 +109,7 @@ def _run(args):
     progress = None if args.quiet else Progress(args.duration, args.contacts)
     if progress:
         session.on_progress = progress.update
+        session.on_notice = progress.say  # a port lost and waited for, a stall of the host
     try:
         meta = session.run()
     except BoardError as exc:
@@ -181,6 +182,9 @@ def summary(meta, out):
         _count(len(meta["gaps"]), "gap"),
     ]
     refused = f", {_count(invalid, 'invalid frame')} refused" if invalid else ""
+    dropped = meta.get("tx_dropped", 0)  # the board's own count, from its STATUS
+    if dropped:
+        lost[0] += f" ({_count(dropped, 'frame')} dropped by the board: the host did not read)"
     late = meta.get("late_samples", 0)
     late = f"; {_count(late, 'reading')} late (the board missed its rate)" if late else ""
     got = f"{_count(meta['samples'], 'reading')}, {_count(meta['contacts_ended'], 'contact')}"
@@ -233,7 +237,8 @@ class Progress:
         if self.bar is None and not self.plain:
             self._open()
         s, c = session.stats, session.client.decoder.counters
-        rate = s.samples / max(1e-9, now - session.started)
+        elapsed = session.elapsed()
+        rate = s.samples / max(1e-9, elapsed)
         info = {
             "rate": f"{rate:.0f}/s",
             "contacts": s.contacts_ended,
@@ -247,7 +252,6 @@ class Progress:
         if self.plain:
             print(fields(info, skip=()), file=sys.stderr)
             return
-        elapsed = now - session.started
         left = session.until_left_s() if self.total is None else None
         if left is not None:  # no --duration or --contacts: the pose log's end is the total
             self.bar.total = elapsed + left
@@ -256,6 +260,13 @@ class Progress:
         self.bar.n = n if self.bar.total is None else min(n, self.bar.total)
         self.bar.set_postfix(info, refresh=False)
         self.bar.refresh()
+
+    def say(self, session, line):
+        """A line for the user while the bar runs (above it, not through it)."""
+        if self.bar is not None:
+            self.bar.write(printable(f"record: {line}"), file=sys.stderr)
+        else:
+            print(printable(f"record: {line}"), file=sys.stderr)
 
     def close(self, session):
         """The last counts; a run that finished as asked fills the bar."""

@@ -4,9 +4,9 @@ match the files.
 The document keeps the keys one session always had, so a reader needs no second path:
 
 - counts (``frames``, ``samples``, ``contacts_*``, ``bytes``, ``reboots``, ``elapsed_s``,
-  ``device_time_s``, every ``decoder`` counter) are totals over the sessions, and ``gaps``
-  lists every session's gaps in order: ``bytes`` is the size of ``capture.bin`` and
-  ``samples`` the number of rows in ``frames.csv``;
+  ``device_time_s``, ``tx_dropped``, every ``decoder`` counter) are totals over the
+  sessions, and ``gaps`` and ``pauses`` list every session's in order: ``bytes`` is the size
+  of ``capture.bin`` and ``samples`` the number of rows in ``frames.csv``;
 - the rest (``command``, ``port``, ``device``, ``ended``, ``time_base``, ...) is the latest
   session's;
 - ``time_base`` (``tactile.recording.timebase``): the board -> host clock mapping, one entry per
@@ -26,8 +26,11 @@ match the files.
 
 import math
 
+from tactile.board.client import info_dict
 from tactile.errors import InputError
 from tactile.files import bounded
+from tactile.recording.run_stats import span_s
+from tactile_protocol import constants as C
 
 MAX_META_BYTES = 64 * 2**20  # meta.json: a few kB, more with many gaps
 
@@ -41,6 +44,7 @@ SUMMED = (
     "reboots",
     "elapsed_s",
     "device_time_s",
+    "tx_dropped",
 )
 LATEST = (
     "tactile_version",
@@ -48,6 +52,7 @@ LATEST = (
     "port",
     "command",
     "ended",
+    "board",
     "tared",
     "stops_at",
     "time_base",
@@ -147,7 +152,8 @@ def document(sessions):
     for k in SUMMED:
         total = sum(_count(s, k) for s in sessions)
         doc[k] = round(total, 3) if isinstance(total, float) else total
-    doc["gaps"] = [g for s in sessions if isinstance(s.get("gaps"), list) for g in s["gaps"]]
+    for k in ("gaps", "pauses"):
+        doc[k] = [g for s in sessions if isinstance(s.get(k), list) for g in s[k]]
     doc["decoder"] = _decoder_totals(sessions)
     doc["sessions"] = sessions
     return doc
@@ -171,3 +177,38 @@ def sessions_of(doc):
     if not isinstance(sessions, list) or not sessions:
         return [doc]
     return [s for s in sessions if isinstance(s, dict)]
+
+
+def session_entry(session):
+    """A recording session's own entry (``tactile.recording.session.Session.meta``)."""
+    client, s, rec = session.client, session.stats, session.rec
+    info = client.info if client is not None else None
+    return {
+        "tactile_version": session.version,
+        "protocol_version": C.PROTOCOL_VERSION,
+        "port": session.port_name,
+        "command": session.argv,
+        "started_at": session.started_at,
+        "ended": session.ended,
+        "elapsed_s": round(session.elapsed(), 3),
+        "device": info_dict(info) if info is not None else None,
+        "board": session.identity.meta(),
+        "tared": session.tared,  # a TARE the board acknowledged
+        "frames": s.frames,
+        "samples": rec.rows,  # = s.samples, or what frames.csv kept of a failed write
+        "late_samples": s.late_samples,
+        "contacts_begun": s.contacts_begun,
+        "contacts_ended": s.contacts_ended,
+        "device_time_s": span_s(s.first_ts, s.last_ts),
+        "device_status": list(s.status.values()),
+        "reboots": client.decoder.counters.reboots if client is not None else 0,
+        "gaps": session.gaps,
+        "pauses": session.pauses,
+        "tx_dropped": s.tx_dropped,
+        "bytes": rec.bytes,
+        "capture_offset": rec.capture_offset,
+        "rows_offset": rec.rows_offset,
+        "decoder": client.decoder.counters.as_dict() if client is not None else None,
+        "stops_at": None if session.log_end is None else session.log_end.meta(),
+        "time_base": session.timing.meta(),
+    }

@@ -192,7 +192,7 @@ def readings(path, meta):
     )
     with open(pathlib.Path(path) / CAPTURE, "rb") as fh:
         for a, b in zip(starts, [*starts[1:], size]):
-            decoder = StreamDecoder()
+            decoder = StreamDecoder(older=True)  # (a run recorded before a version change)
             fh.seek(a)
             left = b - a
             while left > 0 and (chunk := fh.read(min(CHUNK, left))):

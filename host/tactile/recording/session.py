@@ -1,14 +1,17 @@
 """``tactile record``'s loop: read a board into a ``Recording`` until a stop condition.
 
-Opens the port, waits for HELLO, TAREs when asked, starts streaming if the
-board is not already, then appends everything it reads.  When the port
-vanishes (cable pulled, board reset) it records a gap, waits for the port to
-come back (``reconnect_s``) and carries on with the same decoder, so frames
-lost in the gap are counted from the sequence numbers.  A board that
-rebooted (the decoder sees a new boot id) is counted in ``reboots``, not as
-lost frames, and TAREd again.  Ctrl-C ends the recording
-normally.  Port and clock are injectable for tests.  ``on_frames(session, msgs, host_times)``
-sees every batch once it is written (``tactile.output.foxglove_live`` serves it live).
+Opens the port, waits for HELLO, TAREs when asked, starts streaming if the board is not
+already, then appends everything it reads.  When the port vanishes (cable pulled, board
+reset) it records a gap, says so (``on_notice``), waits for the port to come back
+(``reconnect_s``) and carries on with the same decoder, so frames lost in the gap are
+counted from the sequence numbers, but only with the same board: the board id of the run's
+first HELLO (``tactile.recording.board_identity``); another board ends the run
+(``OtherBoard``, exit 4, ``ended`` "other board"), none of its bytes in the files.  A board
+that rebooted (a new boot id) is counted in ``reboots``, not as lost frames, and TAREd
+again.  Ctrl-C ends the recording normally.  Port and clock are injectable for tests.
+``on_frames(session, msgs, host_times)`` sees every batch once it is written
+(``tactile.output.foxglove_live``); ``on_notice(session, line)`` gets a line for the user
+about what the run goes on through (a stall of the host, a port lost and waited for).
 
 A run that fails before the board sent a byte (no such port, nothing answering) is undone
 (``Recording.discard``): no meta.json, no file of it left.
@@ -19,25 +22,32 @@ full``, ``file too large`` or ``write failed``) if it can still be written, and 
 raises ``HostFileError`` (exit 5): one line naming the file and what was kept.
 
 Time: every frame's arrival (the ``clock`` reading as its read returned) feeds the board ->
-host fit of ``tactile.recording.timebase.RecordingClock``; frames.csv gets each row's host time as
-the
-fit stands, and is rewritten with the final fit at the end; meta.json holds the mapping.
+host fit of ``tactile.recording.timebase.RecordingClock``; frames.csv gets each row's host
+time as the fit stands, rewritten with the final fit at the end; meta.json holds the mapping.
 
 A board silent for half a second is PINGed: its ACK's stamp is a point of the fit too.
-One that answers nothing for ``SILENT_S`` (a firmware hung after its HELLO) ends the run:
-a ``BoardError`` (exit 4) saying so, ``ended`` "board silent", everything received kept.
-``until`` = (clock, us, how): stop once that time of the pose log's clock has passed (the
-board's as its frames say, or the host's own clocks).
+One that answers nothing for ``SILENT_S`` of the host's running time while the port holds
+nothing (a firmware hung after its HELLO) ends the run: a ``BoardError`` (exit 4),
+``ended`` "board silent", everything received kept.  Silence is never judged across the
+host's own stall (``tactile.recording.run_clock``: Ctrl-Z, a paused VM, a slow disk): the
+loop first reads what waits on the port, notes the stall in ``pauses``, and starts the
+silence window again.  Times in meta.json are ``RunClock``'s: they never go back.
+``until`` = (clock, us, how): stop once the pose log's end has passed (``LogEnd``).
 """
 
 import time
 from datetime import UTC, datetime
 
 from tactile import __version__
-from tactile.board.client import BoardClient, info_dict
+from tactile.board.client import BoardClient
 from tactile.board.serial_port import open_port
 from tactile.errors import BoardError, HostFileError, PortError, PortLost
+from tactile.recording.board_identity import BoardIdentity, Held, OtherBoard
 from tactile.recording.files import Recording, WriteFailed
+from tactile.recording.log_end import LogEnd
+from tactile.recording.meta import session_entry
+from tactile.recording.run_clock import RunClock, stall_words
+from tactile.recording.run_stats import Stats
 from tactile.recording.timebase import RecordingClock
 from tactile_protocol import constants as C
 
@@ -45,46 +55,7 @@ META_EVERY_S = 1.0
 PING_AFTER_S = 0.5  # silence after which the board is PINGed for its clock
 SILENT_S = 5.0  # silence, PINGs unanswered, after which the board is given up on (exit 4)
 REFIT_EVERY_S = 1.0  # and at least 100 fit durations
-
-
-def _stop_meta(until):
-    clock, us, how = until
-    return {"clock": clock, "time_us": us, "from": f"the pose log: {how}"}
-
-
-def _span_s(first_us, last_us):
-    """Device time covered, across one wrap of the u32 microsecond timestamp."""
-    if first_us is None:
-        return 0.0
-    return ((last_us - first_us) % C.TIMESTAMP_MODULO) / 1e6
-
-
-class Stats:
-    """What the progress display shows; also the counters in meta.json."""
-
-    def __init__(self):
-        self.frames = 0
-        self.samples = 0  # SAMPLE and CONTACT frames (one per sensor reading sent)
-        self.late_samples = 0  # ... of them flagged late by the board (it missed a period)
-        self.contacts_begun = 0
-        self.contacts_ended = 0
-        self.first_ts = None
-        self.last_ts = None
-        self.status = {}  # the latest STATUS per sensor (0xFF: the board)
-
-    def add(self, msgs):
-        for m in msgs:
-            self.frames += 1
-            if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
-                self.samples += 1
-                self.late_samples += bool(m.flags & C.FLAG_LATE)
-                self.first_ts = m.timestamp_us if self.first_ts is None else self.first_ts
-                self.last_ts = m.timestamp_us
-            elif m.type_code == C.MSG_STATUS:
-                self.status[m.sensor] = m.to_dict()
-            if m.type_code == C.MSG_CONTACT:
-                self.contacts_begun += m.phase == C.PHASE_BEGIN
-                self.contacts_ended += m.phase == C.PHASE_END
+DRAIN_READS = 1000  # reads at most, after a host stall, of what waits on the port
 
 
 class Session:
@@ -109,20 +80,24 @@ class Session:
         utc=time.time,
         until=None,
         on_frames=None,
+        on_notice=None,
     ):
         self.port_name = port_name
         self.duration_s = duration_s
         self.contacts = contacts
         self.want_tare = tare
+        self.version = __version__  # meta.json's tactile_version
         self.tared = False  # a TARE the board acknowledged
         self.reconnect_s = reconnect_s
         self.handshake_s = handshake_s
         self.opener = opener or (lambda name: open_port(name))
         self.clock = clock
+        self.run_clock = RunClock(clock)
         self.sleep = sleep
         self.on_progress = on_progress or (lambda session: None)
         self.stop_when = stop_when or (lambda session: None)
         self.on_frames = on_frames or (lambda session, msgs, host_times: None)
+        self.on_notice = on_notice or (lambda session, line: None)
         try:
             self.rec = Recording(outdir, append)
         except WriteFailed as exc:
@@ -131,8 +106,10 @@ class Session:
         self._meta_failed = None  # ... and the one that kept meta.json from saying so
         self.stats = Stats()
         self.gaps = []
+        self.pauses = []  # the host's stalls, and what waited on the port after each
         self.ended = "running"
         self.client = None
+        self.identity = BoardIdentity()
         self.started = None
         self.argv = argv
         self.started_at = None
@@ -141,27 +118,41 @@ class Session:
         self.utc = utc
         self.until = until
         self.timing = RecordingClock(self.rec.rows_offset)
-        self._heard_at = None  # clock of the latest frame (or of the start)
+        self.log_end = None if until is None else LogEnd(until, self.timing, clock, utc)
+        self._heard_at = 0.0  # elapsed() at the latest frame (or the start, or a stall)
         self._pinged_at = None
         self._fit_at = 0.0
 
     # -- connection ------------------------------------------------------------
     def _connect(self):
         port = self.opener(self.port_name)
+        held = None
         if self.client is None:
             self.client = BoardClient(port, self.port_name, capture=self.rec.raw, clock=self.clock)
-        else:
+        else:  # a reconnection: its bytes wait until the board says who it is
             self.client.port = port
+            held = Held(self.client, self.rec.raw)
             self.client.info = None
-        hello = self.client.handshake(self.handshake_s)
-        self._reboots_prepared = self.client.decoder.counters.reboots
+        try:
+            hello = self.client.handshake(self.handshake_s)
+        except BaseException:
+            if held is not None:
+                held.release()
+            raise
+        if held is not None:
+            self._same_board(hello, held)
+        self.identity.seen(hello)
+        reboots = self.client.decoder.counters.reboots
+        if reboots > self._reboots_prepared:
+            self.stats.new_boot()
+        self._reboots_prepared = reboots
         if self.client.info.protocol_version != C.PROTOCOL_VERSION:
             raise BoardError(
                 f"{self.port_name}: HELLO says protocol version {hello.protocol_version}, "
                 f"this host speaks {C.PROTOCOL_VERSION}"
             )
         self._prepare()
-        self._heard_at = self.clock()  # (its HELLO and the replies just now)
+        self._heard_at = self.elapsed()  # (its HELLO and the replies just now)
 
     def _prepare(self):
         if self.want_tare:
@@ -169,25 +160,42 @@ class Session:
             self.tared = True
         if not self.client.info.flags & C.CFG_STREAMING:
             self.client.start()
+        self.run_clock.waited()  # (the handshake and the commands: waits, not a stall)
+
+    def _same_board(self, hello, held):
+        """After a reconnection: carry on with this run's board, end the run on another."""
+        gap = self.gaps[-1]
+        if self.identity.same(hello):
+            gap["rebooted"] = self.identity.rebooted(hello)
+            return held.accept()
+        refused = {"board_id": hello.to_dict()["board_id"], "boot_id": hello.boot_id}
+        gap["other_board"] = {**refused, "bytes_refused": held.refuse()}
+        self.ended = "other board"
+        raise self.identity.refusal(self.port_name, hello, self.rec.dir)
 
     def _close_port(self):
         self.client.close()
 
     def _reconnect(self, why):
         gap = {
-            "lost_at_s": round(self.clock() - self.started, 3),
+            "lost_at_s": round(self.elapsed(), 3),
             "why": why,
             "last_timestamp_us": self.stats.last_ts,
             "lost_frames_before": self.client.decoder.counters.lost_frames,
+            "back_at_s": None,  # (not back yet)
         }
         self.gaps.append(gap)
         self._close_port()
         self._write_meta()
-        deadline = self.clock() + self.reconnect_s
-        while self.clock() < deadline:
+        wait = f"waiting up to {self.reconnect_s:g} s for it to come back"
+        self.on_notice(self, f"port lost at {gap['lost_at_s']:.1f} s; {wait}")
+        deadline = self.elapsed() + self.reconnect_s
+        while self.elapsed() < deadline:
             self.sleep(0.2)
             try:
                 self._connect()
+            except OtherBoard:
+                raise
             except PortLost as exc:  # opened, then gone again (a board still booting)
                 gap.setdefault("retries", []).append(str(exc))
                 self._close_port()
@@ -198,50 +206,34 @@ class Session:
                 gap.setdefault("retries", []).append(str(exc))
                 self._close_port()
                 continue
-            gap["back_at_s"] = round(self.clock() - self.started, 3)
+            gap["back_at_s"] = round(self.elapsed(), 3)
+            self.run_clock.waited()
+            again = "rebooted" if gap.get("rebooted") else "not rebooted"
+            self.on_notice(self, f"port back at {gap['back_at_s']:.1f} s: the same board ({again})")
             return True
-        gap["back_at_s"] = None
         return False
 
     # -- the loop ----------------------------------------------------------------
+    def elapsed(self):
+        """Seconds since the run started, on the host's clock; never going back."""
+        return self.run_clock.elapsed()
+
     def _done(self):
-        if self.duration_s is not None and self.clock() - self.started >= self.duration_s:
+        if self.duration_s is not None and self.elapsed() >= self.duration_s:
             return "duration"
         if self.contacts is not None and self.stats.contacts_ended >= self.contacts:
             return "contacts"
-        if self.until is not None and self._now_us(self.until[0]) >= self.until[1]:
+        if self.log_end is not None and self.log_end.passed():
             return "pose log end"
         return self.stop_when(self)
 
-    def _now_us(self, clock):
-        """Now in ``clock`` (us): the board's latest stamp heard, or a host clock's reading."""
-        if clock == "board":
-            now = self.timing.board_us()
-            return -1 if now is None else now
-        return round((self.clock() if clock == "monotonic" else self.utc()) * 1e6)
-
     def waiting_for(self):
         """What the run waits for, in words (None: a duration, a count or Ctrl-C)."""
-        if self.until is None:
-            return None
-        from tactile.recording.log_clock import show_time
-
-        clock, end, _ = self.until
-        left = self.until_left_s()
-        if left is None:
-            return f"pose log end ({show_time(clock, end)}); no board time heard yet"
-        return f"pose log end in {left:.1f} s ({show_time(clock, end)})"
+        return None if self.log_end is None else self.log_end.words()
 
     def until_left_s(self):
         """Seconds until the pose log's end; None without a log or before any board time."""
-        if self.until is None:
-            return None
-        clock, end, _ = self.until
-        now = self._now_us(clock)
-        seg = self.timing.board.segments[-1] if self.timing.board.segments else None
-        if clock == "board" and seg is not None and seg.usable():  # between frames: the fit
-            now = max(now, round(float(seg.fitted.to_board(self.clock())) * 1e6))
-        return None if now < 0 else max(0.0, (end - now) / 1e6)
+        return None if self.log_end is None else self.log_end.left_s()
 
     def _handle(self, msgs, times=None):
         host_times = self.timing.take(msgs, times)
@@ -249,14 +241,17 @@ class Session:
         self.on_frames(self, msgs, host_times)  # after the files: a live view never delays them
         self.stats.add(msgs)
         if msgs:
-            self._heard_at = self.clock()
+            self._heard_at = self.elapsed()
         reboots = self.client.decoder.counters.reboots
         if reboots > self._reboots_prepared:  # rebooted behind an open port: TARE again
             self._reboots_prepared = reboots
+            self.stats.new_boot()
+            self.identity.seen(self.client.info)
             self._prepare()
 
     def run(self):
-        self.started = self._heard_at = self.clock()
+        self.started = self.clock()
+        self.run_clock.start()
         self.started_at = datetime.now(UTC).isoformat(timespec="seconds")
         self.timing.utc_minus_mono = self.utc() - self.clock()
         try:
@@ -312,7 +307,7 @@ class Session:
         """The one line of a run a failed write ended: the file, what was kept, meta.json."""
         rec = self.rec
         kept = (
-            f"{self.failed}: recording stopped after {self.clock() - self.started:.1f} s; this"
+            f"{self.failed}: recording stopped after {self.elapsed():.1f} s; this"
             f" run kept {rec.rows:,} readings (frames.csv) and {rec.bytes:,} bytes (capture.bin)"
             f" in {rec.dir}"
         )
@@ -358,7 +353,7 @@ class Session:
                     ) from None
                 continue
             self.on_progress(self)
-            if self.clock() - self._meta_at >= META_EVERY_S:
+            if self.elapsed() - self._meta_at >= META_EVERY_S:
                 self._write_meta()
             why = self._done()
             if why:
@@ -368,12 +363,15 @@ class Session:
     def _keep_time(self):
         """Refit now and then; PING a silent board: its ACK carries the board's clock, for
         the fit (a contacts-only stream is silent between contacts) and for a pose log that
-        waits on the board's time."""
-        now = self.clock()
+        waits on the board's time.  After a stall of the host, read what waits first."""
+        step = self.run_clock.stall()
+        if step is not None:
+            self._after_stall(step)
+        now = self.elapsed()
         if now - self._fit_at >= max(REFIT_EVERY_S, 100 * self.timing.fit_s):
             self._fit_at = now
             self.timing.refit()
-        if now - self._heard_at >= SILENT_S:
+        if now - self._heard_at >= SILENT_S and not self.client.waiting():
             self.ended = "board silent"
             raise BoardError(
                 f"{self.port_name}: the board said nothing for {SILENT_S:g} s, not even to PING"
@@ -384,39 +382,32 @@ class Session:
             self._pinged_at = now
             self.client.send(C.CMD_PING)  # its ACK carries the board's clock
 
+    def _after_stall(self, step):
+        """The host stood still (or its clock stepped back by -``step`` s): the board went
+        on, and what it sent waits on the port.  Read it all and judge silence afresh from
+        now.  What the board could not send meanwhile shows as a sequence gap once its next
+        frames come, and in its STATUS ``tx_dropped``."""
+        pause = {
+            "at_s": round(self.elapsed() - max(0.0, step), 3),  # when it stood still
+            "clock_step_s": round(step, 3),
+            "lost_frames_before": self.client.decoder.counters.lost_frames,
+        }
+        before = self.rec.bytes
+        for _ in range(DRAIN_READS):
+            if not self.client.waiting():
+                break
+            self._handle(*self.client.read_timed())
+        pause["bytes_waiting"] = self.rec.bytes - before
+        self.pauses.append(pause)
+        self.on_notice(self, stall_words(pause))
+        self._heard_at, self._pinged_at = self.elapsed(), None
+        self.run_clock.waited()  # (the reading just now: work, not a stall)
+
     # -- metadata -------------------------------------------------------------------
     def meta(self):
         """This session's entry in meta.json (``tactile.recording.meta`` adds the totals)."""
-        client = self.client
-        info = client.info if client is not None else None
-        s = self.stats
-        return {
-            "tactile_version": __version__,
-            "protocol_version": C.PROTOCOL_VERSION,
-            "port": self.port_name,
-            "command": self.argv,
-            "started_at": self.started_at,
-            "ended": self.ended,
-            "elapsed_s": round(self.clock() - self.started, 3) if self.started else 0.0,
-            "device": info_dict(info) if info is not None else None,
-            "tared": self.tared,
-            "frames": s.frames,
-            "samples": self.rec.rows,  # = s.samples, or what frames.csv kept of a failed write
-            "late_samples": s.late_samples,
-            "contacts_begun": s.contacts_begun,
-            "contacts_ended": s.contacts_ended,
-            "device_time_s": _span_s(s.first_ts, s.last_ts),
-            "device_status": list(s.status.values()),
-            "reboots": client.decoder.counters.reboots if client is not None else 0,
-            "gaps": self.gaps,
-            "bytes": self.rec.bytes,
-            "capture_offset": self.rec.capture_offset,
-            "rows_offset": self.rec.rows_offset,
-            "decoder": client.decoder.counters.as_dict() if client is not None else None,
-            "stops_at": None if self.until is None else _stop_meta(self.until),
-            "time_base": self.timing.meta(),
-        }
+        return session_entry(self)
 
     def _write_meta(self):
-        self._meta_at = self.clock()
+        self._meta_at = self.elapsed()
         self.rec.write_meta(self.meta())

@@ -12,6 +12,11 @@ runs the C core cross-compiled for a Cortex-M0 in QEMU (``-M microbit``), its UA
 bridged to the pty and the scene's sensors served over semihosting
 (``tactile_sim.emulator.qemu_server``); needs ``arm-none-eabi-gcc`` and
 ``qemu-system-arm``, and a scene without ``[link] disconnect`` windows.
+
+The board's id (HELLO ``board_id``, which ``record`` checks after a lost port): with
+``--link``, derived from the link's path, so that an emulator restarted behind the same link
+is the same board, rebooted; without, drawn at random, so that two emulators differ;
+``--board-id HEX`` names it.  An emulated Pico's is its flash chip's (one per ``--flash``).
 """
 
 import pathlib
@@ -23,7 +28,7 @@ from tactile.errors import InputError
 from tactile.files.atomic import write_bytes
 from tactile.output.textout import printable
 from tactile_sim.emulator import load_scene, pty_link
-from tactile_sim.emulator.device import EmulatedBoard
+from tactile_sim.emulator.device import EmulatedBoard, link_board_id
 from tactile_sim.emulator.ft_model import per_volt_matrix
 from tactile_sim.emulator.link_faults import LinkFaults
 from tactile_sim.emulator.servers import server_for
@@ -69,6 +74,11 @@ def add_arguments(parser):
         "$XDG_STATE_HOME/tactile/pico.flash; a new file holds stock MicroPython)",
     )
     parser.add_argument(
+        "--board-id",
+        metavar="HEX",
+        help="the board's id in HELLO, 16 hex digits (default: one per --link, else random)",
+    )
+    parser.add_argument(
         "--now",
         action="store_true",
         help="start the scene at once (default: when a host first opens the port)",
@@ -84,7 +94,7 @@ def run(args):
     if args.core in ("qemu", "rp2040") and disconnects:
         raise InputError(f"{scene.path}: [link] disconnect: not served with --core {args.core} "
                          "(the chip owns its port); use --no-faults or another core")  # fmt: skip
-    board = EmulatedBoard(scene, core=args.core)
+    board = EmulatedBoard(scene, core=args.core, board_id=_board_id(args))
     faults = None if args.no_faults else LinkFaults.from_scene(scene.link)
     if args.flash and args.core != "rp2040":
         raise InputError("--flash: only with --core rp2040 (the emulated Pico's flash file)")
@@ -108,6 +118,21 @@ def run(args):
     with server:  # serves until its duration, the board's end or Ctrl-C; then closes
         server.wait()
     return 0
+
+
+def _board_id(args):
+    """--board-id as 8 bytes; else the link's own id (not a Pico's: its flash names it)."""
+    if args.board_id is not None:
+        try:
+            board_id = bytes.fromhex(args.board_id)
+        except ValueError:
+            board_id = b""
+        if len(board_id) != 8:
+            raise InputError(f"--board-id: {args.board_id!r} is not 16 hex digits (8 bytes)")
+        return board_id
+    if args.link and args.core != "rp2040":
+        return link_board_id(args.link)
+    return None
 
 
 def _exit_on_sigterm():

@@ -10,8 +10,15 @@ to the next thing that can happen (a due sample or a conversion end), so
 "as fast as possible" costs only the firmware's own work.  The byte link is
 the firmware's ``PipeLink``; the host side reads with ``take`` and writes
 with ``put``.  Nothing here frames, checksums or encodes: the firmware does.
+
+Each emulated board has its own board id (HELLO/INFO ``board_id``, the id a host checks
+after a lost port): 8 random bytes unless the caller names one (``board_id``; ``tactile
+emulate --link`` derives it from the link, so that an emulator restarted behind the same
+link is the same board, rebooted: ``link_board_id``).  An emulated Pico's is its flash
+chip's, one per flash file (``pico_core.flash_board_id``).
 """
 
+import hashlib
 import importlib
 import math
 import os
@@ -31,6 +38,14 @@ from tactile_sim.emulator.sensor_faults import FaultSchedule
 from tactile_sim.i2c_bus import SimI2C
 
 LINK_CAPACITY = 1 << 16  # bytes the host side may leave unread (a USB/pty buffer)
+
+
+def link_board_id(path):
+    """The board id of the emulated board behind the link ``path`` (8 bytes): the same for
+    every emulator served there, another for another path."""
+    return hashlib.sha256(
+        b"tactile emulated board\0" + os.fsencode(os.path.abspath(path))
+    ).digest()[:8]
 
 
 def build_motion(scene):
@@ -75,7 +90,7 @@ class EmulatedBoard:
     settings and calibration are not stored: the chip's flash holds what its user put there).
     """
 
-    def __init__(self, scene, motion=None, boot_id=None, core=None):
+    def __init__(self, scene, motion=None, boot_id=None, core=None, board_id=None):
         self.scene = scene
         self.core = core or scene.board["core"]
         if self.core not in cores.SERVED:
@@ -93,6 +108,9 @@ class EmulatedBoard:
         storage = MemoryStorage()
         if boot_id is None:  # a new one per power-up, as a real board draws it
             boot_id = boot_id_from(os.urandom(8))
+        if board_id is None and self.core != "rp2040":  # (a Pico's is its flash chip's)
+            board_id = os.urandom(8)
+        self.board_id = board_id
         self.board = cores.make_board(
             self.core,
             self.buses,
@@ -102,6 +120,7 @@ class EmulatedBoard:
             storage,
             max_rate_hz=override,
             boot_id=boot_id,
+            board_id=self.board_id,
         )
         if self.core != "rp2040":  # (a Pico's own flash holds what its user stored)
             board_settings(scene, self.board.max_rate_hz).save(storage)

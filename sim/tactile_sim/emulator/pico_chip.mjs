@@ -28,6 +28,12 @@
 // offset, u32 LE length, the bytes the range then holds), so a test can rebuild the flash
 // as a power cut after any operation would have left it.
 //
+// The flash chip's unique id (machine.unique_id(), the board id in HELLO): rp2040js answers
+// every read of the SSI's data register with 0, so every emulated Pico would read the id
+// 0000000000000000. pico-sdk reads it at start-up with the flash command 0x4B (RUID): with
+// chip select forced low (IO_QSPI SS_CTRL), the command byte, 4 dummy bytes, then 8 bytes,
+// one byte read back per byte written. Those 8 reads answer cfg.unique_id (16 hex digits).
+//
 // Time: the chip's clock is rp2040js's simulation clock (125 MHz). While the core sleeps
 // (WFE/WFI), or spins on a peripheral (the same load of the TIMER or an I2C controller again
 // within SPIN_CYCLES: a busy-wait for a deadline or for the bus), its clock jumps to its next
@@ -150,6 +156,7 @@ function boot() {
     resetPending = true;
   };
   wireUsb();
+  if (cfg.unique_id) wireUniqueId(Buffer.from(cfg.unique_id, 'hex'));
   mcu.i2c.forEach(wireI2c);
   if (cfg.spin_skip !== false) {
     watchSpin(mcu.peripherals[TIMER_BASE], 'timer');
@@ -187,6 +194,32 @@ function persist(at, n) {
     head.writeUInt32LE(n, 4);
     fs.writeSync(JOURNAL, Buffer.concat([head, mcu.flash.subarray(at, at + n)]));
   }
+}
+
+function wireUniqueId(uid) {
+  const SS_CTRL = 0x0c; // IO_QSPI GPIO_QSPI_SS_CTRL: OUTOVER (bits 8-9) 2 drives CS low
+  const DR0 = 0x60;
+  const RUID = 0x4b;
+  const qspi = mcu.peripherals[0x40018]; // (unimplemented by rp2040js: writes only warn)
+  const ssi = mcu.peripherals[0x18000];
+  let at = -1; // bytes of the command since chip select went low; -1: not selected
+  let ruid = false;
+  const qspiWrite = qspi.writeUint32.bind(qspi);
+  qspi.writeUint32 = (offset, value) => {
+    if (offset === SS_CTRL) {
+      at = ((value >>> 8) & 3) === 2 ? 0 : -1;
+      ruid = false;
+    }
+    qspiWrite(offset, value);
+  };
+  const ssiWrite = ssi.writeUint32.bind(ssi);
+  ssi.writeUint32 = (offset, value) => {
+    ssiWrite(offset, value);
+    if (offset !== DR0 || at < 0) return;
+    if (at === 0) ruid = value === RUID;
+    if (ruid) ssi.dr0 = at >= 5 && at < 5 + uid.length ? uid[at - 5] : 0;
+    at += 1;
+  };
 }
 
 function wireUsb() {

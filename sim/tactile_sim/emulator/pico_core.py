@@ -131,12 +131,22 @@ def lock_flash(path):
     return fd
 
 
+def flash_board_id(flash):
+    """The unique id of the Pico whose flash is the file ``flash`` (8 bytes): a Pico's id is
+    its flash chip's, so one flash file is one board, whichever emulator runs it."""
+    path = os.fsencode(pathlib.Path(flash).resolve())
+    return hashlib.sha256(b"tactile emulated pico\0" + path).digest()[:8]
+
+
 # --- the board the scene wires ---------------------------------------------------------------
 class PicoBoard:
     """The hardware around the chip: see the module docstring."""
 
-    def __init__(self, buses, layout, link, clock, storage, max_rate_hz=None, boot_id=0):
+    def __init__(
+        self, buses, layout, link, clock, storage, max_rate_hz=None, boot_id=0, board_id=None
+    ):
         self.buses, self.layout, self.clock = buses, layout, clock
+        self.board_id = board_id  # the flash chip's unique id; None: ``flash_board_id``
         self.faults = None  # the emulator's FaultSchedule, applied at the chip's time
         self.adcs = []  # every converter, reset with the chip
         self.max_rate_hz = max_rate_hz or 0  # the firmware on the chip decides
@@ -158,6 +168,7 @@ class PicoBoard:
             "bus_time": bool(bus_time),
             "spin_skip": os.environ.get("TACTILE_PICO_SPIN") != "0",
             "flash_journal": str(journal) if journal else None,
+            "unique_id": (self.board_id or flash_board_id(flash)).hex(),
         }
         return PicoChip(self, [exe, str(CHIP_JS), json.dumps(cfg)], lock)
 

@@ -60,11 +60,15 @@ class QemuUnavailable(BoardError):
 class QemuBoard:
     """The hardware the image is served: see the module docstring."""
 
-    def __init__(self, buses, layout, link, clock, storage, max_rate_hz=None, boot_id=0):
+    def __init__(
+        self, buses, layout, link, clock, storage, max_rate_hz=None, boot_id=0, board_id=None
+    ):
         from tactile_fw import frontend
+        from tactile_fw.identity import NO_BOARD_ID, board_id_from
 
         self.buses, self.layout, self.clock, self.storage = buses, layout, clock, storage
         self.boot_id = boot_id & 0xFFFFFFFF
+        self.board_id = board_id_from(NO_BOARD_ID if board_id is None else board_id)
         self.override = max_rate_hz or 0
         sensors = [frontend.make_sensor(buses[b], s, bus_key=b) for b, s in layout]
         self.max_rate_hz = max_rate_hz or frontend.max_rate_hz(sensors)
@@ -275,7 +279,8 @@ class QemuDevice:
     def _op_C(self, req):  # the board's configuration
         hw = self.board
         head = bytes((len(hw.layout), self.mode)) + _le(hw.override, 2) + _le(hw.boot_id, 4)
-        return head + _le(TX_RING, 2) + bytes(v for entry in hw.layout for v in entry)
+        tail = bytes(v for entry in hw.layout for v in entry)
+        return head + _le(TX_RING, 2) + hw.board_id + tail
 
     def _op_R(self, req):  # I2C: command, repeated start, read n bytes
         bus, addr, cmd, n = req[1:5]

@@ -1,11 +1,14 @@
-"""``sim://SCENE[?realtime=1&faults=0&core=c]``: an emulated board as an in-process pyserial port.
+"""``sim://SCENE[?realtime=1&faults=0&core=c&board_id=HEX]``: an emulated board as an in-process
+pyserial port.
 
 SCENE is a shipped scene name (``sim://press``) or a path
 (``sim:///abs/path.toml``).  Reading advances the emulator's simulated time
 (as fast as possible by default, or paced by the wall clock with
 ``realtime=1``) until the bytes asked for exist or the timeout has passed
 in simulated time.  ``faults=0`` ignores the scene's ``[link]`` faults;
-``core=c`` (or ``python``) runs that firmware core instead of the scene's.
+``core=c`` (or ``python``) runs that firmware core instead of the scene's.  Each open is
+a board of its own (its own HELLO ``board_id``, drawn at random); ``board_id=`` and 16 hex
+digits names it, so that a port opened again is the same board, rebooted.
 Modelled on pyserial's ``protocol_loop``: everything the host does with a
 real port works here, so one code path serves both.
 """
@@ -18,6 +21,16 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Tim
 from tactile_sim.emulator.cores import CORES
 
 STEP_US = 2000
+
+
+def _board_id(url, text):
+    try:
+        board_id = bytes.fromhex(text)
+    except ValueError:
+        board_id = b""
+    if len(board_id) != 8:
+        raise SerialException(f"{url}: board_id must be 16 hex digits (8 bytes), got {text!r}")
+    return board_id
 
 
 class Serial(SerialBase):
@@ -34,7 +47,7 @@ class Serial(SerialBase):
         # A bad scene raises its SceneError (a ValueError, as pyserial's bad settings do):
         # the CLI reports it as bad input (exit 2), naming file, section and key.
         scene = load_scene(scene_name)
-        self.emulator = EmulatedBoard(scene, core=options["core"])
+        self.emulator = EmulatedBoard(scene, core=options["core"], board_id=options["board_id"])
         self.faults = LinkFaults.from_scene(scene.link) if options["faults"] else None
         self.realtime = options["realtime"]
         self._buffer = bytearray()
@@ -49,11 +62,15 @@ class Serial(SerialBase):
             raise SerialException(f"expected sim://SCENE, got {url!r}")
         name = parts.netloc + parts.path
         query = urllib.parse.parse_qs(parts.query)
-        options = {"realtime": False, "faults": True, "core": None}
+        options = {"realtime": False, "faults": True, "core": None, "board_id": None}
         for key, values in query.items():
             if key not in options:
-                raise SerialException(f"{url}: unknown option {key!r} (realtime, faults, core)")
-            if key == "core":
+                raise SerialException(
+                    f"{url}: unknown option {key!r} (realtime, faults, core, board_id)"
+                )
+            if key == "board_id":
+                options[key] = _board_id(url, values[-1])
+            elif key == "core":
                 if values[-1] not in CORES:
                     raise SerialException(f"{url}: core must be one of {', '.join(CORES)}")
                 options[key] = values[-1]
