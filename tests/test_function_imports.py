@@ -81,7 +81,6 @@ DEFERRED = {
         "_run: tactile.recording.session": RECORD_EXPORT,
         "_run: tactile.recording.log_clock (x2)": RECORD_EXPORT,
         "_run: tactile.recording.derive (x2)": RECORD_EXPORT,
-        "_run: tactile.errors": RECORD_EXPORT,
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },

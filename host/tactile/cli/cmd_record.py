@@ -16,11 +16,15 @@ made is removed, one that was there is left as it was.
 
 import sys
 
+from tactile.board.client import info_dict
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument
 from tactile.commands.words import add_quiet
-from tactile.errors import BoardError
+from tactile.errors import BoardError, InputError
 from tactile.output.textout import printable
+from tactile.payload.live import Following
+from tactile.payload.orientation import Orientations
+from tactile.payload.tool import read_tool
 
 
 def add_arguments(parser):
@@ -44,8 +48,30 @@ def add_arguments(parser):
     parser.add_argument(
         "--reconnect", type=float, default=30.0, help="seconds to wait for a lost port (30)"
     )
+    parser.add_argument(
+        "--payload",
+        action="append",
+        metavar="TOOL",
+        help="a sensor's tool file (tactile payload identify): its weight and the drifting bias"
+        " are removed and contacts gated on the host; needs --pose-log; once per sensor",
+    )
     add_quiet(parser)
     foxglove_args.add_arguments(parser)
+
+
+def payload_of(args, log):
+    """[(path, Tool)] of ``--payload``, checked before anything is recorded: each file, and
+    a pose log with the sensor's orientation for every reading; and the ``Orientations``."""
+    if not args.payload:
+        return [], None
+    if log is None:
+        raise InputError("--payload: needs --pose-log (the sensor's orientation at each reading)")
+    tools = [(path, read_tool(path)) for path in args.payload]
+    orient = Orientations.of_log(log)
+    for path, tool in tools:
+        if not orient.covers(tool.sensor):
+            raise InputError(f"{path}: the tool is for sensor {tool.sensor}: {log.path} has none")
+    return tools, orient
 
 
 def run(args):
@@ -56,7 +82,6 @@ def run(args):
 
 
 def _run(args):
-    from tactile.errors import InputError
     from tactile.recording.session import Session
 
     if args.duration is not None and not args.duration > 0:
@@ -68,7 +93,7 @@ def _run(args):
         from tactile.cli.board_args import connect
 
         connect(args)  # raises the 'no port given' message
-    until = posed = None
+    until = posed = log = None
     if args.pose_log:
         from tactile.recording.derive import check_log
         from tactile.recording.log_clock import log_end
@@ -77,8 +102,12 @@ def _run(args):
         end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
         until = (log.clock, end, how)
         posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
+    tools, orient = payload_of(args, log)
     # a port in use is refused before anything is written
     live = foxglove_args.start(args, pose_log=posed)
+    follow = None if live is None else live.follow
+    if live is not None and tools:
+        follow = _compensating(live, Following([t for _, t in tools], orient, log.clock))
     try:
         session = Session(
             args.port,
@@ -91,7 +120,8 @@ def _run(args):
             append=args.append,
             argv=sys.argv,
             until=until,
-            on_frames=live.follow if live is not None else None,
+            on_frames=follow,
+            payload=tools or None,
         )
     except BaseException:
         foxglove_args.stop(live, quiet=True)
@@ -123,10 +153,23 @@ def _run(args):
     if args.pose_log:
         from tactile.recording.derive import derive
 
-        for line in derive(args.out, args.pose_log, per_contact=args.per_contact):
+        lines = derive(args.out, args.pose_log, per_contact=args.per_contact, payload=tools)
+        for line in lines:
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
+
+
+def _compensating(live, following):
+    """The session's ``on_frames``: the Foxglove server fed the compensated frames."""
+
+    def follow(session, msgs, host_times):
+        info = session.client.info if session.client is not None else None
+        device = info_dict(info) if info is not None else None
+        out, host, _ = following.feed(msgs, device, host_times)
+        live.follow(session, out, host)
+
+    return follow
 
 
 def _says_kept(exc, rec):

@@ -14,9 +14,12 @@ The probe log (written by the robot controller; ``tactile_sim``'s ``motion_roll`
     probe,t_start_us,t_end_us,dtheta_x,dtheta_y
     0,800000,1300000,0.5,0.0
 
-The times may be in the host's clocks instead (``t_start_utc_s,t_end_utc_s`` or
-``t_start_mono_s,t_end_mono_s``), and ``# end: t_us=N`` says when the robot is done
-(``tactile.recording.log_clock``).
+A log may also give the sensor's orientation in the world during each hold (world from
+sensor, unit quaternion scalar first): ``qw,qx,qy,qz`` at the probe's start and
+``qw_end,qx_end,qy_end,qz_end`` at its end, which removing a tool's weight needs
+(``tactile.payload``).  The times may be in the host's clocks instead
+(``t_start_utc_s,t_end_utc_s`` or ``t_start_mono_s,t_end_mono_s``), and ``# end: t_us=N``
+says when the robot is done (``tactile.recording.log_clock``).
 
 Frames: the fingertip frame has the sensor's axes, its centre at ``centre_m`` in the sensor
 frame and its pole (u = v = 0 of eq. 20) along the sensor's +x.
@@ -38,6 +41,8 @@ MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PR
 MAX_PROBE = 2**31 - 1
 LIMIT = 1e6  # |value| of a length (m) or an angle (rad)
 MIN_RADIUS_M = 1e-6  # the fingertip's radius
+# optional: the sensor's orientation in the world (scalar first) in the hold at each end
+QUATS = ("qw", "qx", "qy", "qz", "qw_end", "qx_end", "qy_end", "qz_end")
 
 
 class ProbeLog(NamedTuple):
@@ -54,6 +59,8 @@ class ProbeLog(NamedTuple):
     lines: list  # source line of each row
     clock: str = "board"  # of t_start_us/t_end_us: "board", "utc" or "monotonic" (us each)
     end_us: int | None = None  # the '# end:' line's time, in that clock
+    q_start: np.ndarray | None = None  # (m, 4) w, x, y, z: the sensor's orientation in the
+    q_end: np.ndarray | None = None  # world during the hold at the start and at the end
 
 
 def _fields(path, line_no, tokens, tag):
@@ -125,7 +132,9 @@ def read_probe_log(path):
     radius, centre, half = _header(path)
     _, header_line, header = preamble(path)
     clock = clock_of(path, header_line, {h.strip() for h in header}) or "board"
-    table = read_csv(path, (LOG_COLUMNS[0],) + CLOCKS[clock][:2] + LOG_COLUMNS[3:])
+    table = read_csv(
+        path, (LOG_COLUMNS[0],) + CLOCKS[clock][:2] + LOG_COLUMNS[3:], optional_float=QUATS
+    )
     probe = table.whole("probe", 0, MAX_PROBE)
     t_start, t_end = read_times(table, clock)
     end = next(((i, t) for i, t in comment_lines(path) if t.startswith(END_TAG)), None)
@@ -141,7 +150,31 @@ def read_probe_log(path):
         list(table.lines),
         clock,
         None if end is None else parse_end(path, end[0], end[1][len(END_TAG) :], clock),
+        *_orientations(table),
     )
+
+
+def _orientations(table):
+    """(q_start, q_end) (m, 4) unit quaternions of the optional columns, or (None, None);
+    InputError on half of them or a quaternion that is not of unit length."""
+    have = [c for c in QUATS if c in table.columns]
+    if not have:
+        return None, None
+    if len(have) < len(QUATS):
+        missing = ",".join(c for c in QUATS if c not in have)
+        raise InputError(f"{where(table.path, 1)}: orientation columns without {missing}")
+    out = []
+    for names in (QUATS[:4], QUATS[4:]):
+        q = table.within(names, 1.0 + 1e-3)
+        norm = np.linalg.norm(q, axis=1)
+        bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
+        if bad.size:
+            raise InputError(
+                f"{where(table.path, table.lines[bad[0]], names[0])}: quaternion"
+                f" ({','.join(names)}) is not unit length (|q| = {norm[bad[0]]:.6g})"
+            )
+        out.append(q / norm[:, None])
+    return tuple(out)
 
 
 def fingertip_uv(point, radius):

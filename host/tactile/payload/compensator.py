@@ -203,40 +203,59 @@ class Compensator:
                 W[twins], ph[twins], cid[twins] = W[k], ph[k], cid[k]
         return W, ph, cid
 
+    def _frames_of(self, msgs, times_us):
+        """(indices, sensor, is_sample, t_us, wrench) of the SAMPLE/CONTACT frames of the
+        tools' sensors in ``msgs``."""
+        frame = [
+            i for i, m in enumerate(msgs) if m.type_code in FRAMES and m.sensor in self.sensors
+        ]
+        sub = [msgs[i] for i in frame]
+        if times_us is None:
+            t = np.array([m.timestamp_us for m in sub], dtype=np.int64)
+        else:
+            t = np.asarray(times_us, dtype=np.int64)[frame]
+        wrench = np.array([(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz) for m in sub], dtype=float)
+        wrench = wrench.reshape(-1, 6) * np.array(board_settings.WRENCH_LSB)
+        is_sample = np.array([m.type_code == C.MSG_SAMPLE for m in sub], dtype=bool)
+        return (
+            np.array(frame, dtype=np.int64),
+            np.array([m.sensor for m in sub]),
+            is_sample,
+            t,
+            wrench,
+        )
+
+    def whole(self, msgs, times_us=None):
+        """``messages`` of a whole recording: the host tares first (``prime``), so every
+        reading has the bias, and the last block of readings is closed."""
+        _, sensor, is_sample, t, wrench = self._frames_of(msgs, times_us)
+        self.prime(sensor, is_sample, t, wrench)
+        out = self.messages(msgs, times_us)
+        self.flush()
+        return out
+
     def messages(self, msgs, times_us=None):
         """(frames, index): ``msgs`` with every reading of a tool's sensor compensated and its
         contacts those of the host's gate (module docstring); ``index`` (m,) the input frame
         each output one comes from.  ``times_us``: each message's time in the log's clock
         (default: the board's stamps)."""
-        frame = [
-            i for i, m in enumerate(msgs) if m.type_code in FRAMES and m.sensor in self.sensors
-        ]
-        t = np.array(
-            [m.timestamp_us for m in msgs] if times_us is None else times_us, dtype=np.int64
-        )
-        if not frame:
+        frame, sensor, is_sample, t, wrench = self._frames_of(msgs, times_us)
+        if not len(frame):
             return list(msgs), np.arange(len(msgs))
-        f = np.array(frame)
-        sub = [msgs[i] for i in frame]
-        wrench = np.array([(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz) for m in sub], dtype=float)
-        wrench *= np.array(board_settings.WRENCH_LSB)
-        is_sample = np.array([m.type_code == C.MSG_SAMPLE for m in sub])
-        sensor = np.array([m.sensor for m in sub])
-        W, ph, cid = self.arrays(
-            sensor, is_sample, t[f], wrench, np.full(len(f), -1), np.zeros(len(f))
-        )
+        none = np.full(len(frame), -1)
+        W, ph, cid = self.arrays(sensor, is_sample, t, wrench, none, np.zeros(len(frame)))
         counts = np.rint(W / np.array(board_settings.WRENCH_LSB)).astype(np.int64).tolist()
         out, index = [], []
-        at = dict(zip(frame, range(len(frame))))
+        at = dict(zip(frame.tolist(), range(len(frame))))
         for i, m in enumerate(msgs):
             j = at.get(i)
-            if j is None:
-                out.append(m)
-                index.append(i)
-                continue
-            for made in self._frames(m, is_sample[j], int(ph[j]), int(cid[j]), counts[j]):
-                out.append(made)
-                index.append(i)
+            made = (
+                [m]
+                if j is None
+                else self._frames(m, is_sample[j], int(ph[j]), int(cid[j]), counts[j])
+            )
+            out.extend(made)
+            index.extend([i] * len(made))
         return out, np.array(index, dtype=np.int64)
 
     def _frames(self, m, is_sample, phase, cid, ft):
@@ -267,3 +286,21 @@ def first_tare(state, t_us, wrench, log):
             log.extend(tracker.log)
             return tracker.bias
     return None
+
+
+def words(report):
+    """One line of a sensor's ``Compensator.report`` entry, for a command's summary."""
+    moved = [e for e in report["rebias"] if "moves" in e]
+    most = max(
+        (np.linalg.norm(np.subtract(e["bias_after"][:3], e["bias_before"][:3])) for e in moved),
+        default=0.0,
+    )
+    bias = np.asarray(report["bias"])
+    return (
+        f"payload: sensor {report['sensor']}: the tool's weight removed from"
+        f" {report['readings']:,} readings; {report['contacts']:,} contact"
+        f"{'s' * (report['contacts'] != 1)} on the host's gate; bias"
+        f" ({', '.join(f'{v * 1e3:.1f}' for v in bias[:3])}) mN from {report['bias_from']},"
+        f" moved {report['moves']:,} times by drift tracking ({len(moved):,} runs between"
+        f" contacts, at most {most * 1e3:.1f} mN a run)"
+    )

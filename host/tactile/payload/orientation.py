@@ -38,6 +38,11 @@ class Orientations:
             )
 
     @classmethod
+    def of_log(cls, log):
+        """From a pose log (``PoseLog``) or an EP1 probe log (``ProbeLog``) with orientations."""
+        return cls.from_probe_log(log) if hasattr(log, "q_start") else cls.from_pose_log(log)
+
+    @classmethod
     def from_pose_log(cls, log):
         """From a ``PoseLog``: a generic log's R per window and finger; a SCARA log's
         joints through eq. 62 (one sensor, every window)."""
@@ -52,6 +57,21 @@ class Orientations:
             rows = np.flatnonzero(log.finger == f)
             out[int(f)] = (log.t_start[rows], log.t_end[rows], Rotation.from_matrix(log.R[rows]))
         return cls(out, log.path)
+
+    @classmethod
+    def from_probe_log(cls, log):
+        """From an EP1 ``ProbeLog`` with orientations: each probe's hold at its start and at
+        its end (``half_width_us`` either side of the logged time), one sensor."""
+        if log.q_start is None:
+            raise InputError(
+                f"{log.path}: the probe log has no orientations (columns qw,qx,qy,qz and"
+                " qw_end,qx_end,qy_end,qz_end): the tool's weight cannot be removed"
+            )
+        half = round(log.half_width_us or 0)
+        t = np.concatenate([log.t_start_us, log.t_end_us])
+        q = np.concatenate([log.q_start, log.q_end])
+        rot = Rotation.from_quat(np.roll(q, -1, axis=1))  # scipy: x, y, z, w
+        return cls({ANY: (t - half, t + half, rot)}, log.path)
 
     def sensors(self):
         """The sensor indices the log has windows for (``ANY``: every sensor)."""

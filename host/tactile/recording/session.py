@@ -35,13 +35,16 @@ silence window again.  Times in meta.json are ``RunClock``'s: they never go back
 ``until`` = (clock, us, how): stop once the pose log's end has passed (``LogEnd``).
 """
 
+import contextlib
 import time
 from datetime import UTC, datetime
 
 from tactile import __version__
-from tactile.board.client import BoardClient
+from tactile.board.client import BoardClient, info_dict
 from tactile.board.serial_port import open_port
-from tactile.errors import BoardError, HostFileError, PortError, PortLost
+from tactile.board.settings import to_newtons
+from tactile.errors import BoardError, HostFileError, InputError, PortError, PortLost
+from tactile.payload.tool import check_device
 from tactile.recording.board_identity import BoardIdentity, Held, OtherBoard
 from tactile.recording.files import Recording, WriteFailed
 from tactile.recording.log_end import LogEnd
@@ -81,8 +84,12 @@ class Session:
         until=None,
         on_frames=None,
         on_notice=None,
+        payload=None,
     ):
         self.port_name = port_name
+        self.payload = payload  # [(tool.json's path, Tool)]: checked, and samples streamed
+        self.refused = False  # the board is not the tools': the run leaves nothing
+        self.restore = None  # CONFIG values to put back (the SAMPLE stream switched on)
         self.duration_s = duration_s
         self.contacts = contacts
         self.want_tare = tare
@@ -151,10 +158,36 @@ class Session:
                 f"{self.port_name}: HELLO says protocol version {hello.protocol_version}, "
                 f"this host speaks {C.PROTOCOL_VERSION}"
             )
+        if self.payload and held is None:
+            self._check_payload()
         self._prepare()
         self._heard_at = self.elapsed()  # (its HELLO and the replies just now)
 
+    def _check_payload(self):
+        """Each tool must be for a sensor of this board, measured with its calibration."""
+        try:
+            for path, tool in self.payload:
+                check_device(tool, info_dict(self.client.info), path)
+        except InputError:
+            self.refused = True
+            raise
+
+    def _samples_on(self):
+        """A tool's weight is removed and contacts gated again on the host, which needs every
+        reading: the SAMPLE stream is switched on for the run (not persisted, put back)."""
+        i = self.client.info
+        if i.flags & C.CFG_STREAM_SAMPLES:
+            return
+        levels = (to_newtons(i.enter_threshold), to_newtons(i.exit_threshold))
+        values = (i.rate_hz, *levels, i.debounce)
+        flags = i.flags & C.CFG_WRITABLE & ~C.CFG_PERSIST
+        self.client.configure(*values, flags | C.CFG_STREAM_SAMPLES)
+        self.restore = (*values, flags)
+        self.client.get_info()  # meta.json's device says that SAMPLE frames stream
+
     def _prepare(self):
+        if self.payload:
+            self._samples_on()
         if self.want_tare:
             self.client.tare()
             self.tared = True
@@ -278,9 +311,10 @@ class Session:
         write, the files are settled first and nothing more is attempted but meta.json."""
         if self.ended == "running":
             self.ended = "error"
-        if self.ended == "error" and not self.rec.bytes and self.failed is None:
-            self._discard()  # no byte from a board: the run leaves nothing behind
+        if self.ended == "error" and self.failed is None and (not self.rec.bytes or self.refused):
+            self._discard()  # no byte from a board, or not the tools' board: nothing left
             return
+        self._put_back()
         try:
             self._keep_backlog()
         except WriteFailed as exc:
@@ -296,6 +330,12 @@ class Session:
         if self.client is not None:
             self._close_port()
         self.rec.close()
+
+    def _put_back(self):
+        """The board's CONFIG as it was before the run switched the SAMPLE stream on."""
+        if self.restore is not None and self.client is not None:
+            with contextlib.suppress(BoardError):
+                self.client.configure(*self.restore)
 
     def _discard(self):
         if self.client is not None:
