@@ -21,7 +21,7 @@ from tactile.payload.orientation import ANY, Orientations
 from tactile.payload.tool import GRAVITY
 from tactile.recording.load import load_recording
 
-__all__ = ["identify_run", "pose_log_with_orientations", "times_in_clock"]
+__all__ = ["identify_run", "pose_log_with_orientations"]
 
 
 def pose_log_with_orientations(path):
@@ -34,21 +34,6 @@ def pose_log_with_orientations(path):
             f" columns {','.join(GENERIC)}"
         )
     return read_pose_log(path)
-
-
-def times_in_clock(rec, clock):
-    """Each frame's time (int64 us) in a log's ``clock``, and a mask of those that have one
-    (a host clock is known only where the recording's time base maps the board's)."""
-    if clock == "board":
-        return rec.board_us.astype(np.int64), np.ones(len(rec), dtype=bool)
-    host = rec.host_utc_s if clock == "utc" else rec.host_monotonic_s
-    if host is None:
-        raise InputError(
-            f"{rec.path}: the pose log is in the {clock} clock, but the recording has no host"
-            f" time ({rec.host_time_why})"
-        )
-    known = np.isfinite(host)
-    return np.where(known, np.round(np.nan_to_num(host) * 1e6), -1).astype(np.int64), known
 
 
 def _sensor_of(orient, sensor, log_path):
@@ -83,7 +68,7 @@ def identify_run(run, pose_log, sensor=None, g=GRAVITY, trim=TRIM):
     orient = Orientations.from_pose_log(log)
     s = _sensor_of(orient, sensor, pose_log)
     rec = load_recording(run)
-    t_us, known = times_in_clock(rec, log.clock)
+    t_us, known = rec.times_in(log.clock)
     rows = reading_rows(rec.sensor, ~rec.is_contact, s)
     rows = rows[known[rows]]
     t0, t1, R = orient.held_windows(s)

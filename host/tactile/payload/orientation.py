@@ -14,10 +14,12 @@ window (exact) and which are interpolated (as good as the robot's path is that a
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from tactile.ep1.from_ft import read_probe_log
 from tactile.errors import InputError
 from tactile.localize.kinematics import scara_pose
+from tactile.localize.pose_log import log_columns, read_pose_log
 
-__all__ = ["ANY", "Orientations"]
+__all__ = ["ANY", "Orientations", "read_log"]
 
 ANY = -1  # the key of windows that hold for every sensor (a SCARA log has one sensor)
 
@@ -115,3 +117,10 @@ class Orientations:
         """(t_start (k,), t_end (k,), R (k, 3, 3)) of ``sensor``'s windows, in time order."""
         t0, t1, rot = self._of(sensor)
         return t0, t1, rot.as_matrix().reshape(-1, 3, 3)
+
+
+def read_log(path):
+    """(the log, its ``Orientations``) of a robot log at ``path``: an EP1 probe log (with
+    orientation columns) or a pose log; InputError when it gives no orientation."""
+    log = read_probe_log(path) if "dtheta_x" in log_columns(path) else read_pose_log(path)
+    return log, Orientations.of_log(log)

@@ -188,8 +188,8 @@ class Session:
     def _prepare(self):
         if self.payload:
             self._samples_on()
-        if self.want_tare:
-            self.client.tare()
+        if self.want_tare:  # with tools, at any pose: their weight may be above the gate
+            self.client.tare(force=bool(self.payload))  # (the host re-tares less the weight)
             self.tared = True
         if not self.client.info.flags & C.CFG_STREAMING:
             self.client.start()
