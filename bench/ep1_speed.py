@@ -1,8 +1,8 @@
 """EP1 speed: ``estimate()`` one point at a time beside ``estimate_batch()``, and the fig. 16 grid.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep1_speed.py   (Markdown tables, ~30 s)
-Targets: one ``estimate()`` call below 15 us in-process (issue 13; 20 us in issue 4);
-the fig. 16 grid within 10 s.  Each figure is the median of several repeats, each repeat
+``estimate()`` is ``estimate_batch()`` of a stack of one point; target: the fig. 16 grid
+within 10 s.  Each figure is the median of several repeats, each repeat
 long enough (>= 50 ms) to average the timer, as wall-clock and as this process's CPU time
 (which other jobs on a shared machine inflate less).  Single calls and batches run in the
 same process on the same points, so their ratio holds on a loaded machine.

@@ -207,6 +207,58 @@ def _reads(tmp):
     )
 
 
+def _sphere_rows(n, seed, patch):
+    """CSV rows of ``n`` noisy contacts on a sphere cap of radius 8 over 4 x 4."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-2.0, 2.0, (n, 2))
+    z = np.sqrt(64.0 - np.sum(xy * xy, axis=1))
+    pts = np.column_stack([xy, z]) + 1e-3 * rng.standard_normal((n, 3))
+    table = np.column_stack([pts, np.column_stack([xy, z]) / 8.0])
+    return [",".join(f"{v:.9g}" for v in row) + f",{patch}" for row in table]
+
+
+def _peak(*args):
+    """``run(*args)`` and the most memory (bytes, tracemalloc) it held at once."""
+    tracemalloc.start()
+    result = run(*args)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return result, peak
+
+
+def _big_patches(tmp):
+    path = tmp / "million.csv"
+    block = "\n".join(_sphere_rows(1000, 0, "p")) + "\n"
+    with open(path, "w") as fh:
+        fh.write("x,y,z,nx,ny,nz,patch\n" + block * 1000)
+    result, peak = _peak("ep2", "analyze", path)
+    held = verdict(result, 2, f"{path}:2: column 'patch': patch 'p': 1,000,000 contacts")
+    if held == "held" and peak > 200e6:
+        held = f"FAILED: {peak / 1e6:.0f} MB held before refusing"
+    yield (
+        "one patch of 1,000,000 rows (the most a patch's rows may wait): `ep2 analyze`",
+        "exit 2 before its rows are gathered, one line, under 200 MB held (was a MemoryError"
+        " traceback: an n x n matrix of 7.28 TiB)",
+        held,
+    )
+    rows = [r for k in range(40) for r in _sphere_rows(30, k, f"s{k}")]
+    path = tmp / "unlike.csv"
+    path.write_text(
+        "x,y,z,nx,ny,nz,patch\n" + "\n".join(rows[:600] + _sphere_rows(100_000, 99, "big")
+        + rows[600:]) + "\n"
+    )  # fmt: skip
+    result, peak = _peak("ep2", "analyze", path, "--json")
+    held = verdict(result, 0)
+    if held == "held" and peak > 1e9:
+        held = f"FAILED: {peak / 1e9:.1f} GB held"
+    yield (
+        "one patch of 100,000 rows between 40 of 30: `ep2 analyze --json`",
+        "exit 0, every patch answered, under 1 GB held (was 80 GB: an n x n matrix; the small"
+        " patches padded to the large one's rows)",
+        held,
+    )
+
+
 def _logs(tmp):
     cases = (
         ("finger=1e19", POSE_HEAD + "0,10,1e19,0,0,0,1,0,0,0\n", ":2: column 'finger'"),
@@ -267,7 +319,7 @@ def _encodings(tmp):
 def probes():
     with tempfile.TemporaryDirectory() as name:
         tmp = pathlib.Path(name)
-        for group in (_coordinates, _reads, _logs, _encodings):
+        for group in (_coordinates, _reads, _big_patches, _logs, _encodings):
             yield from group(tmp)
 
 

@@ -209,3 +209,24 @@ def test_discontinuity_detected_and_split():
     parts = analyze_sweep(pts, nrm, finger=d["finger"], split=True)
     assert len(parts) == 2
     assert [p.shape for p in parts] == ["plane", "plane"]
+
+
+def test_options_by_dataclass_are_the_options_by_name():
+    """``analyze_patch``'s options split into ``JetOptions`` (both methods) and
+    ``SplineOptions`` (the spline's own); by name, as the docs write them, they are the same."""
+    from tactile.ep2 import JetOptions, SplineOptions
+    from tactile.output.jsonout import dumps
+    from tactile_sim.ep2 import make, sweep
+
+    d = sweep(make("cylinder", 6.0), noise_pos=0.01, noise_normal=0.01, seed=2)
+    p, n = d["points"], d["normals"]
+    a = analyze_patch(p, n, method="spline", order=3, weighting="tangent", noise_pos=0.01)
+    b = analyze_patch(
+        p, n, method="spline", jet=JetOptions(noise_pos=0.01),
+        spline=SplineOptions(order=3, weighting="tangent"),
+    )  # fmt: skip
+    assert dumps(a.to_dict()) == dumps(b.to_dict())
+    c = analyze_patch(p, n, jet=JetOptions(noise_pos=0.02), noise_pos=0.01)  # the name wins
+    assert dumps(c.to_dict()) == dumps(analyze_patch(p, n, noise_pos=0.01).to_dict())
+    with pytest.raises(TypeError, match="unexpected keyword argument 'order_x'"):
+        analyze_patch(p, n, order_x=3)

@@ -1,11 +1,30 @@
-"""``discontinuity.find_breaks_many`` (a stack of patches at once) gives exactly what
-``find_breaks`` gives patch by patch: the same rows, finger labels (value and type) and
+"""``patch_input.find_breaks`` (a stack of patches at once) gives exactly what the
+reference below gives patch by patch: the same rows, finger labels (value and type) and
 angles, in the same order, whatever the labels."""
 
 import numpy as np
 import pytest
 
-from tactile.ep2.discontinuity import find_breaks, find_breaks_many
+from tactile.ep2.patch_input import find_breaks as find_breaks_many
+
+
+def find_breaks(normals, finger, max_angle_deg=30.0):
+    """The reference, one patch: (row, finger, angle deg) where consecutive normals of one
+    finger (rows where ``finger == f``, in order) turn more than the angle."""
+    if finger is None:
+        return []
+    finger = np.asarray(finger)
+    out = []
+    for f in dict.fromkeys(finger.tolist()):
+        rows = np.flatnonzero(finger == f)
+        if rows.size < 2:
+            continue
+        dots = np.einsum("ij,ij->i", normals[rows[:-1]], normals[rows[1:]])
+        cross = np.linalg.norm(np.cross(normals[rows[:-1]], normals[rows[1:]]), axis=1)
+        angle = np.degrees(np.arctan2(cross, dots))
+        for j in np.flatnonzero(angle > max_angle_deg):
+            out.append((int(rows[j + 1]), f, float(angle[j])))
+    return out
 
 
 def _normals(rng, n):

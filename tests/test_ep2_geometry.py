@@ -3,8 +3,16 @@
 import numpy as np
 import pytest
 
-from tactile.ep2.shape_index import curvedness_c, curvedness_r, hk_labels, s_region_map, shape_index
-from tactile.ep2.surface_geometry import curvatures, principal, shape_operator
+from tactile.ep2.surface_geometry import (
+    curvatures,
+    curvedness_c,
+    curvedness_r,
+    hk_labels,
+    principal,
+    s_region_map,
+    shape_index,
+    shape_operator,
+)
 
 
 def _sphere_derivs(R, x, y):

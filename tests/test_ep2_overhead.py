@@ -1,35 +1,24 @@
 """The per-patch steps around the EP2 fit, rewritten on Python numbers for speed (issue 13),
-give what their array forms give: the HK label of one (K, H), and the S vote."""
+give what their array forms give: the S vote."""
 
 import math
 
 import numpy as np
 import pytest
 
-from tactile.ep2 import classify
-from tactile.ep2.shape_index import S_EDGES, S_NAMES, hk_label, hk_labels
-
-ODD = (0.0, -0.0, 1e-300, 1e-9, math.nan, math.inf, -math.inf)
-
-
-def test_hk_label_is_hk_labels_of_one():
-    rng = np.random.default_rng(0)
-    picks = np.concatenate([rng.normal(size=2000), np.tile(ODD, 50)])
-    for K, H, ek, eh in rng.choice(picks, size=(4000, 4)).tolist():
-        ek, eh = abs(ek), abs(eh)
-        want = str(hk_labels(np.array([K]), np.array([H]), ek, eh)[0])
-        assert hk_label(K, H, ek, eh) == want
+from tactile.ep2 import centre_result
+from tactile.ep2.surface_geometry import S_EDGES, S_NAMES
 
 
 def _vote_with_arrays(s_est, s_sd, p_flat):
-    """``classify.vote`` as numpy writes it (np.diff, np.argmax), the reference."""
+    """``centre_result.vote`` as numpy writes it (np.diff, np.argmax), the reference."""
     lo, hi = s_sd
     edges = [-np.inf, *S_EDGES.tolist(), np.inf]
-    shares = np.diff([classify.split_normal_cdf(e, s_est, lo, hi) for e in edges])
+    shares = np.diff([centre_result.split_normal_cdf(e, s_est, lo, hi) for e in edges])
     shares = shares * (1.0 - p_flat)
     best = int(np.argmax(shares))
     votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}
-    label = S_NAMES[best] if shares[best] >= classify.MIN_VOTE else "uncertain"
+    label = S_NAMES[best] if shares[best] >= centre_result.MIN_VOTE else "uncertain"
     return label, float(shares[best]), votes
 
 
@@ -43,7 +32,7 @@ def test_vote_is_its_array_form(seed):
         if not any(sd):
             continue
         p = float(rng.choice([0.0, rng.uniform(), 1.0]))
-        got, want = classify.vote(s, sd, p), _vote_with_arrays(s, sd, p)
+        got, want = centre_result.vote(s, sd, p), _vote_with_arrays(s, sd, p)
         assert repr(got) == repr(want)  # NaN confidences included
         seen.add(got[0] == "uncertain")
     assert seen == {True, False}

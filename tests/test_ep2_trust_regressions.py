@@ -4,7 +4,7 @@
   onto two stops: refused with "not determined" naming the direction (exit 3, one line)
   or, if answered, never confidently wrong (``bench/ep2_trust.py:wrong_label``);
 - curved positions with flat or mirrored normals: "positions and normals disagree"
-  (``tactile.ep2.consistency``); planes are never mislabelled;
+  (``tactile.ep2.jet_answers``); planes are never mislabelled;
 - the JSON record: a plane has S, C, radius null and k1/k2 intervals; ``model`` explains
   itself in one line and names how far the answer moved toward the 3-jet;
 - exact duplicate rows count once (a warning), intervals unchanged;

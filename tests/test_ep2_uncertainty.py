@@ -8,13 +8,10 @@ import pytest
 from tactile.ep2 import (
     analyze_patch,
     bspline_patch,
-    jet_shrink,
-    model_bias,
     spline_analysis,
     uncertainty,
 )
-from tactile.ep2.shape_index import shape_index
-from tactile.ep2.surface_geometry import shape_entries
+from tactile.ep2.surface_geometry import shape_entries, shape_index
 from tactile_sim.ep2 import make, sweep
 
 
@@ -130,7 +127,7 @@ def test_interval_coverage_on_gaussian_tensors(t_true, key, truth):
 def test_jet_span_reproduces_the_monomials(degree, segments):
     tx = bspline_patch.knots(degree[0], segments[0])
     ty = bspline_patch.knots(degree[1], segments[1])
-    Q = jet_shrink.jet_span(*degree, tx, ty)
+    Q = spline_analysis.jet_span(*degree, tx, ty)
     u, v = _scatter(seed=7)
     rows = bspline_patch.rowwise_kron(
         bspline_patch.basis(u, degree[0], tx), bspline_patch.basis(v, degree[1], ty)
@@ -155,14 +152,14 @@ def test_shrinkage_keeps_clean_excess_and_drops_pure_noise():
     zx, zy = -0.4 * x + 2 * x * y * y, 2 * x * x * y
     f, rows, data = _fit(z, zx, zy, x, y, seed=1, noise=1e-4)
     s2 = f.chi2 / f.dof
-    g, w, d2 = jet_shrink.shrink(f, *data, s2, rows)
+    g, w, d2 = spline_analysis.shrink_to_jet(f, *data, s2, rows)
     assert w > 0.999 and d2 > 1e3
     # a quadric plus noise: most trials shrink the excess strongly
     zq, zqx, zqy = -0.2 * x * x + 0.1 * y * y, -0.4 * x, 0.2 * y
     ws = []
     for seed in range(20):
         f, rows, data = _fit(zq, zqx, zqy, x, y, seed=seed, noise=1e-2)
-        ws.append(jet_shrink.shrink(f, *data, f.chi2 / f.dof, rows)[1])
+        ws.append(spline_analysis.shrink_to_jet(f, *data, f.chi2 / f.dof, rows)[1])
     assert np.median(ws) < 0.3
 
 
@@ -170,9 +167,9 @@ def test_shrunk_covariance_and_data_map_are_the_linear_maps():
     x, y = _scatter(seed=4)
     z = -0.3 * x * x + 0.2 * x * x * y
     f, rows, data = _fit(z, -0.6 * x + 0.4 * x * y, 0.2 * x * x, x, y, seed=3, noise=0.02)
-    g, w, _ = jet_shrink.shrink(f, *data, f.chi2 / f.dof, rows)
+    g, w, _ = spline_analysis.shrink_to_jet(f, *data, f.chi2 / f.dof, rows)
     assert 0.0 < w < 1.0
-    Q = jet_shrink.jet_span(2, 2, f.tx, f.ty)
+    Q = spline_analysis.jet_span(2, 2, f.tx, f.ty)
     R = np.linalg.inv(f.cov_factor)
     P = Q @ np.linalg.pinv(R @ Q) @ R  # projection onto the jet span (precision metric)
     S = (1 - w) * P + w * np.eye(9)
@@ -228,7 +225,7 @@ def test_constant_curvature_data_is_a_sphere_to_fourth_order():
     k = 0.25
     rng = np.random.default_rng(0)
     xy = rng.uniform(-0.3, 0.3, (30, 2))
-    z, zx, zy = model_bias.constant_curvature_data(xy, np.zeros(2), (k, 0.0, k))
+    z, zx, zy = uncertainty.constant_curvature_data(xy, np.zeros(2), (k, 0.0, k))
     r2 = np.sum(xy**2, axis=1)
     cap = -r2 / (np.sqrt(1 / k**2 - r2) + 1 / k)  # exact sphere of radius 1/k
     assert np.max(np.abs(z - cap)) < 2 * k**5 * np.max(r2) ** 3  # O(r^6) remainder
@@ -241,7 +238,7 @@ def test_model_bias_predicts_the_fit_bias_on_clean_circles(monkeypatch):
     """Noise-free cylinder R 8 and sphere R 10, the thesis's spline: the refit bias of the
     mean curvature matches the actual error at the patch centre within 25 % (there the
     biquadratic overestimates the curvature; over the whole grid it underestimates)."""
-    orig = model_bias.bias
+    orig = uncertainty.model_bias
     seen = {}
 
     def spy(fit, xy, centre, tensor, grid_tensor):
@@ -249,7 +246,7 @@ def test_model_bias_predicts_the_fit_bias_on_clean_circles(monkeypatch):
         seen["t"] = tensor
         return seen["b"]
 
-    monkeypatch.setattr(model_bias, "bias", spy)
+    monkeypatch.setattr(uncertainty, "model_bias", spy)
     for kind, radius in (("cylinder", 8.0), ("sphere", 10.0)):
         d = sweep(make(kind, radius, 25.0))
         res = analyze_patch(d["points"], d["normals"], method="spline")
@@ -306,17 +303,17 @@ def test_shape_index_of_k1_k2_is_s(method):
 
 
 def test_split_normal_vote_respects_a_one_sided_interval():
-    from tactile.ep2 import classify
+    from tactile.ep2 import centre_result
 
     # symmetric: the split normal is the normal
     for x in (-0.3, 0.1, 0.45, 0.9):
         ref = 0.5 * math.erfc(-(x - 0.4) / (0.2 * math.sqrt(2)))
-        assert classify.split_normal_cdf(x, 0.4, 0.2, 0.2) == pytest.approx(ref)
-    assert classify.split_normal_cdf(10.0, 0.4, 0.1, 0.3) == pytest.approx(1.0)
+        assert centre_result.split_normal_cdf(x, 0.4, 0.2, 0.2) == pytest.approx(ref)
+    assert centre_result.split_normal_cdf(10.0, 0.4, 0.1, 0.3) == pytest.approx(1.0)
     # the case that gave a confident "sphere" for a barely curved cylinder (R 200, noise
     # 0.02, seed 1182): debiased S = 1 with its 95 % interval (0.536, 1)
     root = math.sqrt(uncertainty.CHI2_2_95)
-    label, conf, _ = classify.vote(1.0, ((1.0 - 0.536) / root, 0.0))
+    label, conf, _ = centre_result.vote(1.0, ((1.0 - 0.536) / root, 0.0))
     assert label == "uncertain" and conf < 0.9
     d = sweep(make("cylinder", 200.0, 25.0), noise_pos=0.02, noise_normal=0.02, seed=1182)
     assert analyze_patch(d["points"], d["normals"]).shape in ("cylinder", "plane", "uncertain")

@@ -84,33 +84,13 @@ DEFERRED = {
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },
-    "host/tactile/ep1/from_ft.py": {
-        "read_probe_log: tactile.files.csv_dialect": LIFT_RECORDING,
-        "read_probe_log: tactile": LIFT,
-        "read_probe_log: tactile.files.tabular": LIFT,
-        "read_probe_log: tactile.recording.log_clock": LIFT,
-        "_derive: tactile.localize.contact": LIFT,
-        "_derive: tactile.localize.sphere": LIFT,
-    },
-    "host/tactile/ep1/probes_csv.py": {
-        "read_probes: tactile": LIFT,
-        "read_probes: tactile.files.tabular": LIFT,
-        "format_probes: tactile": LIFT,
-    },
+    "host/tactile/ep1/from_ft.py": {},
+    "host/tactile/ep1/probes_csv.py": {},
     "host/tactile/ep2/api.py": {
         "analyze_patch: tactile.ep2": SPLINE_SCIPY,
     },
-    "host/tactile/ep2/many.py": {
-        "analyze_one: tactile.ep2.api": LIFT_EP2,
-        "analyze_chunk: tactile.ep2.batch": LIFT_EP2,
-        "_parts: tactile.ep2.api": LIFT_EP2,
-        "_breaks: tactile.ep2": LIFT_EP2,
-        "_breaks_one: tactile.ep2": LIFT_EP2,
-    },
-    "host/tactile/ep2/uncertainty.py": {
-        "tensor_and_jacobian: tactile.ep2.surface_geometry": CYCLE_EP2,
-        "intervals_many: tactile.ep2.shape_index": CYCLE_EP2,
-    },
+    "host/tactile/ep2/many.py": {},
+    "host/tactile/ep2/uncertainty.py": {},
     "host/tactile/localize/pose_log.py": {
         "_scan: tactile.files.csv_dialect": LIFT_RECORDING,
         "read_pose_log: tactile.files.tabular": LIFT,

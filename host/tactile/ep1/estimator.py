@@ -6,8 +6,8 @@ Each probe i gives, from eq. 29 with the fingertip metric of eq. 20,
 
 i.e. two rows [a_x, a_y, 0] and [0, a_x, a_y] of a linear system in (k1, k2, k3) (eq. 33).  The
 stack is solved by orthogonalisation, never the normal equations of eq. 32: NumPy's batched
-Householder QR in ``estimate_batch``, and for one point (``estimate``) the same problem
-reduced through the QR of the m x 2 probe directions in plain floats (``_lsq``).  K1 = I / R1 is
+Householder QR in ``estimate_batch``, which ``estimate`` calls with a stack of one point.
+Data near under/overflow are scaled by exact powers of two first.  K1 = I / R1 is
 isotropic, so K2~ has the eigenvectors of S and eigenvalues kappa = 1/s - 1/R1: the
 principal curvatures come straight from S's closed-form eigen-decomposition (atan2/hypot),
 and kx, ky, kxy follow from Euler's equation (eq. 64) without inverting a near-singular
@@ -30,8 +30,6 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-
-from tactile.ep1._lsq import solve_point
 
 __all__ = ["Estimate", "estimate", "estimate_batch", "euler_principal", "STATUSES", "EXIT_OK"]
 
@@ -84,7 +82,13 @@ def estimate_batch(dtheta, dp, R1, u0=0.0, resolution=0.0, sigma_theta=0.0):
     """
     dtheta = np.asarray(dtheta, float)
     dp = np.asarray(dp, float)
-    A, b = _systems(dtheta, dp, R1, u0)
+    ea, eb = _exponent(dtheta), _exponent(dp * [1.0, np.cos(u0)])
+    m = max(dtheta.shape[-2], 1)
+    theta = np.sqrt(np.sum(np.ldexp(dtheta, ea[..., None, None]) ** 2, (-2, -1)) / m)
+    theta = np.ldexp(theta, -ea)  # the RMS rotation (0 for no probes)
+    A, b = _systems(
+        np.ldexp(dtheta, ea[..., None, None]), np.ldexp(dp, eb[..., None, None]), R1, u0
+    )
     m2 = A.shape[-2]
     if m2 < 3:  # fewer than two probes: zero rows make R square, and rank deficient
         A = np.concatenate([A, np.zeros(A.shape[:-2] + (3 - m2, 3))], axis=-2)
@@ -101,11 +105,21 @@ def estimate_batch(dtheta, dp, R1, u0=0.0, resolution=0.0, sigma_theta=0.0):
     k = np.where(rank_ok[..., None], k, 0.0)
     res = b - np.einsum("...ij,...j->...i", A, k)
     rss = np.einsum("...i,...i->...", res, res)
-    residual = np.sqrt(rss / max(m2, 1))
-    sigma_res = np.sqrt(rss / max(m2 - 3, 1)) if m2 > 3 else np.zeros_like(rss)
-    theta = np.sqrt(np.mean(np.einsum("...i,...i->...", dtheta, dtheta), axis=-1)) if m2 else rss
+    with np.errstate(over="ignore"):  # (scaled back: beyond 1e300 is clipped)
+        k = np.ldexp(k, (ea - eb)[..., None])
+        residual = np.minimum(np.ldexp(np.sqrt(rss / max(m2, 1)), -eb), 1e300)
+        sigma_res = np.ldexp(np.sqrt(rss / max(m2 - 3, 1)), -eb) if m2 > 3 else 0.0 * rss
     rank_ok = rank_ok & (theta >= MIN_THETA)
     return _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
+
+
+def _exponent(x):
+    """Per point (x (..., m, 2)), the power of two that brings its largest entry to about 1
+    where that is outside 1e-100..1e100 (else 0: nothing changes), so no square under- or
+    overflows."""
+    big = np.max(np.abs(x), axis=(-2, -1), initial=0.0)
+    e = -np.frexp(big)[1]
+    return np.where((big == 0.0) | ((big >= 1e-100) & (big <= 1e100)), 0, e)
 
 
 def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta):
@@ -151,82 +165,46 @@ def _from_s(k, R1, theta, sigma_res, residual, rank_ok, resolution, sigma_theta)
     return out
 
 
-def _side(s, R1, inv_r1, theta, theta_safe, noise_b, sigma_theta, resolution):
-    """Interval, curvature and status of one principal value s of S (scalar ``_from_s``)."""
-    a = abs(s)
-    ds = (noise_b + sigma_theta * a) / theta_safe + 1e-13 * (a + R1)
-    lo, hi = s - ds, s + ds
-    if lo > 0.0:
-        k_lo, k_hi = min(1.0 / hi - inv_r1, 1e300), min(1.0 / lo - inv_r1, 1e300)
-        code = FLAT if k_lo <= 0.0 <= k_hi else OK
-        if R1 / max(lo, 1e-300) < CANCEL_TOL:
-            code = NEAR_SINGULAR
-        dkappa = 0.5 * (k_hi - k_lo)
-    else:
-        k_hi, dkappa = 1.0 - inv_r1, 1e300
-        if hi > 0.0:
-            k_lo = min(1.0 / hi - inv_r1, 1e300)
-            code = NEAR_SINGULAR if hi >= R1 else BELOW_RES
-        else:
-            k_lo, code = k_hi, INCONSISTENT
-    if resolution > 0.0 and s * theta <= resolution:
-        code = BELOW_RES
-    kappa = 1.0 / (1e-150 if a < 1e-150 else s) - inv_r1
-    return s, kappa, code, k_lo, k_hi, dkappa
-
-
 def _direction(angle):
     return [math.cos(angle), math.sin(angle)]
 
 
-def _columns(a):
-    """The two columns of an (m, 2) array-like as lists of floats."""
+def _probes(a):
+    """An (m, 2) array-like as a float array (other shapes read as rows of two)."""
     a = np.asarray(a, float)
-    if a.ndim != 2 or a.shape[1] != 2:
-        a = a.reshape(-1, 2)
-    return a.T.tolist()
+    return a if a.ndim == 2 and a.shape[1] == 2 else a.reshape(-1, 2)
 
 
 def estimate(dtheta, dp, finger_radius, u0=0.0, resolution=0.0, sigma_theta=0.0):
     """Estimate K2~ from probes ``dtheta`` (m, 2) and ``dp`` = (du, dv) (m, 2) (eqs. 29-33).
 
     ``resolution`` (arc length on the fingertip) and ``sigma_theta`` (rad) describe the
-    sensors; with both zero the uncertainty comes from the residual alone.  Same results as
-    ``estimate_batch`` to round-off; one call costs microseconds (``bench/ep1_speed.py``).
+    sensors; with both zero the uncertainty comes from the residual alone.  ``estimate_batch``
+    of a stack of one point (``bench/ep1_speed.py`` times a call).
     """
     finger_radius, u0 = float(finger_radius), float(u0)
     if finger_radius <= 0.0:
         raise ValueError("finger radius must be positive")
-    (X, Y), (U, V) = _columns(dtheta), _columns(dp)
-    n = len(X)
-    if len(U) != n:
-        raise ValueError(f"dtheta has {n} probes but dp has {len(U)}")
+    th, dp = _probes(dtheta), _probes(dp)
+    n = len(th)
+    if len(dp) != n:
+        raise ValueError(f"dtheta has {n} probes but dp has {len(dp)}")
     if n < 2:
         return _underdetermined(n, "need probes in at least two independent directions")
-    solved = solve_point(X, Y, U, V, finger_radius, u0, RANK_TOL, MIN_THETA)
-    if solved is None:
+    out = estimate_batch(th[None], dp[None], finger_radius, u0, resolution, sigma_theta)
+    if out["code"][0] == UNDERDET:
         return _underdetermined(n, "probe directions span fewer than two independent directions")
-    k, res, theta = solved
-    sigma_res = res / math.sqrt(2 * n - 3)
-    hi, lo, angle_hi = _principal(k, finger_radius, theta, sigma_res, resolution, sigma_theta)
-    return _result(k, hi, lo, angle_hi, finger_radius, theta, resolution, res, n)
+    return _result({k: v[0].tolist() for k, v in out.items()}, finger_radius, resolution, n)
 
 
-def _principal(k, R1, theta, sigma_res, resolution, sigma_theta):
-    """Both principal values of S (closed form, atan2/hypot) through ``_side``."""
-    k1, k2, k3 = k
-    mean = 0.5 * (k1 + k3)
-    half = math.hypot(0.5 * (k1 - k3), k2)
-    angle_hi = 0.5 * math.atan2(2.0 * k2, k1 - k3)
-    noise_b = max(sigma_res, 0.5 * resolution)
-    args = (R1, 1.0 / R1, theta, max(theta, 1e-300), noise_b, sigma_theta, resolution)
-    return _side(mean + half, *args), _side(mean - half, *args), angle_hi
-
-
-def _result(k, hi, lo, angle_hi, R1, theta, resolution, res, n):
-    """The ``Estimate``: s_hi belongs to the smaller curvature k2, s_lo to k1."""
-    code_hi, code_lo = hi[2], lo[2]
-    code = max(code_hi, code_lo)  # harder failures are larger
+def _result(out, R1, resolution, n):
+    """The ``Estimate`` of one point of ``estimate_batch`` (Python numbers): s_hi belongs to
+    the smaller curvature k2, s_lo to k1."""
+    hi, lo = (
+        tuple(out[f"{key}_{side}"] for key in ("s", "kappa", "code", "klo", "khi", "dkappa"))
+        for side in ("hi", "lo")
+    )
+    code, theta = out["code"], out["theta"]
     bounds, notes = {}, []
     for label, side in (("k1", lo), ("k2", hi)) if code else ():
         note = _bound(label, side, theta, R1, resolution)
@@ -234,31 +212,24 @@ def _result(k, hi, lo, angle_hi, R1, theta, resolution, res, n):
             bounds[label] = note
             notes.append(note["text"])
     ka, kb = hi[1], lo[1]
-    c, sn = math.cos(angle_hi), math.sin(angle_hi)
     resolved = code <= FLAT
-    if resolved:
-        kx = ka * c * c + kb * sn * sn  # Euler's equation (eq. 64)
-        ky = ka * sn * sn + kb * c * c
-        kxy = (ka - kb) * c * sn
-        K = [[kx, kxy], [kxy, ky]]
-    else:
-        kx = ky = K = None
+    kx, ky, kxy = (out[f] if resolved else None for f in ("kx", "ky", "kxy"))
     umbilic = abs(kb - ka) <= hi[5] + lo[5]
-    angle1 = angle_hi + 0.5 * math.pi  # direction of k1 (of s_lo)
-    d1 = _direction(angle1) if resolved and not umbilic else None
-    d2 = _direction(angle1 + 0.5 * math.pi) if d1 else None
+    d1 = _direction(out["angle1"]) if resolved and not umbilic else None
+    d2 = _direction(out["angle1"] + 0.5 * math.pi) if d1 else None
+    k = out["S"]
     return Estimate(
         STATUSES[code],
         "; ".join(notes) if notes else "curvature determined",
         kx,
         ky,
-        K,
-        kb if code_lo <= FLAT else None,
-        ka if code_hi <= FLAT else None,
+        [[kx, kxy], [kxy, ky]] if resolved else None,
+        kb if lo[2] <= FLAT else None,
+        ka if hi[2] <= FLAT else None,
         d1,
         d2,
         [[k[0], k[1]], [k[1], k[2]]],
-        res / math.sqrt(2 * n),
+        out["residual"],
         n,
         bounds,
     )

@@ -29,8 +29,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from tactile import units
 from tactile.errors import InputError, where
-from tactile.files.csv_dialect import comment_lines, show
+from tactile.files.csv_dialect import comment_lines, preamble, show
+from tactile.files.tabular import read_csv
+from tactile.localize.contact import STATUS
+from tactile.localize.sphere import sphere_contact
+from tactile.recording.log_clock import CLOCKS, clock_of, parse_end, read_times
 from tactile.recording.robot_log import COLUMNS, tag
 
 __all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
@@ -123,10 +128,6 @@ def _header(path):
 def read_probe_log(path):
     """Read a probe log (module docstring); errors are one-line InputErrors naming
     file:line and column."""
-    from tactile import units
-    from tactile.files.csv_dialect import preamble
-    from tactile.files.tabular import read_csv
-    from tactile.recording.log_clock import CLOCKS, clock_of, parse_end, read_times
 
     units.check_stated(path, units.LOG_WORDS, units.LOG_WHAT)
     radius, centre, half = _header(path)
@@ -212,8 +213,6 @@ def _windows(log, t_us, average, half_width_us):
 
 
 def _derive(log, t_us, wrench, threshold, average, half_width_us):
-    from tactile.localize.contact import STATUS
-    from tactile.localize.sphere import sphere_contact
 
     if average is not None and (int(average) != average or average < 1):
         raise InputError(f"average: expected a whole number >= 1, got {average!r}")

@@ -7,6 +7,9 @@ of eq. 20 (rad), with the signs of eq. 29: M1 dp = (K1 + K2~)^-1 [-dtheta_y,
 dtheta_x]^T.  Other columns are ignored; ``#`` lines are comments.
 """
 
+from tactile import units
+from tactile.files.tabular import read_csv
+
 COLUMNS = ("dtheta_x", "dtheta_y", "du", "dv")
 
 __all__ = ["COLUMNS", "read_probes", "format_probes"]
@@ -14,9 +17,6 @@ __all__ = ["COLUMNS", "read_probes", "format_probes"]
 
 def read_probes(path):
     """Return (dtheta (m, 2), dp (m, 2)) arrays; errors are InputError naming file:line:column."""
-    from tactile import units
-    from tactile.files.tabular import read_csv
-
     units.check_stated(path, {units.PROBES}, "a probes CSV holds angles in rad")
     table = read_csv(path, COLUMNS)
     data = table.array(*COLUMNS)
@@ -25,8 +25,6 @@ def read_probes(path):
 
 def format_probes(rows):
     """CSV text for an (m, 4) array of (dtheta_x, dtheta_y, du, dv) rows (repr precision)."""
-    from tactile import units
-
     lines = [units.line(units.PROBES).rstrip("\n"), ",".join(COLUMNS)]
     lines += [",".join(repr(float(x)) for x in row) for row in rows]
     return "\n".join(lines) + "\n"

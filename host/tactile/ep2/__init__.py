@@ -10,7 +10,14 @@ API::
 See docs/ep2.md for the math, conventions and benchmarks.
 """
 
-from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep
+from tactile.ep2.api import JetOptions, PatchResult, SplineOptions, analyze_patch, analyze_sweep
 from tactile.ep2.batch import analyze_patches
 
-__all__ = ["PatchResult", "analyze_patch", "analyze_patches", "analyze_sweep"]
+__all__ = [
+    "JetOptions",
+    "PatchResult",
+    "SplineOptions",
+    "analyze_patch",
+    "analyze_patches",
+    "analyze_sweep",
+]

@@ -17,12 +17,11 @@ import numpy as np
 
 from tactile.ep2 import (
     api,
-    discontinuity,
     extent,
     jet_answers,
     local_jet,
+    patch_frame,
     patch_input,
-    patch_result,
 )
 from tactile.errors import DataError, InputError
 
@@ -45,16 +44,30 @@ def analyze_patches(patches, *, chunk=CHUNK, **kw):
 
 
 WINDOW = 16
+STACK_ROWS = patch_input.MAX_ROWS  # rows of a padded stack (patches x the largest's rows)
 
 
 def _window(patches, chunk, kw):
     """``_chunk`` over ``patches`` sorted by size, the results in the patches' order."""
-    order = sorted(range(len(patches)), key=lambda j: _size(patches[j]))
+    sizes = [_size(p) for p in patches]
+    order = sorted(range(len(patches)), key=sizes.__getitem__)
     out = [None] * len(patches)
-    for s in range(0, len(order), chunk):
-        idx = order[s : s + chunk]
+    for idx in stacks(order, sizes, chunk):
         for j, res in zip(idx, _chunk([patches[j] for j in idx], kw), strict=True):
             out[j] = res
+    return out
+
+
+def stacks(order, sizes, chunk, rows=STACK_ROWS):
+    """``order`` (indices by ascending size) cut into stacks of at most ``chunk`` patches
+    whose padded rows (count x the last's size) stay within ``rows``, or one patch alone:
+    memory in proportion to the rows fitted, however unlike the patches' sizes."""
+    out = []
+    for j in order:
+        if out and len(out[-1]) < chunk and (len(out[-1]) + 1) * sizes[j] <= rows:
+            out[-1].append(j)
+        else:
+            out.append([j])
     return out
 
 
@@ -83,8 +96,8 @@ def _own(p, kw):
 
 
 def _chunk(patches, kw):
-    kw = {**_defaults(), **kw}
-    maps = kw.pop("maps", False)
+    kw = patch_input.keywords(**kw)
+    maps = kw.pop("maps")
     if kw["method"] == "spline":
         return [_one(p, dict(_own(p, kw), maps=maps)) for p in patches]
     prepared, results = [], [None] * len(patches)
@@ -112,7 +125,7 @@ def _chunk(patches, kw):
         outcomes = jet_answers.outcomes(stack, opts, lines)
         for (j, prep), res in zip(prepared, outcomes, strict=True):
             if not isinstance(res, DataError):
-                res = patch_result.from_fields(
+                res = api.from_fields(
                     res, len(prep.points), "jet", maps, prep.breaks, prep.dropped, prep.middle
                 )
             results[j] = res
@@ -137,6 +150,7 @@ def _prepare_stacked(unpacked, kws):
         pts, nrm = np.asarray(points, float), np.asarray(normals, float)
         if (
             sound[own]
+            and len(pts) <= patch_input.MAX_ROWS
             and pts.ndim == 2
             and pts.shape[1] == 3
             and nrm.shape == pts.shape
@@ -179,18 +193,15 @@ def _prepare_group(group, unpacked, kws):
     noise = np.array([np.nan if kw["noise_pos"] is None else kw["noise_pos"] for kw in kws])
     top = patch_input.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
     good &= np.isnan(noise) | ((noise >= 0.0) & (noise <= top))
-    big = np.max(np.abs(N), axis=-1)  # ``patch_frame.unit_normals``
-    good &= np.all(big > 0, axis=-1)
-    big = np.where(good[:, None], big, 1.0)
-    N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
-    N = N / np.where(good[:, None], np.linalg.norm(N, axis=-1), 1.0)[..., None]
+    N, ok = patch_frame.unit_rows(N)
+    good &= np.all(ok, axis=-1)
     good &= ~_has_duplicates(P, N)
     middle = 0.5 * lo + 0.5 * hi  # ``extent.centred``
     P = P - middle[:, None, :]
     out = [None] * len(group)
     live = np.flatnonzero(good)
     fingers = [unpacked[group[b][0]][2] for b in live.tolist()]
-    breaks = discontinuity.find_breaks_many(N[live], fingers, kws[0]["break_angle"])
+    breaks = patch_input.find_breaks(N[live], fingers, kws[0]["break_angle"])
     for b, brk in zip(live.tolist(), breaks, strict=True):
         lines = unpacked[group[b][0]][3]
         opts = dict(patch_input.options(kws[b], lines), names=patch_input.row_names(lines))
@@ -227,12 +238,3 @@ def _one(p, kw):
         return api.analyze_patch(points, normals, finger=finger, lines=lines, **kw)
     except (DataError, InputError) as exc:
         return exc
-
-
-def _defaults():
-    """``analyze_patch``'s keyword defaults (one source: its signature)."""
-    import inspect
-
-    sig = inspect.signature(api.analyze_patch)
-    skip = {"points", "normals", "finger", "lines"}
-    return {k: v.default for k, v in sig.parameters.items() if k not in skip}

@@ -1,10 +1,10 @@
 """From the curvature at the patch centre and its covariance to what a user is told: S, k1,
-k2, radius and C with 95 % intervals and a label (``summary_many`` for a stack of patches,
-``summary`` for one), the thesis's grid statistics and maps (§4.8.2).
+k2, radius and C with 95 % intervals and a label (``summary``, for a stack of patches), the
+thesis's grid statistics and maps (§4.8.2).
 
 The label: a plane where the curvature tensor cannot be told from 0 (a 99.9 % test; the
 spline also asks both k intervals to hold 0); otherwise the S band holding 99.9 % of S's
-distribution (``classify``), else ``uncertain``.  A plane has no S, C or radius.  Which
+distribution (``vote``), else ``uncertain``.  A plane has no S, C or radius.  Which
 patches are refused is decided before, by the fit (``jet_answers``, ``spline_analysis``).
 """
 
@@ -12,9 +12,19 @@ import math
 
 import numpy as np
 
-from tactile.ep2 import classify, grid_batch, uncertainty
-from tactile.ep2.shape_index import curvedness_c, curvedness_r, hk_labels, s_region_map, shape_index
-from tactile.ep2.surface_geometry import eigen, shape_entries
+from tactile.ep2 import uncertainty
+from tactile.ep2.surface_geometry import (
+    S_EDGES,
+    S_NAMES,
+    curvedness_c,
+    curvedness_r,
+    eigen,
+    hk_labels,
+    s_class,
+    s_region_map,
+    shape_entries,
+    shape_index,
+)
 
 
 def direction_text(d):
@@ -24,39 +34,29 @@ def direction_text(d):
 
 
 def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zero=False):
-    """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside).
+    """Headline curvature at the centre, intervals and label (lengths / ``scale`` inside) of
+    every patch of a stack: t (B, 3), cov and cov_noise (B, 3, 3), bias (B, 3) or None,
+    scale (B,); a list of dicts.  The linear algebra runs on the whole stack.
 
     ``cov`` (floored, widened) sets the intervals and the tests; the anisotropy is debiased
     with ``cov_noise``, the estimate's own scatter (default ``cov``): a floor meant to keep
     intervals honest must not pull a low-noise estimate's k1 and k2 together.
     ``plane_holds_zero``: "plane" only where the k1 and k2 intervals both hold 0 (the
     spline's: its model bias widens the flatness test beyond its intervals)."""
-    one = [None if v is None else np.asarray(v, float)[None] for v in (t, cov, bias, cov_noise)]
-    scale = np.array([scale], float)
-    return summary_many(one[0], one[1], one[2], scale, intervals, one[3], plane_holds_zero)[0]
-
-
-def summary_many(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zero=False):
-    """``summary`` of every patch of a stack: t (B, 3), cov and cov_noise (B, 3, 3), bias
-    (B, 3), scale (B,); a list of dicts.  The linear algebra runs on the whole stack."""
-    d2 = classify.flatness_distance(t, cov)
+    d2 = flatness_distance(t, cov)
     k1s, k2s = eigen(*np.moveaxis(t, -1, 0))
-    m, _, lam = uncertainty.anisotropy_many(t, cov)
-    _, h, _ = uncertainty.anisotropy_many(t, cov if cov_noise is None else cov_noise)
+    m, _, lam = uncertainty.anisotropy(t, cov)
+    _, h, _ = uncertainty.anisotropy(t, cov if cov_noise is None else cov_noise)
     r = np.sqrt(0.5 * (k1s * k1s + k2s * k2s))
-    plane = (r <= classify.R_TOL) | (d2 < classify.CHI2_3_999)  # ``classify.is_plane``
+    plane = (r <= R_TOL) | (d2 < CHI2_3_999)  # ``is_plane``
     raw = np.hypot(0.5 * (t[:, 0] - t[:, 2]), t[:, 1])
     # no debiasing where the curvature itself is not resolved
-    iv = (
-        uncertainty.intervals_many(t, cov, m, np.where(plane, raw, h), lam, bias)
-        if intervals
-        else None
-    )
+    iv = uncertainty.intervals(t, cov, m, np.where(plane, raw, h), lam, bias) if intervals else None
     if iv is not None and plane_holds_zero:
-        curved = (r > classify.R_TOL) & _excludes_zero(iv)
+        curved = (r > R_TOL) & _excludes_zero(iv)
         if np.any(plane & curved):
             plane &= ~curved
-            iv = uncertainty.intervals_many(t, cov, m, np.where(plane, raw, h), lam, bias)
+            iv = uncertainty.intervals(t, cov, m, np.where(plane, raw, h), lam, bias)
     h = np.where(plane, raw, h)
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
@@ -73,7 +73,7 @@ def _excludes_zero(iv):
 
 
 def _summary_one(i, m, h, iv, flat, scale, c):
-    """Patch ``i``'s fields of ``summary_many`` from its stack's numbers (lists); ``flat`` =
+    """Patch ``i``'s fields of ``summary`` from its stack's numbers (lists); ``flat`` =
     (R, d^2, plane), ``c`` the curvedness C."""
     (r, d2, plane), scale = flat, scale[i]
     m, h = m[i], h[i]
@@ -83,7 +83,7 @@ def _summary_one(i, m, h, iv, flat, scale, c):
         out["k1_interval"] = tuple(float(v) / scale for v in iv["k1"][i])
         out["k2_interval"] = tuple(float(v) / scale for v in iv["k2"][i])
     if plane:
-        out.update(shape="plane", confidence=classify.plane_confidence(r, d2))
+        out.update(shape="plane", confidence=plane_confidence(r, d2))
         return out
     s = float(shape_index(m + h, m - h))
     sd = None
@@ -94,8 +94,8 @@ def _summary_one(i, m, h, iv, flat, scale, c):
         out["S_interval"] = s_iv
         lo, hi = (float(v) for v in iv["kmax"][i])
         out["radius_interval"] = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
-    p_flat = classify.plane_confidence(r, d2)
-    out["shape"], out["confidence"], out["votes"] = classify.vote(s, sd, p_flat)
+    p_flat = plane_confidence(r, d2)
+    out["shape"], out["confidence"], out["votes"] = vote(s, sd, p_flat)
     kmax = max(abs(m + h), abs(m - h))
     out.update(S=s, radius=scale / kmax, C=float(c[i]))
     return out
@@ -103,9 +103,9 @@ def _summary_one(i, m, h, iv, flat, scale, c):
 
 def grid_statistics(channels, scale, plane):
     """The thesis's grid statistics (§4.8.2) of one patch's grid channels (each (N^2,)):
-    ``grid_batch.statistics`` for a stack of one."""
-    stats = grid_batch.statistics([np.asarray(c)[None] for c in channels], np.array([scale]))
-    return grid_batch.at(stats, 0, scale, plane)
+    ``statistics`` for a stack of one."""
+    stats = statistics([np.asarray(c)[None] for c in channels], np.array([scale]))
+    return at(stats, 0, scale, plane)
 
 
 def maps(channels, gx, gy, scale, plane, hk_eps):
@@ -135,3 +135,159 @@ def hk_eps(k1_int, k2_int, k1, k2):
         return 0.0, 0.0
     h = 0.5 * max(k1_int[1] - k1_int[0], k2_int[1] - k2_int[0])
     return h * max(abs(k1), abs(k2)) + h * h, h
+
+
+# --- The thesis's grid statistics (§4.8.2) for a whole stack of centre-jet fits at once.
+#
+# Per patch: the fitted surface's (z_x, z_y, z_xx, z_xy, z_yy) on an N x N grid over the contacts'
+# box (final frame, / L), then mean and sd of k1, k2, R, S and C over the grid points where the
+# surface is finite (a steep fit can overflow far from the centre).
+# ``centre_result.grid_statistics`` is the one-patch form the spline path uses; both give the same
+# numbers (tested).
+
+
+DERIVS = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+KEYS = ("R_mean", "R_std", "k1_mean", "k2_mean", "k1_std", "k2_std", "S_mean", "S_std", "C_mean")
+
+
+def moments(ch):
+    """Grid means and sds of k1, k2, R, S and C (in units of the patch: / L, C of R / L
+    is taken later) per patch: dict of (B,) arrays, NaN where no grid point is finite."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        k1, k2 = eigen(*shape_entries(*ch))
+    ok = np.isfinite(k1) & np.isfinite(k2)
+    k1, k2 = np.where(ok, k1, 0.0), np.where(ok, k2, 0.0)
+    r = curvedness_r(k1, k2)
+    s = shape_index(k1, k2)
+    out = {}
+    for name, v in (("k1", k1), ("k2", k2), ("R", r), ("S", s)):
+        out[name + "_mean"], out[name + "_std"] = _mean_sd(v, ok)
+    return out, (r, ok)
+
+
+def statistics(ch, scale):
+    """Everything per patch the grid statistics need, before the label is known: dict of
+    (B,) arrays (``moments``, lengths still / L), ``C_mean`` of R / ``scale`` (B,), and
+    ``any`` / ``any_pos``: whether any grid point is finite / has R > 0."""
+    m, (r, ok) = moments(ch)
+    pos = ok & (r > 0)
+    c = np.where(pos, curvedness_c(np.where(pos, r, 1.0) / scale[:, None]), 0.0)
+    m["C_mean"], _ = _mean_sd(c, pos)
+    m["any"], m["any_pos"] = ok.any(axis=-1), pos.any(axis=-1)
+    return m
+
+
+def at(stats, i, scale, plane):
+    """Patch ``i``'s grid statistics (dict of ``KEYS``, as ``centre_result.grid_statistics``):
+    lengths / ``scale``; S and C null for a plane or where no grid point is finite."""
+    if not stats["any"][i]:
+        return dict.fromkeys(KEYS)
+    d = {k: float(stats[k][i]) / scale for k in KEYS[:6]}
+    d.update(S_mean=None, S_std=None, C_mean=None)
+    if not plane:
+        d.update(S_mean=float(stats["S_mean"][i]), S_std=float(stats["S_std"][i]))
+        if stats["any_pos"][i]:
+            d["C_mean"] = float(stats["C_mean"][i])
+    return d
+
+
+def _mean_sd(v, ok):
+    """Mean and population sd of ``v`` over ``ok`` along the last axis (two passes)."""
+    count = np.maximum(ok.sum(axis=-1), 1)
+    mean = np.where(ok, v, 0.0).sum(axis=-1) / count
+    dev = np.where(ok, v - mean[..., None], 0.0)
+    return mean, np.sqrt((dev * dev).sum(axis=-1) / count)
+
+
+# --- Shape labels with a confidence (§4.8.2, tables 1-3; beyond the thesis: intervals).
+#
+# Labels: plane, sphere, cylinder, saddle, concave_cylinder, concave_sphere (the S bands of
+# ``surface_geometry.S_REGIONS``) or uncertain.
+#
+# - plane: the curvedness is below what the data resolve. The grid-mean shape operator t = (a, b,
+# c) (symmetric 2x2 entries, so no k1 >= k2 ordering bias) is tested against zero: d^2 = t^T
+# Cov(t)^-1 t with Cov(t) propagated from the coefficient covariance (``uncertainty.tensor_cov``);
+# plane when d^2 < chi^2_3(99.9 %) = 16.27, or when R is below ``R_TOL`` relative to the patch
+# size (the thesis's R < 1e-6, §4.8.1). S and C are then null. Confidence = the test's p-value
+# P(chi^2_3 > d^2): 1 for an exactly flat fit, 0.001 at the edge of resolution. - otherwise the
+# patch S gives each S band a probability under a split normal whose two sds are the distances
+# from S to the ends of its 95 % interval over the interval's critical radius (``vote``);
+# confidence = that band's probability x (1 - p_flat), p_flat the flatness test's p-value (so a
+# barely resolved curvature cannot give a confident label); the label is the band if the
+# confidence reaches ``MIN_VOTE``, else ``uncertain``.
+
+
+R_TOL = 1e-6  # curvedness x patch size below which a patch is flat whatever the noise
+MIN_VOTE = 0.999
+
+
+CHI2_3_999 = 16.26623619623813  # chi^2 with 3 dof, 99.9 % quantile
+_EDGES = (-math.inf, *S_EDGES.tolist(), math.inf)
+
+
+def flatness_distance(tensor, cov):
+    """Mahalanobis d^2 of the mean shape-operator entries from 0, per patch of a stack:
+    tensor (B, 3), cov (B, 3, 3) -> (B,)."""
+    diff = np.asarray(tensor, float)
+    w, v = np.linalg.eigh(cov)
+    keep = w > 1e-12 * np.maximum(w.max(axis=-1), 1e-300)[:, None]
+    proj = np.where(keep, np.einsum("bij,bi->bj", v, diff), 0.0)
+    rest = diff - np.einsum("bij,bj->bi", v, proj)
+    d2 = np.sum(np.where(keep, proj * proj / np.where(keep, w, 1.0), 0.0), axis=-1)
+    size = np.linalg.norm(diff, axis=-1)
+    # curvature along a direction the data pin to zero spread
+    d2 = np.where(np.linalg.norm(rest, axis=-1) > 1e-9 * np.maximum(size, 1e-300), np.inf, d2)
+    return np.where(keep.any(axis=-1), d2, np.where(np.any(diff != 0, axis=-1), np.inf, 0.0))
+
+
+def is_plane(r_mean, d2):
+    """Plane test on R (relative to a unit patch) and on d^2 (None: no noise estimate)."""
+    if r_mean <= R_TOL:
+        return True
+    return d2 is not None and d2 < CHI2_3_999
+
+
+def plane_confidence(r_mean, d2):
+    """p-value P(chi^2_3 > d^2) of 'flat'; 1 below the R tolerance."""
+    if r_mean <= R_TOL or d2 is None:
+        return 1.0
+    x = float(d2)
+    if not x < 1400.0:  # (beyond: 0 to double precision; NaN or inf: a singular covariance)
+        return 0.0
+    return float(math.erfc(math.sqrt(x / 2)) + math.sqrt(2 * x / math.pi) * math.exp(-x / 2))
+
+
+def split_normal_cdf(x, mode, sd_lo, sd_hi):
+    """CDF of the split normal: half-normals of sd ``sd_lo`` below and ``sd_hi`` above the mode,
+    weighted so the density is continuous (a zero sd puts no mass on that side)."""
+    total = sd_lo + sd_hi
+    if x <= mode:
+        if sd_lo <= 0:
+            return 0.0
+        return (sd_lo / total) * math.erfc((mode - x) / (sd_lo * math.sqrt(2)))
+    if sd_hi <= 0:
+        return 1.0
+    return sd_lo / total + (sd_hi / total) * math.erf((x - mode) / (sd_hi * math.sqrt(2)))
+
+
+def vote(s_est, s_sd, p_flat=0.0):
+    """Label and confidence from the S distribution over the bands and the flatness p-value.
+
+    ``s_sd`` is a standard deviation or a (below, above) pair: the S interval is
+    asymmetric where S is bounded (a sphere's debiased S sits at 1 with the whole
+    interval below it), and a symmetric normal there would put almost all the
+    mass in the sphere band whatever the interval's width.
+    """
+    if not s_sd or not (any(s_sd) if type(s_sd) is tuple else np.any(s_sd)):
+        return S_NAMES[int(s_class(s_est))], 1.0 - p_flat, {}
+    lo, hi = (s_sd, s_sd) if np.isscalar(s_sd) else s_sd
+    cdf = [split_normal_cdf(e, s_est, lo, hi) for e in _EDGES]
+    # Python floats, the same arithmetic as np.diff; argmax as numpy's (first NaN, else
+    # the first largest)
+    shares = [(b - a) * (1.0 - p_flat) for a, b in zip(cdf, cdf[1:], strict=False)]
+    nan = [i for i, v in enumerate(shares) if v != v]
+    best = nan[0] if nan else shares.index(max(shares))
+    votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}
+    if shares[best] >= MIN_VOTE:
+        return S_NAMES[best], float(shares[best]), votes
+    return "uncertain", float(shares[best]), votes

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import extent
+from tactile.ep2 import extent, patch_input
 from tactile.errors import InputError, where
 from tactile.files import tabular
 from tactile.files.tabular import CsvBlocks, show
@@ -181,7 +181,20 @@ class _Scan:
             raise InputError(
                 f"{where(self.path, self.zero_normal, 'nx')}: zero-length normal (nx,ny,nz)"
             )
+        self._check_patch_rows("patch" in blocks.texts)
         self._check_open_rows("patch" in blocks.texts, max_open)
+
+    def _check_patch_rows(self, has_patch):
+        """No patch over ``patch_input.MAX_ROWS`` contacts: refused at its first line, before
+        any of its rows is gathered."""
+        over = np.flatnonzero(self.count > patch_input.MAX_ROWS)
+        if not over.size:
+            return
+        k = int(over[0])
+        name = next(p for p, c in self.code_of.items() if c == k)
+        at = where(self.path, self.first[k], "patch" if has_patch else None)
+        label = f"patch {show(name)}: " if has_patch else ""
+        raise InputError(f"{at}: {label}{patch_input.too_many_rows(int(self.count[k]))}")
 
     def _check_open_rows(self, has_patch, max_open):
         """At most ``max_open`` rows wait at any line: a patch's rows, counted from its

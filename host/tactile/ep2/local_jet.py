@@ -26,56 +26,81 @@ In one's head (thesis §4.5-4.6 made local; §5.1.2's frame):
    noise, and the order above the top, sized as a sphere or cylinder of the measured
    curvature would size it (a circle's z6 = 5 z4^2 / z2).
 
-``fit`` returns a ``JetStack``; ``jet_answers`` turns it into results and refusals.
+``fit`` returns a ``jet_estimate.JetStack`` (items 5-6 are ``jet_estimate``'s);
+``jet_answers`` turns it into results and refusals.  Each pass of the fit is a ``JetFit``.
 """
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import jet_bias, jet_outliers
-from tactile.ep2.jet_outliers import MAX_OUTLIERS
+from tactile.ep2 import jet_estimate
 from tactile.ep2.jet_terms import design, mv, pick, size, unit, vm
-from tactile.ep2.surface_geometry import shape_entries
 
 TOP_ORDER = 4
 TOP_REDUNDANCY = 1.2  # an order is fitted where the rows are this many times its terms
 NOISE_REDUNDANCY = 2.0  # the noise and outlier tests use the order with this many
 MAX_ANGLE = 80.0  # deg: a normal further from the patch's is not of this patch
-SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's dof
-BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noise
 FLOOR = 1e-8  # noise floor: of L for positions, rad for normals (exact data stay exact)
-LINE_WIDTH = 0.01  # of L: contacts spread less across their line are on one line
-LINE_NOISE = 3.0  # ... as are contacts within this many position sigmas of a line
-LINE_THIN = 0.05  # (of L) where that is also this thin (an outlier left in inflates sigma)
 START_NOISE = 0.01  # the first pass's sigmas when none is stated (of L, rad)
+MAX_OUTLIERS = 2  # contacts left out by the deletion test; one more refuses the patch
+GROSS_POSITION = 0.05  # of L: a point off by less is not called an outlier, whatever the test
+GROSS_ANGLE = 10.0  # deg: nor a normal turned by less
+ISOLATED = 4.0  # an outlier's statistic is this many times that of the contacts after the worst
 
 
 @dataclass
-class JetStack:
-    """What ``fit`` found for each patch of a stack (B patches); lengths / L unless said."""
+class JetFit:
+    """One pass of the fit over a stack (B patches, n rows each, 3n weighted rows): the QR of
+    the top jet and what each order and the frame need; lengths / L."""
 
-    t: np.ndarray  # (B, 3) shape-operator entries at the centre
-    cov: np.ndarray  # (B, 3, 3) of t: noise and bias left (intervals, tests)
-    cov_noise: np.ndarray  # (B, 3, 3) of t: noise alone
-    cov_quadric: np.ndarray  # (B, 3, 3): the 2-jet's noise alone (what the data determine)
-    coef: np.ndarray  # (B, p_top) the answer's jet (zeros beyond its order)
-    order: np.ndarray  # (B,) the jet the answer leans on (2 unless it moved over halfway)
-    top: np.ndarray  # (B,) the highest order the contacts determine
-    weight: np.ndarray  # (B,) how far the answer moved from the 2-jet to the higher jet
-    noise: np.ndarray  # (B, 2) sigma_p (input unit) and sigma_n (rad) the weights used
-    stated: np.ndarray  # (B, 2) whether noise_pos, noise_normal were stated
-    origin: np.ndarray  # (B, 3) frame origin (world)
-    axes: np.ndarray  # (B, 3, 3) rows: the frame's x, y, z in world coordinates
-    scale: np.ndarray  # (B,) L
-    centre: np.ndarray  # (B, 2) the box middle in the frame (/ L)
-    xy: np.ndarray  # (B, n, 2) contacts in the frame, about the centre (/ L)
-    heights: np.ndarray  # (B, n) their heights in the frame (/ L)
-    slopes: np.ndarray  # (B, n, 2) their slopes from the normals
-    keep: np.ndarray  # (B, n) contacts used
-    reason: list  # per patch: None, or why it is refused
-    warnings: list = field(default_factory=list)  # per patch: list of lines
+    Q: np.ndarray  # (B, 3n, p_top) the weighted, column-scaled jet's Q
+    Rinv: np.ndarray  # (B, p_top, p_top) its R's inverse (a singular pivot taken as 1)
+    cn: np.ndarray  # (B, p_top) the column scales
+    qb: np.ndarray  # (B, p_top) Q^T (weighted right-hand side)
+    top: np.ndarray  # (B,) the highest order the rows determine
+    quiet: np.ndarray  # (B,) the order the noise and outlier tests use
+    ok2: np.ndarray  # (B,) whether the 2-jet is determined
+    Aw: np.ndarray  # (B, 3n, p) the weighted jet, with the order above the top
+    w: np.ndarray  # (B, 3n) the rows' weights (0: left out)
+    resid: dict  # order -> (B, 3n) weighted residuals
+    hat: dict  # order -> (B, 3n) leverages
+    origin: np.ndarray = None  # (B, 3) the frame (world), its axes' rows (B, 3, 3), L (B,)
+    axes: np.ndarray = None
+    L: np.ndarray = None
+    centre: np.ndarray = None  # (B, 2) the box middle in the frame
+    xy: np.ndarray = None  # (B, n, 2) contacts about the centre
+    g2: np.ndarray = None  # (B, n) squared slopes
+    sig: np.ndarray = None  # (B, 2) sigma_p (/ L), sigma_n (rad) the weights used
+    stated: np.ndarray = None  # (B, 2) which of them were stated
+    spread: np.ndarray = None  # (B,) L, 0 for one point
+    heights: np.ndarray = None  # (B, n)
+    slopes: np.ndarray = None  # (B, n, 2)
+
+    @property
+    def n(self):
+        return self.xy.shape[1]
+
+    def take(self, idx):
+        """The fit of the patches ``idx`` only."""
+        return JetFit(**{k: _rows(v, idx) for k, v in vars(self).items()})
+
+    def put(self, idx, other):
+        """Write ``other``, the fit of the patches ``idx``, into this one."""
+        for k, v in vars(other).items():
+            mine = getattr(self, k)
+            if isinstance(v, dict):
+                for o, a in v.items():
+                    mine[o][idx] = a
+            elif v is not None:
+                mine[idx] = v
+
+
+def _rows(v, idx):
+    if isinstance(v, dict):
+        return {o: a[idx] for o, a in v.items()}
+    return None if v is None else v[idx]
 
 
 def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
@@ -86,7 +111,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     After an outlier is left out only the patches that lost one are fitted again."""
     P, N, mask = np.asarray(P, float), np.asarray(N, float), np.asarray(mask, bool)
     noise = np.stack([_per_patch(noise_pos, len(P)), _per_patch(noise_normal, len(P))], -1)
-    keep, warnings = jet_outliers.screen_normals(N, mask, max_angle)
+    keep, warnings = screen_normals(N, mask, max_angle)
     limit = math.tan(math.radians(min(max_angle, 89.9)))
     n_kept = keep.sum(-1).max() if len(P) else 0
     top_cap = max(
@@ -96,7 +121,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     live = np.arange(len(P))
     f = _fit_once(P, N, keep, noise, top_cap, limit)
     for _ in range(MAX_OUTLIERS + 1):
-        worst, why = jet_outliers.worst_contact(_take(f, live), keep[live])
+        worst, why = worst_contact(f.take(live), keep[live])
         again = []
         for k in np.flatnonzero(worst >= 0):
             b = int(live[k])
@@ -112,8 +137,8 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
         if not again:
             break
         live = np.array(again)
-        _put(f, live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap, limit))
-    return _answer(f, keep, reason, warnings, np.isfinite(noise))
+        f.put(live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap, limit))
+    return jet_estimate.answer(f, keep, reason, warnings, np.isfinite(noise))
 
 
 def _per_patch(v, B):
@@ -121,30 +146,6 @@ def _per_patch(v, B):
     if v is None:
         return np.full(B, np.nan)
     return np.broadcast_to(np.asarray(v, float), (B,)).copy()
-
-
-def _take(f, idx):
-    """The fit dict ``f`` of the patches ``idx`` only."""
-    out = {}
-    for k, v in f.items():
-        if isinstance(v, dict):
-            out[k] = {o: a[idx] for o, a in v.items()}
-        else:
-            out[k] = v[idx] if isinstance(v, np.ndarray) and v.ndim and k not in _SHARED else v
-    return out
-
-
-def _put(f, idx, g):
-    """Write the fit dict ``g`` of the patches ``idx`` into ``f``."""
-    for k, v in g.items():
-        if isinstance(v, dict):
-            for o, a in v.items():
-                f[k][o][idx] = a
-        elif isinstance(v, np.ndarray) and v.ndim and k not in _SHARED:
-            f[k][idx] = v
-
-
-_SHARED = ()  # fit-dict arrays that are not per patch (none yet)
 
 
 # --- 1. screening and the frame -------------------------------------------------------------
@@ -192,9 +193,9 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
         if rnd == 1 or stated.all():
             break
         sig = _reml(f, s, stated, keep)
-    f.update(origin=origin, axes=axes, L=L, centre=centre, xy=np.stack([x, y], -1), g2=g2,
-             sig=np.maximum(sig, FLOOR), stated=stated, n=x.shape[1], spread=spread,
-             heights=q[..., 2], slopes=np.stack([sx, sy], -1))  # fmt: skip
+    f.origin, f.axes, f.L, f.centre, f.xy, f.g2 = origin, axes, L, centre, np.stack([x, y], -1), g2
+    f.sig, f.stated, f.spread = np.maximum(sig, FLOOR), stated, spread
+    f.heights, f.slopes = q[..., 2], np.stack([sx, sy], -1)
     return f
 
 
@@ -226,9 +227,8 @@ def _qr_fits(A, b, w, top_cap, n_kept):
         r = r - mv(Q[..., cols], qb[:, cols])
         h = h + np.sum(Q[..., cols] ** 2, -1)
         resid[o], hat[o] = r, h
-    return {"Q": Q, "Rinv": _upper_inverse(R, d), "cn": cn, "qb": qb, "top": top, "quiet": quiet,
-            "ok2": d[:, :6].min(-1) > 1e-9 * d[:, 0], "Aw": Aw, "w": w, "p_top": p_top,
-            "resid": resid, "hat": hat}  # fmt: skip
+    ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
+    return JetFit(Q, _upper_inverse(R, d), cn, qb, top, quiet, ok2, Aw, w, resid, hat)
 
 
 def _upper_inverse(R, d):
@@ -240,21 +240,12 @@ def _upper_inverse(R, d):
     return np.linalg.inv(R)
 
 
-def order_fit(f, o):
-    """(coef (B, p_o), cov factor F (B, p_o, p_o): coef cov = F F^T, weighted residuals)."""
-    p = size(o)
-    cn = f["cn"][:, :p]
-    Rinv = f["Rinv"][:, :p, :p]  # (the inverse of R's leading block: its leading block)
-    coef = mv(Rinv, f["qb"][:, :p]) / cn
-    return coef, Rinv / cn[:, :, None], f["resid"][o]
-
-
 def _reml(f, s, stated, keep):
     """Each row type's sigma from its residuals in the top jet: RSS over (rows - leverage)."""
     n = keep.shape[1]
     out = s.copy()
-    r = pick(f["resid"], f["quiet"])
-    h = pick(f["hat"], f["quiet"])
+    r = pick(f.resid, f.quiet)
+    h = pick(f.hat, f.quiet)
     kk = np.tile(keep, 3)
     for t, cols in ((0, slice(0, n)), (1, slice(n, 3 * n))):
         rss = np.sum((r[:, cols] ** 2) * kk[:, cols], -1)
@@ -264,107 +255,61 @@ def _reml(f, s, stated, keep):
     return out
 
 
-# --- 5. the answer and its covariance ----------------------------------------------------------
-def _answer(f, keep, reason, warnings, stated):
-    """The ``JetStack`` of the final fit (see the module docstring, item 5)."""
-    B, top = len(keep), f["top"]
-    hi = np.where(top >= 4, top - 1, top)
-    orders = range(2, int(top.max()) + 1)
-    theta, cov, coefs = {}, {}, {}
-    resid = {}
-    for o in orders:
-        c, F, resid[o] = order_fit(f, o)
-        coefs[o], theta[o] = c, c[:, 1:6]
-        cov[o] = F[:, 1:6] @ np.swapaxes(F[:, 1:6], -1, -2)
-    rt = pick(resid, top)
-    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
-    s2 = np.sum(rt * rt, -1) / np.maximum(dof, 1)
-    s2 = np.maximum(np.where(dof > 0, s2, 1.0), 1.0)  # (never below the weights' noise)
-    s2 = s2[:, None, None]
-    C2, Ch, Ct = cov[2] * s2, pick(cov, hi) * s2, pick(cov, top) * s2
-    t2, th, tt = theta[2], pick(theta, hi), pick(theta, top)
-    d = th - t2
-    d2, q = jet_bias.wald(d, Ch - C2)
-    w = np.maximum(0.0, 1.0 - SHRINK * q / np.where(d2 > 0, d2, np.inf))
-    w = np.where(hi > 2, w, 0.0)
-    est = t2 + w[:, None] * d
-    W = w[:, None, None]
-    C_noise = (1 - W * W) * C2 + W * W * Ch
-    e = est - tt  # the answer against the top jet, and that difference's own noise
-    Ve = (1 - W) ** 2 * (Ct - C2) + (1 - (1 - W) ** 2) * (Ct - Ch)
-    T = jet_bias.omitted(f, coefs, cov, top)  # (B, 5): the order above the top, at its prior size
-    T2 = (1.0 - w)[:, None] * jet_bias.round_bias(f, coefs, cov)  # the 2-jet's, were it a sphere's
-    bias = jet_bias.positive(e[:, :, None] * e[:, None, :] - BIAS_EVIDENCE * Ve)
-    bias = np.maximum(bias, T2[:, :, None] * T2[:, None, :] * np.eye(5))  # (where unmeasured)
-    C_mse = C_noise + bias + T[:, :, None] * T[:, None, :]
-    coef = np.zeros((B, size(int(top.max()))))
-    coef[:, :6] = coefs[2]
-    ch = _pick_coef(coefs, hi, coef.shape[1])
-    coef = coef + w[:, None] * (ch - coef)
-    t, J = _entries_and_jacobian(est)
-    width, line, across = _width(f["xy"], keep)
-    thin = line < np.minimum(LINE_NOISE * f["sig"][:, 0], LINE_THIN)
-    width = np.where(thin, np.minimum(width, line), width)
-    for b in np.flatnonzero(f["spread"] == 0.0):
-        reason[b] = reason[b] or (
-            "all contacts at one point: the patch needs contacts spread in two directions"
+# --- 4. outliers: contacts that are no part of the surface the others describe ---------------
+def worst_contact(f, keep):
+    """Per patch: the index of the contact that fails the deletion test worst (-1: none),
+    and what is wrong with it, in words.  The test: the contact's three residuals in the top
+    jet, each over (1 - its leverage), against the patch's robust scale (their median), at
+    1e-3 / n; and gross: its point GROSS_POSITION off, or its normal GROSS_ANGLE."""
+    n = f.n
+    r, h = pick(f.resid, f.quiet), pick(f.hat, f.quiet)
+    part = r * r / (1.0 - np.minimum(h, 0.999))
+    pos, slope = part[:, :n], part[:, n : 2 * n] + part[:, 2 * n :]
+    stat = np.where(keep, pos + slope, np.nan)
+    dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in f.quiet])
+    s2 = np.nanmedian(stat, axis=-1) / 2.366  # (the median of chi^2_3)
+    s2 = np.where(f.stated.all(-1), np.maximum(s2, 1.0), s2)
+    s2 = np.where(np.isfinite(s2) & (s2 > 0), s2, 1.0)
+    z = np.where(keep, stat / s2[:, None], -1.0)
+    worst = np.argmax(z, -1)
+    idx = np.arange(len(z))
+    w = f.w
+    off = np.abs(r[:, :n]) / np.where(w[:, :n] > 0, w[:, :n], 1.0)  # (in L)
+    ds = np.hypot(r[:, n : 2 * n] / np.where(w[:, n : 2 * n] > 0, w[:, n : 2 * n], 1.0),
+                  r[:, 2 * n :] / np.where(w[:, 2 * n :] > 0, w[:, 2 * n :], 1.0))  # fmt: skip
+    turn = np.degrees(np.arctan(ds / (1.0 + f.g2)))  # (a slope change, as an angle)
+    gross = (off[idx, worst] > GROSS_POSITION) | (turn[idx, worst] > GROSS_ANGLE)
+    limit = 16.27 + 2.0 * np.log(np.maximum(keep.sum(-1), 1))
+    third = -np.sort(-z, -1)[:, min(MAX_OUTLIERS, z.shape[1] - 1)]
+    alone = z[idx, worst] > ISOLATED * np.maximum(third, 1.0)  # (a misfit spreads over many)
+    bad = (z[idx, worst] > limit) & (dof >= 4) & gross & alone
+    why = [None] * len(z)
+    for b in np.flatnonzero(bad):
+        k = worst[b]
+        if pos[b, k] >= slope[b, k]:
+            why[b] = f"its point is {off[b, k] * f.L[b]:.3g} off the surface the others describe"
+        else:
+            why[b] = f"its normal is {turn[b, k]:.0f} deg off the surface's there"
+    return np.where(bad, worst, -1), why
+
+
+def screen_normals(N, mask, max_angle):
+    """Contacts whose normal is over MAX_ANGLE from the patch's mean normal (seeded at the
+    medoid: the normal closest to all others) are left out, with a warning each.  A normal's
+    summed agreement with all the others, sum_j n_i . n_j, is n_i . (sum_j n_j): one pass
+    over the rows, no n x n matrix."""
+    cosmax = math.cos(math.radians(max_angle))
+    medoid = np.argmax(np.where(mask, mv(N, vm(mask.astype(float), N)), -np.inf), axis=-1)
+    seed = N[np.arange(len(N)), medoid]
+    near = mask & (mv(N, seed) > cosmax)
+    mean = unit(vm(near.astype(float), N))
+    cos = mv(N, mean)
+    keep = mask & (cos > cosmax)
+    warnings = [[] for _ in range(len(N))]
+    for b, k in zip(*np.nonzero(mask & ~keep), strict=True):
+        angle = math.degrees(math.acos(max(-1.0, min(1.0, float(cos[b, k])))))
+        warnings[b].append(
+            f"contact {k} left out: its normal is {angle:.0f} deg from its neighbours' "
+            f"(limit {max_angle:g} deg, --max-normal-angle)"
         )
-    one_line = (width < LINE_WIDTH) | thin
-    for b in np.flatnonzero(one_line):
-        v = ", ".join(f"{c:.2f}" for c in across[b] @ f["axes"][b][:2])
-        reason[b] = reason[b] or (
-            f"the contacts lie on one line or path (their spread across it is {width[b]:.2g} of "
-            f"the patch size): the curvature across ({v}) is not determined; sweep across it"
-        )
-    for b in np.flatnonzero(~f["ok2"]):
-        reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
-    cov_t = J @ C_mse @ np.swapaxes(J, -1, -2)
-    cov_noise = J @ C_noise @ np.swapaxes(J, -1, -2)
-    cov_quadric = J @ C2 @ np.swapaxes(J, -1, -2)
-    sig = f["sig"] * np.stack([f["L"], np.ones(B)], -1)
-    return JetStack(
-        t=t, cov=cov_t, cov_noise=cov_noise, cov_quadric=cov_quadric, coef=coef,
-        order=np.where(w > 0.5, hi, 2), top=top, weight=w, noise=sig, stated=stated,
-        origin=f["origin"], axes=f["axes"],
-        scale=f["L"], centre=f["centre"], xy=f["xy"], heights=f["heights"],
-        slopes=f["slopes"], keep=keep, reason=reason,
-        warnings=warnings,
-    )  # fmt: skip
-
-
-def _width(xy, keep):
-    """(B,) spreads of the kept contacts across their path, / L: about the parabola
-    v = a + b u + c u^2 along their main line u (a straight finger path projects to a bent
-    one where the frame's normal leans out of the path's plane; across such a path only the
-    model, not the data, gives a curvature) and about the line itself (rms); (B, 2) the
-    direction across, in the frame."""
-    w = keep.astype(float)
-    n = np.maximum(w.sum(-1), 1.0)[:, None]
-    d = (xy - vm(w, xy)[:, None, :] / n[..., None]) * w[..., None]
-    _, vecs = np.linalg.eigh(np.swapaxes(d, -1, -2) @ d)
-    u, v = (d @ vecs[..., 1:])[..., 0], (d @ vecs[..., :1])[..., 0]
-    V = np.stack([w, u, u * u], -1)
-    Q, _ = np.linalg.qr(V)
-    r = v - mv(Q, vm(v, Q))
-    curve = np.sqrt(np.sum(r * r * w, -1) / np.maximum(n[:, 0] - 3.0, 1.0))
-    return curve, np.sqrt(np.sum(v * v, -1) / n[:, 0]), vecs[..., 0]
-
-
-def _pick_coef(coefs, which, p):
-    out = np.zeros((len(which), p))
-    for o, c in coefs.items():
-        sel = which == o
-        out[sel, : c.shape[1]] = c[sel]
-    return out
-
-
-def _entries_and_jacobian(theta):
-    """Shape-operator entries (B, 3) of (zx, zy, zxx, zxy, zyy) and their Jacobian (B, 3, 5)
-    (complex step: exact to round-off)."""
-    t = np.stack(shape_entries(*np.moveaxis(theta, -1, 0)), -1)
-    J = np.empty((len(theta), 3, 5))
-    for k in range(5):
-        z = theta.astype(complex)
-        z[:, k] += 1e-30j
-        J[:, :, k] = np.stack(shape_entries(*np.moveaxis(z, -1, 0)), -1).imag / 1e-30
-    return t, J
+    return keep, warnings

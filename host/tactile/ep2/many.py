@@ -17,7 +17,11 @@ from collections import deque
 from dataclasses import dataclass
 from itertools import islice
 
-from tactile.ep2.batch import CHUNK
+import numpy as np
+
+from tactile.ep2 import patch_frame, patch_input
+from tactile.ep2.api import analyze_sweep, sweep_parts
+from tactile.ep2.batch import CHUNK, analyze_patches
 from tactile.errors import DataError, InputError
 
 MAX_JOBS = 256
@@ -39,8 +43,6 @@ class Outcome:
 
 def analyze_one(group, name, opts, split):
     """``Outcome`` of one ``Contacts`` group labelled ``name``, by ``analyze_sweep``."""
-    from tactile.ep2.api import analyze_sweep
-
     try:
         results = analyze_sweep(
             group.points, group.normals, finger=group.finger, split=split, lines=group.lines, **opts
@@ -66,8 +68,6 @@ def analyze_chunk(work, opts, split):
     call for every patch of the chunk and every part of the ones ``split`` cuts (§6.2.5;
     ``api.sweep_parts``).  A cut patch is refused, as ``analyze_sweep`` refuses it, by its
     first part that is."""
-    from tactile.ep2.batch import analyze_patches
-
     out = [None] * len(work)
     cut = _breaks([g for g, _ in work], opts) if split else [False] * len(work)
     patches, owners = [], []  # owners[k]: the work index patches[k] belongs to
@@ -93,8 +93,6 @@ def analyze_chunk(work, opts, split):
 
 def _parts(group, opts):
     """``api.sweep_parts`` of a group ``_breaks`` found cut, or the exception it raised."""
-    from tactile.ep2.api import sweep_parts
-
     try:
         return sweep_parts(group.points, group.normals, group.finger, group.lines, True, opts)
     except (DataError, InputError) as exc:
@@ -105,12 +103,8 @@ def _breaks(groups, opts):
     """[bool] per ``Contacts`` group: whether ``analyze_sweep`` would cut it (its normals
     break, §6.2.5, or a zero normal makes it refuse, as ``analyze_one`` then says), for the
     groups of one size at once: ``patch_frame.unit_normals`` and
-    ``discontinuity.find_breaks_many`` on their stack."""
-    import numpy as np
-
-    from tactile.ep2 import discontinuity
-
-    angle = opts.get("break_angle", discontinuity.BREAK_ANGLE_DEG)
+    ``patch_input.find_breaks`` on their stack."""
+    angle = opts.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     out = [False] * len(groups)
     sizes = {}
     for i, g in enumerate(groups):
@@ -121,14 +115,11 @@ def _breaks(groups, opts):
             else:
                 sizes.setdefault(len(nrm), []).append((i, nrm))
     for same in sizes.values():
-        N = np.stack([nrm for _, nrm in same])
-        big = np.max(np.abs(N), axis=-1) if N.size else np.zeros(N.shape[:2])
-        ok = np.all(big > 0, axis=-1)  # else ``unit_normals`` refuses: a zero normal
-        N, big = N[ok], big[ok]
-        N = np.where(((big > 1e-100) & (big < 1e100))[..., None], N, N / big[..., None])
-        N = N / np.linalg.norm(N, axis=-1)[..., None]
+        N, ok = patch_frame.unit_rows(np.stack([nrm for _, nrm in same]))
+        ok = np.all(ok, axis=-1)  # else ``unit_normals`` refuses: a zero normal
+        N = N[ok]
         live = [i for (i, _), keep in zip(same, ok.tolist(), strict=True) if keep]
-        found = discontinuity.find_breaks_many(N, [groups[i].finger for i in live], angle)
+        found = patch_input.find_breaks(N, [groups[i].finger for i in live], angle)
         for i, _ in same:
             out[i] = True
         for i, brk in zip(live, found, strict=True):
@@ -138,13 +129,9 @@ def _breaks(groups, opts):
 
 def _breaks_one(group, angle):
     """``_breaks`` of one group (normals of another shape than (n, 3))."""
-    import numpy as np
-
-    from tactile.ep2 import discontinuity, patch_frame
-
     try:
         nrm = patch_frame.unit_normals(np.asarray(group.normals, float))
-        return bool(discontinuity.find_breaks(nrm, group.finger, angle))
+        return bool(patch_input.find_breaks(nrm[None], [group.finger], angle)[0])
     except (DataError, InputError):
         return True  # ``analyze_one`` gives the refusal as ``analyze_sweep`` does
 

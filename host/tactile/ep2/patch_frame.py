@@ -42,17 +42,25 @@ class PatchFrame:
 
 
 def unit_normals(normals):
-    """Normalise rows; zero-length rows raise ``DataError`` naming the row index.
-
-    A row far from unit length (1e-300 or 1e300) is first divided by its largest component,
-    so the squares in its norm neither overflow nor underflow."""
-    n = np.asarray(normals, float)
-    big = np.max(np.abs(n), axis=1) if n.size else np.zeros(len(n))
-    bad = np.flatnonzero(~(big > 0))
+    """Normalise rows; zero-length rows raise ``DataError`` naming the row index."""
+    n, ok = unit_rows(normals)
+    bad = np.flatnonzero(~ok)
     if bad.size:
         raise DataError(f"normal of contact {bad[0]} has zero length")
-    n = np.where(((big > 1e-100) & (big < 1e100))[:, None], n, n / big[:, None])
-    return n / np.linalg.norm(n, axis=1)[:, None]
+    return n
+
+
+def unit_rows(normals):
+    """(rows (..., 3) made unit, (...) whether each was non-zero: a zero or non-finite row
+    is left as it is).  A row far from unit length (1e-300 or 1e300) is first divided by
+    its largest component, so the squares in its norm neither overflow nor underflow."""
+    n = np.asarray(normals, float)
+    big = np.max(np.abs(n), axis=-1) if n.size else np.zeros(n.shape[:-1])
+    ok = (big > 0) & (big < np.inf)
+    big = np.where(ok, big, 1.0)[..., None]
+    n = np.where((big > 1e-100) & (big < 1e100), n, n / big)
+    norm = np.linalg.norm(n, axis=-1)[..., None]
+    return np.where(ok[..., None], n / np.where(ok[..., None], norm, 1.0), n), ok
 
 
 def frame_from_contacts(points, normals):

@@ -5,19 +5,66 @@ Malformed input raises ``InputError`` naming the contact (or CSV line) and colum
 the keyword and its CLI option.
 """
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
-from tactile.ep2 import discontinuity, extent, patch_frame
+from tactile.ep2 import extent, patch_frame
 from tactile.errors import InputError
 
 METHODS = ("jet", "spline")
+BREAK_ANGLE_DEG = 30.0  # consecutive normals of one finger turning more: a discontinuity
 MAX_GRID = 256  # analysis grid N x N: memory grows as N^2
 MAX_SEGMENTS = 64  # spline segments per direction
+MAX_ROWS = 250_000  # contacts in one patch: its fit holds about 5 kB a contact (1.2 GB here)
 MAX_NOISE_SPREADS = 1e6  # a position noise beyond this many spreads leaves no shape to fit
 WEIGHTINGS = ("auto", "tangent", "position")
 JET_ORDER = 2  # the jet order of the default (--order is for method spline)
+
+
+@dataclass(frozen=True)
+class JetOptions:
+    """The estimator's options, which both methods read: the noise (input unit, rad; None:
+    estimated), the normals' angle limits (deg), the grid of the thesis's statistics and
+    whether to compute intervals."""
+
+    noise_pos: float | None = None
+    noise_normal: float | None = None
+    max_normal_angle: float = patch_frame.MAX_NORMAL_ANGLE_DEG
+    break_angle: float = BREAK_ANGLE_DEG
+    grid: int = 8
+    intervals: bool = True
+
+
+@dataclass(frozen=True)
+class SplineOptions:
+    """The thesis's B-spline's own options (``method="spline"``): degree per direction
+    (None: 2), segments, row weighting, a refit in the principal frame, the solver, the
+    shrinkage toward the 2-jet (None: on for ``auto`` weighting)."""
+
+    order: int | None = None
+    segments: int = 1
+    weighting: str = "auto"
+    align: bool = False
+    solver: str = "svd"
+    shrink: bool | None = None
+
+
+_JET = tuple(f.name for f in fields(JetOptions))
+_SPLINE = tuple(f.name for f in fields(SplineOptions))
+
+
+def keywords(method="jet", jet=None, spline=None, maps=False, **named):
+    """The flat options the steps read (``method``, ``maps`` and every field of both option
+    sets): ``jet`` and ``spline`` (or their defaults) with options ``named`` over them, as
+    ``analyze_patch(points, normals, noise_pos=0.01)`` writes them.  ``TypeError`` for a
+    name neither set has, as Python gives for an unknown keyword."""
+    unknown = sorted(set(named) - set(_JET) - set(_SPLINE))
+    if unknown:
+        raise TypeError(f"analyze_patch() got an unexpected keyword argument {unknown[0]!r}")
+    jet = replace(jet or JetOptions(), **{k: v for k, v in named.items() if k in _JET})
+    spline = replace(spline or SplineOptions(), **{k: v for k, v in named.items() if k in _SPLINE})
+    return dict(method=method, maps=maps, **asdict(jet), **asdict(spline))
 
 
 @dataclass
@@ -43,10 +90,8 @@ def prepare(points, normals, finger, lines, kw):
     )  # fmt: skip
     rows = np.arange(len(pts))
     pts, nrm, finger, lines, rows, dropped = _drop_duplicates(pts, nrm, finger, lines, rows)
-    pts, middle = extent.centred(
-        pts
-    )  # the frame's origin moves back in ``patch_result.from_fields``
-    breaks = discontinuity.find_breaks(nrm, finger, kw["break_angle"])
+    pts, middle = extent.centred(pts)  # the frame's origin moves back in ``api.from_fields``
+    (breaks,) = find_breaks(nrm[None], [finger], kw["break_angle"])
     check_order(method, order)
     opts = options(kw, lines)
     opts["names"] = row_names(lines, rows if dropped else None)
@@ -85,6 +130,8 @@ def validate(points, normals, method, weighting, lines=None):
     nrm = np.asarray(normals, float)
     if pts.ndim != 2 or pts.shape[1] != 3 or nrm.shape != pts.shape:
         raise InputError(f"points and normals must both be (n, 3); got {pts.shape} and {nrm.shape}")
+    if len(pts) > MAX_ROWS:
+        raise InputError(too_many_rows(len(pts)))
     if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm))):
         raise InputError("points and normals must be finite numbers")
     problem = extent.spread_problem(pts)
@@ -93,6 +140,14 @@ def validate(points, normals, method, weighting, lines=None):
         at = f"contact {row}" if lines is None else f"line {lines[row]}"
         raise InputError(f"{at}: column '{extent.AXES[axis]}': {why}")
     return pts, patch_frame.unit_normals(nrm)
+
+
+def too_many_rows(n):
+    """Why a patch of ``n`` contacts is refused (``MAX_ROWS``)."""
+    return (
+        f"{n:,} contacts in one patch, over the {MAX_ROWS:,} one patch may hold (its fit "
+        "takes memory in proportion): split it into patches"
+    )
 
 
 def check_options(pts, noise_pos, noise_normal, grid, segments, max_angle, break_angle):
@@ -128,3 +183,64 @@ def _drop_duplicates(pts, nrm, finger, lines, rows):
     finger = None if finger is None else [finger[i] for i in keep]
     lines = None if lines is None else [lines[i] for i in keep]
     return pts[keep], nrm[keep], finger, lines, rows[keep], len(pts) - keep.size
+
+
+# --- Discontinuities along a finger's sweep (§6.2.2, §6.2.5).
+#
+# A crease or edge shows as consecutive normals of one finger that differ by more than an angle.
+# ``find_breaks`` lists them for a stack of patches at once; ``split_parts`` cuts every
+# finger's sequence at its breaks and groups the k-th piece of each finger into part k, so
+# each part can be fitted as its own patch.
+
+
+def find_breaks(normals, fingers, max_angle_deg=BREAK_ANGLE_DEG):
+    """Per patch of a stack (``normals`` (B, n, 3), unit rows in sweep order within each
+    finger; ``fingers`` one label per row per patch, or None: nothing checked), the list of
+    (row, finger label, angle in deg) where a finger's normal turns more than
+    ``max_angle_deg``: by label (in order of first appearance), then row.  Labels compare
+    as Python values do (NaN equals nothing, -0.0 equals 0.0) and come back as given
+    (``np.asarray(labels).tolist()``); a label list shorter than n labels its first rows."""
+    B, n = normals.shape[:2]
+    codes = np.empty((B, n), np.int64)
+    values = []
+    for b, f in enumerate(fingers):
+        given = [] if f is None else np.asarray(f).tolist()[:n]
+        seen = {}
+        codes[b, : len(given)] = [seen.setdefault(v, len(seen)) for v in given]
+        codes[b, len(given) :] = -1 - np.arange(n - len(given))  # unlabelled: no pair
+        values.append(given)
+    # a stable sort puts each label's rows together in sweep order: a pair of neighbours
+    # with equal codes is a consecutive pair of one finger
+    order = np.argsort(codes, axis=1, kind="stable")
+    ranked = np.take_along_axis(codes, order, axis=1)
+    same = ranked[:, 1:] == ranked[:, :-1]
+    g, k = np.nonzero(same)
+    a, b = normals[g, order[g, k]], normals[g, order[g, k + 1]]
+    dots = np.einsum("ij,ij->i", a, b)
+    cross = np.linalg.norm(np.cross(a, b), axis=1)
+    angle = np.degrees(np.arctan2(cross, dots))
+    hit = np.flatnonzero(angle > max_angle_deg)
+    out = [[] for _ in range(B)]
+    # each run of equal codes starts at its label's first row (a stable sort)
+    cols = np.arange(n)
+    start = np.maximum.accumulate(np.where(np.c_[np.ones(B, bool), ~same], cols, 0), axis=1)
+    g, k = g[hit], k[hit]
+    row, first = order[g, k + 1], order[g, start[g, k]]
+    for h in np.lexsort((row, first, g)).tolist():
+        p = int(g[h])
+        out[p].append((int(row[h]), values[p][first[h]], float(angle[hit[h]])))
+    return out
+
+
+def split_parts(n_rows, finger, breaks):
+    """Row-index arrays of the parts left after cutting each finger at its breaks."""
+    part = np.zeros(n_rows, dtype=int)
+    finger = np.asarray(finger)
+    cut = {}
+    for row, f, _ in breaks:
+        cut.setdefault(f, []).append(row)
+    for f, rows_cut in cut.items():
+        rows = np.flatnonzero(finger == f)
+        for r in rows_cut:
+            part[rows[rows >= r]] += 1
+    return [np.flatnonzero(part == k) for k in range(part.max() + 1) if np.any(part == k)]

@@ -4,23 +4,19 @@ Kept to reproduce chapters 4-5 (``--order 3 --weighting tangent`` is the
 thesis's bicubic at 100:1, §4.9), not the default: on the held-out grid the
 centre jet (``local_jet``) is more accurate.  Frame and units as there; the
 fit is ``bspline_patch``; weights are the thesis's fixed ratios or, for
-``auto``, per-row-type noise (REML, ``VC_PASSES`` passes); ``jet_shrink``
-shrinks the tensor-product excess toward the 2-jet; ``model_bias`` adds the
+``auto``, per-row-type noise (REML, ``VC_PASSES`` passes); ``shrink_to_jet``
+shrinks the tensor-product excess toward the 2-jet; ``uncertainty.model_bias`` adds the
 biquadratic's bias on round surfaces to the intervals.  The headline
 curvature is the spline's at the patch centre, as for the default; the grid
 statistics (S_mean ...) are the thesis's (§4.8.2).
 """
 
+import dataclasses
+from functools import lru_cache
+
 import numpy as np
 
-from tactile.ep2 import (
-    bspline_patch,
-    centre_result,
-    jet_shrink,
-    model_bias,
-    patch_frame,
-    uncertainty,
-)
+from tactile.ep2 import bspline_patch, centre_result, patch_frame, uncertainty
 from tactile.ep2.surface_geometry import principal, shape_entries
 from tactile.errors import DataError
 
@@ -65,7 +61,7 @@ def analyze(pts, nrm, opts):
     s2 = uncertainty.residual_scale(fit.chi2, fit.dof, stated)
     shrink = opts["shrink"]
     if (weighting == "auto" if shrink is None else shrink) and s2 is not None:
-        fit, _, _ = jet_shrink.shrink(fit, p[:, 2], sx, sy, s2, design)
+        fit, _, _ = shrink_to_jet(fit, p[:, 2], sx, sy, s2, design)
     out = _centre(fit, p, grid_xy, scale, s2, opts["intervals"])
     out.update(
         order=kx,
@@ -95,14 +91,16 @@ def _centre(fit, p, grid_xy, scale, s2, intervals):
     channels = [np.atleast_1d(v) for v in np.split(rows @ fit.coef, 5)]
     if s2 is None:  # no spare rows: no covariance, the label from S alone
         t = np.array([float(v[0]) for v in shape_entries(*channels)])
-        out = centre_result.summary(t, np.zeros((3, 3)), np.zeros(3), scale, False)
+        one = (t[None], np.zeros((1, 3, 3)), np.zeros((1, 3)), np.array([scale]), False)
+        (out,) = centre_result.summary(*one)
     else:
         t, G = uncertainty.tensor_and_jacobian(channels, rows)
         cov = uncertainty.tensor_cov(G, fit.cov_factor, s2)
         bias = np.zeros(3)
         if intervals and fit.data_map is not None:
-            bias = model_bias.bias(fit, p[:, :2], centre, t, lambda c: _tensor(rows, c))
-        out = centre_result.summary(t, cov, bias, scale, intervals, plane_holds_zero=True)
+            bias = uncertainty.model_bias(fit, p[:, :2], centre, t, lambda c: _tensor(rows, c))
+        one = (t[None], cov[None], bias[None], np.array([scale]), intervals)
+        (out,) = centre_result.summary(*one, plane_holds_zero=True)
     d = principal(*(v[0] for v in channels))["dir1"]
     out["direction1_patch"] = np.asarray(d, float)
     out["centre"] = centre
@@ -190,3 +188,82 @@ def _principal_angle(fit, rows):
     angle = 0.5 * float(np.angle(vec))
     off = abs(np.degrees(angle)) % 90.0
     return None if min(off, 90.0 - off) < ALIGN_SKIP_DEG else angle
+
+
+# --- Empirical-Bayes shrinkage of a tensor-product patch toward its 2-jet (beyond the thesis).
+#
+# A degree (kx, ky) patch spans the monomials u^i v^j, i <= kx, j <= ky. Only the six of total
+# degree <= 2 (the quadric, or 2-jet) are needed for a surface of constant curvature to second
+# order; the others (u^2 v, u v^2, u^2 v^2, ... the *excess*) carry the fourth-order shape but,
+# with 36 noisy contacts on three finger lines, mostly fit noise. The excess is shrunk toward zero
+# by the positive-part empirical-Bayes factor (James-Stein type, g-prior with its scale estimated
+# by the method of moments)
+#
+# w = max(0, 1 - q / d^2), d^2 = (chi^2_jet - chi^2_full) / s^2,
+#
+# q the number of excess terms, d^2 the Wald statistic of the excess (chi^2_q when the excess is
+# zero) and s^2 the fit's variance factor. The result is c = c_jet + w (c_full - c_jet), with
+# c_jet the least-squares fit constrained to the 2-jet span. Clean data (d^2 >> q) keep the full
+# patch (w -> 1); noisy data approach the quadric.
+#
+# Everything uses the full fit's precision factor R = F^-1 (R^T R = A^T A, F the covariance
+# factor), so the weighted rows are not revisited. With w held fixed, nested least squares give
+# Cov(c_jet, c_full) = Cov(c_jet), hence Cov(c) = (1 - w^2) Cov(c_jet) + w^2 Cov(c_full).
+
+
+@lru_cache(maxsize=64)
+def jet_span(kx, ky, tx, ty):
+    """(p, 6) spline coefficients of 1, u, v, u^2, u v, v^2 on the unit square.
+
+    Exact: every polynomial of degree <= k per direction lies in the spline
+    space, so interpolation on a fine enough tensor grid recovers it.
+    """
+    nx, ny = len(tx) - kx - 1, len(ty) - ky - 1
+    u = np.linspace(0.0, 1.0, nx + 2)
+    v = np.linspace(0.0, 1.0, ny + 2)
+    uu, vv = (g.ravel() for g in np.meshgrid(u, v, indexing="ij"))
+    rows = bspline_patch.rowwise_kron(
+        bspline_patch.basis(uu, kx, tx), bspline_patch.basis(vv, ky, ty)
+    )
+    mono = np.column_stack([np.ones_like(uu), uu, vv, uu * uu, uu * vv, vv * vv])
+    return np.linalg.lstsq(rows, mono, rcond=None)[0]
+
+
+def shrink_to_jet(fit, z, sx, sy, s2, rows):
+    """Shrink ``fit`` (a ``SplineFit``) toward its 2-jet.  Returns (fit, w, d2).
+
+    ``z, sx, sy`` are the data the fit was made from and ``rows`` its
+    unweighted design rows (``bspline_patch.prepare``), for the residuals;
+    ``s2`` the variance factor of the weighted rows (chi^2/dof, or 1 with the
+    noise stated).  Patches with no excess (degree < 2, or exactly a 2-jet)
+    come back unchanged with w = 1.
+    """
+    kx, ky = fit.degree
+    p = fit.coef.size
+    q = p - 6
+    if min(kx, ky) < 2 or q <= 0:
+        return fit, 1.0, np.inf
+    Q = jet_span(kx, ky, fit.tx, fit.ty)
+    R = np.linalg.inv(fit.cov_factor)
+    U, s, Vt = np.linalg.svd(R @ Q, full_matrices=False)
+    beta = Vt.T @ ((U.T @ (R @ fit.coef)) / s)
+    c_jet = Q @ beta
+    delta = float(np.sum(np.square(R @ (c_jet - fit.coef))))  # chi^2_jet - chi^2_full
+    if not delta > 0:
+        return fit, 1.0, np.inf
+    d2 = delta / s2 if s2 > 0 else np.inf
+    w = max(0.0, 1.0 - q / d2)
+    coef = c_jet + w * (fit.coef - c_jet)
+    f_jet = Q @ (Vt.T / s)
+    # the same shrinkage as a linear map of the full coefficients: c = ((1 - w) P + w I) c_full
+    proj = f_jet @ (U.T @ R)
+    shrink_map = (1.0 - w) * proj + w * np.eye(p)
+    factor = np.hstack([np.sqrt(1.0 - w * w) * f_jet, w * fit.cov_factor])
+    a0, a1, a2 = rows
+    res = (z - a0 @ coef, sx - a1 @ coef, sy - a2 @ coef)
+    chi2 = fit.chi2 + (1.0 - w) ** 2 * delta
+    data_map = None if fit.data_map is None else shrink_map @ fit.data_map
+    out = dataclasses.replace(
+        fit, coef=coef, cov_factor=factor, chi2=chi2, residuals=res, data_map=data_map
+    )
+    return out, w, d2
