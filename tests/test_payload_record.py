@@ -7,9 +7,13 @@ import numpy as np
 import pytest
 from conftest import load_bench
 
+from tactile.board.stream_decoder import decode_bytes
 from tactile.cli.main import main
-from tactile.payload import Tool, write_tool
+from tactile.payload import Orientations, Tool, write_tool
+from tactile.payload.live import Following
+from tactile.payload.orientation import ANY
 from tactile.recording.derive import derive
+from tactile_protocol import constants as C
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene
 
@@ -109,3 +113,36 @@ def test_derive_removes_a_100_g_tool_turned_over_and_finds_no_contact(tmp_path):
     assert (run / "contacts.csv").read_text().splitlines()[-1].startswith("x,y,z")
     meta = json.loads((run / "meta.json").read_text())
     assert meta["payload"]["compensation"][0]["contacts"] == 0
+
+
+def test_live_with_a_payload_shows_the_compensated_wrench(cli, tmp_path, poses):
+    tool = tool_file(tmp_path / "t.json")
+    code, out, err = cli("live", "--port", f"sim://{SCENE}", "--duration", "0.3",
+                         "--pose-log", str(poses), "--payload", tool)  # fmt: skip
+    assert code == 0, err
+    assert "sensor 0  |F|" in out
+    code, out, err = cli("live", "--port", f"sim://{SCENE}", "--duration", "0.3",
+                         "--pose-log", str(poses), "--payload", tool_file(tmp_path / "x.json",
+                         cal_id=5))  # fmt: skip
+    assert code == 2 and "calibration id 5 of sensor 0" in err and err.count("\n") == 1
+    code, out, err = cli("live", "--port", f"sim://{SCENE}", "--payload", tool)
+    assert code == 2 and "--payload: needs --pose-log" in err
+
+
+def test_following_a_stream_batch_by_batch_drops_the_weights_contacts():
+    """What live and --foxglove see: a 100 g tool turned over, fed in batches of 200."""
+    poses = synth.Poses([(0, 0, 0), (180, 0, 0)], hold_s=2.0, move_s=1.0)
+    t = np.arange(0.0, poses.duration_s, 1 / 500)
+    W = synth.readings(t, poses.at(t), 0.1, [0.03, 0, 0], 0.0, 0.0, [0.02] * 3 + [1e-3] * 3)
+    msgs, _ = decode_bytes(synth.board_frames(t, W, tare_at=0.2))
+    orient = Orientations({ANY: (np.rint(poses.t0 * 1e6), np.rint(poses.t1 * 1e6), poses.rot)})
+    following = Following([Tool(0.1, [0.03, 0, 0], cal_id=4242)], orient)
+    following.check(synth.DEVICE)
+    seen = []
+    for a in range(0, len(msgs), 200):
+        out, _, arrived = following.feed(msgs[a : a + 200], synth.DEVICE, arrivals=[0.0] * 200)
+        assert len(arrived) == len(out)
+        seen += out
+    assert any(m.type_code == C.MSG_CONTACT for m in msgs)
+    assert not any(m.type_code == C.MSG_CONTACT for m in seen)
+    assert following.report()[0]["bias_from"] == "the host's tare"

@@ -107,7 +107,7 @@ def _run(args):
     live = foxglove_args.start(args, pose_log=posed)
     follow = None if live is None else live.follow
     if live is not None and tools:
-        follow = _compensating(live, Following([t for _, t in tools], orient, log.clock))
+        follow = _compensating(live, Following(tools, orient, log.clock))
     try:
         session = Session(
             args.port,

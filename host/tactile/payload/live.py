@@ -11,6 +11,7 @@ free, as a TARE wants); until then the tool's identified bias is used.
 import time
 
 from tactile.payload.compensator import Compensator
+from tactile.payload.tool import check_device
 
 __all__ = ["Following"]
 
@@ -20,9 +21,19 @@ class Following:
     in ``clock`` ("board", "utc" or "monotonic"); the board's INFO comes with the first batch."""
 
     def __init__(self, tools, orient, clock="board", samples=None):
-        self.tools, self.orient, self.clock, self.samples = tools, orient, clock, samples
+        self.named = (
+            [(str(p), t) for p, t in tools] if tools and isinstance(tools[0], tuple) else None
+        )
+        self.tools = [t for _, t in tools] if self.named else list(tools)
+        self.orient, self.clock, self.samples = orient, clock, samples
         self.comp = None
         self.utc_minus_mono = time.time() - time.monotonic()
+
+    def check(self, device):
+        """InputError unless each tool is for a sensor of ``device`` (a board's INFO as a
+        dict) with the calibration it was measured with."""
+        for name, tool in self.named or [("payload", t) for t in self.tools]:
+            check_device(tool, device, name)
 
     def _times(self, msgs, host_times, arrivals):
         if self.clock == "board":
