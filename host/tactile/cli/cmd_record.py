@@ -23,6 +23,7 @@ from tactile.commands.words import add_quiet
 from tactile.errors import BoardError, InputError
 from tactile.output.textout import printable
 from tactile.payload.live import Following
+from tactile.payload.on_board import OnBoard
 from tactile.payload.orientation import Orientations
 from tactile.payload.tool import read_tool
 
@@ -121,7 +122,7 @@ def _run(args):
             argv=sys.argv,
             until=until,
             on_frames=follow,
-            payload=tools or None,
+            payload=OnBoard(tools) if tools else None,
         )
     except BaseException:
         foxglove_args.stop(live, quiet=True)

@@ -40,9 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.errors import InputError
-from tactile.payload.compensator import Compensator
-from tactile.payload.orientation import read_log
-from tactile.payload.tool import Tool, check_device, read_tool, tool_doc
+from tactile.payload.recorded import compensate_recording
 from tactile.recording.files import META
 from tactile.recording.meta import sessions_of
 from tactile.recording.recover import frames_of, meta_of
@@ -142,18 +140,19 @@ class RecordingData:
 def load_recording(path, payload=None, pose_log=None):
     """Read the ``tactile record`` directory ``path`` into a ``RecordingData``.
 
-    ``payload``: a ``tactile.payload.Tool`` or a tool.json path, or a list of them (one per
-    sensor): each tool's weight and the drifting bias are removed from its sensor's rows
-    (``force_N``, ``torque_Nm``; frames.csv's values in ``raw_force_N``, ``raw_torque_Nm``),
-    contacts gated again on the host (``host_phase``, ``host_contact_id``; the board's stay
-    in ``phase``, ``contact_id``) and ``payload`` says what was done, through the robot log
-    ``pose_log`` (default: the one the recording's command names), as ``record --payload``
-    does (``tactile.payload.compensator``).
+    ``payload``: a ``tactile.payload.Tool`` or a tool.json path, or a list of them: their
+    weight and bias removed through the robot log ``pose_log`` (default: the one the
+    recording's command names), as ``record --payload`` does
+    (``tactile.payload.recorded.compensate_recording``).
 
     Raises ``tactile.errors.InputError`` (a ``ValueError``) naming the file, line and column
     of anything malformed, or a tool of another sensor or calibration."""
     rec = _load(pathlib.Path(path))
-    return rec if payload is None else _compensated(rec, payload, pose_log)
+    if payload is None:
+        return rec
+    if pose_log is None:
+        pose_log = _pose_log(rec.path, rec.meta)
+    return compensate_recording(rec, payload, pose_log)
 
 
 def _load(path):
@@ -397,45 +396,3 @@ def _pose_log(rec_dir, meta):
         if candidate.is_file():
             return candidate
     return None
-
-
-# --- a tool's weight -------------------------------------------------------------------------
-
-
-def _tools(payload, device):
-    """[(name, Tool)] of ``payload`` (a Tool, a path, or a list of them), each checked
-    against the recorded board's sensor and calibration."""
-    given = payload if isinstance(payload, list | tuple) else [payload]
-    tools = [(str(t), read_tool(t)) if not isinstance(t, Tool) else ("payload", t) for t in given]
-    for name, tool in tools:
-        check_device(tool, device, name)
-    return tools
-
-
-def _compensated(rec, payload, pose_log):
-    """``rec`` with the tools' weight and bias removed (``load_recording``)."""
-    tools = _tools(payload, rec.meta.get("device"))
-    if pose_log is None:
-        pose_log = _pose_log(rec.path, rec.meta)
-        if pose_log is None:
-            raise InputError(
-                f"{rec.path}: the payload needs the robot log (the sensor's orientation at each"
-                " reading): give pose_log="
-            )
-    log, orient = read_log(pose_log)
-    t_us, known = rec.times_in(log.clock)
-    comp = Compensator([t for _, t in tools], orient, rec.meta.get("device"))
-    rows = np.flatnonzero(known)
-    sensor, sample = rec.sensor[rows], ~rec.is_contact[rows]
-    comp.prime(sensor, sample, t_us[rows], rec.wrench[rows])
-    W, phase, cid = rec.wrench, rec.phase.copy(), rec.contact_id.copy()
-    W[rows], phase[rows], cid[rows] = comp.arrays(
-        sensor, sample, t_us[rows], rec.wrench[rows], rec.phase[rows], rec.contact_id[rows]
-    )
-    comp.flush()
-    rec.raw_force_N, rec.raw_torque_Nm = rec.force_N, rec.torque_Nm
-    rec.force_N, rec.torque_Nm = W[:, :3], W[:, 3:]
-    rec.host_phase, rec.host_contact_id = phase, cid
-    docs = [{"file": name, "tool": tool_doc(tool)} for name, tool in tools]
-    rec.payload = {"tools": docs, "pose_log": str(pose_log), "compensation": comp.report()}
-    return rec

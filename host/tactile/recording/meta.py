@@ -32,7 +32,6 @@ from tactile.errors import InputError
 from tactile.files import bounded
 from tactile.files.atomic import write_bytes
 from tactile.output.jsonout import clean
-from tactile.payload.tool import tool_doc
 from tactile.recording.run_stats import span_s
 from tactile_protocol import constants as C
 
@@ -221,12 +220,9 @@ def session_entry(session):
 
 
 def _payload(session):
-    """meta.json's "payload" of a run with tools (``record --payload``): each tool file and
-    its values, and whether the SAMPLE stream was switched on for the run."""
-    if not getattr(session, "payload", None):
-        return {}
-    tools = [{"file": str(path), "tool": tool_doc(tool)} for path, tool in session.payload]
-    return {"payload": {"tools": tools, "samples_switched_on": session.restore is not None}}
+    """meta.json's "payload" of a run with tools (``record --payload``)."""
+    payload = getattr(session, "payload", None)
+    return {"payload": payload.meta()} if payload else {}
 
 
 def amend(path, key, value):

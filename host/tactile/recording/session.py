@@ -35,16 +35,13 @@ silence window again.  Times in meta.json are ``RunClock``'s: they never go back
 ``until`` = (clock, us, how): stop once the pose log's end has passed (``LogEnd``).
 """
 
-import contextlib
 import time
 from datetime import UTC, datetime
 
 from tactile import __version__
-from tactile.board.client import BoardClient, info_dict
+from tactile.board.client import BoardClient
 from tactile.board.serial_port import open_port
-from tactile.board.settings import to_newtons
-from tactile.errors import BoardError, HostFileError, InputError, PortError, PortLost
-from tactile.payload.tool import check_device
+from tactile.errors import BoardError, HostFileError, PortError, PortLost
 from tactile.recording.board_identity import BoardIdentity, Held, OtherBoard
 from tactile.recording.files import Recording, WriteFailed
 from tactile.recording.log_end import LogEnd
@@ -87,9 +84,7 @@ class Session:
         payload=None,
     ):
         self.port_name = port_name
-        self.payload = payload  # [(tool.json's path, Tool)]: checked, and samples streamed
-        self.refused = False  # the board is not the tools': the run leaves nothing
-        self.restore = None  # CONFIG values to put back (the SAMPLE stream switched on)
+        self.payload = payload  # a tactile.payload.on_board.OnBoard: record --payload
         self.duration_s = duration_s
         self.contacts = contacts
         self.want_tare = tare
@@ -159,35 +154,13 @@ class Session:
                 f"this host speaks {C.PROTOCOL_VERSION}"
             )
         if self.payload and held is None:
-            self._check_payload()
+            self.payload.check(self.client)
         self._prepare()
         self._heard_at = self.elapsed()  # (its HELLO and the replies just now)
 
-    def _check_payload(self):
-        """Each tool must be for a sensor of this board, measured with its calibration."""
-        try:
-            for path, tool in self.payload:
-                check_device(tool, info_dict(self.client.info), path)
-        except InputError:
-            self.refused = True
-            raise
-
-    def _samples_on(self):
-        """A tool's weight is removed and contacts gated again on the host, which needs every
-        reading: the SAMPLE stream is switched on for the run (not persisted, put back)."""
-        i = self.client.info
-        if i.flags & C.CFG_STREAM_SAMPLES:
-            return
-        levels = (to_newtons(i.enter_threshold), to_newtons(i.exit_threshold))
-        values = (i.rate_hz, *levels, i.debounce)
-        flags = i.flags & C.CFG_WRITABLE & ~C.CFG_PERSIST
-        self.client.configure(*values, flags | C.CFG_STREAM_SAMPLES)
-        self.restore = (*values, flags)
-        self.client.get_info()  # meta.json's device says that SAMPLE frames stream
-
     def _prepare(self):
         if self.payload:
-            self._samples_on()
+            self.payload.samples_on(self.client)
         if self.want_tare:  # with tools, at any pose: their weight may be above the gate
             self.client.tare(force=bool(self.payload))  # (the host re-tares less the weight)
             self.tared = True
@@ -311,10 +284,15 @@ class Session:
         write, the files are settled first and nothing more is attempted but meta.json."""
         if self.ended == "running":
             self.ended = "error"
-        if self.ended == "error" and self.failed is None and (not self.rec.bytes or self.refused):
+        if (
+            self.ended == "error"
+            and self.failed is None
+            and (not self.rec.bytes or self._refused())
+        ):
             self._discard()  # no byte from a board, or not the tools' board: nothing left
             return
-        self._put_back()
+        if self.payload:
+            self.payload.put_back(self.client)
         try:
             self._keep_backlog()
         except WriteFailed as exc:
@@ -331,11 +309,8 @@ class Session:
             self._close_port()
         self.rec.close()
 
-    def _put_back(self):
-        """The board's CONFIG as it was before the run switched the SAMPLE stream on."""
-        if self.restore is not None and self.client is not None:
-            with contextlib.suppress(BoardError):
-                self.client.configure(*self.restore)
+    def _refused(self):
+        return bool(self.payload) and self.payload.refused
 
     def _discard(self):
         if self.client is not None:
