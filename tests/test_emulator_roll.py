@@ -122,7 +122,7 @@ def test_the_probe_log_round_trips(noisy, tmp_path):
     np.testing.assert_array_equal(log.probe, rows[:, 0])
     np.testing.assert_array_equal(log.t_start_us, rows[:, 1])
     np.testing.assert_array_equal(log.t_end_us, rows[:, 2])
-    np.testing.assert_array_equal(log.dtheta, rows[:, 3:])
+    np.testing.assert_array_equal(log.dtheta, rows[:, 3:5])
     assert log.radius_m == 0.01 and list(log.centre_m) == [0.05, 0.0, 0.0]
     assert log.half_width_us == emu.motion.half_width_us()
     # each logged time lies in its hold, with the half-width on both sides

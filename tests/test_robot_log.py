@@ -44,7 +44,7 @@ def test_the_rigs_scara_log_reads_back_bit_for_bit(tmp_path, scene):
     assert path.read_text().startswith(units.line(robot_log.UNITS["scara"]))
 
 
-@pytest.mark.parametrize("scene", ["ep2_sweep_sphere", "ep2_sweep_saddle"])
+@pytest.mark.parametrize("scene", ["ep2_sweep_sphere", "ep2_sweep_saddle", "ep2_sweep_wrist"])
 def test_the_sweeps_pose_log_reads_back_bit_for_bit(tmp_path, scene):
     motion = _motion(scene)
     path = tmp_path / "poses.csv"
@@ -77,7 +77,9 @@ def test_the_roll_probe_log_reads_back_bit_for_bit(tmp_path):
     _exact(log.probe, [r[0] for r in rows])
     _exact(log.t_start_us, [r[1] for r in rows])
     _exact(log.t_end_us, [r[2] for r in rows])
-    _exact(log.dtheta, [r[3:] for r in rows])
+    _exact(log.dtheta, [r[3:5] for r in rows])
+    attitude = read_csv(path, robot_log.ATTITUDE).array(*robot_log.ATTITUDE)
+    _exact(attitude, [r[5:] for r in rows])  # each hold's orientation, as written
     assert log.radius_m == motion.geometry["radius_m"]
     _exact(log.centre_m, motion.geometry["centre_m"])
     assert log.half_width_us == motion.half_width_us() and log.end_us == _end_us(motion)

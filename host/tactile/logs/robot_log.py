@@ -9,7 +9,10 @@ The F/T wire carries no pose, so a robot controller logs what it did beside the 
 - ``scara`` (the ch. 5 rig, eq. 62; read by ``tactile.localize.pose_log``): joint angles
   ``q1,q2,q3`` (rad) and height ``z`` (m) per window; ``finger`` is the pass;
 - ``probe`` (EP1 through a wrist F/T sensor; read by ``tactile.ep1.from_ft``): per probe a
-  time in the hold at its start and at its end, and the commanded rotation (rad).
+  time in the hold at its start and at its end, and the commanded rotation (rad); optionally
+  (``ATTITUDE``) the sensor's orientation in the world during those holds, unit quaternions
+  ``qw,qx,qy,qz`` (start) and ``qw_end,qx_end,qy_end,qz_end`` (end), world from sensor,
+  scalar first.  A reader that does not need them ignores them.
 
 Times name their clock (``CLOCKS``): the board's (``t_start_us,t_end_us``), UTC or the
 recording host's monotonic clock (seconds; ``tactile.recording.log_clock`` joins them through the
@@ -26,6 +29,7 @@ from tactile import units
 from tactile.files.atomic import atomic_write
 
 __all__ = [
+    "ATTITUDE",
     "CLOCKS",
     "COLUMNS",
     "KINDS",
@@ -54,6 +58,8 @@ _AROUND = {
     "probe": (("probe",), ("dtheta_x", "dtheta_y")),
 }
 KINDS = tuple(_AROUND)
+# optional columns after a probe log's: the sensor's orientation during each end's hold
+ATTITUDE = ("qw", "qx", "qy", "qz", "qw_end", "qx_end", "qy_end", "qz_end")
 # kind -> its header in the board's clock
 COLUMNS = {k: (*pre, *CLOCKS["board"][:2], *post) for k, (pre, post) in _AROUND.items()}
 # kind -> its units line's spec: times, then the rest (the quaternion has no unit)
@@ -108,9 +114,9 @@ def tag_lines(*, probe=None, rig=None, sensor=None, hold_us=None, end_us=None, c
     return [f"{tag(name)} {text[name]}\n" for name in TAGS if name in text]
 
 
-def write_log(path, kind, rows, clock="board", **fields):
+def write_log(path, kind, rows, clock="board", more=(), **fields):
     """Write a ``kind`` log (module docstring) of ``rows`` (tuples in ``columns(kind, clock)``
-    order) to ``path``.
+    order, then the optional columns ``more`` names, e.g. ``ATTITUDE``) to ``path``.
 
     ``fields`` (each written only when given): ``probe`` = (radius_m, centre_m[, axis]);
     ``rig`` = (L1, L2, L3, L4) in m; ``sensor`` = six 1-sigma noises (N, N*m); ``hold_us`` the
@@ -120,5 +126,5 @@ def write_log(path, kind, rows, clock="board", **fields):
     with atomic_write(path, text=True) as fh:
         fh.write(units.line(UNITS[kind]))
         fh.writelines(head)
-        fh.write(",".join(columns(kind, clock)) + "\n")
+        fh.write(",".join((*columns(kind, clock), *more)) + "\n")
         fh.writelines(format_row(row) + "\n" for row in rows)

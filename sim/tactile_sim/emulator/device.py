@@ -5,7 +5,8 @@ MicroPython firmware (``tactile_fw.board.Board``) or the C core (``firmware/c``)
 
 Per sensor: six ADS122C04 register models on a simulated I2C bus
 (``tactile_sim.adc_model``, ``tactile_sim.i2c_bus``), each converting one
-gauge of the transducer model.  The clock is simulated and jumps straight
+gauge of the transducer model, which the motion loads (plus the tool's weight at the
+sensor's orientation, ``tool_weight``).  The clock is simulated and jumps straight
 to the next thing that can happen (a due sample or a conversion end), so
 "as fast as possible" costs only the firmware's own work.  The byte link is
 the firmware's ``PipeLink``; the host side reads with ``take`` and writes
@@ -33,8 +34,10 @@ from tactile_protocol import settings as vocabulary
 from tactile_sim.adc_model import FULL_SCALE_CODES, ADS122C04Model
 from tactile_sim.emulator import cores
 from tactile_sim.emulator.ft_model import FTModel
+from tactile_sim.emulator.gauge_drift import GaugeDrift
 from tactile_sim.emulator.scene import MOTIONS
 from tactile_sim.emulator.sensor_faults import FaultSchedule
+from tactile_sim.emulator.tool_weight import ToolWeight
 from tactile_sim.i2c_bus import SimI2C
 
 LINK_CAPACITY = 1 << 16  # bytes the host side may leave unread (a USB/pty buffer)
@@ -137,11 +140,14 @@ class EmulatedBoard:
         while bus_index >= len(self.buses):
             self.buses.append(SimI2C())
         bus = self.buses[bus_index]
+        weight = ToolWeight.from_scene(self.scene)
         model = FTModel(
             self.scene.sensor,
-            lambda t, i=i: self.motion.wrench_at(t, i),
+            (lambda t, i=i: self.motion.wrench_at(t, i)) if weight is None
+            else weight.loaded(self.motion, i),
             seed=self.scene.seed * 7919 + i,
-        )
+            drift=GaugeDrift.from_sensor(self.scene.sensor, self.scene.seed, i),
+        )  # fmt: skip
         self.models.append(model)
         for j, addr in enumerate(ADDRESS_PLAN[slot]):
             adc = ADS122C04Model(self._now)

@@ -1,12 +1,13 @@
 """The F/T transducer seen by the ADCs: wrench -> six gauge signals (thesis ch. 5).
 
-Gauges respond linearly to the wrench, ``g = A w + bias + drift t + noise``
+Gauges respond linearly to the wrench, ``g = A w + bias + drift t + D(t) + noise``
 (counts), and the board's calibration is ``C = A^-1`` (ATI's convention
-F/T = C (g - bias)).  ``A`` mixes every axis into every gauge like a real
-six-gauge transducer, with sensitivities chosen so that full-scale load
-reaches 60% of the converter's range.  Noise is specified in wrench units
-(the thesis's sensor: 0.20 ozf in x and y, 0.40 ozf in z) and mapped
-through ``A``; a noiseless model draws no random numbers.
+F/T = C (g - bias)).  ``w`` includes the tool's weight (``tool_weight``); ``D`` is the
+random walk and temperature effect (``gauge_drift``), absent unless the scene asks.
+``A`` mixes every axis into every gauge like a real six-gauge transducer, with
+sensitivities chosen so that full-scale load reaches 60% of the converter's range.  Noise
+is specified in wrench units (the thesis's sensor: 0.20 ozf in x and y, 0.40 ozf in z) and
+mapped through ``A``; a noiseless model draws no random numbers.
 """
 
 import numpy as np
@@ -45,11 +46,13 @@ def per_volt_matrix(sensor):
 class FTModel:
     """Gauge counts for a wrench trajectory; one instance per sensor."""
 
-    def __init__(self, sensor, wrench_at, seed=0):
+    def __init__(self, sensor, wrench_at, seed=0, drift=None):
         self.A = sensitivity_matrix(sensor["force_range_N"], sensor["torque_range_Nm"])
         self.C = np.linalg.inv(self.A)
         self.bias = np.broadcast_to(np.asarray(sensor["bias_counts"], float), (6,)).copy()
-        self.drift = float(sensor["drift_counts_per_s"])
+        d = sensor["drift_counts_per_s"]  # one for all gauges (a float) or one each
+        self.drift = np.asarray(d, float) if isinstance(d, list) else float(d)
+        self.more_drift = drift  # a gauge_drift.GaugeDrift, or None
         sigma = np.array(list(sensor["noise_force_N"]) + list(sensor["noise_torque_Nm"]), float)
         self.sigma = sigma
         self.rng = np.random.default_rng(seed) if np.any(sigma > 0) else None
@@ -71,8 +74,10 @@ class FTModel:
             self._k += 1
         g = self.A.dot(w)  # A @ w, without the ufunc dispatch
         g += self.bias
-        if self.drift:  # (adding 0.0 could only turn a -0.0 into 0.0: the same code)
+        if np.any(self.drift):  # (adding 0.0 could only turn a -0.0 into 0.0: the same code)
             g += self.drift * t_us * 1e-6
+        if self.more_drift is not None:
+            g += self.more_drift.counts(t_us)
         self._g = g
         self._values = self._g.tolist()
         self._t = t_us

@@ -27,6 +27,10 @@ class PressMotion:
             return np.array(self._at(float(t_s)))
         return np.array([np.interp(t_s, self.t, self.w[:, k]) for k in range(6)])
 
+    def orientation_at(self, t_s, sensor=0):
+        """The sensor's frame is the world's: a press has no robot to turn it."""
+        return np.eye(3)
+
     def _at(self, x):
         ts, rows = self._ts, self._rows
         if x <= ts[0]:

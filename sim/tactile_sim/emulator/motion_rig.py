@@ -31,10 +31,23 @@ class RigMotion:
         self.release = line["release"] + lead_in_s
         self.touch = np.concatenate([np.full(len(rest), -1), line["touch"]])
         self.duration_s = float(self.t[-1]) if len(self.t) else 0.0
+        # the touch under way at each row, else the last one (the first before any)
+        last = np.maximum.accumulate(np.where(self.touch >= 0, self.touch, -1))
+        first = self.touch[self.touch >= 0][:1]
+        self._posed = np.where(last >= 0, last, first[0] if len(first) else -1)
 
     def wrench_at(self, t_s, sensor=0):
         t = np.asarray(t_s, float)
         return np.array([np.interp(t, self.t, self.wrench[:, k]) for k in range(6)])
+
+    def orientation_at(self, t_s, sensor=0):
+        """Rot_z(q1 + q2 + q3) of the touch under way (eq. 62; the last one between touches,
+        the first before): the SCARA turns the sensor only about the world's vertical."""
+        row = max(int(np.searchsorted(self.t, t_s, side="right")) - 1, 0)
+        touch = self._posed[row] if len(self._posed) else -1
+        a = float(np.sum(self.schedule["q"][touch][:3])) if touch >= 0 else 0.0
+        c, s = np.cos(a), np.sin(a)
+        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
     def poses(self):
         """Rows (t_start_us, t_end_us, finger, q1, q2, q3, z): the joints during each touch."""

@@ -29,7 +29,8 @@ import math
 
 import numpy as np
 
-from tactile.logs.robot_log import write_log
+from tactile.logs.robot_log import ATTITUDE, write_log
+from tactile_sim.emulator.orientation import Track, quaternion
 
 HOLD_FRACTION = 0.8  # the central part of each hold that the log offers for reading
 ROLL_KNOTS = 65  # path samples per roll (wrench linearly interpolated in between)
@@ -38,9 +39,10 @@ ROLL_KNOTS = 65  # path samples per roll (wrench linearly interpolated in betwee
 class RollMotion:
     """The load history of one EP1 run and the robot's log of it; see the module docstring."""
 
-    def __init__(self, t, wrench, holds, commanded, probes, truth, geometry):
+    def __init__(self, t, wrench, holds, commanded, probes, truth, geometry, attitude):
         self.t = t
         self.wrench = wrench  # (k, 6)
+        self.attitude = attitude  # orientation.Track: the sensor in the world
         self.holds = holds  # (m + 1, 2) start, end of each hold (s)
         self.commanded = commanded  # (m, 2)
         self.probes = probes  # tactile_sim.ep1.probes.Probes (the simulator's true probes)
@@ -55,6 +57,15 @@ class RollMotion:
             return np.zeros((6,) + t.shape)
         return np.array([np.interp(t, self.t, self.wrench[:, k]) for k in range(6)])
 
+    def orientation_at(self, t_s, sensor=0):
+        """R (3, 3), world from sensor: the rolling finger's attitude in a world whose +z is the
+        object's outward normal at the start contact (the finger starts pointing down)."""
+        return self.attitude.at(t_s)
+
+    def hold_quaternions(self):
+        """(qw, qx, qy, qz) of the sensor during each hold (m + 1, 4), world from sensor."""
+        return np.array([self.attitude.quaternion_at(t) for t in self.holds.mean(axis=1)])
+
     def true_curvature(self):
         """K2~ at the start contact, in the finger's contact frame: dict kx, ky, K, k1, k2."""
         return self.truth
@@ -67,11 +78,13 @@ class RollMotion:
         return measure(self.probes, self.geometry["radius_m"])
 
     def probe_log(self):
-        """Rows (probe, t_start_us, t_end_us, dtheta_x, dtheta_y): hold midpoints and the
-        commanded rotation."""
+        """Rows (probe, t_start_us, t_end_us, dtheta_x, dtheta_y, then ``ATTITUDE``): hold
+        midpoints, the commanded rotation and the sensor's orientation in the world during
+        the hold at the probe's start and at its end."""
         mid = np.rint(1e6 * self.holds.mean(axis=1)).astype(int)
+        q = self.hold_quaternions().tolist()
         return [
-            (i, int(mid[i]), int(mid[i + 1]), float(d[0]), float(d[1]))
+            (i, int(mid[i]), int(mid[i + 1]), float(d[0]), float(d[1]), *q[i], *q[i + 1])
             for i, d in enumerate(self.commanded)
         ]
 
@@ -87,7 +100,7 @@ class RollMotion:
         probe = (g["radius_m"], g["centre_m"])
         end_us = round(self.duration_s * 1e6)
         write_log(path, "probe", self.probe_log(), probe=probe, hold_us=self.half_width_us(),
-                  end_us=end_us)  # fmt: skip
+                  end_us=end_us, more=ATTITUDE)  # fmt: skip
 
 
 def _options(scene):
@@ -101,8 +114,8 @@ def _options(scene):
 
 
 def _paths(finger, obj, o):
-    """Finger contact (u1, v1) along each roll out, at ROLL_KNOTS times of the (1 - cos)/2
-    profile: arrays (directions, ROLL_KNOTS, 2)."""
+    """The contact state (u1, v1, u2, v2, psi) along each roll out, at ROLL_KNOTS times of the
+    (1 - cos)/2 profile: arrays (directions, ROLL_KNOTS, 5)."""
     from scipy.integrate import solve_ivp
 
     from tactile_sim.ep1 import rolling
@@ -123,7 +136,7 @@ def _paths(finger, obj, o):
             args=(finger, obj, omega),
             dense_output=True,
         )
-        out.append(sol.sol(progress)[:2].T)
+        out.append(sol.sol(progress)[:5].T)
     return np.array(out)
 
 
@@ -147,6 +160,11 @@ def build(scene):
         ) from None
 
 
+def _frame(g):
+    """A Gauss frame's axes as columns (3, 3)."""
+    return np.column_stack([g.x, g.y, g.z])
+
+
 def _starts_inside(scene, finger, obj, o):
     """The start contacts lie inside their charts: a roll that starts outside one never
     crosses its edge, so nothing would stop it integrating nonsense (for a minute)."""
@@ -165,8 +183,8 @@ def _starts_inside(scene, finger, obj, o):
 
 def _build(scene, o):
     from tactile_sim.ep1.probes import simulate_probes
-    from tactile_sim.ep1.rolling import true_curvature
-    from tactile_sim.ep1.surfaces import fingertip, make
+    from tactile_sim.ep1.rolling import finger_pose, true_curvature
+    from tactile_sim.ep1.surfaces import fingertip, local, make
     from tactile_sim.rig.fingertip import fingertip_wrench
 
     try:
@@ -191,10 +209,17 @@ def _build(scene, o):
         return np.concatenate([F, M], axis=-1)
 
     start = paths[0, 0]
+    world = _frame(local(obj, *start[2:4])).T  # world from object: the start normal up
+
+    def attitude(states):
+        return quaternion([world @ finger_pose(finger, obj, y)[0] for y in states])
+
     knots_t, knots_w = [0.0, o["rest_s"]], [np.zeros(6), np.zeros(6)]
+    knots_q = [attitude([start])[0]] * 2
     t = o["rest_s"] + o["press_s"]
     knots_t.append(t)
     knots_w.append(load(start, o["normal_force_N"]))
+    knots_q.append(knots_q[-1])
     holds = []
     tau = np.linspace(0.0, 1.0, ROLL_KNOTS)[1:]
     for path in paths:
@@ -203,13 +228,16 @@ def _build(scene, o):
             t += o["hold_s"]
             knots_t.append(t)
             knots_w.append(knots_w[-1])
+            knots_q.append(knots_q[-1])
             knots_t.extend(t + o["roll_s"] * tau)
             knots_w.extend(load(leg[1:], o["normal_force_N"]))
+            knots_q.extend(attitude(leg[1:]))
             t += o["roll_s"]
     holds.append((t, t + o["hold_s"]))
     t += o["hold_s"]
     knots_t += [t, t + o["release_s"], t + o["release_s"] + o["rest_s"]]
     knots_w += [knots_w[-1], np.zeros(6), np.zeros(6)]
+    knots_q += [knots_q[-1]] * 3
     t_arr = np.array(knots_t)
     keep = np.append(np.diff(t_arr) > 0.0, True)  # drop a zero-length rest
     commanded = np.round(probes.axis, 15) * o["dtheta_rad"] + 0.0  # no -0.0 in the log
@@ -219,6 +247,8 @@ def _build(scene, o):
         "normal_force_N": o["normal_force_N"],
     }
     truth = true_curvature(obj, o["object_uv"], o["psi"])
+    track = Track(t_arr[keep], np.array(knots_q)[keep])
     return RollMotion(
-        t_arr[keep], np.array(knots_w)[keep], np.array(holds), commanded, probes, truth, geometry
-    )
+        t_arr[keep], np.array(knots_w)[keep], np.array(holds), commanded, probes, truth,
+        geometry, track,
+    )  # fmt: skip

@@ -21,25 +21,32 @@ the last; between stations the load moves linearly from one station's to the nex
 and after the sweep the finger is off (zero load), so the firmware's gate emits one contact
 (BEGIN, IN..., END) per finger.  Noise belongs to the sensor model, so nothing here is random.
 
-The hand keeps its orientation: the fingers point down (-z of the object frame), finger k
-turned about its own pole by ``roll_deg[k]``; ``tilt_deg`` turns object and hand about the
-world x axis, so the world is not the patch frame.  ``poses()`` gives, per finger and
-station, the window in which the pose is held and the sensor's pose in the world: the pose
-is exactly constant within each window (the moves happen between windows, in ``settle_s``),
-so the pose log is exact, not an approximation.  Frames sampled during a move fall outside
-every window and the host drops them.  The log also states the sensor's noise (``[sensor]``
-of the scene, as a datasheet would), by which the host drops the frames of the load ramps
-whose normals the noise swamps (``tactile.localize.posed.normal_sd``).
+With ``wrist = "fixed"`` the hand keeps its orientation: the fingers point down (-z of the
+object frame), finger k turned about its own pole by ``roll_deg[k]``.  With ``wrist =
+"normal"`` the hand turns as a 6-axis arm does, so that at each station the pole points into
+the surface along -n (the shortest turn from -z, then ``roll_deg[k]`` about the pole; the
+contact is then at the pole): the turn between stations happens in ``settle_s``, along the
+shortest arc (``orientation.turn``), and ``orientation_at`` follows it.  ``tilt_deg`` turns
+object and hand about the world x axis, so the world is not the patch frame.
+
+``poses()`` gives, per finger and station, the window in which the pose is held and the
+sensor's pose in the world: the pose is exactly constant within each window (the moves
+happen between windows, in ``settle_s``), so the pose log is exact, not an approximation.
+Frames sampled during a move fall outside every window and the host drops them.  The log
+also states the sensor's noise (``[sensor]`` of the scene, as a datasheet would), by which
+the host drops the frames of the load ramps whose normals the noise swamps
+(``tactile.localize.posed.normal_sd``).
 
 Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``): ``object``
 (``objects.KINDS``), ``radius_m``, ``rotation_deg``, ``tilt_deg``, ``fingers``, ``spacing_m``,
 ``length_m``, ``samples``, ``speed_mps``, ``settle_s``, ``fingertip_radius_m``,
-``sensor_offset_m``, ``normal_force_N``, ``mu``, ``ramp_s``, ``rest_s``, ``roll_deg``.
+``sensor_offset_m``, ``normal_force_N``, ``mu``, ``ramp_s``, ``rest_s``, ``roll_deg``, ``wrist``.
 """
 
 import numpy as np
 
 from tactile.logs.robot_log import write_log
+from tactile_sim.emulator.orientation import Track, quaternion, shortest_turn, turn
 
 # Sensor axes in the object frame for an untwisted finger: pole +x_S = -z, y_S = +y, z_S = +x.
 _R0 = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
@@ -55,8 +62,8 @@ def station_wrench(point, normal, R, origin, normal_force, mu, sweep_dir=(0.0, 1
     """Load on the fingertip in its sensor frame for contacts (..., 3) (object frame).
 
     F = f_n (n + mu tau) with tau opposite the sweep direction's tangential part, and
-    M = (s - o) x F about the sensor origin ``o``; both mapped by R^T (R: sensor -> object).
-    Returns (..., 6) = (F, M).
+    M = (s - o) x F about the sensor origin ``o``; both mapped by R^T (R: sensor -> object,
+    (3, 3) for the whole track or (..., 3, 3) per station).  Returns (..., 6) = (F, M).
     """
     n = np.asarray(normal, float)
     d = np.asarray(sweep_dir, float)
@@ -64,7 +71,19 @@ def station_wrench(point, normal, R, origin, normal_force, mu, sweep_dir=(0.0, 1
     tau = -tan / np.linalg.norm(tan, axis=-1, keepdims=True)
     F = normal_force * (n + mu * tau)
     M = np.cross(np.asarray(point, float) - origin, F)
+    if np.ndim(R) > 2:  # R^T per station
+        return np.concatenate([np.einsum("...ji,...j->...i", R, v) for v in (F, M)], axis=-1)
     return np.concatenate([F @ R, M @ R], axis=-1)
+
+
+def wrist_normal(normals, roll_deg):
+    """Sensor -> object (..., 3, 3) per station for ``wrist = "normal"``: the untwisted hand
+    (pole -z) turned by the shortest arc that takes -z onto -n, so the pole points into the
+    surface along its normal; then turned ``roll_deg`` about the pole."""
+    twist = _R0 @ _rot_x(roll_deg)
+    n = np.asarray(normals, float)
+    turns = [shortest_turn((0.0, 0.0, 1.0), v) for v in n.reshape(-1, 3)]
+    return (np.array(turns) @ twist).reshape(n.shape + (3,))
 
 
 class SweepMotion:
@@ -83,10 +102,15 @@ class SweepMotion:
         data = sweep(obj, k, cfg["spacing_m"], cfg["length_m"], m, 1, origin)
         s = data["points"].reshape(k, m, 3)
         n = data["normals"].reshape(k, m, 3)
-        self.R_obj = np.stack([_R0 @ _rot_x(a) for a in cfg["roll_deg"][:k]])  # sensor->object
-        pole = self.R_obj[:, :, 0]  # (k, 3): the pole axis in the object frame
+        rolls = cfg["roll_deg"][:k]
+        if cfg["wrist"] == "normal":  # sensor->object (k, m, 3, 3), per station
+            self.R_obj = np.stack([wrist_normal(n[i], a) for i, a in enumerate(rolls)])
+            pole = self.R_obj[..., 0]  # (k, m, 3): the pole axis in the object frame
+        else:  # sensor->object (k, 3, 3), the whole track
+            self.R_obj = np.stack([_R0 @ _rot_x(a) for a in rolls])
+            pole = self.R_obj[:, None, :, 0]  # (k, 1, 3)
         centre = s + r * n
-        sensor_origin = centre - off * pole[:, None, :]
+        sensor_origin = centre - off * pole
         self.wrench_stations = np.stack(
             [
                 station_wrench(s[i], n[i], self.R_obj[i], sensor_origin[i],
@@ -98,9 +122,11 @@ class SweepMotion:
         self.tilt = _rot_x(cfg["tilt_deg"])
         self.points = s @ self.tilt.T  # true world contacts (k, m, 3)
         self.normals = n @ self.tilt.T
-        self.sensor_R = self.tilt @ self.R_obj  # (k, 3, 3) sensor -> world
+        self.sensor_R = self.tilt @ self.R_obj  # (k[, m], 3, 3) sensor -> world
         self.sensor_t = sensor_origin @ self.tilt.T  # (k, m, 3)
         self._timeline(m)
+        self.hand = Track.constant(self.tilt @ _R0)  # a sensor without a finger
+        self.attitude = [self._track(i) for i in range(k)]
 
     def _timeline(self, m):
         """Keyframes and pose windows on whole microseconds, so the log and the load agree."""
@@ -129,6 +155,33 @@ class SweepMotion:
         zero = np.zeros((self.wrench_stations.shape[0], 1, 6))
         table = np.concatenate([zero, self.wrench_stations], axis=1)  # index 0 = off
         self.keys = table[:, w, :]  # (k, len(t), 6)
+
+    def _station_R(self, i):
+        """(m, 3, 3): finger i's sensor -> world at each station."""
+        R = self.sensor_R[i]
+        return R if R.ndim == 3 else np.broadcast_to(R, (len(self.windows_us), 3, 3))
+
+    def _track(self, i):
+        """Finger i's orientation over time: held in each window, turned between them."""
+        R = self._station_R(i)
+        if self.sensor_R[i].ndim == 2:
+            return Track.constant(R[0])
+        w = self.windows_us * 1e-6
+        t, q = [w[0, 0]], [quaternion(R[0])]
+        for j in range(len(w)):
+            if j:
+                tj, qj = turn(R[j - 1], R[j], w[j - 1, 1], w[j, 0])
+                t, q = t + list(tj[1:]), q + list(qj[1:])
+            t.append(w[j, 1])
+            q.append(q[-1])
+        return Track(t, q)
+
+    def orientation_at(self, t_s, sensor=0):
+        """R (3, 3), world from sensor: finger ``sensor``'s, or the hand's for a sensor
+        without a finger."""
+        if sensor >= len(self.attitude):
+            return self.hand.at(t_s)
+        return self.attitude[sensor].at(t_s)
 
     def wrench_at(self, t_s, sensor=0):
         """Load on finger ``sensor`` at ``t_s`` (scalar -> (6,), array -> (6, n)); zero for
@@ -161,10 +214,14 @@ class SweepMotion:
         rows = []
         k, m = self.sensor_t.shape[:2]
         for i in range(k):
-            qx, qy, qz, qw = map(float, Rotation.from_matrix(self.sensor_R[i]).as_quat())
+            if self.sensor_R[i].ndim == 2:  # (as always: scipy's sign, the same digits)
+                qx, qy, qz, qw = map(float, Rotation.from_matrix(self.sensor_R[i]).as_quat())
+                quats = [(qw, qx, qy, qz)] * m
+            else:
+                quats = quaternion(self.sensor_R[i]).tolist()
             for j in range(m):
                 t0, t1 = (int(v) for v in self.windows_us[j])
-                rows.append((t0, t1, i, *map(float, self.sensor_t[i, j]), qw, qx, qy, qz))
+                rows.append((t0, t1, i, *map(float, self.sensor_t[i, j]), *quats[j]))
         rows.sort(key=lambda r: (r[0], r[2]))
         return rows
 

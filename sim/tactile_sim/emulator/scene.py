@@ -35,9 +35,9 @@ class SceneError(InputError):
 class Scene:
     """A validated scene: each section's values (defaults filled), its path, name and seed.
 
-    ``board``, ``sensor``, ``motion`` (with ``kind``) and ``link`` (None without ``[link]``)
-    are dictionaries, ``sensor_faults`` a list of them: ``scene_schema`` has checked every
-    key, so the modules that build the emulator read them as they are.
+    ``board``, ``sensor``, ``tool``, ``world``, ``motion`` (with ``kind``) and ``link`` (None
+    without ``[link]``) are dictionaries, ``sensor_faults`` a list of them: ``scene_schema``
+    has checked every key, so the modules that build the emulator read them as they are.
     """
 
     def __init__(self, path, data):
@@ -51,6 +51,8 @@ class Scene:
         self.duration_s = values["scene"]["duration_s"]
         self.board = values["board"]
         self.sensor = values["sensor"]
+        self.tool = values["tool"]
+        self.world = values["world"]
         self.motion = values["motion"]
         self.link = values["link"]
         self.sensor_faults = values["sensor_fault"]

@@ -1,14 +1,12 @@
 """The scene schema: ``KEYS``, a row per key of a scene TOML file (section ``motion.KIND``
 for a motion kind's keys), with limits from ``tactile_protocol`` (its messages and settings), and the
 rules across keys (``broken_rules``).  ``validate(data)`` checks a parsed scene whole and
-fills in the defaults; ``markdown()`` is docs/scenes.md's tables.  An error is ``Bad`` with
-``where`` = ``[section] key`` (``[[sensor_fault]] #2 kind``, ``[sensor] noise_force_N[1]``).
+fills in the defaults; ``markdown()`` is docs/scenes.md's tables.  An error is
+``Bad`` with ``where`` = ``[section] key`` (``[[sensor_fault]] #2 kind``,
+``[sensor] noise_force_N[1]``).
 """
 
 import copy
-import datetime
-import difflib
-import importlib
 import math
 import struct
 from collections import namedtuple
@@ -22,6 +20,14 @@ from tactile_protocol.settings import DEFAULTS, GATES, STREAMS, to_newtons
 from tactile_sim.adc_model import FULL_SCALE_CODES
 from tactile_sim.emulator import sensor_faults
 from tactile_sim.emulator.cores import CORES, DEFAULT_CORE
+from tactile_sim.emulator.scene_words import (
+    choices,
+    describe,
+    did_you_mean,
+    number_text,
+    show,
+    size_text,
+)
 
 
 def wire_max(message, field):
@@ -59,7 +65,17 @@ TIME, CODES, CHART = Num(0.0, MAX_TIME_S), Num(-FULL_SCALE_CODES, FULL_SCALE_COD
 DEG, MU, LENGTH = Num(-360.0, 360.0), Num(0.0, 10.0), Num(0.0, 1.0, True)
 SIGNED = (Num(-FORCE_MAX_N, FORCE_MAX_N),) * 3 + (Num(-TORQUE_MAX_NM, TORQUE_MAX_NM),) * 3
 KEYFRAME = Row((TIME, *SIGNED), names=("t_s", "fx", "fy", "fz", "tx", "ty", "tz"))
+WALK, CELSIUS, G = Num(0.0, FULL_SCALE_CODES), Num(-273.15, 1000.0), Num(-100.0, 100.0)
+TEMPERATURE = Row((TIME, CELSIUS), names=("t_s", "C"))
+XYZ = partial(Row, names=("x", "y", "z"))
+RPY = Row((DEG, DEG, DEG), names=("roll", "pitch", "yaw"))
 FRICTION = "Coulomb friction: tangential / normal load"
+
+
+def per_gauge(t):
+    """One value of type ``t`` for all six gauges, or a list of one per gauge."""
+    return Either((t, ListOf(t, 6, 6)))
+
 
 # fmt: off
 KEYS = tuple(Key(*row) for row in (
@@ -83,8 +99,14 @@ KEYS = tuple(Key(*row) for row in (
     ("sensor", "noise_force_N", ListOf(FORCE, 3, 3), [0.0] * 3, "N", "sd of fx, fy, fz noise; all zero: no random numbers"),
     ("sensor", "noise_torque_Nm", ListOf(TORQUE, 3, 3), [0.0] * 3, "N*m", "sd of tx, ty, tz noise"),
     ("sensor", "bias_counts", Either((CODES, ListOf(CODES, 6, 6))), 20000.0, "counts", "gauge offset, one for all or one per gauge (TARE removes it)"),
-    ("sensor", "drift_counts_per_s", CODES, 0.0, "counts/s", "gauge drift"),
+    ("sensor", "drift_counts_per_s", per_gauge(CODES), 0.0, "counts/s", "linear gauge drift, one for all or one per gauge"),
+    ("sensor", "bias_walk_counts_per_sqrt_s", per_gauge(WALK), 0.0, "counts/s^0.5", "random walk of each gauge's offset (sd after t s: this x sqrt(t)), seeded by [scene] seed"),
+    ("sensor", "temperature_C", ListOf(TEMPERATURE, 0, 1000), [], "s, degC", "the sensor's temperature at increasing times, linear in between, held outside; none: constant"),
+    ("sensor", "bias_counts_per_C", per_gauge(CODES), 0.0, "counts/degC", "gauge offset per degree away from the first temperature_C"),
     ("sensor", "cal_id", Int(0, wire_max("INFO", "cal_id_0")), 1, "", "calibration id in HELLO"),
+    ("tool", "mass_kg", Num(0.0, 5.0), 0.0, "kg", "what the sensor carries (fingertip, adapter): its weight loads every sensor"),
+    ("tool", "com_m", XYZ((Num(-1.0, 1.0),) * 3), [0.0, 0.0, 0.0], "m", "the tool's centre of mass, sensor frame"),
+    ("world", "gravity_m_s2", XYZ((G,) * 3), [0.0, 0.0, -9.81], "m/s^2", "gravity in the robot's world frame (the pose log's)"),
     ("motion", "kind", OneOf(f"{__name__}:MOTION_KINDS"), REQUIRED, "", "which motion; each kind has its own keys below"),
     ("motion.press", "keyframes", ListOf(KEYFRAME, 1), REQUIRED, "s, N, N*m", "the wrench at increasing times, linear in between"),
     ("motion.press", "repeat", BOOL, False, "", "loop the keyframes over their span"),
@@ -130,6 +152,10 @@ KEYS = tuple(Key(*row) for row in (
     ("motion.sweep", "ramp_s", Num(0.0, 60.0), 0.02, "s", "load ramp at the first and last station"),
     ("motion.sweep", "rest_s", Num(0.0, 3600.0), 1.0, "s", "unloaded before and after (the host TAREs in it)"),
     ("motion.sweep", "roll_deg", ListOf(DEG, 1, C.MAX_SENSORS), [0.0, 30.0, -30.0], "deg", "finger k turned about its pole; one per finger"),
+    ("motion.sweep", "wrist", OneOf(("fixed", "normal")), "fixed", "", "fixed: the hand keeps its orientation; normal: it turns each finger's pole along the surface normal, as a 6-axis arm"),
+    ("motion.poses", "orientations_deg", ListOf(RPY, 1, 1000), REQUIRED, "deg", "the hand's orientations, each the turn roll about world x, then pitch about y, then yaw about z"),
+    ("motion.poses", "hold_s", Num(0.0, 3600.0, True), 1.0, "s", "each orientation held, the fingers unloaded"),
+    ("motion.poses", "move_s", Num(0.0, 3600.0), 0.5, "s", "turning from one orientation to the next (shortest arc)"),
     ("link", "corrupt_frames", ListOf(Int(0, U32)), [], "", "frames (from 0) with one byte XOR-ed"),
     ("link", "drop_byte_frames", ListOf(Int(0, U32)), [], "", "frames (from 0) with one byte removed"),
     ("link", "disconnect", ListOf(Row((TIME, TIME), names=("from_s", "to_s"))), [], "s", "pty removed, a new one later (behind --link)"),
@@ -157,10 +183,9 @@ def broken_rules(d):
     if b["exit_threshold_N"] > b["enter_threshold_N"]:
         why = f"must be <= enter_threshold_N ({b['enter_threshold_N']:g})"
         yield "[board] exit_threshold_N", why
-    times = [row[0] for row in m["keyframes"]] if m["kind"] == "press" else []
-    for i in range(1, len(times)):
-        if times[i] <= times[i - 1]:
-            yield f"[motion] keyframes[{i}]", f"time must be after {times[i - 1]:g} s"
+    if m["kind"] == "press":
+        yield from _increasing("[motion] keyframes", m["keyframes"])
+    yield from _increasing("[sensor] temperature_C", d["sensor"]["temperature_C"])
     if m["kind"] == "sweep":
         if m["fingers"] > sensors:
             yield "[motion] fingers", f"must be <= [board] sensors ({sensors}): one sensor each"
@@ -175,6 +200,14 @@ def broken_rules(d):
     for k, (start, end) in enumerate((d["link"] or {}).get("disconnect", [])):
         if not start < end:
             yield f"[link] disconnect[{k}]", f"must end after it starts, got [{start:g}, {end:g}]"
+
+
+def _increasing(where, rows):
+    """(where, why) for the first row whose time (item 0) is not after the one before."""
+    for i in range(1, len(rows)):
+        if rows[i][0] <= rows[i - 1][0]:
+            yield f"{where}[{i}]", f"time must be after {rows[i - 1][0]:g} s"
+            return
 
 
 # --- checking -----------------------------------------------------------------------------
@@ -274,7 +307,7 @@ def check(t, value):
         return {name: _under(f".{name}", t.of, v) for name, v in value.items()}
     if t.kind in ("list", "row"):
         n = len(t.of) if t.kind == "row" else None
-        size = n if n else f"{_size(t)} ({describe(t.of)})"
+        size = n if n else f"{size_text(t)} ({describe(t.of)})"
         if not isinstance(value, list) or not (
             len(value) == n if n else t.lo <= len(value) <= t.hi
         ):
@@ -295,7 +328,10 @@ def check(t, value):
         x = float(value) if abs(value) < 2**1000 else math.inf  # (an int beyond any float)
         if math.isfinite(x) and (x > t.lo if t.open else x >= t.lo) and x <= t.hi:
             return x
-        _bad(f"finite, {'>' if t.open else '>='} {_num(t.lo)} and <= {_num(t.hi)}", value)
+        _bad(
+            f"finite, {'>' if t.open else '>='} {number_text(t.lo)} and <= {number_text(t.hi)}",
+            value,
+        )
     if t.kind == "bool":
         return value if isinstance(value, bool) else _bad("true or false", value)
     if t.kind == "text":
@@ -309,68 +345,6 @@ def check(t, value):
 
 def _bad(what, value):
     raise Bad(f"must be {what}, got {show(value)}")
-
-
-def choices(t):
-    """The names a ``choice`` type takes (its module imported now if it names one)."""
-    if isinstance(t.of, str):
-        module, name = t.of.split(":")
-        return tuple(getattr(importlib.import_module(module), name))
-    return tuple(t.of)
-
-
-def show(value, width=40):
-    """A short, one-line rendering of a TOML value for error messages."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, (datetime.date, datetime.time)):
-        return f"a date or time ({value.isoformat()})"
-    text = repr(value)
-    if isinstance(value, list) and len(text) > width:
-        return f"a list of {len(value)}"
-    return text if len(text) <= width else text[: width - 3] + "..."
-
-
-def did_you_mean(name, known):
-    """``' (did you mean X?)'`` for a near miss among ``known``, else the known names; one
-    that begins with ``name`` (``rate_hz`` for ``rate``) wins over a look-alike (``gate``)."""
-    name = str(name)
-    stem = name.rstrip("]")
-    close = [k for k in known if len(stem.strip("[")) > 1 and k.startswith(stem)]
-    close = close or difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
-    if close:
-        return f" (did you mean {close[0]}?)"
-    return f" (known: {', '.join(known)})" if known else ""
-
-
-def describe(t):
-    """``t`` in words, for an error and the docs (``number in (0, 1]``)."""
-    k, item = t.kind, t.of
-    if k in ("int", "number"):
-        lo, hi = (t.lo, t.hi) if k == "int" else (_num(t.lo), _num(t.hi))
-        return f"{'integer' if k == 'int' else 'number'} in {'(' if t.open else '['}{lo}, {hi}]"
-    if k == "row":
-        return f"[{', '.join(t.names)}]" if t.names else f"list of {len(item)}: {describe(item[0])}"
-    if k in ("list", "table"):
-        head = f"list of {_size(t)}: " if k == "list" else "table of names to "
-        return head + describe(item)
-    if k == "either":
-        return " or a ".join(map(describe, item))
-    if k == "choice":
-        return "one of " + ", ".join(choices(t))
-    return "true or false" if k == "bool" else f"string, 1 to {t.hi} printable ASCII characters"
-
-
-def _size(t):
-    return f"{t.lo}" if t.lo == t.hi else f"{t.lo} to {t.hi}"
-
-
-def _num(x):
-    if isinstance(x, float) and not (x.is_integer() and abs(x) < 1e16):
-        return f"{x:g}"
-    return str(int(x))
 
 
 def _default(key):
