@@ -4,12 +4,11 @@ the weight removed as without it (derive with a payload)."""
 import numpy as np
 import pytest
 from conftest import load_bench
-from scipy.spatial.transform import Rotation
 
-from tactile.ep1.from_ft import QUATS, read_probe_log
+from tactile.ep1.from_ft import read_probe_log
 from tactile.ep1.probes_csv import read_probes
 from tactile.errors import InputError
-from tactile.payload import Orientations, Tool
+from tactile.payload import Tool
 from tactile.recording.derive import derive
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene
@@ -19,34 +18,18 @@ TIP = Tool(0.03, [0.02, 0.0, 0.0], cal_id=4242)
 DEVICE = {**synth.DEVICE, "enter_threshold_N": 1.0, "exit_threshold_N": 0.8}
 
 
-def probe_log(path, motion, q_start, q_end):
-    g = motion.geometry
-    lines = ["# units: us, rad, m",
-             f"# probe: sphere radius_m={g['radius_m']!r} centre_m="
-             + ",".join(repr(float(v)) for v in g["centre_m"]),
-             f"# hold: half_width_us={motion.half_width_us()}",
-             "probe,t_start_us,t_end_us,dtheta_x,dtheta_y," + ",".join(QUATS)]  # fmt: skip
-    for row, a, b in zip(motion.probe_log(), q_start, q_end):
-        lines.append(",".join(repr(v) for v in (*row, *map(float, a), *map(float, b))))
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
 @pytest.fixture(scope="module")
 def rolled(tmp_path_factory):
-    """The ep1_roll scene's contact wrench on a finger pointing down and turning 0.3 rad per
-    hold, with and without a 30 g fingertip, as synthetic board runs."""
+    """The ep1_roll scene's contact wrench on the simulator's rolling finger (pointing down,
+    turning as it rolls), with and without a 30 g fingertip, as synthetic board runs whose
+    weight follows the finger's true attitude (the host sees only the probe log's holds)."""
     d = tmp_path_factory.mktemp("roll")
     motion = build_motion(load_scene("ep1_roll"))
-    n = len(motion.probe_log())
-    down = Rotation.from_euler("y", 90, degrees=True)
-    turns = [down * Rotation.from_euler("xy", [0.3 * i, 0.2 * (i % 2)]) for i in range(n + 1)]
-    quat = np.array([np.roll(r.as_quat(), 1) for r in turns])  # w, x, y, z
-    log = probe_log(d / "probes_log.csv", motion, quat[:-1], quat[1:])
-    orient = Orientations.from_probe_log(read_probe_log(log))
+    log = d / "probes_log.csv"
+    motion.write_probe_log(log)
     t = np.arange(0.0, motion.duration_s, 1 / 1000)
     contact = motion.wrench_at(t).T
-    R, _ = orient.at(0, np.rint(t * 1e6))
+    R = np.array([motion.orientation_at(x) for x in t])
     for name, mass in (("weightless", 0.0), ("weighted", TIP.mass_kg)):
         W = synth.readings(t, R, mass, TIP.com_m, 0.0, 0.0, [0.005] * 3 + [2e-4] * 3, contact)
         synth.write_run(d / name, synth.board_frames(t, W, DEVICE, tare_at=0.2), DEVICE)
@@ -64,9 +47,12 @@ def test_the_probe_logs_orientations_are_read(rolled):
     bad.write_text("\n".join(half) + "\n")
     with pytest.raises(InputError, match="orientation columns without qw_end,qx_end,qy_end,qz_end"):
         read_probe_log(bad)
-    long = [ln.replace(",0.7071067811865476,", ",0.9,", 1) if ln[0] == "0" else ln for ln in lines]
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("probe,")) + 1
+    first = lines[k].split(",")
+    first[5] = "0.9"  # qw of probe 0: |q| no longer 1
+    long = lines[:k] + [",".join(first)] + lines[k + 1 :]
     bad.write_text("\n".join(long) + "\n")
-    with pytest.raises(InputError, match=r":5: column 'qw': quaternion .* is not unit length"):
+    with pytest.raises(InputError, match=r":6: column 'qw': quaternion .* is not unit length"):
         read_probe_log(bad)
 
 

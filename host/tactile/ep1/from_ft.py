@@ -36,7 +36,7 @@ from tactile.files.tabular import read_csv
 from tactile.localize.contact import STATUS
 from tactile.localize.sphere import sphere_contact
 from tactile.recording.log_clock import CLOCKS, clock_of, parse_end, read_times
-from tactile.recording.robot_log import COLUMNS, tag
+from tactile.recording.robot_log import ATTITUDE, COLUMNS, tag
 
 __all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
 
@@ -46,8 +46,7 @@ MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PR
 MAX_PROBE = 2**31 - 1
 LIMIT = 1e6  # |value| of a length (m) or an angle (rad)
 MIN_RADIUS_M = 1e-6  # the fingertip's radius
-# optional: the sensor's orientation in the world (scalar first) in the hold at each end
-QUATS = ("qw", "qx", "qy", "qz", "qw_end", "qx_end", "qy_end", "qz_end")
+QUATS = ATTITUDE  # optional: the sensor's orientation in the world in each end's hold
 
 
 class ProbeLog(NamedTuple):
