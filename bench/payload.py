@@ -249,6 +249,7 @@ def ep1_part(tmp, final, limit, seeds):
             cases.append((f"ep1_roll_weighted {force:g} N seed {seed}", tables))
     cases += [(n, s) for n, s, _ in sim_cases("ep1", final, limit)]
     for name, tables in cases:
+        group = name.rsplit(" seed", 1)[0] if " seed " in name else "generator cases"
         errs = {}
         for kind, scene_tables, tools in (
             ("weightless", weightless(tables), ()),
@@ -261,8 +262,8 @@ def ep1_part(tmp, final, limit, seeds):
             )
             errs[kind] = _ep1_error(out, log, motion.true_curvature()) if code == 0 else None
         rows.append({"case": name, **{k: _pct(v) for k, v in errs.items()},
-                     "ratio": _ratio(errs)})  # fmt: skip
-    return rows
+                     "ratio": _ratio(errs), "_group": group, "_errs": errs})  # fmt: skip
+    return rows, summary(rows, lambda e: e)
 
 
 def _pct(v):
@@ -312,8 +313,33 @@ def ep2_part(tmp, final, limit, seeds):
                 write_scene(tmp / f"{tag}.toml", scene_tables), tmp, tag, tools
             )
             got[kind] = _ep2(out, radius, saddle) if code == 0 else None
-        rows.append({"case": name, **{k: _ep2_text(v) for k, v in got.items()}})
-    return rows
+        group = name.rsplit(" seed", 1)[0] if " seed " in name else "generator cases"
+        rows.append({"case": name, **{k: _ep2_text(v) for k, v in got.items()},
+                     "_group": group, "_errs": got})  # fmt: skip
+    return rows, summary(rows, lambda e: e["S_err"]) + summary(
+        rows, lambda e: e["radius_err"], "radius", 1e3
+    )
+
+
+def summary(rows, value, what="error", scale=100.0):
+    """Per group of cases: the rms of ``value`` over its cases for the weightless twin and
+    with ``--payload``, their ratio (target <= 1.2), and the runs without an answer."""
+    out = []
+    for group in dict.fromkeys(r["_group"] for r in rows):
+        mine = [r["_errs"] for r in rows if r["_group"] == group]
+        rms, missing = {}, {}
+        for kind in ("weightless", "without", "with"):
+            got = [value(e[kind]) for e in mine if e.get(kind) is not None]
+            got = [v for v in got if v is not None]
+            missing[kind] = len(mine) - len(got)
+            rms[kind] = float(np.sqrt(np.mean(np.square(got)))) * scale if got else None
+        ratio = rms["with"] / rms["weightless"] if rms["with"] and rms["weightless"] else None
+        none = "/".join(str(missing[k]) for k in ("weightless", "without", "with"))
+        out.append({"group": group, "what": what, "runs": len(mine),
+                    **{k: None if v is None else round(v, 3) for k, v in rms.items()},
+                    "ratio": None if ratio is None else round(ratio, 2),
+                    "no answer (weightless/without/with)": none})  # fmt: skip
+    return out
 
 
 def _ep2_text(v):
@@ -326,7 +352,7 @@ def _ep2_text(v):
 def table(rows):
     if not rows:
         return "(none)"
-    keys = list(dict.fromkeys(k for r in rows for k in r))
+    keys = [k for k in dict.fromkeys(k for r in rows for k in r) if not k.startswith("_")]
     out = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
     out += ["| " + " | ".join(str(r.get(k, "")) for k in keys) + " |" for r in rows]
     return "\n".join(out)
@@ -360,8 +386,11 @@ def main(argv=None):
                     f"## {name}: the simulator has no tool weight yet (tactile_sim.weight_cases)\n"
                 )
                 continue
+            rows, sums = part(tmp, args.final, args.cases, args.seeds)
             print(f"## {name} (error: weightless twin, without and with --payload)\n")
-            print(table(part(tmp, args.final, args.cases, args.seeds)) + "\n")
+            print(table(rows) + "\n")
+            print(f"## {name}: rms over the runs of each group (ratio: with / weightless)\n")
+            print(table(sums) + "\n")
     return 0
 
 
