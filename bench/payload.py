@@ -224,7 +224,8 @@ def turn_part(tmp, final, limit, seeds):
 
 
 def _ep1_error(folder, log, truth):
-    """Relative error of kx and ky (rms) against the truth, or None without an estimate."""
+    """Error of kx and ky (rms) relative to the truth's largest |curvature| (a cylinder has
+    a zero one), or None without an estimate."""
     from tactile.ep1.from_ft import read_probe_log
 
     radius = read_probe_log(log).radius_m
@@ -234,7 +235,7 @@ def _ep1_error(folder, log, truth):
         return None
     got = json.loads(said.splitlines()[0])
     k = np.array([truth["kx"], truth["ky"]], dtype=float)
-    return float(np.sqrt(np.mean(((np.array([got["kx"], got["ky"]]) - k) / k) ** 2)))
+    return float(np.sqrt(np.mean((np.array([got["kx"], got["ky"]]) - k) ** 2)) / np.abs(k).max())
 
 
 def ep1_part(tmp, final, limit, seeds):
@@ -263,7 +264,7 @@ def ep1_part(tmp, final, limit, seeds):
             errs[kind] = _ep1_error(out, log, motion.true_curvature()) if code == 0 else None
         rows.append({"case": name, **{k: _pct(v) for k, v in errs.items()},
                      "ratio": _ratio(errs), "_group": group, "_errs": errs})  # fmt: skip
-    return rows, summary(rows, lambda e: e)
+    return rows, summary(rows, lambda e: e, "curvature error, %")
 
 
 def _pct(v):
@@ -276,16 +277,18 @@ def _ratio(errs):
     return round(errs["with"] / errs["weightless"], 2)
 
 
-def _ep2(folder, truth_radius, saddle):
+S_TRUE = {"sphere": 1.0, "cylinder": 0.5, "saddle": 0.0}  # the saddles have k1 = -k2
+
+
+def _ep2(folder, truth_radius, obj):
     code, said = _quiet(["ep2", "analyze", str(folder / "contacts.csv"), "--json"])
     if code != 0:
         return None
     got = json.loads(said.splitlines()[0])
     patch = got["patches"][0] if "patches" in got else got
-    s_true = 0.0 if saddle else 1.0  # a sphere's S is 1, this saddle's (k1 = -k2) 0
     radius = patch.get("radius")
-    off = None if saddle or radius is None else abs(radius - truth_radius)
-    return {"S_err": abs(patch["S"] - s_true), "radius_err": off}
+    off = None if obj == "saddle" or radius is None else abs(radius - truth_radius)
+    return {"S_err": abs(patch["S"] - S_TRUE[obj]), "radius_err": off}
 
 
 def ep2_part(tmp, final, limit, seeds):
@@ -300,7 +303,7 @@ def ep2_part(tmp, final, limit, seeds):
             cases.append((f"ep2_sweep_wrist {obj} seed {seed}", tables))
     cases += [(n, s) for n, s, _ in sim_cases("ep2", final, limit)]
     for name, tables in cases:
-        saddle = tables["motion"]["object"] == "saddle"
+        obj = tables["motion"]["object"]
         radius = tables["motion"].get("radius_m", 0.05)
         got = {}
         for kind, scene_tables, tools in (
@@ -312,16 +315,16 @@ def ep2_part(tmp, final, limit, seeds):
             out, _, _, code, _ = record(
                 write_scene(tmp / f"{tag}.toml", scene_tables), tmp, tag, tools
             )
-            got[kind] = _ep2(out, radius, saddle) if code == 0 else None
+            got[kind] = _ep2(out, radius, obj) if code == 0 else None
         group = name.rsplit(" seed", 1)[0] if " seed " in name else "generator cases"
         rows.append({"case": name, **{k: _ep2_text(v) for k, v in got.items()},
                      "_group": group, "_errs": got})  # fmt: skip
-    return rows, summary(rows, lambda e: e["S_err"]) + summary(
-        rows, lambda e: e["radius_err"], "radius", 1e3
+    return rows, summary(rows, lambda e: e["S_err"], "S error", 1.0) + summary(
+        rows, lambda e: e["radius_err"], "radius error, mm", 1e3
     )
 
 
-def summary(rows, value, what="error", scale=100.0):
+def summary(rows, value, what, scale=100.0):
     """Per group of cases: the rms of ``value`` over its cases for the weightless twin and
     with ``--payload``, their ratio (target <= 1.2), and the runs without an answer."""
     out = []
