@@ -178,6 +178,11 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, time
     log = read_pose_log(pose_log)
     rule = Readings.for_log(log.kind, per_contact, threshold, gate)
     t, sensor, wrench, _ = contact_frames(messages, times=times, rule=rule)
+    if log.kind == "pose" and log.probe is None and len(t) == 0:  # holds, nothing touched
+        return [
+            f"no contact readings, and no '# probe:' line in {pose_log}: no contacts.csv (a log"
+            f" of holds? tactile payload identify {outdir} --pose-log {pose_log})"
+        ]
     points, normals, finger, report = posed_world_contacts(log, t, sensor, wrench, threshold)
     path = outdir / "contacts.csv"
     if len(t) == 0 and host:  # the host's gate found none: the board's were the weight's
