@@ -25,7 +25,8 @@ import serial
 
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.ep1.estimator import estimate
-from tactile.ep1.from_ft import probes_from_frames, read_probe_log
+from tactile.ep1.from_ft import probes_from_frames
+from tactile.logs.probe import read_probe_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR
 from tactile_sim.urlhandler import register

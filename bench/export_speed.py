@@ -52,7 +52,7 @@ def main():
     args = parser.parse_args()
 
     from tactile import load_recording
-    from tactile.recording.export_mcap import write_mcap
+    from tactile.foxglove.export_mcap import write_mcap
 
     with tempfile.TemporaryDirectory() as tmp:
         run = pathlib.Path(tmp) / "run"

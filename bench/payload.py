@@ -38,7 +38,9 @@ from bench_args import positive_int
 from scipy.spatial.transform import Rotation
 
 from tactile.cli.main import main as tactile
+from tactile.commands.derive import derive
 from tactile.errors import DataError
+from tactile.logs.probe import read_probe_log
 from tactile.payload import Tool, write_tool
 from tactile.payload import weight as tool_weight
 from tactile.payload.from_run import identify_run
@@ -218,7 +220,6 @@ def turn_part(tmp, final, limit, seeds):
             synth.write_run(d, synth.board_frames(t, W, device, tare_at=0.2), device)
             poses.write_log(tmp / "turn.csv")
             _with_probe(tmp / "turn.csv")
-            from tactile.recording.derive import derive
 
             tools = [("tool.json", Tool(0.1, [0.02, 0, 0], cal_id=4242))] if pay else None
             with contextlib.suppress(DataError):
@@ -238,8 +239,6 @@ def turn_part(tmp, final, limit, seeds):
 def _ep1_error(folder, log, truth):
     """Error of kx and ky (rms) relative to the truth's largest |curvature| (a cylinder has
     a zero one), or None without an estimate."""
-    from tactile.ep1.from_ft import read_probe_log
-
     radius = read_probe_log(log).radius_m
     code, said = _quiet(["ep1", "estimate", str(folder / "probes.csv"), "--finger-radius",
                          repr(radius), "--json"])  # fmt: skip

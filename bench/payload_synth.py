@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile.board import settings as board_settings
 from tactile.board.stream_decoder import decode_bytes
-from tactile.recording import robot_log
+from tactile.logs import robot_log
 from tactile.recording.files import Recording
 from tactile_fw import gate as fw_gate
 from tactile_protocol import constants as C

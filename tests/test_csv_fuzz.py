@@ -16,14 +16,14 @@ from conftest import FUZZ_SCALE
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from tactile.ep1.from_ft import read_probe_log
+from tactile.commands.derive import check_log
 from tactile.ep1.probes_csv import read_probes
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError
 from tactile.files import tabular
-from tactile.localize.pose_log import read_pose_log
 from tactile.localize.posed import posed_world_contacts
-from tactile.recording.derive import check_log
+from tactile.logs.pose import read_pose_log
+from tactile.logs.probe import read_probe_log
 
 pytestmark = pytest.mark.filterwarnings("error")
 

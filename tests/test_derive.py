@@ -1,11 +1,13 @@
-"""From recorded CONTACT frames and a pose log to contacts.csv (tactile.recording.derive)."""
+"""From recorded CONTACT frames and a pose log to contacts.csv (``tactile.commands.derive``),
+with the reading rule of ``tactile.localize.readings``."""
 
 import numpy as np
 import pytest
 
 from tactile.board.messages import Contact
+from tactile.commands import derive
 from tactile.errors import InputError
-from tactile.recording import derive
+from tactile.localize.readings import contact_frames
 
 
 def _c(ts, phase, cid, fx=1_000_000, sensor=0):
@@ -15,18 +17,18 @@ def _c(ts, phase, cid, fx=1_000_000, sensor=0):
 def test_the_first_readings_of_each_contact_are_taken_per_sensor():
     msgs = [_c(1, 0, 1), _c(2, 1, 1), _c(3, 1, 1), _c(4, 2, 1), _c(9, 0, 2), _c(10, 2, 2)]
     msgs += [_c(5, 0, 1, sensor=1), _c(6, 1, 1, sensor=1)]  # same id on another sensor
-    t, sensor, w, ids = derive.contact_frames(msgs, per_contact=2)
+    t, sensor, w, ids = contact_frames(msgs, per_contact=2)
     assert t.tolist() == [1, 2, 9, 5, 6] and ids.tolist() == [1, 1, 2, 1, 1]
     assert sensor.tolist() == [0, 0, 0, 1, 1]
     np.testing.assert_allclose(w[:, 0], 1.0)
-    assert len(derive.contact_frames(msgs)[0]) == 6  # all BEGIN/IN readings, never END
+    assert len(contact_frames(msgs)[0]) == 6  # all BEGIN/IN readings, never END
 
 
 def test_readings_inside_the_hysteresis_are_skipped_when_a_floor_is_given():
     # §5.1: a sample is taken when the x-y force exceeds the gate; a dip to 0.9 N inside
     # the contact (allowed by the exit threshold) is not a sample.
     msgs = [_c(1, 0, 1, 1_500_000), _c(2, 1, 1, 900_000), _c(3, 1, 1, 1_600_000), _c(4, 1, 1)]
-    t, *_ = derive.contact_frames(msgs, per_contact=2, above_N=1.39)
+    t, *_ = contact_frames(msgs, per_contact=2, above_N=1.39)
     assert t.tolist() == [1, 3]
 
 

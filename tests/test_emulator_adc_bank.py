@@ -75,7 +75,7 @@ def _host():
 
 def _run(scene, i2c, monkeypatch, untagged=()):
     monkeypatch.setattr(cores, "C_I2C", i2c)
-    emu = EmulatedBoard(scene, boot_id=0x29C, core="c")
+    emu = EmulatedBoard(scene, boot_id=0x29C, core="c", board_id=b"bank-id1")
     assert (emu.board._i2c is not None) == (i2c == "bank")
     for k in untagged:  # a source the bank cannot mirror: its reads go through Python
         emu.adcs[k].source = lambda t, f=emu.adcs[k].source: f(t)

@@ -11,11 +11,12 @@ import pytest
 from rotations import angle, rx, ry, rz
 from scene_golden import strip_columns
 
-from tactile.ep1.from_ft import read_probe_log
 from tactile.files.tabular import read_csv
 from tactile.localize.kinematics import pose_from_quaternion, scara_pose
-from tactile.localize.pose_log import read_pose_log
+from tactile.localize.posed import sensor_poses
 from tactile.logs import robot_log
+from tactile.logs.pose import read_pose_log
+from tactile.logs.probe import read_probe_log
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.orientation import Track, turn
@@ -28,21 +29,23 @@ def test_the_poses_motion_holds_each_orientation_and_logs_it(tmp_path):
     log = read_pose_log(path)
     rpy = load_scene("payload_poses").motion["orientations_deg"]
     assert log.kind == "pose" and len(log) == len(rpy) == 9
+    logged, _ = sensor_poses(log, np.arange(len(log)))
     assert log.end_us == round(motion.duration_s * 1e6) == 13_000_000
     np.testing.assert_array_equal(log.t_start, np.arange(9) * 1_500_000)
     np.testing.assert_array_equal(log.t_end, np.arange(9) * 1_500_000 + 1_000_000)
     for k, (roll, pitch, yaw) in enumerate(rpy):
         R = rz(yaw) @ ry(pitch) @ rx(roll)
-        np.testing.assert_allclose(log.R[k], R, atol=1e-12)
+        np.testing.assert_allclose(logged[k], R, atol=1e-12)
         for t_us in (log.t_start[k], log.t_end[k], (log.t_start[k] + log.t_end[k]) // 2):
             np.testing.assert_allclose(motion.orientation_at(t_us * 1e-6), R, atol=1e-12)
         assert not np.any(motion.wrench_at(t_us * 1e-6))  # touching nothing
     # between holds the hand turns along the shortest arc: half of it half-way (in time)
     for k in range(8):
         mid = 0.5 * (log.t_end[k] + log.t_start[k + 1]) * 1e-6
-        whole = angle(log.R[k], log.R[k + 1])
-        assert angle(log.R[k], motion.orientation_at(mid)) == pytest.approx(whole / 2, abs=1e-3)
-        assert angle(motion.orientation_at(mid), log.R[k + 1]) == pytest.approx(whole / 2, abs=1e-3)
+        whole = angle(logged[k], logged[k + 1])
+        half = pytest.approx(whole / 2, abs=1e-3)
+        assert angle(logged[k], motion.orientation_at(mid)) == half
+        assert angle(motion.orientation_at(mid), logged[k + 1]) == half
 
 
 def test_the_ep1_probe_log_states_each_holds_orientation(tmp_path):
@@ -83,6 +86,7 @@ def test_the_wrist_following_the_normal_points_each_finger_along_it(tmp_path):
     log = read_pose_log(path)
     k, m = motion.normals.shape[:2]
     assert len(log) == k * m
+    logged, _ = sensor_poses(log, np.arange(len(log)))
     for row in range(len(log)):
         f, t0, t1 = log.finger[row], log.t_start[row], log.t_end[row]
         j = int(np.flatnonzero(motion.windows_us[:, 0] == t0)[0])
@@ -90,7 +94,7 @@ def test_the_wrist_following_the_normal_points_each_finger_along_it(tmp_path):
         for t_us in (t0, t1):
             R = motion.orientation_at(t_us * 1e-6, f)
             np.testing.assert_allclose(R[:, 0], -n, atol=1e-12)  # the pole into the surface
-            np.testing.assert_allclose(R, log.R[row], atol=1e-12)  # as logged
+            np.testing.assert_allclose(R, logged[row], atol=1e-12)  # as logged
         # the contact is at the pole: the load pushes straight back along it, plus friction
         F = motion.wrench_at(0.5 * (t0 + t1) * 1e-6, f)[:3]
         assert F[0] == pytest.approx(-5.0, abs=1e-9)

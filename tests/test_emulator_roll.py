@@ -18,14 +18,10 @@ import serial
 
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.ep1.estimator import estimate
-from tactile.ep1.from_ft import (
-    fingertip_uv,
-    probe_report,
-    probes_from_frames,
-    read_probe_log,
-)
+from tactile.ep1.from_ft import fingertip_uv, probe_report, probes_from_frames
 from tactile.errors import InputError
 from tactile.localize.sphere import sphere_contact
+from tactile.logs.probe import read_probe_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator import SceneError, load_scene
 from tactile_sim.emulator.device import build_motion
@@ -277,6 +273,8 @@ COLS = "probe,t_start_us,t_end_us,dtheta_x,dtheta_y"
         (["\ufeff" + HEAD, COLS, "0,1,2,0.5,0", "1,2,3,x,0"], 4, "dtheta_x"),  # Excel's BOM
         ([HEAD, "# hold: half_width_us=abc", COLS, "0,1,2,0.5,0"], 2, "half_width_us"),
         ([HEAD, COLS, "0,5,2,0.5,0"], 3, "t_end_us"),
+        ([HEAD + " axis=0,0,1", COLS, "0,1,2,0.5,0"], 1, "pole on the sensor's +x"),
+        ([HEAD + " sphere=1", COLS, "0,1,2,0.5,0"], 1, "unknown field 'sphere=1'"),
     ],
 )
 def test_bad_probe_logs_give_one_line_with_file_and_line(tmp_path, lines, line, needle):

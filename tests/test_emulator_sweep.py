@@ -1,7 +1,7 @@
 """EP2 sweep scenes through the emulator: CONTACT frames + the pose log -> world contacts -> EP2.
 
 The scenes stream CONTACT frames of three fingertip sensors (no TARE: bias 0).  The host
-places each frame in the world through the robot's pose log (``tactile.localize.pose_log``)
+places each frame in the world through the robot's pose log (``tactile.logs.pose``)
 and the contacts go to ``analyze_patch``.  The checks against the truth go by other routes:
 the simulator's own stations (``tactile_sim.ep2.sweep``), the closed-form sphere, and a
 finite-difference propagation of the sensor noise.
@@ -16,9 +16,14 @@ from sweep_record import record_sweep
 
 from tactile.ep2 import analyze_patch
 from tactile.errors import InputError
-from tactile.localize.pose_log import read_pose_log
-from tactile.localize.posed import MAX_NORMAL_SD_DEG, normal_sd, posed_world_contacts
+from tactile.localize.posed import (
+    MAX_NORMAL_SD_DEG,
+    normal_sd,
+    posed_world_contacts,
+    sensor_poses,
+)
 from tactile.localize.sphere import sphere_contact
+from tactile.logs.pose import read_pose_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR, SceneError, load_scene
 from tactile_sim.urlhandler import register
@@ -356,8 +361,9 @@ def test_pose_log_round_trips(tmp_path):
         rows = np.flatnonzero(log.finger == f)
         np.testing.assert_array_equal(np.column_stack([log.t_start, log.t_end])[rows],
                                       motion.windows_us)  # fmt: skip
-        np.testing.assert_allclose(log.t[rows], motion.sensor_t[f], atol=1e-15)
-        np.testing.assert_allclose(log.R[rows], np.broadcast_to(motion.sensor_R[f], (m, 3, 3)),
+        R, t = sensor_poses(log, rows)
+        np.testing.assert_allclose(t, motion.sensor_t[f], atol=1e-15)
+        np.testing.assert_allclose(R, np.broadcast_to(motion.sensor_R[f], (m, 3, 3)),
                                    atol=1e-12)  # fmt: skip
     centre, radius, axis = motion.probe()
     assert log.probe["radius"] == radius

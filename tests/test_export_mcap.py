@@ -11,7 +11,7 @@ import pytest
 from recorded import HOST_HEADER, LEGACY_HEADER, frame_line, variant
 
 import tactile
-from tactile.recording.scene import normal_quaternions
+from tactile.foxglove.scene import normal_quaternions
 
 
 def _rows(recorded_msgs, host=None):
@@ -68,9 +68,9 @@ def test_a_wrenchstamped_per_frame_on_a_topic_per_sensor_in_board_time(
         mine = [m for m in recorded_msgs if m.sensor == s]
         got = topics[f"/tactile/sensor{s}/wrench"]
         assert len(got) == len(mine) > 400
-        for m, (schema, log_ns, seq, w) in zip(mine, got):
+        for m, (schema, log_ns, _, w) in zip(mine, got):
             assert schema == "geometry_msgs/msg/WrenchStamped"
-            assert w.header.frame_id == f"tactile_sensor{s}" and seq == m.seq
+            assert w.header.frame_id == f"tactile_sensor{s}"
             assert _stamp_ns(w.header) == log_ns == m.timestamp_us * 1000  # no wrap here
             assert _vector(w.wrench.force) == [m.fx / 1e6, m.fy / 1e6, m.fz / 1e6]  # N
             assert _vector(w.wrench.torque) == [m.tx / 1e6, m.ty / 1e6, m.tz / 1e6]  # N*m
@@ -169,8 +169,7 @@ def test_help_shows_the_defaults(capsys):
 def test_without_the_extra_the_command_says_how_to_install_it(
     recorded_run, tmp_path, cli, monkeypatch
 ):
-    for name in ("mcap_ros2", "mcap_ros2.writer"):
-        monkeypatch.setitem(sys.modules, name, None)  # import -> ImportError
+    monkeypatch.setitem(sys.modules, "foxglove", None)  # import -> ImportError: the writer
     code, out, err = cli("export", recorded_run, "-o", tmp_path / "x.mcap")
     assert code == 2 and out == ""
     assert err == "tactile export: error: MCAP export needs the 'export' extra:" \
@@ -187,10 +186,10 @@ def test_other_commands_and_the_loader_do_not_import_mcap(recorded_run):
         "from tactile.cli.main import main\n"
         f"main(['decode', {str(recorded_run / 'capture.bin')!r}])\n"
         f"tactile.load_recording({str(recorded_run)!r})\n"
-        "print('mcap' in sys.modules, 'mcap_ros2' in sys.modules)\n"
+        "print('mcap' in sys.modules, 'mcap_ros2' in sys.modules, 'foxglove' in sys.modules)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert done.stdout.splitlines()[-1] == "False False"
+    assert done.stdout.splitlines()[-1] == "False False False"
 
 
 def test_normal_quaternions_turn_x_onto_any_normal():
@@ -204,8 +203,8 @@ def test_normal_quaternions_turn_x_onto_any_normal():
 
 def test_each_frame_has_its_contact_state_beside_its_wrench(recorded_run, tmp_path, cli):
     """``/tactile/sensorN/contact``: the live server's JSON schema
-    (``tactile.recording.topics``), one
-    message per frame at the wrench's stamp, with the gate's thresholds in N."""
+    (``tactile.foxglove.topics``), one message per frame at the wrench's stamp, with the
+    frame's sequence number and the gate's thresholds in N."""
     assert cli("export", recorded_run, "-o", tmp_path / "s.mcap")[0] == 0
     _, topics = read_mcap(tmp_path / "s.mcap")
     rec = tactile.load_recording(recorded_run)
@@ -215,9 +214,9 @@ def test_each_frame_has_its_contact_state_beside_its_wrench(recorded_run, tmp_pa
         states = topics[f"/tactile/sensor{s}/contact"]
         wrenches = topics[f"/tactile/sensor{s}/wrench"]
         assert len(states) == len(wrenches) == len(rows)
-        for i, (schema, log_ns, seq, c), w in zip(rows, states, wrenches):
-            assert schema == "tactile/ContactState" and (log_ns, seq) == w[1:3]
-            assert c["seq"] == seq == rec.seq[i] and c["sensor"] == s
+        for i, (schema, log_ns, _, c), w in zip(rows, states, wrenches):
+            assert schema == "tactile/ContactState" and log_ns == w[1]
+            assert c["seq"] == rec.seq[i] and c["sensor"] == s
             assert c["timestamp"]["sec"] * 10**9 + c["timestamp"]["nsec"] == log_ns
             assert c["frame"] == ("contact" if rec.is_contact[i] else "sample")
             if rec.is_contact[i]:
@@ -226,3 +225,64 @@ def test_each_frame_has_its_contact_state_beside_its_wrench(recorded_run, tmp_pa
             assert c["exit_threshold_N"] == device["exit_threshold_N"]
             assert c["gate"] == device["gate"] and c["debounce_readings"] == device["debounce"]
         assert any(c[3]["in_contact"] for c in states)
+
+
+@pytest.mark.parametrize("sensor", [0, 7, 10, 123, 99_999])  # frame ids of 15 to 19 bytes
+@pytest.mark.parametrize("ns", [0, 1_763_900_000_123_456_789, 2**31 * 10**9 - 1])
+def test_the_wrench_is_the_cdr_ros2_decodes(sensor, ns):
+    """``wrench_cdr`` against ``mcap_ros2``'s public decoder: the padding before the float64s
+    follows the frame id's length, every value comes back to the last bit."""
+    from mcap.records import Schema
+    from mcap_ros2.decoder import DecoderFactory
+
+    from tactile.foxglove.topics import WRENCH_STAMPED, WRENCH_STAMPED_DEF, wrench_cdr
+
+    schema = Schema(id=1, data=WRENCH_STAMPED_DEF.encode(), encoding="ros2msg", name=WRENCH_STAMPED)
+    decode = DecoderFactory().decoder_for("cdr", schema)
+    w = [1.5, -2.25, 1e-300, -0.0, 3.0e7, np.nextafter(1.0, 2.0)]  # N, N*m
+    msg = decode(wrench_cdr(sensor, ns, w))
+    assert msg.header.frame_id == f"tactile_sensor{sensor}" and _stamp_ns(msg.header) == ns
+    got = [*_vector(msg.wrench.force), *_vector(msg.wrench.torque)]
+    assert np.array_equal(np.array(got).view(np.int64), np.array(w).view(np.int64))
+
+
+def _private_modules(source):
+    """Each private module of another package that ``source`` imports or asks ``need`` for,
+    and each ``._writer`` it reaches into."""
+    import ast
+
+    names = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            names += [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Call) and getattr(node.func, "id", None) == "need":
+            names += [a.value for a in node.args if isinstance(a, ast.Constant)]
+        elif isinstance(node, ast.Attribute) and node.attr == "_writer":
+            names.append(ast.unparse(node))
+    ours = ("tactile", "tactile_protocol", "tactile_fw", "tactile_sim", "tactile_studies")
+    return [
+        n for n in names
+        if isinstance(n, str) and n.split(".")[0] not in ours
+        and any(part.startswith("_") and not part.startswith("__") for part in n.split(".")[1:])
+    ]  # fmt: skip
+
+
+def test_the_writers_use_public_apis_only():
+    """No ``mcap_ros2._dynamic``, no ``writer._writer``: the MCAP file and the live server are
+    written through foxglove-sdk's public API, the wrench encoded by ``wrench_cdr``."""
+    from conftest import ROOT
+    from import_graph import product_files
+
+    bad = {
+        str(p.relative_to(ROOT)): _private_modules(p.read_text(encoding="utf-8"))
+        for p in product_files()
+    }
+    assert not {p: names for p, names in bad.items() if names}
+    before = (  # what the export and the live server did
+        "from mcap_ros2._dynamic import serialize_dynamic\n"
+        "fox, dyn = need('foxglove', '--foxglove', 'foxglove', 'mcap_ros2._dynamic')\n"
+        "raw = writer._writer\n"
+    )
+    assert len(_private_modules(before)) == 4  # module, name, need's string, attribute

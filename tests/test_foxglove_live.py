@@ -94,7 +94,8 @@ def _in_thread(fn, *args):
 
 
 def test_a_client_sees_the_wrench_and_contact_state_the_recording_holds(cli, tmp_path):
-    from mcap_ros2._dynamic import generate_dynamic
+    from mcap.records import Schema
+    from mcap_ros2.decoder import DecoderFactory
 
     port = free_port()
     thread, result = _in_thread(_record, cli, tmp_path / "run", port, "--foxglove-rate", "0")
@@ -113,7 +114,11 @@ def test_a_client_sees_the_wrench_and_contact_state_the_recording_holds(cli, tmp
     assert f"foxglove: serving ws://127.0.0.1:{port} (every frame)" in err
     assert "Traceback" not in err and " 0 dropped" in err
 
-    decode = generate_dynamic(wrench["schemaName"], wrench["schema"])[wrench["schemaName"]]
+    advertised = Schema(
+        id=0, data=wrench["schema"].encode(), encoding=wrench["schemaEncoding"],
+        name=wrench["schemaName"],
+    )  # fmt: skip
+    decode = DecoderFactory().decoder_for(wrench["encoding"], advertised)  # ROS 2's, public
     # a frame's two messages go out in turn, and a client's queue keeps their order
     states = [(ns, json.loads(p)) for t, ns, p in client.received if t.endswith("/contact")]
     wrenches = [(ns, decode(p)) for t, ns, p in client.received if t.endswith("/wrench")]
@@ -184,11 +189,11 @@ def test_a_client_that_never_reads_costs_the_recording_nothing(cli, tmp_path):
 
 
 def test_the_queue_drops_and_counts_what_the_publisher_cannot_take(monkeypatch):
-    from tactile.output import foxglove_live
+    from tactile.foxglove import live as foxglove_live
 
     server = foxglove_live.LiveServer(port=0, rate_hz=0)
     gate = threading.Event()
-    monkeypatch.setattr(server, "_log", lambda m, ns: gate.wait(10))
+    monkeypatch.setattr(server, "_log", lambda m, ns: gate.wait(10))  # a publisher stuck
     frames = [Sample(i & 0xFFFF, 1000 * i, 0, 0, 1, 2, 3, 4, 5, 6) for i in range(6000)]
     started = time.perf_counter()
     server.feed(frames, [(0.0, 1.7e9)] * len(frames))
@@ -201,7 +206,7 @@ def test_the_queue_drops_and_counts_what_the_publisher_cannot_take(monkeypatch):
 
 
 def test_the_rate_keeps_contact_edges_and_survives_the_clock_wrap():
-    from tactile.output.foxglove_live import Decimator
+    from tactile.foxglove.live import Decimator
 
     d = Decimator(100.0)  # 10 ms by the board's clock
     start = C.TIMESTAMP_MODULO - 25_000
@@ -259,7 +264,7 @@ def test_the_sdk_speaks_the_protocol_under_its_new_name_only():
     that offers only ``foxglove.websocket.v1`` is refused (HTTP 400)."""
     from websockets.exceptions import InvalidStatus
 
-    from tactile.output.foxglove_live import LiveServer
+    from tactile.foxglove.live import LiveServer
 
     server = LiveServer(port=0)
     try:
@@ -275,7 +280,7 @@ def test_the_sdk_speaks_the_protocol_under_its_new_name_only():
 def test_the_sdk_drops_for_a_client_that_cannot_keep_up():
     """What the SDK does with a stalled client (it counts nothing we can read): it keeps
     ``BACKLOG`` messages for it and drops the oldest, and the publisher never waits."""
-    from tactile.output.foxglove_live import LiveServer
+    from tactile.foxglove.live import LiveServer
 
     server = LiveServer(port=0, rate_hz=0)
     try:
@@ -289,12 +294,13 @@ def test_the_sdk_drops_for_a_client_that_cannot_keep_up():
         client.subscribe(list(client.wait_for(["/tactile/sensor0/contact"])))
         for k in range(1, n, 1000):  # paced so that our own queue takes everything
             server.feed(frames[k : k + 1000], [(0.0, 1.7e9)] * 1000)
-            while server.queue.qsize() > 100:
+            while server.worker.queue.qsize() > 100:
                 time.sleep(0.01)
         deadline = time.monotonic() + 30
-        while server.published < n and time.monotonic() < deadline:
+        while server.stats()["published"] < n and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert server.stats()["published"] == n and server.dropped == 0
+        stats = server.stats()
+        assert stats["published"] == n and stats["dropped"] == 0
         got = 0
         with pytest.raises(TimeoutError):
             while True:
@@ -309,7 +315,7 @@ def test_the_sdk_drops_for_a_client_that_cannot_keep_up():
 def test_the_shipped_layout_reads_topics_we_publish():
     from conftest import ROOT
 
-    from tactile.recording.topics import SCENE_TOPICS, contact_topic, wrench_topic
+    from tactile.foxglove.topics import SCENE_TOPICS, contact_topic, wrench_topic
 
     ours = {wrench_topic(0), contact_topic(0), *SCENE_TOPICS}
     text = (ROOT / "docs" / "foxglove_layout.json").read_text()

@@ -180,7 +180,7 @@ def _sphere_cap(n=60, radius=0.05, seed=1):
 
 
 def test_a_patch_is_drawn_only_where_ep2_determines_it():
-    from tactile.recording import scene
+    from tactile.foxglove import scene
 
     pts, nrm = _sphere_cap()
     record, mesh = scene.fit_patch(pts, nrm, None)
@@ -202,7 +202,7 @@ def test_a_patch_is_drawn_only_where_ep2_determines_it():
 def test_transforms_carry_the_log_pose():
     from scipy.spatial.transform import Rotation
 
-    from tactile.recording import scene
+    from tactile.foxglove import scene
 
     for q in Rotation.random(50, random_state=3).as_quat():  # x, y, z, w
         R = Rotation.from_quat(q).as_matrix()
@@ -216,8 +216,8 @@ def test_the_ep2_worker_fits_the_latest_contacts_and_skips_stale_ones(monkeypatc
 
     import foxglove
 
-    from tactile.output import foxglove_scene
-    from tactile.recording import scene
+    from tactile.foxglove import live_scene, scene
+    from tactile.foxglove.topics import Topics
 
     gate, fitted = threading.Event(), []
 
@@ -227,7 +227,7 @@ def test_the_ep2_worker_fits_the_latest_contacts_and_skips_stale_ones(monkeypatc
         return {"shape": None, "error": "test"}, None
 
     monkeypatch.setattr(scene, "fit_patch", slow_fit)
-    pub = foxglove_scene.ScenePublisher(foxglove, foxglove.Context(), log=None)
+    pub = live_scene.ScenePublisher(Topics(foxglove, foxglove.Context()), log=None)
     pts, nrm = _sphere_cap()
     for n in (10, 20, 30, 40):  # the first starts, the next two are replaced by the last
         pub.request(pts[:n], nrm[:n], None, 0)

@@ -29,16 +29,18 @@ SCENE_MODELS = (
     "start-up: an emulated scene loads only its own motion's models"
     " (tests/test_scene_imports.py, tests/test_emulator_board.py)"
 )
-LIVE_SCENE = "start-up: the Foxglove scene (NumPy) loads only for a server given a robot log"
+LIVE_SCENE = (
+    "start-up: tactile live imports the server's module; the scene (NumPy, EP2) loads only"
+    " for a server given a robot log"
+)
+LIVE_FIT = (
+    "start-up: tactile live imports the server's module; the arrivals' fit (NumPy) loads"
+    " only for live --foxglove"
+)
 SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_imports.py)"
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
-CYCLE_LOCALIZE = "cycle through tactile.localize's __init__, which imports this module"
-CYCLE_RECORDING = (
-    "cycle: recover imports files (test_layers.KNOWN_CYCLES); recording is being split"
-)
 CYCLE_EMULATOR = "cycle: the cores import cores.cache_dir (test_layers.KNOWN_CYCLES)"
 RECORD_EXPORT = "to lift: cmd_record and cmd_export are being reworked against data loss"
-LIFT_RECORDING = "to lift: tactile.recording is being split"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
 LIFT_EMULATOR = "to lift: the emulator's cores and servers are being redesigned"
 LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
@@ -57,7 +59,7 @@ DEFERRED = {
         "make_board: tactile_fw.frontend": BOARD_RAM,
     },
     "host/tactile/__init__.py": {
-        "__getattr__: tactile.recording.load": LIGHT_PACKAGE,
+        "__getattr__: tactile.payload.recorded": LIGHT_PACKAGE,
     },
     "host/tactile/board/flashing.py": {
         "flash: tactile.board (x2)": LIFT_BOARD,
@@ -73,100 +75,29 @@ DEFERRED = {
         "run: tactile.files.folder_lock": RECORD_EXPORT,
         "_export: tactile.recording.load": RECORD_EXPORT,
         "_export: tactile.output.textout": RECORD_EXPORT,
-        "run: tactile.recording.export_mcap (x2)": RECORD_EXPORT,
-        "run: tactile.localize.pose_log": RECORD_EXPORT,
+        "run: tactile.foxglove.export_mcap (x2)": RECORD_EXPORT,
+        "run: tactile.logs.pose": RECORD_EXPORT,
     },
     "host/tactile/cli/cmd_record.py": {
         "run: tactile.files.folder_lock": RECORD_EXPORT,
         "_run: tactile.recording.session": RECORD_EXPORT,
-        "_run: tactile.recording.log_clock (x2)": RECORD_EXPORT,
-        "_run: tactile.recording.derive (x2)": RECORD_EXPORT,
+        "_run: tactile.logs.clock (x2)": RECORD_EXPORT,
+        "_run: tactile.commands.derive (x2)": RECORD_EXPORT,
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },
     "host/tactile/ep1/from_ft.py": {},
     "host/tactile/ep1/probes_csv.py": {},
+    "host/tactile/foxglove/live.py": {
+        "LiveServer.__init__: tactile.foxglove.live_scene": LIVE_SCENE,
+        "LiveServer._stamp: tactile.recording.timebase": LIVE_FIT,
+    },
     "host/tactile/ep2/api.py": {
         "analyze_patch: tactile.ep2": SPLINE_SCIPY,
     },
     "host/tactile/ep2/many.py": {},
     "host/tactile/ep2/uncertainty.py": {},
-    "host/tactile/localize/pose_log.py": {
-        "_scan: tactile.files.csv_dialect": LIFT_RECORDING,
-        "read_pose_log: tactile.files.tabular": LIFT,
-        "read_pose_log: tactile.recording.log_clock": LIFT,
-        "read_pose_log: tactile.localize.kinematics": CYCLE_LOCALIZE,
-        "_start_column: tactile.recording.log_clock": LIFT,
-    },
-    "host/tactile/localize/posed.py": {
-        "normal_sd: tactile.localize.sphere": CYCLE_LOCALIZE,
-        "posed_world_contacts: tactile.localize.pipeline (x2)": CYCLE_LOCALIZE,
-    },
-    "host/tactile/output/foxglove_live.py": {
-        "LiveServer.__init__: tactile.errors": LIFT_BOARD,
-        "LiveServer.__init__: tactile.output.foxglove_scene": LIVE_SCENE,
-        "LiveServer.follow: tactile.board.client": LIFT_BOARD,
-        "LiveServer._stamp: tactile.recording.timebase": LIVE_SCENE,
-        "LiveServer._log: tactile.board.settings": LIFT_BOARD,
-    },
-    "host/tactile/output/foxglove_scene.py": {
-        "ScenePublisher.__init__: tactile.recording.live_contacts": LIFT_BOARD,
-    },
-    "host/tactile/output/plots.py": {
-        "plain_text: tactile.output.textout": LIFT,
-        "_contacts: tactile.ep2.patch_frame": LIFT,
-    },
-    "host/tactile/recording/derive.py": {
-        "check_log: tactile.localize.pose_log": LIFT_RECORDING,
-        "check_log: tactile.ep1.from_ft": LIFT_RECORDING,
-        "derive: tactile.board.stream_decoder": LIFT_RECORDING,
-        "derive: tactile.files": LIFT_RECORDING,
-        "derive: tactile.localize.pose_log": LIFT_RECORDING,
-        "derive: tactile.recording.meta": LIFT_RECORDING,
-        "derive: tactile.recording.timebase": LIFT_RECORDING,
-        "_log_clock: tactile.recording.log_clock": LIFT_RECORDING,
-        "_derive_posed: tactile.localize": LIFT_RECORDING,
-        "_derive_posed: tactile.localize.pose_log": LIFT_RECORDING,
-        "_derive_posed: tactile.localize.posed": LIFT_RECORDING,
-        "_derive_probes: tactile.ep1.from_ft": LIFT_RECORDING,
-        "_derive_probes: tactile.ep1.probes_csv": LIFT_RECORDING,
-    },
-    "host/tactile/recording/export_mcap.py": {
-        "_scene: tactile.recording": LIFT_RECORDING,
-        "_transforms: tactile.localize.posed": LIFT_RECORDING,
-        "_transforms: tactile.recording": LIFT_RECORDING,
-        "_transforms: tactile.recording.live_contacts": LIFT_RECORDING,
-        "_write_scene: tactile.recording": LIFT_RECORDING,
-    },
-    "host/tactile/recording/files.py": {
-        "Recording._start: tactile.recording.recover": LIFT_RECORDING,
-        "read_frames: tactile.files.tabular": LIFT_RECORDING,
-    },
-    "host/tactile/recording/live_contacts.py": {
-        "LiveContacts._start: tactile.recording.derive": LIFT_RECORDING,
-        "LiveContacts.add: tactile.localize.posed": LIFT_RECORDING,
-        "LiveContacts.add: tactile.recording.derive": LIFT_RECORDING,
-        "sensor_pose: tactile.localize.kinematics": LIFT_RECORDING,
-    },
-    "host/tactile/recording/load.py": {
-        "_contacts: tactile.ep2.contacts_csv": LIFT_RECORDING,
-        "_contacts: tactile.files.tabular": LIFT_RECORDING,
-        "_contacts_unit: tactile": LIFT_RECORDING,
-        "_contacts_unit: tactile.localize.pose_log": LIFT_RECORDING,
-    },
-    "host/tactile/recording/recover.py": {
-        "complete_frames: tactile": LIFT_RECORDING,
-        "readings: tactile.board.stream_decoder": LIFT_RECORDING,
-    },
-    "host/tactile/recording/scene.py": {
-        "fit_patch: tactile.ep2.api": LIFT_RECORDING,
-        "fit_patch: tactile.errors": LIFT_RECORDING,
-    },
     "host/tactile/recording/session.py": {},
-    "host/tactile/recording/timebase.py": {
-        "recorded_times: tactile.board.stream_decoder": LIFT_RECORDING,
-        "recorded_times: tactile.errors": LIFT_RECORDING,
-    },
     "host/tactile/units.py": {
         "stated: tactile.files.csv_dialect": LIFT,
     },
@@ -255,7 +186,7 @@ DEFERRED = {
         "analyse: tactile.ep2": LIFT_REPLICA,
         "replicate: tactile": LIFT_REPLICA,
         "replicate: tactile.ep2.contacts_csv": LIFT_REPLICA,
-        "replicate: tactile.recording.derive": LIFT_REPLICA,
+        "replicate: tactile.commands.derive": LIFT_REPLICA,
         "replicate: tactile.recording.files": LIFT_REPLICA,
         "replicate: tactile.recording.session": LIFT_REPLICA,
         "replicate: tactile_sim.emulator": LIFT_REPLICA,

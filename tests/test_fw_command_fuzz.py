@@ -124,7 +124,9 @@ def test_the_board_survives_a_barrage_and_keeps_answering(frames, data):
     enc = FrameEncoder(0xBEEF)
     board.write_host(b"\0" + bytes(enc.encode(C.CMD_PING, 0, ())))  # 0x00 ends a torn frame
     board.write_host(bytes(enc.encode(C.CMD_GET_INFO, 0, ())))
-    msgs = _answers(board, decoder)
+    # 50 ms of board time: after a barrage the link may still carry its answers (NAKs) ahead
+    # of these, and INFO (with its board id) is the largest frame a command gets
+    msgs = _answers(board, decoder, 50_000)
     replies = [(m.type_name, m.cmd_type, m.cmd_seq) for m in msgs if m.type_name == "ACK"]
     assert ("ACK", C.CMD_PING, 0xBEEF) in replies
     assert ("ACK", C.CMD_GET_INFO, 0xBEEF + 1) in replies

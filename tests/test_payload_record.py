@@ -9,10 +9,10 @@ from conftest import load_bench
 
 from tactile.board.stream_decoder import decode_bytes
 from tactile.cli.main import main
-from tactile.payload import Orientations, Tool, write_tool
+from tactile.commands.derive import derive
+from tactile.payload import Orientations, Tool, read_tool, write_tool
 from tactile.payload.live import Following
-from tactile.payload.orientation import ANY
-from tactile.recording.derive import derive
+from tactile.payload.orientation import ANY, read_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene
@@ -146,3 +146,29 @@ def test_following_a_stream_batch_by_batch_drops_the_weights_contacts():
     assert any(m.type_code == C.MSG_CONTACT for m in msgs)
     assert not any(m.type_code == C.MSG_CONTACT for m in seen)
     assert following.report()[0]["bias_from"] == "the host's tare"
+
+
+def test_record_serves_foxglove_the_compensated_stream(tmp_path, poses, mocker):
+    """record --foxglove --payload: the server is fed what the host compensates, batch by
+    batch, the same frames as the whole capture compensated at once; not the board's."""
+    from tactile.foxglove.live import LiveServer
+
+    fed = []
+    real = LiveServer.follow
+    mocker.patch.object(
+        LiveServer, "follow", lambda self, s, m, h: (fed.extend(m), real(self, s, m, h))
+    )
+    tool = tool_file(tmp_path / "t.json", mass_kg=0.2)
+    out = tmp_path / "run"
+    assert record(out, poses, "--payload", tool, "--foxglove", "--foxglove-port", "0") == 0
+    msgs, _ = decode_bytes((out / "capture.bin").read_bytes())
+    meta = json.loads((out / "meta.json").read_text())
+    log, orient = read_log(poses)
+    whole, _, _ = Following([read_tool(tool)], orient).feed(msgs, meta["device"])
+
+    def sensor0(frames):
+        return [m for m in frames if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT) and m.sensor == 0]
+
+    online, offline = sensor0(fed), sensor0(whole)
+    assert len(online) > 1000 and online == offline[: len(online)]
+    assert online != sensor0(msgs)[: len(online)]

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from drift_port import DriftingPort
 
-from tactile.localize.pose_log import read_pose_log
+from tactile.commands.derive import derive
 from tactile.localize.posed import window_index
-from tactile.recording.derive import derive
-from tactile.recording.log_clock import CLOCKS, log_end
+from tactile.logs.clock import CLOCKS, log_end
+from tactile.logs.pose import read_pose_log
 from tactile.recording.session import Session
 from tactile_sim.emulator import load_scene
 

@@ -1,15 +1,16 @@
 """One module owns the robot logs' format (issue 15): every simulator robot writes through
-``tactile.recording.robot_log`` and each log reads back through the host's reader bit for bit."""
+``tactile.logs.robot_log`` and each log reads back through the host's reader bit for bit."""
 
 import numpy as np
 import pytest
 
 from tactile import units
-from tactile.ep1.from_ft import read_probe_log
 from tactile.files.tabular import read_csv
 from tactile.localize.kinematics import pose_from_quaternion
-from tactile.localize.pose_log import read_pose_log
-from tactile.recording import robot_log
+from tactile.localize.posed import sensor_poses
+from tactile.logs import robot_log
+from tactile.logs.pose import read_pose_log
+from tactile.logs.probe import read_probe_log
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene
 
@@ -55,10 +56,11 @@ def test_the_sweeps_pose_log_reads_back_bit_for_bit(tmp_path, scene):
     _exact(log.t_start, rows[:, 0].astype(np.int64))
     _exact(log.t_end, rows[:, 1].astype(np.int64))
     _exact(log.finger, rows[:, 2].astype(int))
-    _exact(log.t, rows[:, 3:6])
-    q = read_csv(path, robot_log.COLUMNS["pose"]).within(("qw", "qx", "qy", "qz"), 2.0)
-    _exact(q, rows[:, 6:])  # the quaternion as written, before the reader's rotation
-    _exact(log.R, pose_from_quaternion(rows[:, 3:6], rows[:, 6:], scalar_first=True)[0])
+    _exact(log.position, rows[:, 3:6])
+    _exact(log.quaternion, rows[:, 6:])  # as written; the rotation is localize's
+    R, t = sensor_poses(log, np.arange(len(log)))
+    _exact(R, pose_from_quaternion(rows[:, 3:6], rows[:, 6:], scalar_first=True)[0])
+    _exact(t, rows[:, 3:6])
     centre, radius, axis = motion.probe()
     assert log.probe["radius"] == radius
     _exact(log.probe["centre"], centre)
@@ -100,7 +102,7 @@ def test_a_log_in_a_host_clock_reads_back_in_that_clock(tmp_path, clock):
     assert log.clock == clock and log.end_us == 1_765_000_002_000_000
     _exact(log.t_start, [1_765_000_000_250_000, 1_765_000_001_000_000])
     _exact(log.t_end, [1_765_000_000_500_000, 1_765_000_001_125_000])
-    _exact(log.t, [r[3:6] for r in rows])
+    _exact(log.position, [r[3:6] for r in rows])
 
 
 def test_every_kinds_units_line_is_what_the_readers_accept():

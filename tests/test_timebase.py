@@ -19,7 +19,9 @@ from tactile.recording.timebase import (
 
 
 def hello(t, boot):
-    return Hello(0, t, 0, 1, 0, 3, b"X", 1, 1000, 0, 0, 0, 0, 1000, 1, 1, 1, 0, boot, 0, 0, 0, 0)
+    return Hello(
+        0, t, 0, 1, 0, 3, b"X", 1, 1000, 0, 0, 0, 0, 1000, 1, 1, 1, 0, boot, 0, 0, 0, 0, bytes(8)
+    )
 
 
 def sample(t, seq=1):

@@ -42,6 +42,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile.errors import InputError
 from tactile.files.atomic import atomic_write
+from tactile.output.textout import printable
 from tactile_sim.emulator.ft_model import sensitivity_matrix
 
 __all__ = ["DRIFTS", "FAMILIES", "N_CASES", "OBJECTS", "Case", "Sealed", "cases", "scene_toml",
@@ -274,7 +275,7 @@ def main(argv=None):
         paths = write_cases(args.directory, args.split, final=args.final)
     except Sealed as exc:
         raise InputError(f"held_out: {exc}") from None
-    print(f"{len(paths)} {args.split} cases in {args.directory}")
+    print(printable(f"{len(paths)} {args.split} cases in {args.directory}"))
     return 0
 
 
@@ -282,5 +283,5 @@ if __name__ == "__main__":
     try:
         sys.exit(main())
     except InputError as exc:
-        print(f"weight_cases: error: {exc}", file=sys.stderr)
+        print(printable(f"weight_cases: error: {exc}"), file=sys.stderr)
         sys.exit(2)

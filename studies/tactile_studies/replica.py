@@ -1,7 +1,7 @@
 """The chapter 5 experiment replicated (thesis §5.1-5.2, tables 5-7).
 
 The recorded contact frames and the robot's pose log become world contacts in
-``tactile.recording.derive`` (wheel probe, eqs. 60-62); here the contacts become a patch
+``tactile.commands.derive`` (wheel probe, eqs. 60-62); here the contacts become a patch
 analysis with tangent- and position-weighted biquadratic fits on an 8x8 grid,
 and the thesis's tables 5-7 to print beside it.
 """
@@ -49,8 +49,8 @@ def replicate(kind, outdir, via="pty"):
     import pathlib
 
     from tactile import units
+    from tactile.commands.derive import derive
     from tactile.ep2.contacts_csv import read_contacts
-    from tactile.recording.derive import derive
     from tactile.recording.files import remove_recording
     from tactile.recording.session import Session
     from tactile_sim.emulator import load_scene

@@ -1,6 +1,6 @@
 """``tactile export RUN --format mcap|parquet [-o FILE]``: a recording other tools open.
 
-``mcap``: ROS 2 messages (``tactile.recording.export_mcap``) for Foxglove and ROS 2 tools; it needs
+``mcap``: ROS 2 messages (``tactile.foxglove.export_mcap``) for Foxglove and ROS 2 tools; it needs
 the ``export`` extra.  ``parquet``: the frames (and contacts) as tables with units
 (``tactile.recording.export_parquet``) for pandas and Arrow; it needs the ``parquet`` extra.
 Without
@@ -55,8 +55,8 @@ def run(args):
         from tactile.recording.export_parquet import require_pyarrow as require
         from tactile.recording.export_parquet import write_parquet as write
     else:
-        from tactile.recording.export_mcap import require_mcap as require
-        from tactile.recording.export_mcap import write_mcap as write
+        from tactile.foxglove.export_mcap import require_mcap as require
+        from tactile.foxglove.export_mcap import write_mcap as write
     require()  # the install hint before any work
     run_dir = pathlib.Path(args.run)
     if not run_dir.is_dir():
@@ -67,7 +67,7 @@ def run(args):
     if args.pose_log:
         if args.format != "mcap":
             raise InputError("--pose-log is for --format mcap (the sensors' transforms)")
-        from tactile.localize.pose_log import read_pose_log
+        from tactile.logs.pose import read_pose_log
 
         pose_log = read_pose_log(args.pose_log)
     outs = [out] if args.format == "mcap" else [out, contacts_path(out)]

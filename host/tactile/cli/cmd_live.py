@@ -98,8 +98,8 @@ def _device(client):
 
 def _view(client, duration, live=None, following=None):
     """Draw the board's state until ``duration`` s have passed (or Ctrl-C); ``live``: a
-    ``tactile.output.foxglove_live.LiveServer`` fed every batch; ``following``: a tool's
-    weight removed first."""
+    ``tactile.foxglove.live.LiveServer`` fed every batch; ``following``: a tool's weight
+    removed first."""
     state, tty = LiveState(), sys.stdout.isatty()
     start = last = time.monotonic()
     drawn = 0

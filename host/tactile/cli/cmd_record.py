@@ -96,8 +96,8 @@ def _run(args):
         connect(args)  # raises the 'no port given' message
     until = posed = log = None
     if args.pose_log:
-        from tactile.recording.derive import check_log
-        from tactile.recording.log_clock import log_end
+        from tactile.commands.derive import check_log
+        from tactile.logs.clock import log_end
 
         log = check_log(args.pose_log)  # a bad log is refused before recording, not after
         end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
@@ -128,7 +128,7 @@ def _run(args):
         foxglove_args.stop(live, quiet=True)
         raise
     if until is not None and not args.quiet:
-        from tactile.recording.log_clock import show_time
+        from tactile.logs.clock import show_time
 
         print(
             printable(
@@ -152,7 +152,7 @@ def _run(args):
     print(printable(summary(meta, args.out)))  # the folder is the user's
     print(printable(time_summary(meta.get("time_base"))))
     if args.pose_log:
-        from tactile.recording.derive import derive
+        from tactile.commands.derive import derive
 
         lines = derive(args.out, args.pose_log, per_contact=args.per_contact, payload=tools)
         for line in lines:

@@ -1,16 +1,16 @@
 """``--foxglove`` and its options, shared by ``tactile live`` and ``tactile record``: a
-Foxglove WebSocket server of the board's frames (``tactile.output.foxglove_live``, the
+Foxglove WebSocket server of the board's frames (``tactile.foxglove.live``, the
 ``foxglove`` extra) beside what the command does.  Its lines go to stderr."""
 
 import sys
 
 from tactile.errors import InputError
-from tactile.output.foxglove_live import LiveServer, require_foxglove
+from tactile.foxglove.live import LiveServer, require_foxglove
 from tactile.output.textout import printable
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
-DEFAULT_RATE_HZ = 100.0  # tactile.output.foxglove_live.DEFAULT_RATE_HZ
+DEFAULT_RATE_HZ = 100.0  # tactile.foxglove.live.DEFAULT_RATE_HZ
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
 

@@ -17,9 +17,11 @@ points (pyproject.toml), as python-can's interfaces do:
   (``sim = "tactile_sim.urlhandler:register"``), called when a port of that scheme is named.
 
 A package whose commands are registered but not installed is left out; running one of its
-commands says so in one line.  Also here, the words every command shares (``words``) and
-those ``tactile ep1`` and ``tactile sim ep1`` share (``ep1_estimate``).  Nothing here
-imports the CLI, the simulator or the studies, so each of them may import it.
+commands says so in one line.  Also here, the words every command shares (``words``), those
+``tactile ep1`` and ``tactile sim ep1`` share (``ep1_estimate``), and the post-run pipeline
+that ``tactile record --pose-log`` and the chapter 5 replica share (``derive``: it draws on
+the recording, the robot logs, localisation and EP1, so it sits above them all).  Nothing
+here imports the CLI, the simulator or the studies, so each of them may import it.
 """
 
 from typing import NamedTuple

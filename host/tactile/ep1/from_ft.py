@@ -7,174 +7,20 @@ robot holds still at the probe's start and at its end; the two contact points, m
 to the fingertip parameters of eq. 20, give dp = (du, dv), and the robot's commanded rotation
 gives dtheta: the rows of the probes CSV (``probes_csv``), with eq. 29's signs.
 
-The probe log (written by the robot controller; ``tactile_sim``'s ``motion_roll`` writes one)::
-
-    # probe: sphere radius_m=0.01 centre_m=0.05,0,0
-    # hold: half_width_us=80000          (optional: readable time on each side of a logged time)
-    probe,t_start_us,t_end_us,dtheta_x,dtheta_y
-    0,800000,1300000,0.5,0.0
-
-A log may also give the sensor's orientation in the world during each hold (world from
-sensor, unit quaternion scalar first): ``qw,qx,qy,qz`` at the probe's start and
-``qw_end,qx_end,qy_end,qz_end`` at its end, which removing a tool's weight needs
-(``tactile.payload``).  The times may be in the host's clocks instead
-(``t_start_utc_s,t_end_utc_s`` or ``t_start_mono_s,t_end_mono_s``), and ``# end: t_us=N``
-says when the robot is done (``tactile.recording.log_clock``).
+The probe log (its format, clocks and reader: ``tactile.logs.probe``) gives, per probe, a
+time in the hold at its start and at its end, the commanded rotation and the fingertip.
 
 Frames: the fingertip frame has the sensor's axes, its centre at ``centre_m`` in the sensor
 frame and its pole (u = v = 0 of eq. 20) along the sensor's +x.
 """
 
-from typing import NamedTuple
-
 import numpy as np
 
-from tactile import units
-from tactile.errors import InputError, where
-from tactile.files.csv_dialect import comment_lines, preamble, show
-from tactile.files.tabular import read_csv
+from tactile.errors import InputError
 from tactile.localize.contact import STATUS
 from tactile.localize.sphere import sphere_contact
-from tactile.recording.log_clock import CLOCKS, clock_of, parse_end, read_times
-from tactile.recording.robot_log import ATTITUDE, COLUMNS, tag
 
-__all__ = ["ProbeLog", "read_probe_log", "fingertip_uv", "probes_from_frames", "probe_report"]
-
-LOG_COLUMNS = COLUMNS["probe"]  # the format's (tactile.recording.robot_log, which writes it too)
-PROBE_TAG, HOLD_TAG, END_TAG = tag("probe"), tag("hold"), tag("end")
-MAX_TIME_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
-MAX_PROBE = 2**31 - 1
-LIMIT = 1e6  # |value| of a length (m) or an angle (rad)
-MIN_RADIUS_M = 1e-6  # the fingertip's radius
-QUATS = ATTITUDE  # optional: the sensor's orientation in the world in each end's hold
-
-
-class ProbeLog(NamedTuple):
-    """A robot's log of EP1 probes: arrays with one row per probe."""
-
-    path: str
-    probe: np.ndarray  # (m,) int
-    t_start_us: np.ndarray  # (m,) int64, a time in the hold at the probe's start
-    t_end_us: np.ndarray  # (m,) int64, a time in the hold at its end
-    dtheta: np.ndarray  # (m, 2) commanded rotation (x, y), contact frame at the start (eq. 29)
-    radius_m: float  # fingertip radius R1
-    centre_m: np.ndarray  # (3,) fingertip centre in the sensor frame
-    half_width_us: float | None  # readable time on each side of a logged time, if logged
-    lines: list  # source line of each row
-    clock: str = "board"  # of t_start_us/t_end_us: "board", "utc" or "monotonic" (us each)
-    end_us: int | None = None  # the '# end:' line's time, in that clock
-    q_start: np.ndarray | None = None  # (m, 4) w, x, y, z: the sensor's orientation in the
-    q_end: np.ndarray | None = None  # world during the hold at the start and at the end
-
-
-def _fields(path, line_no, tokens, tag):
-    out = {}
-    for token in tokens:
-        key, eq, value = token.partition("=")
-        if not eq or not value:
-            raise InputError(
-                f"{where(path, line_no)}: expected key=value in {tag!r}, got {show(token)}"
-            )
-        out[key] = value
-    return out
-
-
-def _floats(path, line_no, key, text, n, limit=LIMIT):
-    try:
-        values = [float(x) for x in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) != n or not all(abs(v) <= limit for v in values):
-        what = "a number" if n == 1 else f"{n} comma-separated numbers"
-        what += f" within +-{limit:g}"
-        raise InputError(f"{where(path, line_no, key)}: expected {what}, got {show(text)}")
-    return values
-
-
-def _header(path):
-    head = comment_lines(path)
-    probe = next(((i, t) for i, t in head if t.startswith(PROBE_TAG)), None)
-    if probe is None:
-        raise InputError(
-            f"{where(path, 1)}: missing the '# probe: sphere radius_m=R centre_m=X,Y,Z' line"
-        )
-    line_no, text = probe
-    tokens = text[len(PROBE_TAG) :].split()
-    if tokens[:1] != ["sphere"]:
-        raise InputError(f"{where(path, line_no)}: the probe must be 'sphere', got {show(text)}")
-    f = _fields(path, line_no, tokens[1:], PROBE_TAG)
-    for key in ("radius_m", "centre_m"):
-        if key not in f:
-            raise InputError(f"{where(path, line_no, key)}: missing in the '# probe:' line")
-    (radius,) = _floats(path, line_no, "radius_m", f["radius_m"], 1)
-    if radius < MIN_RADIUS_M:
-        raise InputError(
-            f"{where(path, line_no, 'radius_m')}: must be at least {MIN_RADIUS_M:g}, got {radius!r}"
-        )
-    centre = _floats(path, line_no, "centre_m", f["centre_m"], 3)
-    half = None
-    hold = next(((i, t) for i, t in head if t.startswith(HOLD_TAG)), None)
-    if hold is not None:
-        h = _fields(path, hold[0], hold[1][len(HOLD_TAG) :].split(), HOLD_TAG)
-        if "half_width_us" not in h:
-            raise InputError(f"{where(path, hold[0], 'half_width_us')}: missing in '# hold:'")
-        (half,) = _floats(path, hold[0], "half_width_us", h["half_width_us"], 1, MAX_TIME_US)
-        if half < 0.0:
-            raise InputError(f"{where(path, hold[0], 'half_width_us')}: must be >= 0")
-    return radius, np.array(centre), half
-
-
-def read_probe_log(path):
-    """Read a probe log (module docstring); errors are one-line InputErrors naming
-    file:line and column."""
-
-    units.check_stated(path, units.LOG_WORDS, units.LOG_WHAT)
-    radius, centre, half = _header(path)
-    _, header_line, header = preamble(path)
-    clock = clock_of(path, header_line, {h.strip() for h in header}) or "board"
-    table = read_csv(
-        path, (LOG_COLUMNS[0],) + CLOCKS[clock][:2] + LOG_COLUMNS[3:], optional_float=QUATS
-    )
-    probe = table.whole("probe", 0, MAX_PROBE)
-    t_start, t_end = read_times(table, clock)
-    end = next(((i, t) for i, t in comment_lines(path) if t.startswith(END_TAG)), None)
-    return ProbeLog(
-        str(path),
-        probe,
-        t_start,
-        t_end,
-        table.within(("dtheta_x", "dtheta_y"), LIMIT),
-        radius,
-        centre,
-        half,
-        list(table.lines),
-        clock,
-        None if end is None else parse_end(path, end[0], end[1][len(END_TAG) :], clock),
-        *_orientations(table),
-    )
-
-
-def _orientations(table):
-    """(q_start, q_end) (m, 4) unit quaternions of the optional columns, or (None, None);
-    InputError on half of them or a quaternion that is not of unit length."""
-    have = [c for c in QUATS if c in table.columns]
-    if not have:
-        return None, None
-    if len(have) < len(QUATS):
-        missing = ",".join(c for c in QUATS if c not in have)
-        raise InputError(f"{where(table.path, 1)}: orientation columns without {missing}")
-    out = []
-    for names in (QUATS[:4], QUATS[4:]):
-        q = table.within(names, 1.0 + 1e-3)
-        norm = np.linalg.norm(q, axis=1)
-        bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
-        if bad.size:
-            raise InputError(
-                f"{where(table.path, table.lines[bad[0]], names[0])}: quaternion"
-                f" ({','.join(names)}) is not unit length (|q| = {norm[bad[0]]:.6g})"
-            )
-        out.append(q / norm[:, None])
-    return tuple(out)
+__all__ = ["fingertip_uv", "probes_from_frames", "probe_report"]
 
 
 def fingertip_uv(point, radius):
@@ -212,7 +58,6 @@ def _windows(log, t_us, average, half_width_us):
 
 
 def _derive(log, t_us, wrench, threshold, average, half_width_us):
-
     if average is not None and (int(average) != average or average < 1):
         raise InputError(f"average: expected a whole number >= 1, got {average!r}")
     w = np.asarray(wrench, float).reshape(-1, 6)
@@ -250,7 +95,7 @@ def _derive(log, t_us, wrench, threshold, average, half_width_us):
 
 
 def probes_from_frames(log, t_us, wrench, threshold=0.0, average=None, half_width_us=None):
-    """Probes CSV rows from recorded CONTACT frames and a ``ProbeLog``.
+    """Probes CSV rows from recorded CONTACT frames and a ``ProbeLog`` (``tactile.logs.probe``).
 
     ``t_us`` (n,) frame timestamps, ``wrench`` (n, 6) in N and N*m (sensor frame).  Per probe
     end, the frames within the hold window (``half_width_us``, default the log's) around the

@@ -2,7 +2,9 @@
 
 Conventions (docs/localize.md): wrenches are the load ON THE PROBE (ATI's convention) in the
 sensor frame, moments about the sensor origin; returned normals are the OBJECT's outward
-normals (from the object toward the probe), as the EP2 contacts CSV expects.
+normals (from the object toward the probe), as the EP2 contacts CSV expects.  The robot's
+pose log is read by ``tactile.logs.pose``; which CONTACT frames are readings is
+``readings``.
 """
 
 from tactile.localize.contact import STATUS, Contact
@@ -15,8 +17,8 @@ from tactile.localize.kinematics import (
     to_world,
 )
 from tactile.localize.pipeline import posed_contacts, scara_contacts
-from tactile.localize.pose_log import read_pose_log
-from tactile.localize.posed import posed_world_contacts
+from tactile.localize.posed import posed_world_contacts, sensor_poses
+from tactile.localize.readings import Readings, contact_frames
 from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
 from tactile.localize.wheel import rim_contact, wheel_contact, wheel_theta
 
@@ -33,8 +35,10 @@ __all__ = [
     "sphere_contact_frictionless",
     "scara_contacts",
     "posed_contacts",
-    "read_pose_log",
     "posed_world_contacts",
+    "sensor_poses",
+    "Readings",
+    "contact_frames",
     "rim_contact",
     "wheel_contact",
     "wheel_theta",

@@ -1,8 +1,9 @@
 """CONTACT frames placed in the world through a robot's pose log (§5.1.1, §5.1.2).
 
-The log itself (formats, clocks, reading) is ``tactile.localize.pose_log``.
-``posed_world_contacts`` takes the decoded CONTACT frames (time, sensor, wrench), finds the
-window of each frame's finger that covers it, localises the contact on the probe from force
+The log itself (formats, clocks, reading) is ``tactile.logs.pose``; ``sensor_poses`` turns
+its windows into sensor poses (R, t).  ``posed_world_contacts`` takes the decoded CONTACT
+frames (time, sensor, wrench), finds the window of each frame's finger that covers it,
+localises the contact on the probe from force
 and moment (``sphere_contact``, valid with friction) and maps it to the world (``to_world``).
 A window's pose is taken as constant over the window: the log must say where the robot
 held still (``tactile_sim.emulator.motion_sweep`` holds it exactly).  Frames outside every
@@ -24,12 +25,16 @@ import numpy as np
 
 from tactile.errors import InputError
 from tactile.localize.contact import NO_CONTACT
+from tactile.localize.kinematics import pose_from_quaternion, scara_pose
+from tactile.localize.pipeline import posed_contacts, scara_contacts
+from tactile.localize.sphere import sphere_contact
 
 __all__ = [
     "PoseReport",
     "PosedContacts",
     "posed_world_contacts",
     "window_index",
+    "sensor_poses",
     "normal_sd",
     "MAX_NORMAL_SD_DEG",
 ]
@@ -105,8 +110,6 @@ def normal_sd(force, moment, centre, radius, noise):
     differences, and sqrt(sum_j sigma_j^2 |dn/dw_j|^2) returned (n,).  At a press on the
     pole with |F| = f this is sqrt(sM_y^2 + sM_z^2 + (c + r)^2 (sF_y^2 + sF_z^2)) / (f r).
     """
-    from tactile.localize.sphere import sphere_contact
-
     F = np.asarray(force, dtype=float).reshape(-1, 3)
     M = np.asarray(moment, dtype=float).reshape(-1, 3)
     sigma = np.asarray(noise, dtype=float).ravel()
@@ -148,6 +151,18 @@ def window_index(log, t_us, sensor, latency_us=0):
         hit = (k >= 0) & (t[mine] <= log.t_end[rows[kk]])
         out[mine[hit]] = rows[kk[hit]]
     return out
+
+
+def sensor_poses(log, rows):
+    """(R (k, 3, 3), t (k, 3) m): the sensor's pose in windows ``rows`` of ``log``: the
+    logged position and quaternion, or a SCARA log's eq. 62 arm (its link lengths L1, L2;
+    1 m each when the log has no ``# rig:`` line)."""
+    rows = np.asarray(rows, dtype=int)
+    if log.kind == "scara":
+        L1, L2 = (log.lengths or (1.0, 1.0))[:2]
+        q1, q2, q3, z = log.joints[rows].T
+        return scara_pose(q1, q2, q3, z, L1, L2)
+    return pose_from_quaternion(log.position[rows], log.quaternion[rows], scalar_first=True)
 
 
 def posed_world_contacts(
@@ -197,8 +212,6 @@ def posed_world_contacts(
     rows = idx[inside]
     F, M = W[inside, :3], W[inside, 3:]
     if log.kind == "scara":
-        from tactile.localize.pipeline import scara_contacts
-
         lengths = log.lengths if lengths is None else lengths
         if lengths is None:
             raise InputError(
@@ -207,8 +220,6 @@ def posed_world_contacts(
             )
         contact, _ = scara_contacts(F, M, log.joints[rows], lengths, threshold, method)
     else:
-        from tactile.localize.pipeline import posed_contacts
-
         probe = log.probe or {}
         c = probe.get("centre") if centre is None else centre
         r = probe.get("radius") if radius is None else radius
@@ -218,7 +229,8 @@ def posed_world_contacts(
                 f"{log.path}: no '# probe: sphere radius_m=R centre_m=cx,cy,cz' line;"
                 " give the fingertip's centre and radius"
             )
-        contact = posed_contacts(F, M, log.R[rows], log.t[rows], c, r, threshold, axis=ax)
+        R, t_m = sensor_poses(log, rows)
+        contact = posed_contacts(F, M, R, t_m, c, r, threshold, axis=ax)
     usable = np.asarray(contact.usable)
     names = np.array(contact.status_names(), dtype=object)
     unusable = int(np.sum(~usable & (contact.status != NO_CONTACT)))

@@ -1,7 +1,12 @@
 """The robot's logs beside a recording, as files: their formats, below every reader and writer.
 
-``robot_log``: the pose, SCARA-joint and probe logs (columns, units line, comment tags, the
-writer).  The simulator's robots write them; the host's localisation (``tactile.localize``),
-EP1 (``tactile.ep1``) and the recording's clock join (``tactile.recording.log_clock``) read
-them.  Nothing here imports the rest of the host but ``tactile.units``.
+- ``robot_log``: the pose, SCARA-joint and probe logs (columns, units line, comment tags, the
+  writer); the simulator's robots write through it;
+- ``tags``, ``clock``: the ``# tag:`` lines before a log's header, and which clock its times
+  are in and when it ends;
+- ``pose``, ``probe``: the readers, a ``PoseLog`` (``tactile.localize`` places contacts in
+  the world through it) and a ``ProbeLog`` (``tactile.ep1.from_ft`` makes probes of it).
+
+Nothing here imports the rest of the host but its vocabulary (``tactile.units``,
+``tactile.errors``) and its file readers (``tactile.files``).
 """

@@ -3,26 +3,26 @@
 The F/T wire carries no pose, so a robot controller logs what it did beside the recording
 (§5.1.1-5.1.2, §3.2).  Three kinds, all CSV with ``#`` comment lines before the header:
 
-- ``pose`` (any robot; read by ``tactile.localize.pose_log``): per finger, a window in which
+- ``pose`` (any robot; read by ``tactile.logs.pose``): per finger, a window in which
   its sensor frame's pose in the world is held, ``px,py,pz`` (m) and the unit quaternion
   ``qw,qx,qy,qz`` (scalar first);
-- ``scara`` (the ch. 5 rig, eq. 62; read by ``tactile.localize.pose_log``): joint angles
+- ``scara`` (the ch. 5 rig, eq. 62; read by ``tactile.logs.pose``): joint angles
   ``q1,q2,q3`` (rad) and height ``z`` (m) per window; ``finger`` is the pass;
-- ``probe`` (EP1 through a wrist F/T sensor; read by ``tactile.ep1.from_ft``): per probe a
+- ``probe`` (EP1 through a wrist F/T sensor; read by ``tactile.logs.probe``): per probe a
   time in the hold at its start and at its end, and the commanded rotation (rad); optionally
   (``ATTITUDE``) the sensor's orientation in the world during those holds, unit quaternions
   ``qw,qx,qy,qz`` (start) and ``qw_end,qx_end,qy_end,qz_end`` (end), world from sensor,
   scalar first.  A reader that does not need them ignores them.
 
 Times name their clock (``CLOCKS``): the board's (``t_start_us,t_end_us``), UTC or the
-recording host's monotonic clock (seconds; ``tactile.recording.log_clock`` joins them through the
-time
-base).  Comment lines (``TAGS``): ``# probe: sphere radius_m=R centre_m=cx,cy,cz
-[axis=ax,ay,az]`` (the fingertip in the sensor frame), ``# rig: scara L1=.. L2=.. L3=.. L4=..``
-(m), ``# sensor: noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz`` (1 sigma per axis),
+recording host's monotonic clock (seconds; ``tactile.logs.clock`` reads them, and the
+recording's time base joins them to the frames).  Comment lines (``TAGS``, read by
+``tactile.logs.tags``): ``# probe: sphere radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az]``
+(the fingertip in the sensor frame), ``# rig: scara L1=.. L2=.. L3=.. L4=..`` (m),
+``# sensor: noise_force_N=sx,sy,sz noise_torque_Nm=sx,sy,sz`` (1 sigma per axis),
 ``# hold: half_width_us=N`` and ``# end: t_us=N`` (or ``t_utc_s=``, ``t_mono_s=``: when the
-robot is done).  Line 1 is the units line (``UNITS``).  Numbers are written with ``repr``, so
-a reader gets back the very floats the writer had.
+robot is done), all before the header.  Line 1 is the units line (``UNITS``).  Numbers are
+written with ``repr``, so a reader gets back the very floats the writer had.
 """
 
 from tactile import units

@@ -20,9 +20,11 @@ import os
 import numpy as np
 
 from tactile.ep2 import extent
+from tactile.ep2.patch_frame import unit_normals
 from tactile.errors import InputError
 from tactile.extras import pyplot
 from tactile.files.atomic import atomic_write
+from tactile.output.textout import printable
 
 __all__ = [
     "colour_limits",
@@ -59,8 +61,6 @@ def plain_text(text):
     """``text`` from a file, as a label drawn as written: non-printable characters escaped
     as on the terminal (``tactile.output.textout``), characters the font has no glyph for as
     ``\\uXXXX`` (matplotlib would warn and draw a box), ``$`` not starting mathtext."""
-    from tactile.output.textout import printable
-
     have = _glyphs()
     text = printable(str(text))
     text = "".join(c if ord(c) in have else c.encode("unicode_escape").decode() for c in text)
@@ -81,8 +81,6 @@ def _glyphs():
 
 def _contacts(points, normals):
     """Validated (n, 3) points and unit normals."""
-    from tactile.ep2.patch_frame import unit_normals
-
     pts = np.asarray(points, float)
     nrm = np.asarray(normals, float)
     if pts.ndim != 2 or pts.shape[1] != 3 or nrm.shape != pts.shape or not len(pts):

@@ -100,6 +100,8 @@ class _Sensor:
         block = np.floor(t_s / BLOCK_S).astype(np.int64)
         cuts = np.flatnonzero(np.diff(block)) + 1
         for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(x)]):
+            if self.track:
+                self.tracker.advance(t_s[a])  # the block before closes first
             comp[a:b] = x[a:b] - self.bias()
             since = self._gate(t_s[a:b], comp[a:b], phase[a:b], cid[a:b])
             if self.track:

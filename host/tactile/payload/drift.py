@@ -82,6 +82,13 @@ class BiasTracker:
         self._moved_at = None  # time of the last move (or the tare)
         self._run = None  # the log entry of the moves since the last contact
 
+    def advance(self, t_s):
+        """Close the block being filled if ``t_s`` (s) is in another: the bias a reading at
+        ``t_s`` gets is then the same however the readings were batched."""
+        index = int(np.floor(t_s / BLOCK_S))
+        if self._block is not None and self._block.index != index:
+            self._close(index < self._block.index)
+
     def add(self, t_s, x, quiet):
         """Feed readings at times ``t_s`` (k,) s, ``x`` (k, 6) reading less weight, ``quiet``
         (k,) bool; the bias may move as each block closes."""

@@ -1,7 +1,7 @@
 """The sensor's orientation at any reading's time, from a robot's log.
 
 A robot log gives, per sensor, windows in which the sensor is held at a known pose
-(``tactile.localize.pose_log``: a generic log's quaternions, a SCARA log's joints).  A
+(``tactile.logs.pose``: a generic log's quaternions, a SCARA log's joints).  A
 reading inside a window has that window's orientation.  Between two windows of its sensor
 the robot is moving and the log does not say how: the orientation is interpolated along
 the shortest rotation from the end of one window to the start of the next, with a
@@ -14,10 +14,10 @@ window (exact) and which are interpolated (as good as the robot's path is that a
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tactile.ep1.from_ft import read_probe_log
 from tactile.errors import InputError
-from tactile.localize.kinematics import scara_pose
-from tactile.localize.pose_log import log_columns, read_pose_log
+from tactile.localize.posed import sensor_poses
+from tactile.logs.pose import log_columns, read_pose_log
+from tactile.logs.probe import read_probe_log
 
 __all__ = ["ANY", "Orientations", "read_log"]
 
@@ -49,15 +49,15 @@ class Orientations:
         """From a ``PoseLog``: a generic log's R per window and finger; a SCARA log's
         joints through eq. 62 (one sensor, every window)."""
         if log.kind == "scara":
-            q1, q2, q3, z = log.joints.T
-            R, _ = scara_pose(q1, q2, q3, z)
+            R, _ = sensor_poses(log, np.arange(len(log)))
             return cls({ANY: (log.t_start, log.t_end, Rotation.from_matrix(R))}, log.path)
-        if log.R is None:
+        if log.quaternion is None:
             raise InputError(f"{log.path}: the log has no orientations (columns qw,qx,qy,qz)")
         out = {}
         for f in np.unique(log.finger):
             rows = np.flatnonzero(log.finger == f)
-            out[int(f)] = (log.t_start[rows], log.t_end[rows], Rotation.from_matrix(log.R[rows]))
+            R, _ = sensor_poses(log, rows)
+            out[int(f)] = (log.t_start[rows], log.t_end[rows], Rotation.from_matrix(R))
         return cls(out, log.path)
 
     @classmethod

@@ -1,5 +1,5 @@
-"""A loaded recording with its tools' weight and the bias removed
-(``tactile.load_recording(..., payload=)``), as ``record --payload`` does for its files.
+"""``tactile.load_recording(DIR, payload=, pose_log=)``: a recording (``tactile.recording.load``)
+with its tools' weight and the bias removed, as ``record --payload`` does for its files.
 
 Each tool (a ``Tool`` or a tool.json path) is checked against the recorded board's sensor
 and calibration; the robot log gives every row's orientation; the host tares, tracks the
@@ -12,8 +12,25 @@ from tactile.errors import InputError
 from tactile.payload.compensator import Compensator
 from tactile.payload.orientation import read_log
 from tactile.payload.tool import Tool, check_device, read_tool, tool_doc
+from tactile.recording import load as recording
 
-__all__ = ["compensate_recording"]
+__all__ = ["compensate_recording", "load_recording"]
+
+
+def load_recording(path, payload=None, pose_log=None):
+    """The ``tactile record`` directory ``path`` as a ``RecordingData``
+    (``tactile.recording.load``); with ``payload`` (a ``Tool`` or a tool.json path, or a
+    list of them) their weight and the drifting bias removed through the robot log
+    ``pose_log`` (default: the one the recording's command names): ``compensate_recording``.
+
+    Raises ``tactile.errors.InputError`` (a ``ValueError``) naming the file, line and column
+    of anything malformed, or a tool of another sensor or calibration."""
+    rec = recording.load_recording(path)
+    if payload is None:
+        return rec
+    return compensate_recording(
+        rec, payload, recording.robot_log_of(rec) if pose_log is None else pose_log
+    )
 
 
 def _tools(payload, device):

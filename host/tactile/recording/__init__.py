@@ -1,11 +1,16 @@
 """A recording: the session that reads a board into files, the files, their time base,
-the loader and the exports.
+the loader and the tabular export.
 
-- ``session``: ``tactile record``'s loop (reconnects, PINGs, stop conditions);
+- ``session``: ``tactile record``'s loop (reconnects, PINGs, stop conditions), with
+  ``board_identity`` (the same board after a reconnection), ``run_clock`` (the run's own time,
+  the host's stalls), ``run_stats`` (its counts) and ``log_end`` (a pose log's end);
+- ``frames``: frames.csv's row, the run's file names, whole lines, the reader;
 - ``files``: capture.bin, frames.csv, device.jsonl and meta.json as they are written;
 - ``meta``, ``recover``, ``load``: meta.json, runs cut short, ``load_recording``;
-- ``timebase``, ``timefit``, ``log_clock``, ``robot_log``: board time to host time, and
-  the robot's pose log joined to it;
-- ``derive``, ``export_mcap``, ``export_parquet``, ``export_target``: contacts and probes
-  from a run, MCAP and Parquet exports, and where an export may write.
+- ``timebase``, ``timefit``: board time to host time (a robot log in a host clock is joined
+  to the frames through it);
+- ``export_parquet``, ``export_target``: the Parquet export, and where an export may write.
+
+Beside it, not in it: the robot's logs (``tactile.logs``), contacts and probes derived from
+a run (``tactile.commands.derive``), and Foxglove, live and as MCAP (``tactile.foxglove``).
 """

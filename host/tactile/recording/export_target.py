@@ -17,7 +17,7 @@ import os
 
 from tactile.errors import InputError
 from tactile.files.atomic import check_target
-from tactile.recording.files import CAPTURE, DEVICE, FRAMES, META
+from tactile.recording.frames import CAPTURE, DEVICE, FRAMES, META
 
 __all__ = ["RUN_FILES", "check_outputs"]
 

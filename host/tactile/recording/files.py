@@ -32,10 +32,12 @@ new bytes follow the old ones and nothing recorded is ever lost: a run cut short
 torn last row cut and frames.csv completed from capture.bin first
 (``tactile.recording.recover``), and meta.json keeps one entry per session with totals
 over them (``tactile.recording.meta``).
+
+frames.csv's row, the file names, the whole-line helpers and the reader are
+``tactile.recording.frames``, below this module and ``recover``.
 """
 
 import contextlib
-import errno
 import itertools
 import json
 import os
@@ -45,57 +47,26 @@ import stat
 import numpy as np
 
 from tactile import units
-from tactile.board.settings import wrench_si
-from tactile.errors import HostFileError, InputError
-from tactile.files import atomic, bounded, folder_lock
+from tactile.errors import InputError
+from tactile.files import atomic, folder_lock
 from tactile.output.jsonout import clean, dumps
+from tactile.recording.frames import (
+    CAPTURE,
+    DEVICE,
+    FRAME_COLUMNS,
+    FRAMES,
+    META,
+    WRITE_ENDS,
+    WriteFailed,
+    cut_torn,
+    frame_row,
+    put,
+)
 from tactile.recording.meta import count_rows, document, previous_sessions
+from tactile.recording.recover import complete_frames
 from tactile_protocol import constants as C
 
-FRAME_COLUMNS = (
-    "seq,timestamp_us,host_monotonic_s,host_utc_s,type,sensor,phase,contact_id,flags,"
-    "fx_N,fy_N,fz_N,tx_Nm,ty_Nm,tz_Nm"
-)
 REWRITE_ROWS = 65536  # rows per chunk when the host times are rewritten
-CAPTURE, FRAMES, DEVICE, META = "capture.bin", "frames.csv", "device.jsonl", "meta.json"
-# meta.json's ``ended`` for a write that failed, by errno (anything else: "write failed")
-WRITE_ENDS = {errno.ENOSPC: "disk full", errno.EDQUOT: "disk full", errno.EFBIG: "file too large"}
-
-
-class WriteFailed(HostFileError):
-    """Writing ``path`` failed: ``ended`` is meta.json's word for it ("disk full", ...)."""
-
-    def __init__(self, path, exc):
-        self.path = pathlib.Path(path)
-        self.ended = WRITE_ENDS.get(exc.errno, "write failed")
-        why = exc.strerror or str(exc)
-        same = why.lower() == self.ended
-        super().__init__(f"{path}: {self.ended}" + ("" if same else f" ({why})"))
-
-
-def _put(fh, text, path):
-    """Write and flush, or ``WriteFailed`` naming ``path``."""
-    try:
-        fh.write(text)
-        fh.flush()
-    except OSError as exc:
-        raise WriteFailed(path, exc) from None
-
-
-def _host_cells(host):
-    """``host_monotonic_s,host_utc_s`` to the microsecond, or empty cells when unknown."""
-    return ",".join("" if v is None else f"{v:.6f}" for v in host) if host else ","
-
-
-def _frame_row(m, host=None):
-    """Forces in N, torques in N*m: 1 uN / 1 uN*m counts, so six decimals are exact;
-    ``host`` = (monotonic s, UTC s) of the frame's stamp, or None."""
-    phase, cid = ("", "") if m.type_code == C.MSG_SAMPLE else (m.phase, m.contact_id)
-    w = ",".join(f"{v:.6f}" for v in wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz))
-    return (
-        f"{m.seq},{m.timestamp_us},{_host_cells(host)},{m.type_name},{m.sensor},{phase},{cid},"
-        f"{m.flags},{w}\n"
-    )
 
 
 def _refuse_pipe(path):
@@ -131,8 +102,6 @@ class Recording:
             )
         self.capture_offset = capture.stat().st_size if capture.exists() else 0
         if self.capture_offset:
-            from tactile.recording.recover import complete_frames
-
             _check_columns(self.dir / FRAMES)
             complete_frames(self.dir)  # a torn or short frames.csv made whole first
         self.rows_offset = count_rows(self.dir / FRAMES, strict=False)
@@ -160,14 +129,14 @@ class Recording:
         if new:
             try:
                 head = units.line(units.FRAMES) + FRAME_COLUMNS + "\n"
-                _put(self._frames, head, self.dir / FRAMES)
+                put(self._frames, head, self.dir / FRAMES)
             except WriteFailed:
                 self.discard()  # nothing recorded: nothing left of this session
                 raise
 
     def raw(self, data):
         """Append raw bytes (before anything else looks at them) and flush."""
-        _put(self._capture, data, self.dir / CAPTURE)
+        put(self._capture, data, self.dir / CAPTURE)
         self.bytes += len(data)
 
     def messages(self, msgs, host=None):
@@ -176,14 +145,14 @@ class Recording:
         rows, other = [], []
         for k, m in enumerate(msgs):
             if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
-                rows.append(_frame_row(m, None if host is None else host[k]))
+                rows.append(frame_row(m, None if host is None else host[k]))
             elif m.type_code != C.MSG_ACK:
                 other.append(dumps(m.to_dict()) + "\n")
         if rows:
-            _put(self._frames, "".join(rows), self.dir / FRAMES)
+            put(self._frames, "".join(rows), self.dir / FRAMES)
             self.rows += len(rows)
         if other:
-            _put(self._device, "".join(other), self.dir / DEVICE)
+            put(self._device, "".join(other), self.dir / DEVICE)
 
     def rewrite_host(self, host_of):
         """Rewrite the host-time cells of this session's rows with ``host_of(rows,
@@ -281,48 +250,6 @@ def _overwrite(path, data):
     return True
 
 
-def cut_torn(path):
-    """Cut ``path`` back to the end of its last whole line (a write torn by a full disk
-    or a kill); return the bytes cut.  Truncating needs no free space."""
-    try:
-        with open(path, "r+b") as fh:
-            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-                return 0
-            end = fh.seek(0, os.SEEK_END)
-            pos = _whole_lines_end(fh)
-            if pos < end:
-                fh.truncate(pos)
-            return end - pos
-    except FileNotFoundError:
-        return 0
-
-
-def whole_end(path):
-    """(bytes up to the end of the last whole line, bytes after it) of ``path``; (None, 0)
-    when it does not exist; ``InputError`` when it is not a regular file."""
-    try:
-        with bounded.open_regular(path, None, "a recording's file") as fh:
-            size = fh.seek(0, os.SEEK_END)
-            end = _whole_lines_end(fh)
-            return end, size - end
-    except bounded.Missing:
-        return None, 0
-
-
-def _whole_lines_end(fh):
-    """The offset just past the last line break of the open binary file ``fh`` (0: none),
-    read backwards a block at a time."""
-    pos = fh.seek(0, os.SEEK_END)
-    while pos > 0:
-        start = max(0, pos - 4096)
-        fh.seek(start)
-        k = fh.read(pos - start).rfind(b"\n")
-        if k >= 0:
-            return start + k + 1
-        pos = start
-    return 0
-
-
 def _copy_bytes(src, dst, n):
     while n > 0:
         chunk = src.read(min(n, 1 << 20))
@@ -360,38 +287,3 @@ def remove_recording(outdir):
     """Delete the files a recording writes in ``outdir`` (for scratch output like the demo's)."""
     for name in (CAPTURE, FRAMES, DEVICE, META, "contacts.csv", "probes.csv"):
         (pathlib.Path(outdir) / name).unlink(missing_ok=True)
-
-
-# --- reading frames.csv back (``tactile.recording.load``) ------------------------------------
-
-FRAME_NUMBERS = (
-    "seq",
-    "timestamp_us",
-    "sensor",
-    "flags",
-    *("fx_N", "fy_N", "fz_N", "tx_Nm", "ty_Nm", "tz_Nm"),
-)
-# Empty where not given: phase and contact id of a SAMPLE; the host time of a row whose
-# board -> host mapping is unusable (the columns themselves are a newer recorder's).
-FRAME_BLANKS = ("phase", "contact_id", "host_monotonic_s", "host_utc_s")
-# A recording is the project's own file and may be long: 1 kHz x 3 sensors for 55 min.
-MAX_FRAMES_BYTES = 2 * 2**30
-MAX_FRAME_ROWS = 10_000_000
-
-
-def read_frames(path, end=None):
-    """frames.csv as a ``tabular.Table`` (``FRAME_NUMBERS``, ``FRAME_BLANKS`` as NaN where
-    empty, ``type`` as text), after checking that a ``# units:`` line names SI units;
-    ``end``: only its first ``end`` bytes."""
-    from tactile.files.tabular import read_csv
-
-    units.check_stated(path, units.FRAME_WORDS, "frames.csv holds N, N*m, us and s (SI)")
-    return read_csv(
-        path,
-        FRAME_NUMBERS,
-        optional_text=("type",),
-        blank_float=FRAME_BLANKS,
-        max_bytes=MAX_FRAMES_BYTES,
-        max_rows=MAX_FRAME_ROWS,
-        end=end,
-    )

@@ -2,7 +2,7 @@
 
 It reads what the recorder wrote, through the modules that own each file:
 
-- ``frames.csv`` (``tactile.recording.files.read_frames``): one row per SAMPLE or CONTACT frame,
+- ``frames.csv`` (``tactile.recording.frames.read_frames``): one row per SAMPLE or CONTACT frame,
   forces in N, torques in N*m, the board's stamp in us and, from a recorder that maps the
   board's clock to the host's, the host time of each row (``host_monotonic_s``,
   ``host_utc_s``);
@@ -39,9 +39,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tactile import units
+from tactile.ep2.contacts_csv import REQUIRED
 from tactile.errors import InputError
-from tactile.payload.recorded import compensate_recording
-from tactile.recording.files import META
+from tactile.files.tabular import read_csv
+from tactile.logs.pose import log_columns
+from tactile.recording.frames import META
 from tactile.recording.meta import sessions_of
 from tactile.recording.recover import frames_of, meta_of
 from tactile_protocol import constants as C
@@ -137,22 +140,18 @@ class RecordingData:
         return np.hstack([self.force_N, self.torque_Nm])
 
 
-def load_recording(path, payload=None, pose_log=None):
-    """Read the ``tactile record`` directory ``path`` into a ``RecordingData``.
-
-    ``payload``: a ``tactile.payload.Tool`` or a tool.json path, or a list of them: their
-    weight and bias removed through the robot log ``pose_log`` (default: the one the
-    recording's command names), as ``record --payload`` does
-    (``tactile.payload.recorded.compensate_recording``).
+def load_recording(path):
+    """Read the ``tactile record`` directory ``path`` into a ``RecordingData``
+    (``tactile.load_recording`` adds ``payload=``: ``tactile.payload.recorded``).
 
     Raises ``tactile.errors.InputError`` (a ``ValueError``) naming the file, line and column
-    of anything malformed, or a tool of another sensor or calibration."""
-    rec = _load(pathlib.Path(path))
-    if payload is None:
-        return rec
-    if pose_log is None:
-        pose_log = _pose_log(rec.path, rec.meta)
-    return compensate_recording(rec, payload, pose_log)
+    of anything malformed."""
+    return _load(pathlib.Path(path))
+
+
+def robot_log_of(rec):
+    """The robot log the recording's command names, if it still exists, else None."""
+    return _pose_log(rec.path, rec.meta)
 
 
 def _load(path):
@@ -324,9 +323,6 @@ def _missing(known, what, meta):
 
 def _contacts(path, meta):
     """(``Contacts`` or None, why None)."""
-    from tactile.ep2.contacts_csv import REQUIRED
-    from tactile.files.tabular import read_csv
-
     csv_path = path / CONTACTS
     if not csv_path.exists():
         return None, f"{csv_path.name}: none (recorded without a pose log)"
@@ -356,8 +352,6 @@ def _contacts_unit(csv_path, meta):
     The ``# units:`` line says it.  A file without one (written before that line existed)
     is in cm when it came from a SCARA joint log (ch. 5, as tables 5-7), else in m: the
     recording's command names the log, whose header says which, if it is still readable."""
-    from tactile import units
-
     unit = units.stated_length(csv_path)
     if unit is not None:
         return units.LENGTH_M[unit], unit, None
@@ -369,8 +363,6 @@ def _contacts_unit(csv_path, meta):
             " '# units: m' before its header"
         )
         return None, None, why
-    from tactile.localize.pose_log import log_columns
-
     unit = "cm" if "q1" in log_columns(log) else "m"
     return units.LENGTH_M[unit], unit, None
 

@@ -26,19 +26,21 @@ import pathlib
 import stat
 from array import array
 
+from tactile import units
 from tactile.board.settings import wrench_si
+from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import InputError
 from tactile.files.tabular import Table
-from tactile.recording.files import (
+from tactile.recording.frames import (
     CAPTURE,
     DEVICE,
     FRAME_COLUMNS,
     FRAMES,
     META,
     WRITE_ENDS,
-    _frame_row,
-    _put,
     cut_torn,
+    frame_row,
+    put,
     read_frames,
     whole_end,
 )
@@ -139,13 +141,11 @@ def complete_frames(run):
         return 0
     if not (same and extra):
         return 0
-    text = "".join(_frame_row(m) for m in extra)
+    text = "".join(frame_row(m) for m in extra)
     if not frames.exists() or frames.stat().st_size == 0:
-        from tactile import units
-
         text = units.line(units.FRAMES) + FRAME_COLUMNS + "\n" + text
     with open(frames, "a", encoding="utf-8") as fh:
-        _put(fh, text, frames)
+        put(fh, text, frames)
     return len(extra)
 
 
@@ -177,8 +177,6 @@ def beyond(path, meta, table):
 
 def readings(path, meta):
     """Yield the SAMPLE and CONTACT messages of capture.bin, decoded session by session."""
-    from tactile.board.stream_decoder import StreamDecoder
-
     size = _capture_size(path)
     if not size:
         return

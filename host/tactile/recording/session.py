@@ -10,7 +10,7 @@ first HELLO (``tactile.recording.board_identity``); another board ends the run
 that rebooted (a new boot id) is counted in ``reboots``, not as lost frames, and TAREd
 again.  Ctrl-C ends the recording normally.  Port and clock are injectable for tests.
 ``on_frames(session, msgs, host_times)`` sees every batch once it is written
-(``tactile.output.foxglove_live``); ``on_notice(session, line)`` gets a line for the user
+(``tactile.foxglove.live``); ``on_notice(session, line)`` gets a line for the user
 about what the run goes on through (a stall of the host, a port lost and waited for).
 
 A run that fails before the board sent a byte (no such port, nothing answering) is undone

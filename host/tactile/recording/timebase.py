@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tactile.board.stream_decoder import decode_bytes
+from tactile.errors import DataError
 from tactile.recording.timefit import BIN_S, TAU, BinMinima, fit
 from tactile_protocol import constants as C
 
@@ -268,9 +270,6 @@ def recorded_times(data, meta, clock, where="recording"):
 
     Raises ``DataError`` when no message has a time (a recording without a time base, or an
     emulator in fast mode, whose clock is not the host's)."""
-    from tactile.board.stream_decoder import decode_bytes
-    from tactile.errors import DataError
-
     sessions = meta.get("sessions", [meta]) if isinstance(meta, dict) else []
     messages, times, why, offset = [], [], [], 0
     for ses in sessions:

@@ -93,9 +93,8 @@ class RollMotion:
         return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
 
     def write_probe_log(self, path):
-        """The robot's probe log (``tactile.logs.robot_log``; ``tactile.ep1.from_ft`` reads
-        it): the
-        fingertip, the readable half width of a hold and the scene's end in comments."""
+        """The robot's probe log (``tactile.logs.robot_log``; ``tactile.logs.probe`` reads it):
+        the fingertip, the readable half width of a hold and the scene's end in comments."""
         g = self.geometry
         probe = (g["radius_m"], g["centre_m"])
         end_us = round(self.duration_s * 1e6)

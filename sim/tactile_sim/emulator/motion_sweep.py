@@ -226,7 +226,7 @@ class SweepMotion:
         return rows
 
     def write_pose_log(self, path):
-        """The robot's pose log (host/tactile/localize/pose_log.py reads it), with the
+        """The robot's pose log (``tactile.logs.pose`` reads it), with the
         fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
         accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
         scene's end (``# end:``), where ``tactile record`` stops

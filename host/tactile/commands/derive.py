@@ -1,19 +1,21 @@
-"""From a recording and the robot's pose log to the inputs of EP2 and EP1.
+"""From a recording and the robot's pose log to the inputs of EP2 and EP1: what ``tactile
+record --pose-log`` does after recording, and the chapter 5 replica with it.
 
-The F/T wire carries no robot pose: the robot controller logs it.  The pose
+The F/T wire carries no robot pose: the robot controller logs it (``tactile.logs``).  The
 log's header says what it is:
 
 - ``t_start_us,t_end_us,finger,q1,q2,q3,z`` (+ ``# rig: scara L1=.. L2=.. L3=.. L4=..``):
-  the ch. 5 SCARA with its wheel probe (eqs. 60-62) -> ``contacts.csv`` (cm, as tables 5-7);
+  the ch. 5 SCARA with its wheel probe (eqs. 60-62) -> ``contacts.csv`` (m; tables 5-7 are in
+  cm);
 - ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: a spherical fingertip's sensor pose
-  per window -> ``contacts.csv`` (m); both read by ``tactile.localize.pose_log``;
-- ``probe,t_start_us,t_end_us,dtheta_x,dtheta_y``: EP1 rolling probes
-  (``tactile.ep1.from_ft``) -> ``probes.csv``.
+  per window -> ``contacts.csv`` (m); both read by ``tactile.logs.pose``;
+- ``probe,t_start_us,t_end_us,dtheta_x,dtheta_y``: EP1 rolling probes (read by
+  ``tactile.logs.probe``, turned into probes by ``tactile.ep1.from_ft``) -> ``probes.csv``.
 
-The CONTACT frames come from ``capture.bin`` (the recording's source of truth).  A log
-stamped in a host clock (UTC or monotonic, ``tactile.recording.log_clock``) is joined through the
-time base in ``meta.json``: each frame's board stamp becomes that clock's time
-(``tactile.recording.timebase.recorded_times``).
+The CONTACT frames come from ``capture.bin`` (the recording's source of truth); which of them
+are readings is ``tactile.localize.readings``'s rule.  A log stamped in a host clock (UTC or
+monotonic, ``tactile.logs.clock``) is joined through the time base in ``meta.json``: each
+frame's board stamp becomes that clock's time (``tactile.recording.timebase.recorded_times``).
 
 When fewer than half the readings are localised, a ``warning:`` line says so and counts
 where the rest went (outside every window, below the gate, off the probe, too noisy), with
@@ -24,90 +26,33 @@ import pathlib
 
 import numpy as np
 
-from tactile.board import settings as board_settings
-from tactile.ep1.from_ft import read_probe_log
+from tactile.board.stream_decoder import decode_bytes
+from tactile.ep1.from_ft import probe_report, probes_from_frames
+from tactile.ep1.probes_csv import format_probes
 from tactile.errors import DataError, InputError
+from tactile.files import bounded
 from tactile.files.atomic import write_bytes
-from tactile.localize.pose_log import read_pose_log
+from tactile.localize import format_contacts
+from tactile.localize.posed import posed_world_contacts
+from tactile.localize.readings import Readings, contact_frames
+from tactile.logs.clock import clock_of
+from tactile.logs.pose import log_columns, read_pose_log
+from tactile.logs.probe import read_probe_log
 from tactile.payload.compensator import Compensator, words
-from tactile.payload.orientation import Orientations
+from tactile.payload.orientation import read_log
 from tactile.payload.tool import check_device, tool_doc
-from tactile.recording.meta import amend
-from tactile_protocol import constants as C
+from tactile.recording.meta import amend, read_meta
+from tactile.recording.timebase import recorded_times
+
+__all__ = ["check_log", "derive"]
 
 MAX_CAPTURE_BYTES = 2 * 2**30  # read whole: a long recording's capture.bin
-SCARA_PER_CONTACT = 2  # §5.1: two samples per probed point
-
-
-def contact_frames(messages, per_contact=None, above_N=None, gate="xy", times=None, rule=None):
-    """CONTACT readings (BEGIN and IN; END is already outside the gate).
-
-    ``per_contact``: keep only the first N readings of each contact (per sensor);
-    ``above_N``: only readings whose gated force (x-y or 3-D magnitude) exceeds it, as
-    §5.1 takes a sample "when the x-y force exceeds 5 units" (inside a contact, the
-    firmware's hysteresis lets the force dip to the exit threshold).
-    ``times`` (one int64 us per message) replaces the board's stamps (a host clock's).
-    ``rule``: a ``Readings`` that replaces the three above.
-    Returns (times_us int64, sensor, wrench (n, 6) in N and N*m, contact ids).
-    """
-    rule = rule or Readings(per_contact, above_N, gate)
-    rows = [
-        (i, m.sensor, m.contact_id, m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
-        for i, m in enumerate(messages)
-        if rule.take(m)
-    ]
-    a = np.array(rows, dtype=np.int64).reshape(-1, 9)
-    wrench = a[:, 3:] * np.array(board_settings.WRENCH_LSB)
-    index = a[:, 0]
-    if times is None:
-        t = np.array([messages[i].timestamp_us for i in index], dtype=np.int64)
-    else:
-        t = np.asarray(times, dtype=np.int64)[index]
-    return t, a[:, 1].astype(int), wrench, a[:, 2].astype(int)
-
-
-class Readings:
-    """``contact_frames``'s rule one frame at a time (``take``), for a live view that
-    localises as frames arrive and must keep what contacts.csv keeps."""
-
-    def __init__(self, per_contact=None, above_N=None, gate="xy"):
-        self.per_contact, self.gate, self.taken = per_contact, gate, {}
-        self.floor = None if above_N is None else above_N * board_settings.COUNTS_PER_N
-
-    @classmethod
-    def for_log(cls, kind, per_contact, threshold, gate):
-        """The rule ``derive`` applies to a pose log of ``kind`` ("scara" or "pose")."""
-        if kind == "scara":
-            n = SCARA_PER_CONTACT if per_contact is None else per_contact
-            return cls(n, threshold, gate)
-        return cls(per_contact)
-
-    def take(self, m):
-        """Whether the CONTACT frame ``m`` is a reading (BEGIN or IN, above the floor, within
-        the first ``per_contact`` of its contact)."""
-        if m.type_code != C.MSG_CONTACT or m.phase == C.PHASE_END:
-            return False
-        if self.floor is not None:
-            fz2 = m.fz * m.fz if self.gate == "3d" else 0
-            if m.fx * m.fx + m.fy * m.fy + fz2 <= self.floor * self.floor:
-                return False
-        key = (m.sensor, m.contact_id)
-        if m.phase == C.PHASE_BEGIN or (self.floor is not None and key not in self.taken):
-            self.taken[key] = 0
-        k = self.taken.get(key)
-        if k is None or (self.per_contact is not None and k >= self.per_contact):
-            return False
-        self.taken[key] = k + 1
-        return True
 
 
 def check_log(pose_log):
-    """Read the robot log once, so a bad one is refused before anything is recorded."""
-    from tactile.localize.pose_log import log_columns, read_pose_log
-
+    """Read the robot log once, so a bad one is refused before anything is recorded: a
+    ``ProbeLog`` (EP1) or a ``PoseLog``."""
     if "dtheta_x" in log_columns(pose_log):
-        from tactile.ep1.from_ft import read_probe_log
-
         return read_probe_log(pose_log)
     return read_pose_log(pose_log)
 
@@ -125,11 +70,6 @@ def derive(outdir, pose_log, per_contact=None, payload=None):
     from its sensor's readings and the contacts gated again on the host
     (``tactile.payload.compensator``) before anything is localised; meta.json's "payload"
     gets what was done (``compensation``)."""
-    from tactile.board.stream_decoder import decode_bytes
-    from tactile.files import bounded
-    from tactile.localize.pose_log import log_columns
-    from tactile.recording.meta import read_meta
-
     outdir = pathlib.Path(outdir)
     columns = log_columns(pose_log)
     try:
@@ -137,31 +77,21 @@ def derive(outdir, pose_log, per_contact=None, payload=None):
         meta = read_meta(outdir / "meta.json")
     except InputError as exc:
         raise InputError(f"{exc} (not a complete recording)") from None
-    clock = _log_clock(pose_log, columns)
+    clock = clock_of(pose_log, None, columns) or "board"
     if clock == "board":
         messages, _ = decode_bytes(data)
         times = None
     else:
-        from tactile.recording.timebase import recorded_times
-
         messages, times = recorded_times(data, meta, clock, outdir)
     threshold, gate = _gate(meta)
     said = []
     if payload:
-        messages, times, said = compensated(
-            outdir, pose_log, columns, messages, times, meta, payload
-        )
+        messages, times, said = compensated(outdir, pose_log, messages, times, meta, payload)
     if "dtheta_x" in columns:
         return said + _derive_probes(outdir, pose_log, messages, threshold, times)
     return said + _derive_posed(
         outdir, pose_log, messages, threshold, gate, per_contact, times, bool(payload)
     )
-
-
-def _log_clock(pose_log, columns):
-    from tactile.recording.log_clock import clock_of
-
-    return clock_of(pose_log, None, columns) or "board"
 
 
 def _write(path, text):
@@ -170,11 +100,8 @@ def _write(path, text):
 
 def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times=None, host=False):
     """SCARA joints (ch. 5) or sensor poses: contacts.csv in metres either way (the thesis's
-    tables 5-7 are in cm; ``tactile ep2 analyze --units cm`` shows them so)."""
-    from tactile.localize import format_contacts
-    from tactile.localize.pose_log import read_pose_log
-    from tactile.localize.posed import posed_world_contacts
-
+    tables 5-7 are in cm; ``tactile ep2 analyze --units cm`` shows them so).  ``host``: the
+    contacts are the host's gate's (a payload), and none at all is an empty contacts.csv."""
     log = read_pose_log(pose_log)
     rule = Readings.for_log(log.kind, per_contact, threshold, gate)
     t, sensor, wrench, _ = contact_frames(messages, times=times, rule=rule)
@@ -222,9 +149,6 @@ def _why(report, threshold):
 
 
 def _derive_probes(outdir, pose_log, messages, threshold, times=None):
-    from tactile.ep1.from_ft import probe_report, probes_from_frames, read_probe_log
-    from tactile.ep1.probes_csv import format_probes
-
     log = read_probe_log(pose_log)
     t, _, wrench, _ = contact_frames(messages, times=times)
     rows, usable = probes_from_frames(log, t, wrench, threshold)
@@ -244,16 +168,13 @@ def _derive_probes(outdir, pose_log, messages, threshold, times=None):
     return out
 
 
-def compensated(outdir, pose_log, columns, messages, times, meta, payload):
+def compensated(outdir, pose_log, messages, times, meta, payload):
     """(messages, times, lines): the frames with the tools' weight and bias removed and
     their contacts gated on the host; meta.json's "payload" records it."""
     device = meta.get("device")
     for path, tool in payload:
         check_device(tool, device, path)
-    if "dtheta_x" in columns:
-        orient = Orientations.from_probe_log(read_probe_log(pose_log))
-    else:
-        orient = Orientations.from_pose_log(read_pose_log(pose_log))
+    _, orient = read_log(pose_log)
     comp = Compensator([tool for _, tool in payload], orient, device)
     out, index = comp.whole(messages, times)
     report = comp.report()

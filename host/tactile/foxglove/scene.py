@@ -12,14 +12,16 @@
   A refused or ``uncertain`` patch is text only: no mesh where the data do not fix one; a
   plane (S undefined) is grey.
 
-Messages are ``foxglove.messages`` objects (the ``foxglove`` extra, imported when called);
-``encode()`` gives the protobuf bytes, ``get_schema()`` the schema, the same in both sinks.
+Messages are ``foxglove.messages`` objects (the ``foxglove`` extra, imported when called),
+logged on the SDK's typed channels (``Topics.scene``): the same protobuf schema in every sink.
 """
 
 import numpy as np
 
+from tactile.ep2.api import analyze_sweep
+from tactile.errors import DataError, InputError
 from tactile.extras import need
-from tactile.recording.topics import WORLD_FRAME, sensor_frame
+from tactile.foxglove.topics import WORLD_FRAME, sensor_frame
 
 ARROW_M = 0.01  # drawn length of a contact normal (m)
 GRID = 12  # mesh cells per side
@@ -150,9 +152,6 @@ def patch_mesh(result):
 def fit_patch(points, normals, finger):
     """(record dict, triangle vertices (k, 3) m or None) of EP2 on the contacts, as
     ``tactile ep2 analyze`` gives for one patch; a refusal is ``{"shape": None, "error"}``."""
-    from tactile.ep2.api import analyze_sweep
-    from tactile.errors import DataError, InputError
-
     try:
         (result,) = analyze_sweep(points, normals, finger=finger, **EP2_OPTS)
     except (DataError, InputError) as exc:
@@ -201,9 +200,3 @@ def patch_update(record, mesh_m, anchor_m, n_contacts, ns):
         texts=[label],
     )
     return fm.SceneUpdate(entities=[entity])
-
-
-def schema(name):
-    """(name, encoding, bytes) of a ``foxglove.messages`` class, e.g. "SceneUpdate"."""
-    s = getattr(_fm(), name).get_schema()
-    return s.name, s.encoding, bytes(s.data)

@@ -9,8 +9,8 @@ A pose or probe log names its clock by its time columns:
   (CLOCK_MONOTONIC: ROS steady time, for a robot logging on the same computer).
 
 A host-clock log is joined to the frames through the recording's time base (``meta.json``,
-``tactile.recording.timebase``).  Inside, every time is held as whole microseconds (int64) of its
-clock.
+``tactile.recording.timebase``).  Inside, every time is held as whole microseconds (int64)
+of its clock.
 
 A log may say when its robot is done with ``# end: t_us=N`` (or ``t_utc_s=``, ``t_mono_s=``,
 in the log's own clock): ``tactile record`` stops once that time has passed.  Without it,
@@ -21,8 +21,8 @@ frames.  The emulator writes the line with its scene's end.
 import numpy as np
 
 from tactile.errors import InputError, where
-from tactile.files.tabular import show
-from tactile.recording import robot_log
+from tactile.files.csv_dialect import show
+from tactile.logs import robot_log
 
 MAX_BOARD_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_HOST_S = 1e10  # s: UTC until the year 2286, or a monotonic clock up for 317 years

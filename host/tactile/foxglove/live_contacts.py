@@ -4,7 +4,7 @@
 host stamps ``tactile.recording.timebase.RecordingClock.take`` gave them and returns a
 ``Batch``: the readings it localised (world points in m, object normals), the sensors whose
 pose-log window changed (for a transform), and the contacts that ended.  The rule for
-which CONTACT frames are readings is ``derive``'s (``derive.Readings``) and the
+which CONTACT frames are readings is ``derive``'s (``tactile.localize.readings``) and the
 localisation is ``posed_world_contacts``, so a run's contacts equal its contacts.csv when
 the log is in the board's clock.  A host-clock log is joined by the running fit of the
 arrivals here, by the final fit in contacts.csv: a reading at a window's edge may differ.
@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.errors import InputError
+from tactile.localize.posed import posed_world_contacts, sensor_poses, window_index
+from tactile.localize.readings import Readings, contact_frames
 from tactile_protocol import constants as C
 
 __all__ = ["Batch", "LiveContacts"]
@@ -51,8 +53,6 @@ class LiveContacts:
         self.error = None  # why localising stopped (a log it cannot use), once
 
     def _start(self, device):
-        from tactile.recording.derive import Readings
-
         device = device or {}
         self.threshold = float(device.get("enter_threshold_N", 0.0))
         gate = device.get("gate", "xy")
@@ -71,9 +71,6 @@ class LiveContacts:
     def add(self, msgs, host_times, device, now_ns):
         """The ``Batch`` of the SAMPLE and CONTACT frames of ``msgs`` (``now_ns``: the stamp
         of frames without a host time)."""
-        from tactile.localize.posed import posed_world_contacts, window_index
-        from tactile.recording.derive import contact_frames
-
         out = Batch()
         frames = (C.MSG_SAMPLE, C.MSG_CONTACT)
         keep = [i for i, m in enumerate(msgs) if m.type_code in frames]
@@ -109,10 +106,11 @@ class LiveContacts:
         return out
 
     def _entered(self, rows, sensors, stamps):
-        return [
-            (s, *sensor_pose(self.log, row), stamps[i])
-            for i, s, row in entered(rows, sensors, self.window)
-        ]
+        found = entered(rows, sensors, self.window)
+        if not found:
+            return []
+        R, t = sensor_poses(self.log, [row for _, _, row in found])
+        return [(s, R[k], t[k], stamps[i]) for k, (i, s, _) in enumerate(found)]
 
 
 def entered(rows, sensors, window):
@@ -125,15 +123,3 @@ def entered(rows, sensors, window):
             window[s] = row
             out.append((int(i), s, row))
     return out
-
-
-def sensor_pose(log, row):
-    """(R (3, 3), t (3,) m) of the sensor in window ``row`` of ``log`` (a SCARA log: eq. 62's
-    arm, its link lengths L1, L2)."""
-    if log.kind != "scara":
-        return log.R[row], log.t[row]
-    from tactile.localize.kinematics import scara_pose
-
-    L1, L2 = (log.lengths or (1.0, 1.0))[:2]
-    q1, q2, q3, z = log.joints[row]
-    return scara_pose(q1, q2, q3, z, L1, L2)

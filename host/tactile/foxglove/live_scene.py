@@ -1,30 +1,31 @@
 """The live 3D scene beside ``LiveServer``'s wrench topics, when a pose log is given.
 
-``ScenePublisher.feed`` puts each batch of frames into a bounded queue (full: the batch is
-dropped and counted) and returns.  A ``scene`` thread localises the readings
-(``tactile.recording.live_contacts``) and publishes ``/tactile/contacts`` (one entity of
+``ScenePublisher.feed`` puts each batch of frames into a ``Worker``'s bounded queue
+(``tactile.foxglove.sinks``; full: the batch is dropped and counted) and returns.  The
+worker's ``scene`` thread localises the readings
+(``tactile.foxglove.live_contacts``) and publishes ``/tactile/contacts`` (one entity of
 arrows per contact, replaced as its readings arrive) and ``/tactile/tf`` (a sensor's pose
 when it enters a pose-log window).  When a contact ends and at least
 ``MIN_PATCH_CONTACTS`` are localised, the contacts so far go to an ``ep2`` thread through a
 one-slot mailbox: a request not yet started is replaced by the newer one (counted as
 ``stale``), so the fit never holds the recording or the scene back.  It fits the patch as
 ``tactile ep2 analyze`` does by default (``scene.fit_patch``) and publishes ``/tactile/patch``
-(``tactile.recording.scene``).  A client that subscribes later is sent the scene so far
+(``tactile.foxglove.scene``).  A client that subscribes later is sent the scene so far
 (``resend``: the SDK's callback queues it for the ``scene`` thread).
 """
 
-import queue
 import threading
 import time
 
 import numpy as np
 
-from tactile.recording import scene
-from tactile.recording.topics import CONTACTS_TOPIC, PATCH_TOPIC, TF_TOPIC
+from tactile.foxglove import scene
+from tactile.foxglove.live_contacts import LiveContacts
+from tactile.foxglove.sinks import Worker
+from tactile.foxglove.topics import CONTACTS_TOPIC, PATCH_TOPIC, TF_TOPIC
 
 QUEUE_BATCHES = 1024
 MIN_PATCH_CONTACTS = 6  # a 2-jet's terms; EP2 refuses on its own where fewer do not fit
-_STOP = object()
 _RESEND = object()
 
 
@@ -56,57 +57,36 @@ class _Rows:
 class ScenePublisher:
     """Localise, publish contacts and transforms, fit patches; all off the caller's loop."""
 
-    def __init__(self, fox, context, log, per_contact=None):
-        from tactile.recording.live_contacts import LiveContacts
-
-        self.contacts_ch = fox.channels.SceneUpdateChannel(CONTACTS_TOPIC, context=context)
-        self.patch_ch = fox.channels.SceneUpdateChannel(PATCH_TOPIC, context=context)
-        self.tf_ch = fox.channels.FrameTransformChannel(TF_TOPIC, context=context)
+    def __init__(self, topics, log, per_contact=None):
+        self.topics = topics  # tactile.foxglove.topics.Topics: the live server's channels
+        topics.declare(CONTACTS_TOPIC, PATCH_TOPIC, TF_TOPIC)
         self.live = LiveContacts(log, per_contact)
-        self.queue = queue.Queue(QUEUE_BATCHES)
         self.rows = _Rows()
         self.entities = {}  # (sensor, contact id) -> [entity id, [row indices]]
         self.shown = {}  # entity id -> [row indices], every contact so far
-        self.poses = {}  # sensor -> its latest FrameTransform
+        self.poses = {}  # sensor -> its latest (R, t)
         self.last_patch = None
         self.next_entity = 0
-        self.dropped = self.stale = self.patches = self.failed = 0
-        self.error = None
+        self.stale = self.patches = self.ep2_failed = 0
+        self.ep2_error = None
         self._mailbox = None
         self._wake = threading.Condition()
         self._closing = False
-        self._threads = [
-            threading.Thread(target=self._scene, name="foxglove-scene", daemon=True),
-            threading.Thread(target=self._ep2, name="foxglove-ep2", daemon=True),
-        ]
-        for t in self._threads:
-            t.start()
+        self._ep2_thread = threading.Thread(target=self._ep2, name="foxglove-ep2", daemon=True)
+        self._ep2_thread.start()
+        self.worker = Worker("foxglove-scene", self._scene, QUEUE_BATCHES)
 
     def feed(self, msgs, host_times, device):
-        try:
-            self.queue.put_nowait((list(msgs), host_times, device))
-        except queue.Full:
-            self.dropped += 1
+        self.worker.put((list(msgs), host_times, device))
 
     def resend(self, topic):
         """Publish the scene so far again (a client subscribed to ``topic``): the SDK's
         callback thread only queues the request."""
         if topic in (CONTACTS_TOPIC, PATCH_TOPIC, TF_TOPIC):
-            try:
-                self.queue.put_nowait((_RESEND, topic))
-            except queue.Full:
-                pass
+            self.worker.put((_RESEND, topic))
 
-    def _scene(self):
-        while True:
-            item = self.queue.get()
-            if item is _STOP:
-                return
-            try:
-                self._again(item[1]) if item[0] is _RESEND else self._take(*item)
-            except Exception as exc:  # one bad batch must not end the live view
-                self.failed += 1
-                self.error = self.error or f"{type(exc).__name__}: {exc}"
+    def _scene(self, item):
+        self._again(item[1]) if item[0] is _RESEND else self._take(*item)
 
     def _again(self, topic):
         ns = time.time_ns()
@@ -114,18 +94,18 @@ class ScenePublisher:
             pts, nrm = self.rows.arrays()
             for entity_id, rows in self.shown.items():
                 update = scene.contacts_update(entity_id, pts[rows], nrm[rows], ns)
-                self.contacts_ch.log(update, log_time=ns)
+                self.topics.scene(CONTACTS_TOPIC, update, ns)
         elif topic == TF_TOPIC:
             for sensor, (R, t) in self.poses.items():
-                self.tf_ch.log(scene.sensor_transform(sensor, R, t, ns), log_time=ns)
+                self.topics.scene(TF_TOPIC, scene.sensor_transform(sensor, R, t, ns), ns)
         elif topic == PATCH_TOPIC and self.last_patch is not None:
-            self.patch_ch.log(self.last_patch, log_time=ns)
+            self.topics.scene(PATCH_TOPIC, self.last_patch, ns)
 
     def _take(self, msgs, host_times, device):
         b = self.live.add(msgs, host_times, device, time.time_ns())
         for sensor, R, t, ns in b.poses:
             self.poses[sensor] = (R, t)
-            self.tf_ch.log(scene.sensor_transform(sensor, R, t, ns), log_time=ns)
+            self.topics.scene(TF_TOPIC, scene.sensor_transform(sensor, R, t, ns), ns)
         touched = {}
         for row, key in zip(self.rows.add(b.points, b.normals, b.finger), b.keys):
             entry = self.entities.get(key)
@@ -138,7 +118,7 @@ class ScenePublisher:
         pts, nrm = self.rows.arrays()
         for entity_id, rows in touched.items():
             update = scene.contacts_update(entity_id, pts[rows], nrm[rows], b.ns)
-            self.contacts_ch.log(update, log_time=b.ns)
+            self.topics.scene(CONTACTS_TOPIC, update, b.ns)
         for key in b.ended:
             self.entities.pop(key, None)  # the board may reuse the id: a new entity then
         if b.ended and len(pts) >= MIN_PATCH_CONTACTS:
@@ -164,34 +144,29 @@ class ScenePublisher:
                 record, mesh = scene.fit_patch(pts, nrm, finger)
                 anchor = pts.mean(axis=0)
                 update = scene.patch_update(record, mesh, anchor, len(pts), ns)
-                self.patch_ch.log(update, log_time=ns)
+                self.topics.scene(PATCH_TOPIC, update, ns)
                 self.last_patch = update
                 self.patches += 1
             except Exception as exc:  # EP2 failing otherwise: say so, keep recording
-                self.failed += 1
-                self.error = self.error or f"EP2: {type(exc).__name__}: {exc}"
+                self.ep2_failed += 1
+                self.ep2_error = self.ep2_error or f"EP2: {type(exc).__name__}: {exc}"
 
     def close(self, timeout_s=10.0):
         """Finish the queued batches and the pending fit (up to ``timeout_s`` each)."""
-        try:
-            self.queue.put(_STOP, timeout=timeout_s)
-        except queue.Full:
-            pass
-        self._threads[0].join(timeout_s)
+        self.worker.close(timeout_s)
         with self._wake:
             self._closing = True
             self._wake.notify()
-        self._threads[1].join(timeout_s)
-        for ch in (self.contacts_ch, self.patch_ch, self.tf_ch):
-            ch.close()
+        self._ep2_thread.join(timeout_s)
 
     def stats(self):
+        w = self.worker
         return {
             "contacts": self.rows.n,
             "patches": self.patches,
             "stale_fits": self.stale,
-            "dropped_batches": self.dropped,
+            "dropped_batches": w.dropped,
             "localise_error": self.live.error,
-            "failed": self.failed,
-            "error": self.error,
+            "failed": w.failed + self.ep2_failed,
+            "error": w.error or self.ep2_error,
         }

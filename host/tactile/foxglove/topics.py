@@ -1,5 +1,5 @@
-"""The topics and schemas Foxglove sees, declared once for the live server
-(``tactile.output.foxglove_live``) and the MCAP export (``tactile.recording.export_mcap``).
+"""The topics and schemas Foxglove sees, each declared once, for every sink: the live
+WebSocket server (``tactile.foxglove.live``) and the MCAP file (``tactile.foxglove.export_mcap``).
 
 - ``/tactile/sensorN/wrench``: ROS 2 ``geometry_msgs/msg/WrenchStamped`` (schema encoding
   ``ros2msg``, messages CDR), force in N and torque in N*m, ``header.frame_id``
@@ -9,12 +9,18 @@
   Schema): the frame's contact state beside the gate's thresholds, units in the names.
 - ``/tactile/contacts``, ``/tactile/patch``: ``foxglove.SceneUpdate``; ``/tactile/tf``:
   ``foxglove.FrameTransform`` (protobuf, the SDK's own schemas; built by
-  ``tactile.recording.scene``): the localised contacts as arrows along their normals, the
+  ``tactile.foxglove.scene``): the localised contacts as arrows along their normals, the
   latest EP2 patch, and each sensor's pose from the robot's pose log.
 
-The builders return plain dicts: the ROS 2 ones are CDR-encoded by ``mcap_ros2`` (the same
-encoder in both sinks), the JSON one is written as JSON.
+``Topics`` makes each topic's channel in a foxglove-sdk context the first time it is logged
+(or when ``declare``d), from the declarations here; whichever sinks listen to that context
+(``tactile.foxglove.sinks``) get the same messages.  ``wrench_cdr`` encodes a WrenchStamped:
+its layout is fixed (XCDR1, little-endian), and the one library encoder there is
+(``mcap_ros2``'s) is private; the tests decode it with ``mcap_ros2``'s public decoder.
 """
+
+import json
+import struct
 
 from tactile_protocol import constants as C
 
@@ -32,10 +38,16 @@ WRENCH_STAMPED_DEF = SEP.join(
         "MSG: geometry_msgs/Vector3\n" + VECTOR,
     ]
 )
+CDR_LE = b"\x00\x01\x00\x00"  # the encapsulation header: plain CDR, little-endian
 CONTACTS_TOPIC = "/tactile/contacts"  # foxglove.SceneUpdate: arrows, m
 PATCH_TOPIC = "/tactile/patch"  # foxglove.SceneUpdate: mesh and text, m
 TF_TOPIC = "/tactile/tf"  # foxglove.FrameTransform: world -> tactile_sensorN, m
 SCENE_TOPICS = (CONTACTS_TOPIC, PATCH_TOPIC, TF_TOPIC)
+SCENE_SCHEMAS = {
+    CONTACTS_TOPIC: "SceneUpdate",
+    PATCH_TOPIC: "SceneUpdate",
+    TF_TOPIC: "FrameTransform",
+}
 WORLD_FRAME = "world"
 
 CONTACT_STATE = "tactile/ContactState"
@@ -65,6 +77,60 @@ CONTACT_STATE_SCHEMA = {
 PHASES = {C.PHASE_BEGIN: "begin", C.PHASE_IN: "in", C.PHASE_END: "end"}
 
 
+class Topics:
+    """The channels of one foxglove-sdk ``context`` (``fox``: the ``foxglove`` module), each
+    made from the declarations above when first logged; ``close`` unadvertises them."""
+
+    def __init__(self, fox, context):
+        self.fox, self.context = fox, context
+        self.channels = {}
+
+    def frame(self, sensor, ns, wrench, seq, is_contact, phase, contact_id, flags, device):
+        """A SAMPLE or CONTACT frame's two messages at ``ns``: its wrench (N, N*m) and its
+        contact state (``contact_message``)."""
+        self._channel(wrench_topic(sensor)).log(wrench_cdr(sensor, ns, wrench), log_time=ns)
+        c = contact_message(sensor, ns, seq, is_contact, phase, contact_id, flags, device)
+        data = json.dumps(c, separators=(",", ":")).encode()
+        self._channel(contact_topic(sensor)).log(data, log_time=ns)
+
+    def declare(self, *topics):
+        """Make these topics' channels now: a server advertises them before their first
+        message."""
+        for topic in topics:
+            self._channel(topic)
+
+    def scene(self, topic, message, ns):
+        """A ``foxglove.messages`` message (``tactile.foxglove.scene``) on a scene topic."""
+        self._channel(topic).log(message, log_time=ns)
+
+    def close(self):
+        for channel in self.channels.values():
+            channel.close()
+
+    def _channel(self, topic):
+        channel = self.channels.get(topic)
+        if channel is None:
+            channel = self.channels[topic] = self._declare(topic)
+        return channel
+
+    def _declare(self, topic):
+        fox, context = self.fox, self.context
+        if topic in SCENE_SCHEMAS:
+            kind = getattr(fox.channels, f"{SCENE_SCHEMAS[topic]}Channel")
+            return kind(topic, context=context)
+        if topic.endswith("/wrench"):
+            schema = fox.Schema(
+                name=WRENCH_STAMPED, encoding="ros2msg", data=WRENCH_STAMPED_DEF.encode()
+            )
+            return fox.Channel(topic, schema=schema, message_encoding="cdr", context=context)
+        schema = fox.Schema(
+            name=CONTACT_STATE,
+            encoding="jsonschema",
+            data=json.dumps(CONTACT_STATE_SCHEMA).encode(),
+        )
+        return fox.Channel(topic, schema=schema, message_encoding="json", context=context)
+
+
 def wrench_topic(sensor):
     return f"/tactile/sensor{sensor}/wrench"
 
@@ -77,20 +143,14 @@ def sensor_frame(sensor):
     return f"tactile_sensor{sensor}"
 
 
-def ros_time(ns):
+def wrench_cdr(sensor, ns, wrench):
+    """A WrenchStamped, CDR-encoded: stamp ``ns`` (Unix or board-clock ns), frame
+    ``tactile_sensorN``, ``wrench`` = (fx, fy, fz) in N then (tx, ty, tz) in N*m."""
     sec, nsec = divmod(int(ns), 1_000_000_000)
-    return {"sec": sec, "nanosec": nsec}
-
-
-def wrench_message(sensor, ns, wrench):
-    """A WrenchStamped dict: ``wrench`` = (fx, fy, fz) in N then (tx, ty, tz) in N*m."""
-    return {
-        "header": {"stamp": ros_time(ns), "frame_id": sensor_frame(sensor)},
-        "wrench": {
-            "force": dict(zip("xyz", map(float, wrench[:3]))),
-            "torque": dict(zip("xyz", map(float, wrench[3:6]))),
-        },
-    }
+    frame = sensor_frame(sensor).encode() + b"\x00"
+    head = struct.pack("<iII", sec, nsec, len(frame)) + frame
+    pad = bytes(-len(head) % 8)  # the float64s align to 8 from the encapsulation's end
+    return CDR_LE + head + pad + struct.pack("<6d", *map(float, wrench[:6]))
 
 
 def contact_message(sensor, ns, seq, is_contact, phase, contact_id, flags, device):
