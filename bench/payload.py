@@ -28,6 +28,7 @@ import importlib.util
 import io
 import json
 import pathlib
+import re
 import sys
 import tempfile
 import tomllib
@@ -163,7 +164,7 @@ def sim_cases(family, final, limit):
     picked = [c for c in cases("bench") if c.family == family][:limit]
     if final:
         picked += [c for c in cases("held_out", final=True) if c.family == family][:limit]
-    return [(c.name, c.scene, c.truth) for c in picked]
+    return [(f"{c.name} ({c.split})", c.scene, c.truth) for c in picked]
 
 
 def reseeded(cases, seeds):
@@ -174,8 +175,20 @@ def reseeded(cases, seeds):
         for i in range(seeds):
             t = {k: dict(v) for k, v in tables.items()}
             t["scene"]["seed"] = int(t["scene"]["seed"]) + i
-            out.append((f"{name} seed {i}", t))
+            out.append((f"{name} seed {i}", t))  # e.g. "case005_ep1 (held_out) seed 2"
     return out
+
+
+def _safe(name):
+    """``name`` as a file name: runs of anything but letters, digits, dots and dashes as _."""
+    return re.sub(r"[^\w.-]+", "_", name)
+
+
+def _group(name):
+    """A run's group: its shipped scene and force or object, or the generator's split."""
+    if name.startswith("case"):
+        return "held-out cases" if "(held_out)" in name else "generator bench cases"
+    return name.rsplit(" seed", 1)[0]
 
 
 def shipped(name):
@@ -185,8 +198,9 @@ def shipped(name):
 def identify_sim(tmp, final, limit):
     rows = []
     for name, tables, truth in [shipped("payload_poses"), *sim_cases("identify", final, limit)]:
-        scene = write_scene(tmp / f"{name}.toml", tables)
-        out, log, *_ = record(scene, tmp, name)
+        tag = name.split(" ")[0]
+        scene = write_scene(tmp / f"{tag}.toml", tables)
+        out, log, *_ = record(scene, tmp, tag)
         t = tables["tool"]
         want = Tool(t["mass_kg"], t["com_m"])
         try:
@@ -228,10 +242,11 @@ def turn_part(tmp, final, limit, seeds):
                          "contacts": _contacts(d) or 0})  # fmt: skip
     if HAVE_SIM:
         for name, tables, _ in [shipped("payload_turn"), *sim_cases("turn", final, limit)]:
-            scene = write_scene(tmp / f"{name}.toml", tables)
-            tools = tool_files(tables, tmp, name)
+            tag = name.split(" ")[0]
+            scene = write_scene(tmp / f"{tag}.toml", tables)
+            tools = tool_files(tables, tmp, tag)
             for pay in (False, True):
-                out, *_ = record(scene, tmp, f"{name}{pay}", tools if pay else ())
+                out, *_ = record(scene, tmp, f"{tag}{pay}", tools if pay else ())
                 rows.append({"case": name, "payload": pay, "contacts": _contacts(out) or 0})
     return rows
 
@@ -261,12 +276,12 @@ def ep1_part(tmp, final, limit, seeds):
             cases.append((f"ep1_roll_weighted {force:g} N seed {seed}", tables))
     cases += reseeded(sim_cases("ep1", final, limit), seeds)
     for name, tables in cases:
-        group = "generator cases" if name.startswith("case") else name.rsplit(" seed", 1)[0]
+        group = _group(name)
         errs = {}
         for kind, scene_tables, tools in (
             ("weightless", weightless(tables), ()),
             ("without", tables, ()),
-            ("with", tables, tool_files(tables, tmp, name)),
+            ("with", tables, tool_files(tables, tmp, _safe(name))),
         ):
             scene = write_scene(tmp / f"{name}_{kind}.toml".replace(" ", "_"), scene_tables)
             out, log, motion, code, _ = record(
@@ -320,14 +335,14 @@ def ep2_part(tmp, final, limit, seeds):
         for kind, scene_tables, tools in (
             ("weightless", weightless(tables), ()),
             ("without", tables, ()),
-            ("with", tables, tool_files(tables, tmp, name)),
+            ("with", tables, tool_files(tables, tmp, _safe(name))),
         ):
-            tag = f"{name}_{kind}".replace(" ", "_")
+            tag = _safe(f"{name}_{kind}")
             out, _, _, code, _ = record(
                 write_scene(tmp / f"{tag}.toml", scene_tables), tmp, tag, tools
             )
             got[kind] = _ep2(out, radius, obj) if code == 0 else None
-        group = "generator cases" if name.startswith("case") else name.rsplit(" seed", 1)[0]
+        group = _group(name)
         rows.append({"case": name, **{k: _ep2_text(v) for k, v in got.items()},
                      "_group": group, "_errs": got})  # fmt: skip
     return rows, summary(rows, lambda e: e["S_err"], "S error", 1.0) + summary(
