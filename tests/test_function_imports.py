@@ -49,7 +49,6 @@ LIFT_URL = "to lift: pyserial loads this handler only to open a sim:// port"
 LIFT = "to lift"
 
 DEFERRED = {
-    "sim/tactile_sim/commands/emulate.py": {},
     "firmware/tactile_fw/frontend.py": {
         "make_sensor: tactile_fw.ads122c04": SENSOR_RAM,
     },
@@ -87,20 +86,12 @@ DEFERRED = {
         "_run: tactile.cli.board_args": RECORD_EXPORT,
         "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },
-    "host/tactile/ep1/from_ft.py": {},
-    "host/tactile/ep1/probes_csv.py": {},
     "host/tactile/foxglove/live.py": {
         "LiveServer.__init__: tactile.foxglove.live_scene": LIVE_SCENE,
         "LiveServer._stamp: tactile.recording.timebase": LIVE_FIT,
     },
     "host/tactile/ep2/api.py": {
         "analyze_patch: tactile.ep2": SPLINE_SCIPY,
-    },
-    "host/tactile/ep2/many.py": {},
-    "host/tactile/ep2/uncertainty.py": {},
-    "host/tactile/recording/session.py": {},
-    "host/tactile/units.py": {
-        "stated: tactile.files.csv_dialect": LIFT,
     },
     "protocol/make_vectors.py": {
         "decode_case: tactile.board.stream_decoder": TOOL,
@@ -145,7 +136,6 @@ DEFERRED = {
         "QemuBoard.__init__: tactile_fw": LIFT_EMULATOR,
         "image: tactile_sim.emulator.cores": LIFT_EMULATOR,
     },
-    "sim/tactile_sim/emulator/qemu_server.py": {},
     "sim/tactile_sim/urlhandler/protocol_sim.py": {
         "Serial.open: tactile_sim.emulator": LIFT_URL,
         "Serial.open: tactile_sim.emulator.device": LIFT_URL,
@@ -161,27 +151,6 @@ DEFERRED = {
     },
     "studies/tactile_studies/commands/study_ep2.py": {
         "_study: tactile_studies.ep2": FAMILY,
-    },
-    "studies/tactile_studies/ep1/experiment.py": {
-        "run_ep1: tactile.ep1.estimator": LIFT,
-    },
-    "studies/tactile_studies/ep1/ft_measure.py": {
-        "measure_ft: tactile.localize.sphere": LIFT,
-    },
-    "studies/tactile_studies/ep1/studies.py": {
-        "_errors: tactile.ep1.estimator": LIFT,
-        "study_paraboloid: tactile.ep1.estimator": LIFT,
-        "study_arclength: tactile_sim.ep1.rolling": LIFT,
-        "study_arclength: tactile_sim.ep1.surfaces": LIFT,
-        "study_optimal_dtheta.trial_errors: tactile.ep1.estimator": LIFT,
-    },
-    "studies/tactile_studies/ep2/family_score.py": {
-        "_rank: tactile_studies.ep2": LIFT,
-    },
-    "studies/tactile_studies/ep2/studies.py": {
-        "_analyse: tactile.ep2": LIFT,
-        "tables: tactile.ep2": LIFT,
-        "run: tactile_studies.ep2": LIFT,
     },
     "studies/tactile_studies/replica.py": {
         "analyse: tactile.ep2": LIFT_REPLICA,
