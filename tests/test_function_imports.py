@@ -40,7 +40,6 @@ LIVE_FIT = (
 SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_imports.py)"
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
 CYCLE_EMULATOR = "cycle: the cores import cores.cache_dir (test_layers.KNOWN_CYCLES)"
-RECORD_EXPORT = "to lift: cmd_record and cmd_export are being reworked against data loss"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
 LIFT_EMULATOR = "to lift: the emulator's cores and servers are being redesigned"
 LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
@@ -65,26 +64,6 @@ DEFERRED = {
     },
     "host/tactile/board/serial_port.py": {
         "open_port: tactile.errors": LIFT_BOARD,
-    },
-    "host/tactile/cli/cmd_export.py": {
-        "run: tactile.errors": RECORD_EXPORT,
-        "run: tactile.recording.export_target": RECORD_EXPORT,
-        "run: tactile.recording.export_parquet (x3)": RECORD_EXPORT,
-        "run: tactile.output.textout": RECORD_EXPORT,
-        "run: tactile.files.folder_lock": RECORD_EXPORT,
-        "_export: tactile.recording.load": RECORD_EXPORT,
-        "_export: tactile.output.textout": RECORD_EXPORT,
-        "run: tactile.foxglove.export_mcap (x2)": RECORD_EXPORT,
-        "run: tactile.logs.pose": RECORD_EXPORT,
-    },
-    "host/tactile/cli/cmd_record.py": {
-        "run: tactile.files.folder_lock": RECORD_EXPORT,
-        "_run: tactile.recording.session": RECORD_EXPORT,
-        "_run: tactile.logs.clock (x2)": RECORD_EXPORT,
-        "_run: tactile.commands.derive (x2)": RECORD_EXPORT,
-        "_run: tactile.errors": RECORD_EXPORT,
-        "_run: tactile.cli.board_args": RECORD_EXPORT,
-        "Progress.update: tactile.output.textout": RECORD_EXPORT,
     },
     "host/tactile/foxglove/live.py": {
         "LiveServer.__init__: tactile.foxglove.live_scene": LIVE_SCENE,
@@ -191,8 +170,8 @@ def test_each_function_level_import_is_listed_with_its_reason():
 def test_the_cli_defers_no_import():
     """The CLI's commands are imported only when they run (tactile.cli.registry), so they
     import their library at module level; the families of a group command are the one
-    exception, and two commands under rework wait."""
+    exception."""
     cli = [k for k in LISTED if k.startswith(("host/tactile/cli/", "host/tactile/commands/"))]
-    assert all(k.split("::")[0].endswith(("cmd_record.py", "cmd_export.py")) for k in cli), cli
+    assert not cli, cli
     commands = [k for k in LISTED if "/commands/" in k.split("::")[0]]
     assert all(LISTED[k] is FAMILY for k in commands), commands
