@@ -39,9 +39,7 @@ LIVE_FIT = (
 )
 SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_imports.py)"
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
-CYCLE_EMULATOR = "cycle: the cores import cores.cache_dir (test_layers.KNOWN_CYCLES)"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
-LIFT_EMULATOR = "to lift: the emulator's cores and servers are being redesigned"
 LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
 LIFT_REPLICA = "to lift: only tactile demo loads replica; how it starts an emulator is changing"
 LIFT_URL = "to lift: pyserial loads this handler only to open a sim:// port"
@@ -78,16 +76,6 @@ DEFERRED = {
     "sim/tactile_sim/commands/sim_ep2.py": {
         "run: tactile_sim.ep2": FAMILY,
     },
-    "sim/tactile_sim/emulator/adc_bank.py": {
-        "library: tactile_sim.emulator.cores": LIFT_EMULATOR,
-    },
-    "sim/tactile_sim/emulator/cores.py": {
-        "python_board: tactile_fw.board": LIFT_EMULATOR,
-        "python_board: tactile_fw.frontend": LIFT_EMULATOR,
-        "c_i2c: tactile_sim.emulator": CYCLE_EMULATOR,
-        "qemu_board: tactile_sim.emulator.qemu_core": CYCLE_EMULATOR,
-        "pico_board: tactile_sim.emulator.pico_core": CYCLE_EMULATOR,
-    },
     "sim/tactile_sim/emulator/motion_rig.py": {
         "build: tactile_sim.rig.geometry": SCENE_MODELS,
         "build: tactile_sim.rig.objects": SCENE_MODELS,
@@ -106,14 +94,6 @@ DEFERRED = {
     "sim/tactile_sim/emulator/motion_sweep.py": {
         "SweepMotion.__init__: tactile_sim.ep2.sweep": SCENE_MODELS,
         "build: tactile_sim.ep2.objects": SCENE_MODELS,
-    },
-    "sim/tactile_sim/emulator/pico_core.py": {
-        "npm_prefix: tactile_sim.emulator.cores": LIFT_EMULATOR,
-    },
-    "sim/tactile_sim/emulator/qemu_core.py": {
-        "QemuBoard.__init__: tactile_fw.identity": LIFT,
-        "QemuBoard.__init__: tactile_fw": LIFT_EMULATOR,
-        "image: tactile_sim.emulator.cores": LIFT_EMULATOR,
     },
     "sim/tactile_sim/urlhandler/protocol_sim.py": {
         "Serial.open: tactile_sim.emulator": LIFT_URL,
