@@ -41,7 +41,6 @@ SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
 LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
-LIFT_REPLICA = "to lift: only tactile demo loads replica; how it starts an emulator is changing"
 LIFT_URL = "to lift: pyserial loads this handler only to open a sim:// port"
 LIFT = "to lift"
 
@@ -110,19 +109,6 @@ DEFERRED = {
     },
     "studies/tactile_studies/commands/study_ep2.py": {
         "_study: tactile_studies.ep2": FAMILY,
-    },
-    "studies/tactile_studies/replica.py": {
-        "analyse: tactile.ep2": LIFT_REPLICA,
-        "replicate: tactile": LIFT_REPLICA,
-        "replicate: tactile.ep2.contacts_csv": LIFT_REPLICA,
-        "replicate: tactile.commands.derive": LIFT_REPLICA,
-        "replicate: tactile.recording.files": LIFT_REPLICA,
-        "replicate: tactile.recording.session": LIFT_REPLICA,
-        "replicate: tactile_sim.emulator": LIFT_REPLICA,
-        "_on_sim: tactile_sim.emulator.device": LIFT_REPLICA,
-        "_on_sim: tactile_sim.urlhandler": LIFT_REPLICA,
-        "_on_pty: tactile_sim.emulator.device": LIFT_REPLICA,
-        "_on_pty: tactile_sim.emulator.pty_server": LIFT_REPLICA,
     },
 }
 
