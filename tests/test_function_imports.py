@@ -41,7 +41,6 @@ SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
 LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
-LIFT_URL = "to lift: pyserial loads this handler only to open a sim:// port"
 LIFT = "to lift"
 
 DEFERRED = {
@@ -93,11 +92,6 @@ DEFERRED = {
     "sim/tactile_sim/emulator/motion_sweep.py": {
         "SweepMotion.__init__: tactile_sim.ep2.sweep": SCENE_MODELS,
         "build: tactile_sim.ep2.objects": SCENE_MODELS,
-    },
-    "sim/tactile_sim/urlhandler/protocol_sim.py": {
-        "Serial.open: tactile_sim.emulator": LIFT_URL,
-        "Serial.open: tactile_sim.emulator.device": LIFT_URL,
-        "Serial.open: tactile_sim.emulator.link_faults": LIFT_URL,
     },
     "studies/tactile_studies/commands/sim_ep1.py": {
         "run: tactile.ep1": FAMILY,
