@@ -40,7 +40,6 @@ LIVE_FIT = (
 SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_imports.py)"
 CYCLE_EP2 = "cycle through tactile.ep2's __init__, which imports this; EP2 is being regrouped"
 LIFT_EP2 = "to lift: EP2 is being regrouped"
-LIFT_BOARD = "to lift: the board link and live server are being reworked against data loss"
 LIFT = "to lift"
 
 DEFERRED = {
@@ -54,12 +53,6 @@ DEFERRED = {
     },
     "host/tactile/__init__.py": {
         "__getattr__: tactile.recording.load": LIGHT_PACKAGE,
-    },
-    "host/tactile/board/flashing.py": {
-        "flash: tactile.board (x2)": LIFT_BOARD,
-    },
-    "host/tactile/board/serial_port.py": {
-        "open_port: tactile.errors": LIFT_BOARD,
     },
     "host/tactile/foxglove/live.py": {
         "LiveServer.__init__: tactile.foxglove.live_scene": LIVE_SCENE,
