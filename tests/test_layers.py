@@ -174,7 +174,7 @@ def test_without_the_simulator_the_cli_runs_and_says_what_is_missing():
 # board settings or error tree: a bug the emulator shared with the host it checks would hide
 # (the vocabulary both need is tactile_protocol's).
 EMULATOR_MAY_USE = ("tactile.logs", "tactile.files", "tactile.output.textout")
-NEVER_IN_THE_SIMULATOR = ("tactile.board.stream_decoder", "tactile.board.settings")
+NEVER_IN_THE_SIMULATOR = ("tactile.board.stream_decoder", "tactile.board.client")
 
 
 def test_the_emulator_does_not_check_the_host_with_the_hosts_own_parts():
