@@ -12,6 +12,8 @@ Listed by file: ``function: module as the statement names it``, ``(xN)`` when on
 says it N times.
 """
 
+import subprocess
+import sys
 from collections import Counter
 
 from import_graph import imports, product_files
@@ -106,3 +108,13 @@ def test_the_cli_defers_no_import():
     assert not cli, cli
     commands = [k for k in LISTED if "/commands/" in k.split("::")[0]]
     assert all(LISTED[k] is FAMILY for k in commands), commands
+
+
+def test_tactile_live_loads_no_numpy_until_a_scene_or_foxglove_needs_it():
+    """What LIVE_SCENE and LIVE_FIT defer: lifted, ``tactile live`` would load NumPy."""
+    code = (
+        "import sys, tactile.cli.cmd_live\n"
+        "print(sorted(m for m in ('numpy', 'tactile.ep2') if m in sys.modules))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]"
