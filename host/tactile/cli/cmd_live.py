@@ -12,12 +12,12 @@ import time
 
 from tactile.board.client import info_dict
 from tactile.board.live_view import WIDTH, LiveState
-from tactile.board.settings import STREAMS, to_newtons
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.errors import PortLost
 from tactile.output.textout import printable
 from tactile_protocol import constants as C
+from tactile_protocol.settings import STREAMS, to_newtons
 
 REFRESH_S = 0.1
 
