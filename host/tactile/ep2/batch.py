@@ -17,6 +17,7 @@ import numpy as np
 
 from tactile.ep2 import (
     api,
+    check_screens,
     edges,
     extent,
     jet_answers,
@@ -106,11 +107,18 @@ def _chunk(patches, kw):
     unpacked = [_unpack(p) for p in patches]
     kws = [_own(p, kw) for p in patches]
     quick = _prepare_stacked(unpacked, kws)
+    preps = {}
     for j, (item, kw_j) in enumerate(zip(unpacked, kws, strict=True)):
         try:
-            prep = quick[j] or patch_input.prepare(*item, kw_j)
-            edges.check(prep)
-            prep, tilted[j] = tilt.untilt(prep)
+            preps[j] = quick[j] or patch_input.prepare(*item, kw_j)
+        except (DataError, InputError) as exc:
+            results[j] = exc
+    clear_edge, clear_tilt = _screens(preps)
+    for j, prep in preps.items():
+        try:
+            if not clear_edge[j]:
+                edges.check(prep)
+            prep, tilted[j] = (prep, None) if clear_tilt[j] else tilt.untilt(prep)
             prepared.append((j, prep))
         except (DataError, InputError) as exc:
             results[j] = exc
@@ -140,6 +148,21 @@ def _chunk(patches, kw):
                 res.warnings[:0] = [tilted[j]] if tilted[j] else []
             results[j] = res
     return results
+
+
+def _screens(preps):
+    """({j: bool}, {j: bool}): which prepared patches surely pass ``edges.check`` and are
+    surely left as they are by ``tilt.untilt`` (``check_screens``, a stack per size)."""
+    edge, tilted, groups = {}, {}, {}
+    for j, prep in preps.items():
+        groups.setdefault(len(prep.points), []).append(j)
+    for idx in groups.values():
+        P = np.stack([preps[j].points for j in idx])
+        N = np.stack([preps[j].normals for j in idx])
+        e, t = check_screens.clear(P, N, [preps[j].opts for j in idx])
+        edge.update(zip(idx, e.tolist(), strict=True))
+        tilted.update(zip(idx, t.tolist(), strict=True))
+    return edge, tilted
 
 
 def _nan(v):
