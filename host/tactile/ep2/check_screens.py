@@ -4,7 +4,7 @@
 patch passes both.  ``clear`` computes, for a stack of like-sized prepared patches, the
 numbers those checks decide on (the normals' gate and the step against the smooth field,
 the normal screen's far contacts; the tilt's fit, its chi^2, size and standard error) with
-stacked NumPy (``eigh``, ``svd``) and says which patches pass each check by a
+stacked NumPy (``eigh``, normal equations) and says which patches pass each check by a
 margin (``REL``, ``ABS``) far beyond the two computations' round-off.  Only the others run
 the per-patch check, so the answers are the per-patch checks' exactly: a patch near a
 threshold, with tied normals or an ill-conditioned fit is always checked one at a time.
@@ -16,7 +16,9 @@ from tactile.ep2 import edges, tilt
 
 REL = 1e-6  # relative margin on every decision
 ABS = 1e-9  # absolute margin, in units of the quantity's scale
-MAX_COND = 1e5  # a fit's condition number beyond which the screen leaves it to the check
+MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to the check
+TILT_COND = 1e4  # the same for the tilt's weighted fit (its rows' scales differ)
+TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than the rest
 
 
 def clear(points, normals, opts):
@@ -87,9 +89,9 @@ def _step_loses(P, N, m):
     xy = xy / np.maximum(np.ptp(xy, axis=(1, 2)), 1e-300)[:, None, None]
     u, v = xy[..., 0], xy[..., 1]
     A = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
-    U, s, _ = np.linalg.svd(A, full_matrices=False)
-    sure &= s[:, -1] > s[:, 0] / MAX_COND
-    rss_smooth = np.sum((N - U @ (U.transpose(0, 2, 1) @ N)) ** 2, axis=(1, 2))
+    coef, ok = _solve(A, N)
+    sure &= ok  # (a coefficient off the least squares' only adds to rss_smooth: the safe side)
+    rss_smooth = np.sum((N - A @ coef) ** 2, axis=(1, 2))
     bound = edges.STEP_RATIO * rss_smooth * (1 + REL) + ABS * n
     return sure & (rss_step > bound)
 
@@ -142,38 +144,48 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     sp, ok = _residual(H[..., :6], z, n - 6)
     sp = np.where(np.isnan(noise_pos), sp, noise_pos / Ls)
     sure &= ok | ~np.isnan(noise_pos)
-    Pn = H[..., :3]
-    (rx, okx), (ry, oky) = _residual(Pn, sx, n - 3), _residual(Pn, sy, n - 3)
-    sn = np.where(np.isnan(noise_normal), np.hypot(rx, ry) / np.sqrt(2), noise_normal)
-    sure &= (okx & oky) | ~np.isnan(noise_normal)
+    r, ok = _residual(H[..., :3], np.stack([sx, sy], axis=-1), n - 3)
+    sn = np.where(np.isnan(noise_normal), np.hypot(r[:, 0], r[:, 1]) / np.sqrt(2), noise_normal)
+    sure &= ok | ~np.isnan(noise_normal)
     sp, sn = np.maximum(sp, tilt.NOISE_FLOOR), np.maximum(sn, tilt.NOISE_FLOOR)
     A = np.concatenate([H / sp[:, None, None], Sx / sn[:, None, None], Sy / sn[:, None, None]], 1)
     b = np.concatenate([z / sp[:, None], sx / sn[:, None], sy / sn[:, None]], axis=1)
-    U, s, Vt = np.linalg.svd(A, full_matrices=False)
-    sure &= s[:, -1] > s[:, 0] / MAX_COND
-    s = np.where(sure[:, None], s, 1.0)
-    coef = np.einsum("bji,bj->bi", Vt, np.einsum("bnj,bn->bj", U, b) / s)
+    rhs = np.concatenate([np.einsum("bni,bn->bi", A, b)[..., None], np.zeros((len(A), 8, 8))], -1)
+    rhs[:, np.arange(8), 1 + np.arange(8)] = 1.0  # [A^T b | I]: the solution and the inverse
+    sol, ok = _solve(A, None, rhs, TILT_COND)
+    sure &= ok
+    coef, inv = sol[..., 0], sol[..., 1:]
     chi2 = np.sum((np.einsum("bni,bi->bn", A, coef) - b) ** 2, axis=1) / max(3 * n - 8, 1)
-    cov = (
-        np.einsum("bji,bj,bjk->bik", Vt, 1 / s**2, Vt)[:, 6:, 6:]
-        * np.maximum(chi2, 1.0)[:, None, None]
-    )
+    cov = inv[:, 6:, 6:] * np.maximum(chi2, 1.0)[:, None, None]
     tb = coef[:, 6:]
     big = np.hypot(tb[:, 0], tb[:, 1])
     u = tb / np.maximum(big, 1e-300)[:, None]
     se = np.sqrt(np.maximum(np.einsum("bi,bij,bj->b", u, cov, u), 0.0))
     deg = np.degrees(np.arctan(big))
-    none = chi2 > tilt.MAX_CHI2 * (1 + REL)
-    none |= (deg < tilt.MIN_DEG * (1 - REL)) | (deg > tilt.MAX_DEG * (1 + REL))
-    none |= big < tilt.MIN_Z * se * (1 - 1e3 * REL)
+    none = chi2 > tilt.MAX_CHI2 * (1 + TILT_REL)
+    none |= (deg < tilt.MIN_DEG * (1 - TILT_REL)) | (deg > tilt.MAX_DEG * (1 + TILT_REL))
+    none |= big < tilt.MIN_Z * se * (1 - TILT_REL)
     out[live] = steep | sure & none
     return out
 
 
+def _solve(A, Y, rhs=None, max_cond=MAX_COND):
+    """(the normal equations' solution (B, k, m) of A (B, n, k) against Y (B, n, m), or
+    against ``rhs`` (B, k, m) as given; whether A's condition number is under ``MAX_COND``,
+    so that it is within the margins of ``np.linalg.lstsq``'s) per patch."""
+    G = np.einsum("bni,bnj->bij", A, A)
+    w = np.linalg.eigvalsh(G)
+    ok = w[:, 0] > w[:, -1] / max_cond**2
+    G[~ok] = np.eye(G.shape[-1])  # (left to the check: any solvable system)
+    if rhs is None:
+        rhs = np.einsum("bni,bnm->bim", A, Y)
+    return np.linalg.solve(G, rhs), ok
+
+
 def _residual(A, y, dof):
-    """(rms residual of y's least squares on A's columns with ``dof`` spare rows, whether A
-    is well enough conditioned for it to equal ``np.linalg.lstsq``'s) per patch."""
-    U, s, _ = np.linalg.svd(A, full_matrices=False)
-    ok = s[:, -1] > s[:, 0] / MAX_COND
-    fit = np.einsum("bnj,bj->bn", U, np.einsum("bnj,bn->bj", U, y))
-    return np.sqrt(np.sum((fit - y) ** 2, axis=1) / max(dof, 1)), ok
+    """(rms residual (B,) or (B, m) of y (B, n) or (B, n, m) fitted by A's columns, with
+    ``dof`` spare rows; ``_solve``'s ok) per patch."""
+    Y = y if y.ndim == 3 else y[..., None]
+    coef, ok = _solve(A, Y)
+    rms = np.sqrt(np.sum((A @ coef - Y) ** 2, axis=1) / max(dof, 1))
+    return (rms if y.ndim == 3 else rms[:, 0]), ok
