@@ -67,7 +67,7 @@ def _no_edge(P, N):
 def _step_loses(P, N, m):
     """``edges.find``'s ``rss_step > STEP_RATIO * smooth rss``, by the margins (else False)."""
     n = P.shape[1]
-    C = np.einsum("bni,bnj->bij", *(2 * [N - N.mean(axis=1, keepdims=True)])) / (n - 1)
+    C = _gram(N - N.mean(axis=1, keepdims=True)) / (n - 1)
     w, V = np.linalg.eigh(C)
     a = V[:, :, -1]
     x = np.einsum("bnk,bk->bn", N, a)
@@ -126,9 +126,9 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     P, N, noise_pos, noise_normal = P[live], N[live], noise_pos[live], noise_normal[live]
     m = total[live] / size[live, None]
     R = np.stack([*_across(m), m], axis=1)  # rows: x, y, z
-    local = np.einsum("bnk,bik->bni", P - P.mean(axis=1, keepdims=True), R)
+    local = (P - P.mean(axis=1, keepdims=True)) @ R.transpose(0, 2, 1)
     L = np.maximum(np.ptp(local[..., 0], axis=1), np.ptp(local[..., 1], axis=1))
-    nl = np.einsum("bnk,bik->bni", N, R)
+    nl = N @ R.transpose(0, 2, 1)
     zmin = nl[..., 2].min(axis=1)
     sure = L > ABS * np.abs(P).max(axis=(1, 2))
     steep = sure & (zmin < 0.1 - REL)  # ``estimate``: a normal near the tangent plane
@@ -150,12 +150,12 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     sp, sn = np.maximum(sp, tilt.NOISE_FLOOR), np.maximum(sn, tilt.NOISE_FLOOR)
     A = np.concatenate([H / sp[:, None, None], Sx / sn[:, None, None], Sy / sn[:, None, None]], 1)
     b = np.concatenate([z / sp[:, None], sx / sn[:, None], sy / sn[:, None]], axis=1)
-    rhs = np.concatenate([np.einsum("bni,bn->bi", A, b)[..., None], np.zeros((len(A), 8, 8))], -1)
+    rhs = np.concatenate([A.transpose(0, 2, 1) @ b[..., None], np.zeros((len(A), 8, 8))], -1)
     rhs[:, np.arange(8), 1 + np.arange(8)] = 1.0  # [A^T b | I]: the solution and the inverse
     sol, ok = _solve(A, None, rhs, TILT_COND)
     sure &= ok
     coef, inv = sol[..., 0], sol[..., 1:]
-    chi2 = np.sum((np.einsum("bni,bi->bn", A, coef) - b) ** 2, axis=1) / max(3 * n - 8, 1)
+    chi2 = np.sum(((A @ coef[..., None])[..., 0] - b) ** 2, axis=1) / max(3 * n - 8, 1)
     cov = inv[:, 6:, 6:] * np.maximum(chi2, 1.0)[:, None, None]
     tb = coef[:, 6:]
     big = np.hypot(tb[:, 0], tb[:, 1])
@@ -169,16 +169,20 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     return out
 
 
+def _gram(A):
+    return A.transpose(0, 2, 1) @ A
+
+
 def _solve(A, Y, rhs=None, max_cond=MAX_COND):
     """(the normal equations' solution (B, k, m) of A (B, n, k) against Y (B, n, m), or
     against ``rhs`` (B, k, m) as given; whether A's condition number is under ``MAX_COND``,
     so that it is within the margins of ``np.linalg.lstsq``'s) per patch."""
-    G = np.einsum("bni,bnj->bij", A, A)
+    G = _gram(A)
     w = np.linalg.eigvalsh(G)
     ok = w[:, 0] > w[:, -1] / max_cond**2
     G[~ok] = np.eye(G.shape[-1])  # (left to the check: any solvable system)
     if rhs is None:
-        rhs = np.einsum("bni,bnm->bim", A, Y)
+        rhs = A.transpose(0, 2, 1) @ Y
     return np.linalg.solve(G, rhs), ok
 
 
