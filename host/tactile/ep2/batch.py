@@ -1,7 +1,9 @@
 """Many patches at once: ``analyze_patches``.
 
 Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring;
-patches of one size together, ``_prepare_stacked``), then a chunk of patches is fitted by
+patches of one size together, ``_prepare_stacked``), the crease and tilt checks are
+screened for each size at once (``check_screens``; only the patches not cleared run
+``edges.check`` and ``tilt.untilt``), then a chunk of patches is fitted by
 one ``local_jet.fit`` call on a padded stack with a row mask (the fit is batch-first: the
 stack equals each patch alone, tested), and the analysis after the fit
 (positions-versus-normals test, determination, intervals, label, grid statistics:
