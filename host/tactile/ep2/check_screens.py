@@ -135,7 +135,7 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     sure &= steep | (zmin > 0.1 + REL)
     Ls = np.where(sure, L, 1.0)
     x, y, z = (local / Ls[:, None, None]).transpose(2, 0, 1)
-    nz = np.where(steep[:, None], 1.0, nl[..., 2])
+    nz = np.where(nl[..., 2] > 0.05, nl[..., 2], 1.0)  # (only where none is under 0.1)
     sx, sy = -nl[..., 0] / nz, -nl[..., 1] / nz
     one, zero = np.ones_like(x), np.zeros_like(x)
     H = np.stack([one, x, y, x * x / 2, x * y, y * y / 2, zero, zero], axis=-1)
