@@ -21,12 +21,12 @@ import json
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tactile.board import settings as board_settings
 from tactile.board.stream_decoder import decode_bytes
 from tactile.logs import robot_log
 from tactile.recording.files import Recording
 from tactile_fw import gate as fw_gate
 from tactile_protocol import constants as C
+from tactile_protocol import settings as board_settings
 from tactile_protocol.framing import FrameEncoder
 
 G = np.array([0.0, 0.0, -9.81])

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from tactile.ep2 import analyze_patch, analyze_sweep
+from tactile.ep2.edges import EdgeError
 from tactile.errors import DataError, InputError
 from tactile.output.jsonout import dumps
 from tactile_sim.ep2 import make, sweep
@@ -204,8 +205,10 @@ def test_discontinuity_detected_and_split():
     pts[beyond, 2] = (pts[beyond, 1] - 2.1) * np.tan(np.radians(60))
     n2 = np.array([0.0, -np.sin(np.radians(60)), np.cos(np.radians(60))])
     nrm[beyond] = n2
-    res = analyze_patch(pts, nrm, finger=d["finger"])
-    assert len(res.discontinuities) == 3  # one per finger
+    with pytest.raises(EdgeError) as info:  # whole, the patch straddles the edge
+        analyze_patch(pts, nrm, finger=d["finger"])
+    assert info.value.edge.kind == "valley"
+    assert abs(info.value.edge.dihedral_deg - 120) < 1e-6
     parts = analyze_sweep(pts, nrm, finger=d["finger"], split=True)
     assert len(parts) == 2
     assert [p.shape for p in parts] == ["plane", "plane"]

@@ -66,15 +66,17 @@ def test_two_points_off_the_surface_are_named_and_three_get_no_label(seed):
     assert res.shape == "uncertain"
 
 
-def test_normals_beyond_the_angle_limit_are_screened_whatever_their_number():
+def test_normals_beyond_the_angle_limit_are_screened_two_at_most():
+    """Two flipped normals are left out by name; four are a bad patch, said as one."""
     d = _noisy_sphere(seed=2)
     nrm = d["normals"].copy()
-    nrm[[2, 8, 13, 17]] *= -1.0
+    nrm[[2, 8]] *= -1.0
     res = analyze_patch(d["points"], nrm)
-    assert [w.split(" left out")[0] for w in res.warnings] == [
-        f"contact {k}" for k in (2, 8, 13, 17)
-    ]
+    assert [w.split(" left out")[0] for w in res.warnings] == ["contact 2", "contact 8"]
     assert res.shape == "sphere" and _covers(res.radius_interval, 8.0)
+    nrm[[13, 17]] *= -1.0
+    with pytest.raises(DataError, match=r"^a bad patch: 4 normals \(contact 2, contact 8, cont"):
+        analyze_patch(d["points"], nrm)
 
 
 def test_six_contacts_with_normals_on_a_sphere_are_answered():
@@ -158,3 +160,15 @@ def test_the_spline_says_plane_only_where_its_k_intervals_hold_zero():
     holds_zero = _covers(res.k1_interval, 0.0) and _covers(res.k2_interval, 0.0)
     assert (res.shape == "plane") == holds_zero
     assert res.shape != "plane"
+
+
+def test_a_strongly_curved_exact_sphere_takes_its_grid_from_the_top_jet():
+    """S_mean over the grid of a sphere of radius 6 over a 4-wide patch, noise-free, was
+    0.967 (the 2-jet's values drift off over the box); the top jet carries it."""
+    d = sweep(make("sphere", 6.0))
+    res = analyze_patch(d["points"], d["normals"], finger=d["finger"])
+    assert res.S_mean == pytest.approx(1.0, abs=0.01)
+    assert res.S == pytest.approx(1.0, abs=0.01)
+    noisy = sweep(make("sphere", 6.0), noise_pos=0.01, noise_normal=0.01, seed=1)
+    res = analyze_patch(noisy["points"], noisy["normals"], finger=noisy["finger"])
+    assert res.S_mean < 0.99  # noise hides the 4-jet: the answer's own jet, as before

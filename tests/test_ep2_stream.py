@@ -328,3 +328,38 @@ def test_a_part_ep2_cannot_represent_stops_both_runs_at_the_same_patch(tmp_path,
     assert len(one[2].splitlines()) == 1 and "Traceback" not in one[2]
     assert [json.loads(x)["patch"] for x in one[1].splitlines()] == [12, "a", 3]
     assert _run(capsys, str(path), "--split", "--json", "--jobs", "2") == one
+
+
+def _sizes_csv(tmp_path, n):
+    """``n`` patches of 9 to 36 contacts (3 to 6 fingers, as many stops), one after another."""
+    from tactile_sim.ep2 import make, sweep
+
+    lines = ["# units: mm", "x,y,z,nx,ny,nz,finger,patch"]
+    for k in range(n):
+        side = 3 + k % 4
+        obj = make(("sphere", "cylinder", "saddle", "pit")[k % 4], 8.0)
+        d = sweep(obj, fingers=side, spacing=4.0 / (side - 1), samples=side, repeats=1,
+                  noise_pos=0.01, noise_normal=0.01, seed=k)  # fmt: skip
+        table = np.column_stack([d["points"], d["normals"]])
+        lines += [",".join(f"{v:.8g}" for v in r) + f",{f},{k}" for r, f in zip(table, d["finger"])]
+    path = tmp_path / "sizes.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_small_chunks_and_blocks_print_the_bytes_of_the_whole_file_at_once(
+    tmp_path, capsys, monkeypatch
+):
+    """A few hundred patches of 9 to 36 contacts: read in 2 KiB blocks and fitted 7 patches
+    at a time (--jobs 1 and 2), the output is that of every patch in one chunk."""
+    from tactile.ep2 import many
+    from tactile.files import tabular
+
+    path = str(_sizes_csv(tmp_path, 300))
+    monkeypatch.setattr(many, "CHUNK", 10**6)  # the whole file in one chunk
+    whole = _run(capsys, path, "--json")
+    assert whole[0] in (0, 3) and len(whole[1].splitlines()) == 300
+    monkeypatch.setattr(many, "CHUNK", 7)
+    monkeypatch.setattr(tabular, "BLOCK_BYTES", 2048)
+    assert _run(capsys, path, "--json") == whole
+    assert _run(capsys, path, "--json", "--jobs", "2") == whole

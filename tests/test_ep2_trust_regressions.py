@@ -538,17 +538,17 @@ def test_strongly_curved_noise_free_shapes_at_the_centre(family, kw, params):
 # -- the normal-angle limit ---------------------------------------------------------------
 
 
-def test_steep_normals_are_left_out_named_and_the_option_moves_the_limit(tmp_path, cli):
-    """A cylinder r 2.02 across a 4-wide patch: its edge normals are 82 deg from the mean.
-    They are left out by name (the limit and its option in the line); what is left, one
-    finger, is refused as a line.  At 85 deg they stay, and a 2-jet cannot follow a
-    surface this bent over the patch: refused, with the hint to take a smaller patch."""
+def test_steep_normals_beyond_two_are_a_bad_patch_and_the_option_moves_the_limit(tmp_path, cli):
+    """A cylinder r 2.02 across a 4-wide patch: twelve edge normals are 82 deg from the
+    mean, more than the two the screen leaves out: a bad patch, the limit and its option in
+    the line.  At 85 deg they stay, and a 2-jet cannot follow a surface this bent over the
+    patch: refused, with the hint to take a smaller patch."""
     path = tmp_path / "steep.csv"
     write_csv(path, sweep(make("cylinder", 2.02)))
     code, out, err = cli("ep2", "analyze", path)
     assert code == 3 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
-    assert "82 deg" in err and "limit 80 deg" in err and "--max-normal-angle" in err
-    assert "more left out" in err  # twelve of them: the line stays short
+    assert "82-82 deg" in err and "limit 80 deg" in err and "--max-normal-angle" in err
+    assert "a bad patch: 12 normals" in err and "smaller patch" in err
     code, out, err = cli("ep2", "analyze", path, "--max-normal-angle", "85")
     assert code == 3 and "limit 80" not in err and "smaller patch" in err
 

@@ -4,6 +4,7 @@ import os
 import sys
 
 from tactile import units
+from tactile.cli import cmd_ep2_map
 from tactile.commands.words import add_quiet
 from tactile.ep2 import contacts_csv
 from tactile.ep2.many import MAX_JOBS, outcomes
@@ -74,9 +75,12 @@ def add_arguments(parser):
         help="analyse patches in N processes (default 1); the output is the same, in file order",
     )
     add_quiet(p)
+    cmd_ep2_map.add_arguments(subs)
 
 
 def run(args):
+    if args.action == "map":
+        return cmd_ep2_map.run(args)
     if args.grid < 2:
         raise InputError(f"--grid must be at least 2 (got {args.grid})")
     if args.segments < 1:

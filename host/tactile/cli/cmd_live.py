@@ -14,15 +14,13 @@ import time
 
 from tactile.board.client import info_dict
 from tactile.board.live_view import WIDTH, LiveState
-from tactile.board.settings import STREAMS, to_newtons
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
-from tactile.errors import InputError, PortLost
+from tactile.errors import PortLost
 from tactile.output.textout import printable
-from tactile.payload.live import Following
-from tactile.payload.orientation import read_log
-from tactile.payload.tool import read_tool
+from tactile.payload import live_args
 from tactile_protocol import constants as C
+from tactile_protocol.settings import STREAMS, to_newtons
 
 REFRESH_S = 0.1
 
@@ -43,21 +41,10 @@ def add_arguments(parser):
     foxglove_args.add_arguments(parser)
 
 
-def _following(args):
-    """The ``Following`` of ``--payload`` and ``--pose-log`` (None without), and the log."""
-    if not args.payload:
-        return None, None
-    if not args.pose_log:
-        raise InputError("--payload: needs --pose-log (the sensor's orientation at each reading)")
-    tools = [(path, read_tool(path)) for path in args.payload]
-    log, orient = read_log(args.pose_log)
-    samples = None if args.as_is else True
-    return Following(tools, orient, log.clock, samples), log
-
-
 def run(args):
     foxglove_args.check(args)
-    following, log = _following(args)  # bad files are refused before the board is touched
+    samples = None if args.as_is else True  # (live switches the SAMPLE stream on)
+    following, log = live_args.following(args.payload, args.pose_log, samples)  # before the board
     client = connect(args)
     if following is not None:
         try:

@@ -15,17 +15,22 @@ made is removed, one that was there is left as it was.
 """
 
 import sys
+import time
 
 from tactile.board.client import info_dict
 from tactile.cli import foxglove_args
-from tactile.cli.board_args import add_port_argument
+from tactile.cli.board_args import add_port_argument, connect
+from tactile.commands.derive import check_log, derive
 from tactile.commands.words import add_quiet
 from tactile.errors import BoardError, InputError
-from tactile.output.textout import printable
+from tactile.files.folder_lock import hold
+from tactile.logs.clock import log_end, show_time
+from tactile.output.textout import fields, printable
 from tactile.payload.live import Following
 from tactile.payload.on_board import OnBoard
 from tactile.payload.orientation import Orientations
 from tactile.payload.tool import read_tool
+from tactile.recording.session import Session
 
 
 def add_arguments(parser):
@@ -76,29 +81,20 @@ def payload_of(args, log):
 
 
 def run(args):
-    from tactile.files.folder_lock import hold
-
     with hold(args.out, create=True):  # one writer in the run, derive included
         return _run(args)
 
 
 def _run(args):
-    from tactile.recording.session import Session
-
     if args.duration is not None and not args.duration > 0:
         raise InputError(f"--duration: {args.duration} is not a positive number of seconds")
     if args.contacts is not None and args.contacts <= 0:
         raise InputError(f"--contacts: {args.contacts} is not a positive count")
     foxglove_args.check(args)
     if not args.port:
-        from tactile.cli.board_args import connect
-
         connect(args)  # raises the 'no port given' message
     until = posed = log = None
     if args.pose_log:
-        from tactile.commands.derive import check_log
-        from tactile.logs.clock import log_end
-
         log = check_log(args.pose_log)  # a bad log is refused before recording, not after
         end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
         until = (log.clock, end, how)
@@ -128,8 +124,6 @@ def _run(args):
         foxglove_args.stop(live, quiet=True)
         raise
     if until is not None and not args.quiet:
-        from tactile.logs.clock import show_time
-
         print(
             printable(
                 f"record: stops when the pose log is done ({show_time(until[0], until[1])}:"
@@ -152,10 +146,7 @@ def _run(args):
     print(printable(summary(meta, args.out)))  # the folder is the user's
     print(printable(time_summary(meta.get("time_base"))))
     if args.pose_log:
-        from tactile.commands.derive import derive
-
-        lines = derive(args.out, args.pose_log, per_contact=args.per_contact, payload=tools)
-        for line in lines:
+        for line in derive(args.out, args.pose_log, per_contact=args.per_contact, payload=tools):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
@@ -270,10 +261,6 @@ class Progress:
             )
 
     def update(self, session):
-        import time
-
-        from tactile.output.textout import fields
-
         now = time.monotonic()
         if now - self.last < (1.0 if self.plain else 0.1):
             return

@@ -24,13 +24,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2 import centre_result, jet_answers, local_jet, patch_frame, patch_input
+from tactile.ep2 import (
+    centre_result,
+    edges,
+    jet_answers,
+    local_jet,
+    patch_frame,
+    patch_input,
+    tilt,
+)
 from tactile.ep2.centre_result import hk_eps
-from tactile.ep2.patch_input import JetOptions, SplineOptions
 from tactile.ep2.surface_geometry import hk_labels
 from tactile.errors import DataError
 
-__all__ = ["JetOptions", "PatchResult", "SplineOptions", "analyze_patch", "analyze_sweep"]
+__all__ = ["PatchResult", "analyze_patch", "analyze_sweep"]
 
 
 def analyze_patch(
@@ -57,6 +64,8 @@ def analyze_patch(
     """
     kw = patch_input.keywords(method, jet, spline, maps, **options)
     prep = patch_input.prepare(points, normals, finger, lines, kw)
+    edges.check(prep)
+    prep, tilted = tilt.untilt(prep)
     pts, nrm, opts = prep.points, prep.normals, prep.opts
     if method == "spline":
         from tactile.ep2 import spline_analysis  # (start-up: scipy only for the spline)
@@ -64,7 +73,12 @@ def analyze_patch(
         out = spline_analysis.analyze(pts, nrm, opts)
     else:
         out = _analyze_jet(pts, nrm, opts)
-    return from_fields(out, len(pts), method, maps, prep.breaks, prep.dropped, prep.middle)
+    edges.check_answer(prep, out)
+    if isinstance(out, DataError):
+        raise out
+    res = from_fields(out, len(pts), method, maps, prep.breaks, prep.dropped, prep.middle)
+    res.warnings[:0] = [tilted] if tilted else []
+    return res
 
 
 def _analyze_jet(pts, nrm, opts):
@@ -78,9 +92,7 @@ def _analyze_jet(pts, nrm, opts):
         opts["max_normal_angle"],
     )
     (out,) = jet_answers.outcomes(stack, opts, [opts["names"]])
-    if isinstance(out, DataError):
-        raise out
-    return out
+    return out  # or the DataError refusing it
 
 
 def analyze_sweep(points, normals, finger=None, split=False, **kw):

@@ -121,7 +121,7 @@ def channels(stack, idx, n):
     xs = np.linspace(lo[:, 0], hi[:, 0], n, axis=-1)
     ys = np.linspace(lo[:, 1], hi[:, 1], n, axis=-1)
     gx, gy = np.repeat(xs, n, axis=-1), np.tile(ys, (1, n))  # about the centre
-    coef = stack.coef[idx]
+    coef = stack.grid_coef[idx]  # (the best-supported jet: ``jet_estimate._grid_coef``)
     order = _order_of(coef.shape[1])
     # on a tensor grid the jet is px C py^T, C[i, j] the coefficient of x^i y^j / (i! j!)
     C = np.zeros((len(idx), order + 3, order + 3))

@@ -15,6 +15,7 @@ from tactile.ep2.surface_geometry import shape_entries
 
 SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's dof
 BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noise
+CARRY_EVIDENCE = 100.0  # the grid takes the top jet on this many times the test's dof
 LINE_WIDTH = 0.01  # of L: contacts spread less across their line are on one line
 LINE_NOISE = 3.0  # ... as are contacts within this many position sigmas of a line
 LINE_THIN = 0.05  # (of L) where that is also this thin (an outlier left in inflates sigma)
@@ -29,6 +30,7 @@ class JetStack:
     cov_noise: np.ndarray  # (B, 3, 3) of t: noise alone
     cov_quadric: np.ndarray  # (B, 3, 3): the 2-jet's noise alone (what the data determine)
     coef: np.ndarray  # (B, p_top) the answer's jet (zeros beyond its order)
+    grid_coef: np.ndarray  # (B, p_top) the jet of the grid's maps: the best-supported one
     order: np.ndarray  # (B,) the jet the answer leans on (2 unless it moved over halfway)
     top: np.ndarray  # (B,) the highest order the contacts determine
     weight: np.ndarray  # (B,) how far the answer moved from the 2-jet to the higher jet
@@ -91,6 +93,7 @@ def answer(f, keep, reason, warnings, stated):
     coef[:, :6] = coefs[2]
     ch = _pick_coef(coefs, hi, coef.shape[1])
     coef = coef + w[:, None] * (ch - coef)
+    grid_coef = _grid_coef(coef, coefs, top, e, Ve)
     t, J = _entries_and_jacobian(est)
     width, line, across = _width(f.xy, keep)
     thin = line < np.minimum(LINE_NOISE * f.sig[:, 0], LINE_THIN)
@@ -114,6 +117,7 @@ def answer(f, keep, reason, warnings, stated):
     sig = f.sig * np.stack([f.L, np.ones(B)], -1)
     return JetStack(
         t=t, cov=cov_t, cov_noise=cov_noise, cov_quadric=cov_quadric, coef=coef,
+        grid_coef=grid_coef,
         order=np.where(w > 0.5, hi, 2), top=top, weight=w, noise=sig, stated=stated,
         origin=f.origin, axes=f.axes,
         scale=f.L, centre=f.centre, xy=f.xy, heights=f.heights,
@@ -138,6 +142,18 @@ def _width(xy, keep):
     r = v - mv(Q, vm(v, Q))
     curve = np.sqrt(np.sum(r * r * w, -1) / np.maximum(n[:, 0] - 3.0, 1.0))
     return curve, np.sqrt(np.sum(v * v, -1) / n[:, 0]), vecs[..., 0]
+
+
+def _grid_coef(coef, coefs, top, e, Ve):
+    """(B, p_top): the jet whose values the grid's maps take: the top jet (4 or more) where
+    the answer at the centre stands off it by more than ``CARRY_EVIDENCE`` times that
+    difference's noise (the data carry the top jet: a strongly curved, nearly noise-free
+    patch, where the answer's lower jet drifts off over the box), else the answer's jet."""
+    d2, rank = wald(e, Ve)
+    carry = (top >= 4) & (d2 > CARRY_EVIDENCE * np.maximum(rank, 1))
+    if not carry.any():
+        return coef
+    return np.where(carry[:, None], _pick_coef(coefs, top, coef.shape[1]), coef)
 
 
 def _pick_coef(coefs, which, p):

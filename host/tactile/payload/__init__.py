@@ -5,7 +5,7 @@
   ``check_device``);
 - ``fit``: ``identify(R_list, F_mean, T_mean, g)``, one linear least squares, and what poses
   it needs;
-- ``weight``: ``weight``, ``compensate``, ``tare_bias``: the tool's weight at an orientation,
+- ``tool_weight``: ``weight``, ``compensate``, ``tare_bias``: the tool's weight at an orientation,
   a wrench without it, the bias of a reading taken at any pose;
 - ``holds``, ``orientation``: readings averaged per hold of a pose log, and the sensor's
   orientation at any reading's time;
@@ -17,13 +17,6 @@
 
 docs/rig.md says what the weight and the drift do, and how to identify a tool.
 """
-
-from tactile.payload.compensator import Compensator, Gate
-from tactile.payload.drift import BiasTracker
-from tactile.payload.fit import identify
-from tactile.payload.orientation import Orientations
-from tactile.payload.tool import GRAVITY, Tool, check_device, read_tool, write_tool
-from tactile.payload.weight import compensate, tare_bias, weight
 
 __all__ = [
     "GRAVITY",
@@ -40,3 +33,16 @@ __all__ = [
     "weight",
     "write_tool",
 ]
+
+
+def __getattr__(name):
+    """The public names, imported on first use: ``import tactile.payload`` stays light, as
+    ``tactile live`` imports its option module (``live_args``) before any tool is given."""
+    if name not in __all__:  # (a submodule not yet imported: the import system's question)
+        raise AttributeError(f"module 'tactile.payload' has no attribute {name!r}")
+    from tactile.payload import compensator, drift, fit, orientation, tool, tool_weight
+
+    for module in (compensator, drift, fit, orientation, tool, tool_weight):
+        if name in module.__all__:
+            return getattr(module, name)
+    raise AttributeError(f"module 'tactile.payload' has no attribute {name!r}")

@@ -29,13 +29,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.board import settings as board_settings
 from tactile.board.messages import Contact, Sample
 from tactile.errors import InputError
 from tactile.payload.drift import BLOCK_S, BiasTracker
-from tactile.payload.weight import weight
+from tactile.payload.tool_weight import weight
 from tactile_fw import gate as fw_gate
 from tactile_protocol import constants as C
+from tactile_protocol import settings as board_settings
 
 __all__ = ["GUARD_S", "QUIET", "Compensator", "Gate"]
 

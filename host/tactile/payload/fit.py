@@ -36,7 +36,7 @@ import numpy as np
 
 from tactile.errors import DataError
 from tactile.payload.tool import GRAVITY, MAX_MASS_KG, Tool
-from tactile.payload.weight import gravity_in_sensor
+from tactile.payload.tool_weight import gravity_in_sensor
 
 __all__ = ["MIN_POSES", "MIN_SPREAD", "identify", "spread"]
 

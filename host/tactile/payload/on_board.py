@@ -11,10 +11,10 @@
 import contextlib
 
 from tactile.board.client import info_dict
-from tactile.board.settings import to_newtons
 from tactile.errors import BoardError, InputError
 from tactile.payload.tool import check_device, tool_doc
 from tactile_protocol import constants as C
+from tactile_protocol.settings import to_newtons
 
 __all__ = ["OnBoard"]
 

@@ -1,7 +1,7 @@
 """A tool (what hangs between the sensor and the contact) as the payload model sees it, and
 its file, ``tool.json``.
 
-The model (``tactile.payload.weight``): in the sensor frame, at orientation R of the sensor
+The model (``tactile.payload.tool_weight``): in the sensor frame, at orientation R of the sensor
 in the world, the sensor reads the tool's weight and a bias,
 
     F = m R^T g + b_F                     (N)

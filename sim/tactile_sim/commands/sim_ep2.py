@@ -12,10 +12,17 @@ from tactile.files.atomic import write_bytes
 from tactile.output.textout import printable
 
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")
+MAP_OBJECTS = ("box_corner", "capped_cylinder", "rounded_edge", "saddle_map")  # ep2 map's
 
 
 def add_arguments(parser):
-    parser.add_argument("--object", required=True, choices=KINDS, help="object kind")
+    parser.add_argument(
+        "--object",
+        required=True,
+        choices=KINDS + MAP_OBJECTS,
+        help="object kind; box_corner, capped_cylinder, rounded_edge and saddle_map are whole"
+        " objects swept by finger lines, for 'tactile ep2 map' (their own size, in --units)",
+    )
     parser.add_argument("--radius", type=float, default=10.0, help="radius (in --units)")
     parser.add_argument("--rotation", type=float, default=0.0, help="rotation about z (deg)")
     parser.add_argument("--k1", type=float, help="quadric: first principal curvature (1/--units)")
@@ -71,6 +78,8 @@ def run(args):
             args.k1 if args.k1 is not None else 1 / args.radius,
             args.k2 if args.k2 is not None else 0.5 / args.radius,
         )
+    if args.object in MAP_OBJECTS:
+        return _map_object(args, unit)
     centre = (0.0, 0.0) if args.thesis_layout else (args.spacing, args.length / 2)
     obj = make(args.object, args.radius, args.rotation, centre=centre, k=k, slope=args.slope)
     try:
@@ -99,6 +108,18 @@ def run(args):
     write_bytes(args.out, fh.getvalue())  # replaced whole; a disk error: exit 5
     n = len(data["points"])
     print(printable(f"wrote {args.out}: {args.patches} patch(es) of {n} contacts"))
+    return 0
+
+
+def _map_object(args, unit):
+    from tactile_sim.ep2 import map_objects, write_rows  # NumPy: a family module (above)
+
+    name = "saddle" if args.object == "saddle_map" else args.object
+    data = map_objects.make(name, args.noise_pos, args.noise_normal, seed=args.seed)
+    fh = io.StringIO()
+    write_rows(fh, data, unit=unit)
+    write_bytes(args.out, fh.getvalue())
+    print(printable(f"wrote {args.out}: {args.object}, {len(data['points'])} contacts"))
     return 0
 
 

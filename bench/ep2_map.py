@@ -1,0 +1,86 @@
+"""``tactile ep2 map`` on the four map objects (``tactile_sim.ep2.map_objects``).
+
+Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_map.py [--trials 10]
+     [--noise-pos 0.005] [--noise-normal 0.005]
+
+Per object, over ``--trials`` noise draws (noise stated to the map): the share of maps
+with the right number of regions, with every region labelled right (in order of the truth's
+labels, matched as multisets), and with every true edge matched by a found edge of its kind
+within 2 mm (0.2 cm) of the true edge line and 5 deg of its direction; the worst distance
+and angle seen.
+"""
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import sys  # noqa: E402
+from collections import Counter  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_args import positive_int  # noqa: E402
+
+from tactile.ep2.region_map import map_contacts  # noqa: E402
+from tactile_sim.ep2 import map_objects  # noqa: E402
+
+MAX_CM, MAX_DEG = 0.2, 5.0
+
+
+def _match(truth, found):
+    """(distance cm, angle deg) of the best found edge of the truth's kind, or None."""
+    best = None
+    d = np.asarray(truth["direction"], float)
+    for e in found:
+        if e.kind != truth["kind"] or e.direction is None:
+            continue
+        off = np.asarray(e.point) - truth["point"]
+        dist = float(np.linalg.norm(off - (off @ d) * d))
+        ang = math.degrees(math.acos(min(1.0, abs(float(np.dot(e.direction, d))))))
+        if best is None or dist + ang / 25 < best[0] + best[1] / 25:
+            best = (dist, ang)
+    return best
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--trials", type=positive_int, default=10)
+    ap.add_argument("--noise-pos", type=float, default=0.005)
+    ap.add_argument("--noise-normal", type=float, default=0.005)
+    args = ap.parse_args(argv)
+    print("| object | contacts | regions right | labels right | edges within 2 mm, 5 deg |"
+          " worst edge (mm, deg) |")  # fmt: skip
+    print("|---|---|---|---|---|---|")
+    for name in map_objects.NAMES:
+        count = labels = placed = 0
+        worst = [0.0, 0.0]
+        for t in range(args.trials):
+            d = map_objects.make(name, args.noise_pos, args.noise_normal, seed=t)
+            m = map_contacts(d["points"], d["normals"], noise_pos=args.noise_pos or None,
+                             noise_normal=args.noise_normal or None)  # fmt: skip
+            count += len(m.regions) == len(d["regions"])
+            labels += Counter(r.shape for r in m.regions) == Counter(
+                r["shape"] for r in d["regions"]
+            )
+            ok = True
+            for tr in d["edges"]:
+                got = _match(tr, m.edges)
+                if got is None:
+                    ok = False
+                    continue
+                worst = [max(worst[0], got[0] * 10), max(worst[1], got[1])]
+                ok &= got[0] <= MAX_CM and got[1] <= MAX_DEG
+            placed += ok
+        n = args.trials
+        print(
+            f"| {name} | {len(d['points'])} | {count / n:.2f} | {labels / n:.2f} |"
+            f" {placed / n:.2f} | {worst[0]:.2f}, {worst[1]:.2f} |"
+        )
+
+
+if __name__ == "__main__":
+    main()

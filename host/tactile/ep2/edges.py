@@ -1,0 +1,235 @@
+"""Edges and creases: a patch whose contacts lie on two faces is refused, naming the edge.
+
+A smooth surface's normals vary smoothly over the patch; two faces meeting at an edge give
+normals that jump.  ``find`` compares, along the direction in which the normals turn most
+(``a``, along which two faces' normals differ), two models of the normals:
+
+- a step: two constant normals, the contacts cut in two by their normals along ``a``;
+- a smooth field: a quadratic in the patch coordinates (any 2-jet surface, and more).
+
+Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``), each side
+holds at least ``MIN_SIDE`` contacts spread across the edge (over ``MIN_DEPTH`` of the
+patch: two lines along a tight cylinder look like two faces), the normals turn at least
+``MIN_TURN_DEG`` (by over ``MIN_Z`` standard errors) and at least ``MIN_APART`` of the
+contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a plane
+through its contacts' centroid with its mean normal; the edge is the planes' intersection
+(the point nearest the contacts' middle, its direction), the dihedral angle between the
+faces is 180 deg less the normals' turn, with a 95 % interval from the normals' scatter
+about each face's mean (Student t).  A ridge's faces fall away from the edge, a valley's
+rise.
+
+``check`` raises ``EdgeError`` (a ``DataError``, exit 3) for such a patch, naming the edge's
+location, direction and dihedral angle; and where more than two normals disagree with the
+rest (beyond ``max_normal_angle``) but no edge explains them, it refuses the patch as a bad
+patch: the normal screen leaves out at most two contacts.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tactile.errors import DataError
+
+STEP_RATIO = 1 / 5
+MIN_SIDE = 3
+MIN_POINTS = 8
+MIN_TURN_DEG = 15.0  # a turn below this is left to the smooth fit
+GATE_DEG = 7.0  # two faces MIN_TURN_DEG apart put a normal at least half of it off the mean
+MAX_TURN_DEG = 165.0  # faces this close to back to back: flipped normals, not an edge
+MIN_Z = 6.0
+LOOSE_SCATTER = 8.0  # without the smooth field's test, the turn is 8 x a contact's scatter
+MIN_APART = 0.8  # share of contacts on their face's side of the edge
+MIN_DEPTH = 0.05  # each face's contacts span this share of the patch across the edge
+HALF_FLOOR_DEG = 1e-6  # noise-free faces: the interval holds the round-off
+MAX_LEFT_OUT = 2  # the normal screen's most (docs/ep2.md)
+
+
+@dataclass
+class Edge:
+    """An edge between two faces; lengths in the input unit, directions unit vectors."""
+
+    kind: str  # "ridge" or "valley"
+    point: np.ndarray  # (3,) on the edge, nearest the contacts' middle
+    direction: np.ndarray  # (3,)
+    dihedral_deg: float
+    dihedral_interval: tuple  # 95 % (deg)
+    sides: tuple  # (rows of face 1, rows of face 2), indices into the patch's rows
+    normals: tuple  # each face's mean normal
+    ambiguous: bool = False  # a bent surface fits the contacts as well (``check_answer``)
+
+    def describe(self, unit=""):
+        p = ", ".join(f"{v:.4g}" for v in self.point)
+        d = ", ".join(f"{v:.3f}" for v in self.direction)
+        lo, hi = self.dihedral_interval
+        u = f" {unit}" if unit else ""
+        return (
+            f"the patch straddles an edge (a {self.kind}) at ({p}){u} along ({d}), dihedral"
+            f" {self.dihedral_deg:.1f} deg (95 %: {lo:.1f}-{hi:.1f} deg), faces of"
+            f" {len(self.sides[0])} and {len(self.sides[1])} contacts: fit each face alone"
+            + ("; or one surface bent across the lines, which these contacts cannot tell from"
+               " an edge: add contacts across it" if self.ambiguous else "")
+        )  # fmt: skip
+
+
+class EdgeError(DataError):
+    """The patch straddles an edge; ``edge`` holds it."""
+
+    def __init__(self, edge):
+        self.edge = edge
+        super().__init__(edge.describe())
+
+
+def _t975(dof):
+    """Student t's 97.5 % quantile (Cornish-Fisher, within 1 % for dof >= 3)."""
+    z = 1.959964
+    dof = max(dof, 1)
+    return z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
+
+
+def _basis(m):
+    """Two unit vectors across the unit vector m."""
+    ref = np.array([1.0, 0.0, 0.0]) if abs(m[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t1 = np.cross(m, ref)
+    t1 /= np.linalg.norm(t1)
+    return np.stack([t1, np.cross(m, t1)], axis=1)
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+def _best_cut(x, g):
+    """(order, k, rss): the cut of the rows sorted by x into [:k], [k:] whose two means
+    leave the least squared residual of g (n, d)."""
+    order = np.argsort(x)
+    gs = g[order]
+    n = len(x)
+    c1 = np.cumsum(gs, axis=0)
+    c2 = np.cumsum(np.sum(gs**2, axis=1))
+    k = np.arange(1, n)
+    left = c2[:-1] - np.sum(c1[:-1] ** 2, axis=1) / k
+    right = (c2[-1] - c2[:-1]) - np.sum((c1[-1] - c1[:-1]) ** 2, axis=1) / (n - k)
+    rss = left + right
+    ok = (k >= MIN_SIDE) & (n - k >= MIN_SIDE)
+    if not ok.any():
+        return order, None, np.inf
+    rss = np.where(ok, rss, np.inf)
+    j = int(np.argmin(rss))
+    return order, int(k[j]), float(rss[j])
+
+
+def _smooth_rss(pts, g, T):
+    xy = pts @ T
+    xy = (xy - xy.mean(axis=0)) / max(np.ptp(xy), 1e-300)
+    x, y = xy.T
+    A = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+    coef, *_ = np.linalg.lstsq(A, g, rcond=None)
+    return float(np.sum((g - A @ coef) ** 2))
+
+
+def find(points, normals, noise_normal=None, strict=True):
+    """The ``Edge`` the contacts straddle, or None (module docstring).  points (n, 3),
+    normals (n, 3) unit; ``noise_normal`` the stated normal sigma (rad), if any.  With
+    ``strict`` False the step need not beat the smooth field, nor each face span the patch:
+    for a patch whose fit says ``plane`` while its normals turn (``check_answer``)."""
+    pts, nrm = np.asarray(points, float), np.asarray(normals, float)
+    n = len(pts)
+    if n < MIN_POINTS:
+        return None
+    total = nrm.sum(axis=0)
+    if np.min(nrm @ total) > np.cos(np.radians(GATE_DEG)) * np.linalg.norm(total):
+        return None  # every normal within GATE_DEG of the mean: no turn of MIN_TURN_DEG
+    T = _basis(_unit(total) if np.linalg.norm(total) > 1e-9 else nrm[0])
+    a = np.linalg.eigh(np.cov(nrm.T))[1][:, -1]  # the normals vary most along a
+    order, k, rss_step = _best_cut(nrm @ a, nrm)
+    if k is None or strict and rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
+        return None
+    sides = (np.sort(order[:k]), np.sort(order[k:]))
+    x = pts @ a
+    if strict and min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
+        return None  # a face seen along one line: as much a strongly bent curve
+    n1, n2 = (_unit(nrm[s].mean(axis=0)) for s in sides)
+    turn = float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
+    if not MIN_TURN_DEG <= turn <= MAX_TURN_DEG:
+        return None
+    dof = 2 * n - 4
+    s2 = max(rss_step, 0.0) / dof  # (a cumulative sum's round-off can go below 0)
+    if noise_normal is not None:
+        s2 = max(s2, noise_normal**2)
+    se = np.degrees(np.sqrt(s2 * (1 / k + 1 / (n - k))))
+    if turn < MIN_Z * se or not strict and turn < LOOSE_SCATTER * np.degrees(np.sqrt(s2)):
+        return None  # (loose: each face's normals must scatter as noise does, not as lines)
+    edge = _edge(pts, sides, n1, n2, turn, max(_t975(dof) * se, HALF_FLOOR_DEG))
+    across = (pts - edge.point) @ (n2 - n1)
+    eps = 1e-9 * np.ptp(pts)  # a contact on the edge itself lies on both faces
+    a0, a1 = across[sides[0]], across[sides[1]]
+    apart = max(  # a ridge's faces lie one way of n2 - n1, a valley's the other
+        np.mean(np.concatenate([a0 <= eps, a1 >= -eps])),
+        np.mean(np.concatenate([a0 >= -eps, a1 <= eps])),
+    )
+    return edge if apart >= MIN_APART else None  # else the faces interleave: no edge
+
+
+def _edge(pts, sides, n1, n2, turn, half):
+    c1, c2 = (pts[s].mean(axis=0) for s in sides)
+    direction = _unit(np.cross(n1, n2))
+    A = np.stack([n1, n2])
+    mid = pts.mean(axis=0)
+    b = np.array([n1 @ c1, n2 @ c2])
+    point = mid + A.T @ np.linalg.solve(A @ A.T, b - A @ mid)
+    kind = "ridge" if (c1 - c2) @ (n2 - n1) < 0 else "valley"
+    dihedral = 180.0 - turn
+    lo, hi = max(dihedral - half, 0.0), min(dihedral + half, 180.0)
+    return Edge(kind, point, direction, dihedral, (lo, hi), sides, (n1, n2))
+
+
+def check(prep):
+    """Raise ``EdgeError`` for a prepared patch (``patch_input.Prepared``) that straddles an
+    edge, ``DataError`` where over ``MAX_LEFT_OUT`` normals disagree with the rest and no
+    edge explains them.  The edge's point is in the input frame."""
+    opts = prep.opts
+    edge = find(prep.points, prep.normals, opts.get("noise_normal"))
+    if edge is not None:
+        edge.point = edge.point + prep.middle
+        raise EdgeError(edge)
+    nrm, limit = prep.normals, opts["max_normal_angle"]
+    cosmax = np.cos(np.radians(limit))
+    seed = nrm[int(np.argmax(nrm @ nrm.sum(axis=0)))]  # the medoid, as the screen's
+    mean = _unit(nrm[nrm @ seed > cosmax].sum(axis=0))
+    cos = nrm @ mean
+    far = np.flatnonzero(cos <= cosmax)
+    if len(far) > MAX_LEFT_OUT:
+        _ambiguous(prep)  # two groups of normals: an edge along the lines, said as such
+        names = opts.get("names")
+        rows = ", ".join(names[i] if names is not None else f"contact {i}" for i in far[:4])
+        more = f" and {len(far) - 4} more" if len(far) > 4 else ""
+        deg = np.degrees(np.arccos(np.clip(cos[far], -1.0, 1.0)))
+        raise DataError(
+            f"a bad patch: {len(far)} normals ({rows}{more}) are {deg.min():.0f}-{deg.max():.0f}"
+            f" deg from their neighbours' (limit {limit:g} deg, --max-normal-angle; at most"
+            f" {MAX_LEFT_OUT} are left out) and no edge explains them: flipped normals, or a"
+            " surface bent beyond one fit (take a smaller patch)"
+        )
+
+
+def check_answer(prep, out):
+    """Raise ``EdgeError`` where the fit says ``plane``, or refuses the patch as "positions
+    and normals disagree" (``out`` a ``DataError``), but the normals fall in two groups
+    turned by over ``MIN_TURN_DEG`` (no plane has that): an edge seen along lines that a
+    bent surface would fit as well (two lines along it), named as the edge it may be, and
+    the message says the other reading.  (Of 4,400 smooth held-out patches, 11 answered
+    ``plane`` on a strongly bent surface's parallel lines are refused so.)"""
+    if isinstance(out, DataError):
+        if not str(out).startswith("positions and normals disagree"):
+            return
+    elif out["shape"] != "plane":
+        return
+    _ambiguous(prep)
+
+
+def _ambiguous(prep):
+    edge = find(prep.points, prep.normals, prep.opts.get("noise_normal"), strict=False)
+    if edge is not None:
+        edge.point = edge.point + prep.middle
+        edge.ambiguous = True
+        raise EdgeError(edge)

@@ -1,0 +1,233 @@
+"""A region map of S over one object: ``map_contacts`` (thesis §6.2.2, §6.2.4, fig. 50).
+
+For a long sweep, or many patches over one object, the contacts are segmented into smooth
+regions separated by edges and curvature jumps, and each region is described:
+
+1. **Neighbours.**  Each contact is linked to its ``neighbours`` nearest contacts.
+2. **Edges.**  A link whose two normals differ by more than ``edge_angle`` (deg) crosses an
+   edge and is cut.
+3. **Local shape.**  Each contact's neighbourhood (itself and its neighbours) is fitted by
+   ``analyze_patches``: a local S, k1, k2 and label (neighbourhoods that straddle an edge
+   or are refused have none).
+4. **Curvature jumps.**  A contact whose neighbourhood is ``uncertain`` or not fitted (it
+   straddles a join) takes its labelled neighbours' most common label; then a link between
+   two contacts whose labels differ (a plane beside a cylinder, a cylinder beside a sphere)
+   is cut too.
+5. **Regions** are the connected contacts; regions under ``min_region`` contacts join the
+   neighbouring region they share most links with.
+6. **Each region** is described by its contacts' local fits: the label most of them carry,
+   and the median of S, k1 and k2, with the 2.5-97.5 % range of the local values as the
+   interval (a region is as curved as its parts; one 2-jet cannot follow a half cylinder).
+7. **Edges between regions**: the regions that share links are adjacent; their boundary's
+   contacts are fitted by ``edges.find`` for a crease (point, direction, dihedral angle
+   with its interval), else the boundary is a curvature jump (dihedral 180 deg).
+"""
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tactile.ep2 import edges, patch_frame
+from tactile.ep2.batch import analyze_patches
+from tactile.errors import DataError, InputError
+
+NEIGHBOURS = 12
+EDGE_ANGLE_DEG = 20.0
+MIN_REGION = 8
+CHUNK = 512  # rows of the distance matrix at a time
+
+
+@dataclass
+class Region:
+    id: int
+    contacts: list  # row indices
+    shape: str
+    S: float | None
+    k1: float
+    k2: float
+    S_interval: tuple | None
+    k1_interval: tuple
+    k2_interval: tuple
+    direction1: list | None
+
+    def to_dict(self):
+        out = {k: getattr(self, k) for k in ("id", "shape", "S", "k1", "k2")}
+        out.update(S_interval=self.S_interval, k1_interval=self.k1_interval,
+                   k2_interval=self.k2_interval, direction1=self.direction1,
+                   n_points=len(self.contacts), contacts=self.contacts)  # fmt: skip
+        return out
+
+
+@dataclass
+class RegionEdge:
+    regions: tuple  # (id, id)
+    kind: str  # ridge, valley or curvature jump
+    point: list
+    direction: list | None
+    dihedral_deg: float | None
+    dihedral_interval: tuple | None
+
+    def to_dict(self):
+        return dict(self.__dict__, regions=list(self.regions))
+
+
+@dataclass
+class RegionMap:
+    regions: list
+    edges: list
+    adjacency: dict = field(default_factory=dict)  # region id -> sorted ids beside it
+
+    def to_dict(self):
+        return {
+            "regions": [r.to_dict() for r in self.regions],
+            "edges": [e.to_dict() for e in self.edges],
+            "adjacency": {str(k): v for k, v in self.adjacency.items()},
+        }
+
+
+def neighbours(points, k):
+    """(n, k) indices of each contact's k nearest others."""
+    n = len(points)
+    k = min(k, n - 1)
+    out = np.empty((n, k), int)
+    sq = np.sum(points**2, axis=1)
+    for lo in range(0, n, CHUNK):
+        d = sq[lo : lo + CHUNK, None] + sq[None] - 2 * points[lo : lo + CHUNK] @ points.T
+        d[np.arange(len(d)), np.arange(lo, lo + len(d))] = np.inf
+        out[lo : lo + CHUNK] = np.argpartition(d, k - 1, axis=1)[:, :k]
+    return out
+
+
+def _components(n, links):
+    """Labels 0.. of the connected components of n nodes under (m, 2) links."""
+    parent = np.arange(n)
+
+    def root(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b in links:
+        ra, rb = root(a), root(b)
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([root(i) for i in range(n)])
+    return np.unique(roots, return_inverse=True)[1]
+
+
+def _local(points, normals, nb, kw):
+    patches = [
+        {"points": points[np.r_[i, row]], "normals": normals[np.r_[i, row]]}
+        for i, row in enumerate(nb)
+    ]
+    return analyze_patches(patches, **kw)
+
+
+def map_contacts(points, normals, finger=None, *, neighbours_k=NEIGHBOURS,
+                 edge_angle=EDGE_ANGLE_DEG, min_region=MIN_REGION, **kw):  # fmt: skip
+    """``RegionMap`` of the contacts (module docstring).  ``kw`` are ``analyze_patch``'s
+    options for the local fits (the noise, stated)."""
+    pts = np.asarray(points, float)
+    if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) < min_region:
+        raise InputError(f"a map needs (n, 3) points, n >= {min_region}; got {pts.shape}")
+    nrm = patch_frame.unit_normals(np.asarray(normals, float))
+    nb = neighbours(pts, neighbours_k)
+    links = np.column_stack([np.repeat(np.arange(len(pts)), nb.shape[1]), nb.ravel()])
+    crease = np.sum(nrm[links[:, 0]] * nrm[links[:, 1]], axis=1) < np.cos(np.radians(edge_angle))
+    local = _local(pts, nrm, nb, kw)
+    label = _settled([None if isinstance(r, Exception) else r.shape for r in local], nb)
+    jump = np.array([label[a] is not None and label[b] is not None and label[a] != label[b]
+                     for a, b in links])  # fmt: skip
+    region = _components(len(pts), links[~crease & ~jump])
+    region = _merge_small(region, links, min_region)
+    return _describe(pts, nrm, region, links, local, kw)
+
+
+def _settled(labels, nb, passes=4):
+    """Labels with ``uncertain`` and unfitted neighbourhoods (they straddle a join) given
+    the most common label of their labelled neighbours, a few passes over."""
+    label = np.array([None if v == "uncertain" else v for v in labels], object)
+    for _ in range(passes):
+        todo = [i for i in range(len(label)) if label[i] is None]
+        if not todo:
+            break
+        new = label.copy()
+        for i in todo:
+            votes = Counter(v for v in label[nb[i]] if v is not None)
+            new[i] = votes.most_common(1)[0][0] if votes else None
+        label = new
+    return label
+
+
+def _merge_small(region, links, min_region):
+    while True:
+        sizes = np.bincount(region)
+        small = [r for r in np.flatnonzero(sizes) if sizes[r] < min_region]
+        if not small or len(np.flatnonzero(sizes)) == 1:
+            return np.unique(region, return_inverse=True)[1]
+        r = small[0]
+        a, b = region[links[:, 0]], region[links[:, 1]]
+        other = Counter(b[(a == r) & (b != r)].tolist()) + Counter(a[(b == r) & (a != r)].tolist())
+        if not other:
+            return np.unique(region, return_inverse=True)[1]
+        region[region == r] = other.most_common(1)[0][0]
+
+
+def _describe(pts, nrm, region, links, local, kw):
+    regions = [_region(r, np.flatnonzero(region == r), local) for r in range(region.max() + 1)]
+    a, b = region[links[:, 0]], region[links[:, 1]]
+    pairs = sorted({(int(min(x, y)), int(max(x, y))) for x, y in zip(a, b) if x != y})
+    found = [_edge(pts, nrm, region, links, p, kw) for p in pairs]
+    adjacency = {r.id: sorted({y for x, y in pairs if x == r.id} | {x for x, y in pairs
+                                                                     if y == r.id})
+                 for r in regions}  # fmt: skip
+    return RegionMap(regions, found, adjacency)
+
+
+def _quant(v):
+    v = np.asarray(v, float)
+    return float(np.median(v)), (float(np.quantile(v, 0.025)), float(np.quantile(v, 0.975)))
+
+
+def _region(rid, rows, local):
+    fits = [local[i] for i in rows if not isinstance(local[i], Exception)]
+    if not fits:
+        raise DataError(f"region {rid} ({len(rows)} contacts): no neighbourhood in it is fitted")
+    shape = Counter(f.shape for f in fits).most_common(1)[0][0]
+    k1, k1_iv = _quant([f.k1 for f in fits])
+    k2, k2_iv = _quant([f.k2 for f in fits])
+    s_vals = [f.S for f in fits if f.S is not None]
+    S, S_iv = _quant(s_vals) if s_vals and shape != "plane" else (None, None)
+    mid = int(np.argmin([abs(f.k1 - k1) + abs(f.k2 - k2) for f in fits]))
+    d1 = fits[mid].direction1
+    return Region(rid, [int(i) for i in rows], shape, S, k1, k2, S_iv, k1_iv, k2_iv,
+                  None if d1 is None else [float(v) for v in d1])  # fmt: skip
+
+
+def _edge(pts, nrm, region, links, pair, kw):
+    a, b = region[links[:, 0]], region[links[:, 1]]
+    cross = ((a == pair[0]) & (b == pair[1])) | ((a == pair[1]) & (b == pair[0]))
+    rows = np.unique(links[cross].ravel())
+    near = np.unique(np.concatenate([rows, links[np.isin(links[:, 0], rows), 1]]))
+    near = near[np.isin(region[near], pair)]
+    mid = pts[near].mean(axis=0)
+    e = edges.find(pts[near] - mid, nrm[near], kw.get("noise_normal"))
+    if e is None:
+        return _jump(pair, pts, links[cross])
+    return RegionEdge(pair, e.kind, [float(v) for v in e.point + mid],
+                      [float(v) for v in e.direction], float(e.dihedral_deg),
+                      tuple(float(v) for v in e.dihedral_interval))  # fmt: skip
+
+
+def _jump(pair, pts, crossing):
+    """A curvature jump: the crossing links' midpoint nearest their mean, and the line
+    the midpoints run along (their principal axis)."""
+    mids = 0.5 * (pts[crossing[:, 0]] + pts[crossing[:, 1]])
+    centre = mids.mean(axis=0)
+    point = mids[int(np.argmin(np.sum((mids - centre) ** 2, axis=1)))]
+    direction = None
+    if len(mids) > 1 and np.ptp(mids, axis=0).max() > 0:
+        direction = [float(v) for v in np.linalg.svd(mids - centre)[2][0]]
+    return RegionEdge(pair, "curvature jump", [float(v) for v in point], direction, 180.0, None)

@@ -1,0 +1,113 @@
+"""``tactile ep2 map`` and ``tactile.ep2.region_map.map_contacts``: regions, edges, adjacency."""
+
+import json
+
+import numpy as np
+
+from tactile.ep2.region_map import map_contacts
+from tactile_sim.commands.sim_ep2 import MAP_OBJECTS
+from tactile_sim.ep2 import map_objects
+
+
+def _box_corner(seed=0, n=8):
+    """Three faces of the unit cube about its corner (1, 1, 1), an n x n grid on each."""
+    rng = np.random.default_rng(seed)
+    g = np.linspace(0.05, 1.0, n)
+    u, v = (a.ravel() for a in np.meshgrid(g, g))
+    pts, nrm = [], []
+    for axis in range(3):
+        p = np.ones((len(u), 3))
+        a, b = [i for i in range(3) if i != axis]
+        p[:, a], p[:, b] = u, v
+        m = np.zeros_like(p)
+        m[:, axis] = 1.0
+        pts.append(p)
+        nrm.append(m)
+    pts, nrm = np.vstack(pts), np.vstack(nrm)
+    return pts + 0.002 * rng.standard_normal(pts.shape), nrm + 0.005 * rng.standard_normal(
+        pts.shape
+    )
+
+
+def test_a_box_corner_maps_to_three_planes_and_three_right_angle_ridges():
+    pts, nrm = _box_corner()
+    found = map_contacts(pts, nrm)
+    assert [r.shape for r in found.regions] == ["plane"] * 3
+    faces = [set(np.argmax(np.abs(nrm[r.contacts]), axis=1)) for r in found.regions]
+    assert all(len(f) == 1 for f in faces)  # each region one face
+    assert len(found.edges) == 3
+    for e in found.edges:
+        lo, hi = e.dihedral_interval
+        assert e.kind == "ridge" and lo <= 90.0 <= hi
+        axis = int(np.argmax(np.abs(e.direction)))
+        others = [i for i in range(3) if i != axis]
+        assert np.allclose(np.array(e.point)[others], 1.0, atol=0.02)  # on the cube's edge
+    assert found.adjacency == {0: [1, 2], 1: [0, 2], 2: [0, 1]}
+
+
+def test_a_plane_beside_a_cylinder_is_two_regions_with_a_curvature_jump():
+    x, y = np.meshgrid(np.linspace(-1.5, 0, 10), np.linspace(0, 1.5, 10))
+    flat = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    phi, y2 = np.meshgrid(np.linspace(0.15, 1.2, 10), np.linspace(0, 1.5, 10))
+    R = 1.0
+    curved = np.column_stack([R * np.sin(phi.ravel()), y2.ravel(), R * (np.cos(phi.ravel()) - 1)])
+    pts = np.vstack([flat, curved])
+    nrm = np.vstack([np.tile([0.0, 0.0, 1.0], (100, 1)), (curved - [0, 0, -R]) * [1, 0, 1] / R])
+    found = map_contacts(pts, nrm)
+    shapes = sorted(r.shape for r in found.regions)
+    assert shapes == ["cylinder", "plane"]
+    cyl = next(r for r in found.regions if r.shape == "cylinder")
+    assert cyl.k1_interval[0] <= 1.0 / R <= cyl.k1_interval[1]
+    assert [e.kind for e in found.edges] == ["curvature jump"]
+
+
+def test_cli_map_json_and_csv_name_their_units(tmp_path, cli):
+    pts, nrm = _box_corner()
+    path = tmp_path / "corner.csv"
+    rows = "\n".join(",".join(f"{v:.6f}" for v in (*p, *n)) for p, n in zip(pts, nrm))
+    path.write_text("# units: cm\nx,y,z,nx,ny,nz\n" + rows + "\n", encoding="utf-8")
+    code, out, err = cli("ep2", "map", path, "--json", "--units", "mm")
+    assert code == 0, err
+    rec = json.loads(out)
+    assert rec["units"] == {"length": "mm", "curvature": "1/mm", "angle": "deg"}
+    assert len(rec["regions"]) == 3 and len(rec["edges"]) == 3
+    assert {"shape", "S", "k1", "k2", "S_interval", "k1_interval", "contacts"} <= set(
+        rec["regions"][0]
+    )
+    e = rec["edges"][0]
+    assert max(e["point"]) > 9.0  # cm shown in mm
+    assert e["dihedral_interval"][0] <= 90 <= e["dihedral_interval"][1]
+    code, out, err = cli("ep2", "map", path, "--csv")
+    head, *_ = out.splitlines()
+    assert code == 0 and head.startswith("region,n_points,shape,S") and "k1 (1/cm)" in head
+    assert "# edges" in out and "dihedral (deg)" in out
+
+
+def test_cli_map_refuses_bad_options_in_one_line(tmp_path, cli):
+    pts, nrm = _box_corner()
+    path = tmp_path / "c.csv"
+    rows = "\n".join(",".join(f"{v:.6f}" for v in (*p, *n)) for p, n in zip(pts, nrm))
+    path.write_text("x,y,z,nx,ny,nz\n" + rows + "\n", encoding="utf-8")
+    code, out, err = cli("ep2", "map", path, "--neighbours", "2")
+    assert code == 2 and "--neighbours" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_four_map_objects_get_their_regions_and_labels():
+    """A box corner, a capped cylinder, a rounded cube edge and a saddle (bench/ep2_map.py
+    runs the noisy trials and the edges' placement)."""
+    for name in map_objects.NAMES:
+        d = map_objects.make(name)
+        found = map_contacts(d["points"], d["normals"])
+        assert sorted(r.shape for r in found.regions) == sorted(r["shape"] for r in d["regions"])
+        assert sorted(e.kind for e in found.edges) == sorted(e["kind"] for e in d["edges"])
+
+
+def test_sim_writes_a_map_object_that_ep2_map_reads(tmp_path, cli):
+    assert [n.replace("saddle_map", "saddle") for n in MAP_OBJECTS] == list(map_objects.NAMES)
+    path = tmp_path / "corner.csv"
+    code, out, err = cli("sim", "ep2", "--object", "box_corner", "--noise-pos", "0.005", "-o", path)
+    assert code == 0, err
+    code, out, err = cli("ep2", "map", path, "--json")
+    rec = json.loads(out)
+    assert code == 0 and [r["shape"] for r in rec["regions"]] == ["plane"] * 3
+    assert rec["units"]["length"] == "cm" and len(rec["edges"]) == 3
