@@ -35,6 +35,10 @@ LIVE_FIT = (
     "start-up: tactile live imports the server's module; the arrivals' fit (NumPy) loads"
     " only for live --foxglove"
 )
+LIVE_PAYLOAD = (
+    "start-up: tactile live imports its --payload options' module; the tool, the orientations"
+    " and the compensator (NumPy, SciPy) load only when a tool is given"
+)
 SPLINE_SCIPY = "start-up: SciPy loads only when the spline runs (tests/test_ep2_imports.py)"
 
 DEFERRED = {
@@ -47,7 +51,15 @@ DEFERRED = {
         "make_board: tactile_fw.frontend": BOARD_RAM,
     },
     "host/tactile/__init__.py": {
-        "__getattr__: tactile.recording.load": LIGHT_PACKAGE,
+        "__getattr__: tactile.payload.recorded": LIGHT_PACKAGE,
+    },
+    "host/tactile/payload/__init__.py": {
+        "__getattr__: tactile.payload": LIVE_PAYLOAD,
+    },
+    "host/tactile/payload/live_args.py": {
+        "following: tactile.payload.live": LIVE_PAYLOAD,
+        "following: tactile.payload.orientation": LIVE_PAYLOAD,
+        "following: tactile.payload.tool": LIVE_PAYLOAD,
     },
     "host/tactile/foxglove/live.py": {
         "LiveServer.__init__: tactile.foxglove.live_scene": LIVE_SCENE,

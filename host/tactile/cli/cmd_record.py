@@ -17,6 +17,7 @@ made is removed, one that was there is left as it was.
 import sys
 import time
 
+from tactile.board.client import info_dict
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.commands.derive import check_log, derive
@@ -25,6 +26,10 @@ from tactile.errors import BoardError, InputError
 from tactile.files.folder_lock import hold
 from tactile.logs.clock import log_end, show_time
 from tactile.output.textout import fields, printable
+from tactile.payload.live import Following
+from tactile.payload.on_board import OnBoard
+from tactile.payload.orientation import Orientations
+from tactile.payload.tool import read_tool
 from tactile.recording.session import Session
 
 
@@ -49,8 +54,30 @@ def add_arguments(parser):
     parser.add_argument(
         "--reconnect", type=float, default=30.0, help="seconds to wait for a lost port (30)"
     )
+    parser.add_argument(
+        "--payload",
+        action="append",
+        metavar="TOOL",
+        help="a sensor's tool file (tactile payload identify): its weight and the drifting bias"
+        " are removed and contacts gated on the host; needs --pose-log; once per sensor",
+    )
     add_quiet(parser)
     foxglove_args.add_arguments(parser)
+
+
+def payload_of(args, log):
+    """[(path, Tool)] of ``--payload``, checked before anything is recorded: each file, and
+    a pose log with the sensor's orientation for every reading; and the ``Orientations``."""
+    if not args.payload:
+        return [], None
+    if log is None:
+        raise InputError("--payload: needs --pose-log (the sensor's orientation at each reading)")
+    tools = [(path, read_tool(path)) for path in args.payload]
+    orient = Orientations.of_log(log)
+    for path, tool in tools:
+        if not orient.covers(tool.sensor):
+            raise InputError(f"{path}: the tool is for sensor {tool.sensor}: {log.path} has none")
+    return tools, orient
 
 
 def run(args):
@@ -66,14 +93,18 @@ def _run(args):
     foxglove_args.check(args)
     if not args.port:
         connect(args)  # raises the 'no port given' message
-    until = posed = None
+    until = posed = log = None
     if args.pose_log:
         log = check_log(args.pose_log)  # a bad log is refused before recording, not after
         end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
         until = (log.clock, end, how)
         posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
+    tools, orient = payload_of(args, log)
     # a port in use is refused before anything is written
     live = foxglove_args.start(args, pose_log=posed)
+    follow = None if live is None else live.follow
+    if live is not None and tools:
+        follow = _compensating(live, Following(tools, orient, log.clock))
     try:
         session = Session(
             args.port,
@@ -86,7 +117,8 @@ def _run(args):
             append=args.append,
             argv=sys.argv,
             until=until,
-            on_frames=live.follow if live is not None else None,
+            on_frames=follow,
+            payload=OnBoard(tools) if tools else None,
         )
     except BaseException:
         foxglove_args.stop(live, quiet=True)
@@ -114,10 +146,22 @@ def _run(args):
     print(printable(summary(meta, args.out)))  # the folder is the user's
     print(printable(time_summary(meta.get("time_base"))))
     if args.pose_log:
-        for line in derive(args.out, args.pose_log, per_contact=args.per_contact):
+        for line in derive(args.out, args.pose_log, per_contact=args.per_contact, payload=tools):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
+
+
+def _compensating(live, following):
+    """The session's ``on_frames``: the Foxglove server fed the compensated frames."""
+
+    def follow(session, msgs, host_times):
+        info = session.client.info if session.client is not None else None
+        device = info_dict(info) if info is not None else None
+        out, host, _ = following.feed(msgs, device, host_times)
+        live.follow(session, out, host)
+
+    return follow
 
 
 def _says_kept(exc, rec):
