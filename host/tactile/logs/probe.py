@@ -95,14 +95,7 @@ def _attitude(table):
         raise InputError(f"{where(table.path, 1)}: orientation columns without {missing}")
     out = []
     for names in (ATTITUDE[:4], ATTITUDE[4:]):
-        q = table.within(names, 1.0 + 1e-3)
-        norm = np.linalg.norm(q, axis=1)
-        bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
-        if bad.size:
-            raise InputError(
-                f"{where(table.path, table.lines[bad[0]], names[0])}: quaternion"
-                f" ({','.join(names)}) is not unit length (|q| = {norm[bad[0]]:.6g})"
-            )
+        q, norm = tags.unit_quaternions(table, names, 1.0 + 1e-3)
         out.append(q / norm[:, None])
     return tuple(out)
 
