@@ -157,7 +157,7 @@ def _matrices(tmp):
 def contacts(tmp, name, patch="a", head="x,y,z,nx,ny,nz,patch", first="", extra=""):
     rows = [head]
     for i in range(30):
-        c, s = math.cos(0.2 * i), math.sin(0.2 * i)
+        c, s = math.cos(0.02 * i), math.sin(0.02 * i)  # a 33 deg arc: one patch
         rows.append(f"{6.6 * c!r},{i % 5},{6.6 * s!r},{c!r},0,{s!r},{patch}")
     path = tmp / name
     path.write_text(first + "\n".join(rows[:20]) + "\n" + extra + "\n".join(rows[20:]) + "\n")

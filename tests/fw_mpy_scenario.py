@@ -5,7 +5,8 @@ under both interpreters and compares.  Imports only what MicroPython has.
 """
 
 from tactile_fw import frontend
-from tactile_fw.board import Board, boot_id_from
+from tactile_fw.board import Board
+from tactile_fw.identity import boot_id_from
 from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
 from tactile_fw.timing import ManualClock

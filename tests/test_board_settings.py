@@ -1,14 +1,15 @@
-"""The board-settings vocabulary (``tactile.board.settings``) against the firmware's own
-rule, and ``tactile config`` refusing out-of-range values with their range, before any
-CONFIG is sent (issue 15)."""
+"""The board-settings vocabulary (``tactile_protocol.settings``) and the host's check of
+it (``tactile config``'s ``problem``) against the firmware's own rule, and ``tactile config``
+refusing out-of-range values with their range, before any CONFIG is sent (issue 15)."""
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tactile.board import settings as bs
+from tactile.cli.cmd_config import problem
 from tactile.cli.main import main
 from tactile_fw import settings as fw
+from tactile_protocol import settings as bs
 
 MAX_RATE = 1730
 
@@ -20,7 +21,7 @@ MAX_RATE = 1730
     st.integers(-3, 300),
 )
 def test_host_check_agrees_with_the_firmware_rule(rate, enter, exit_, debounce):
-    host = bs.problem(rate, enter, exit_, debounce, MAX_RATE)
+    host = problem(rate, enter, exit_, debounce, MAX_RATE)
     board = fw.check(rate, bs.to_counts(enter), bs.to_counts(exit_), debounce, 0, MAX_RATE)
     assert (host is None) == (board < 0), (host, board)
     if host is not None:  # the same field, named as the user typed it

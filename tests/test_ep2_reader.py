@@ -14,7 +14,7 @@ from test_csv_fuzz import ODD, files
 from tactile.ep2 import contacts_csv
 from tactile.ep2.contacts_csv import REQUIRED, Contacts, ContactsFile, group_rows, read_contacts
 from tactile.errors import InputError, where
-from tactile.files import tabular
+from tactile.files import csv_dialect, tabular
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -46,7 +46,7 @@ def whole_table(path):
         problem = extent.spread_problem(g.points)
         if problem is not None:
             row, axis, why = problem
-            name = "" if g.patch is None else f"patch {tabular.show(g.patch)}: "
+            name = "" if g.patch is None else f"patch {csv_dialect.show(g.patch)}: "
             raise InputError(f"{where(path, g.lines[row], extent.AXES[axis])}: {name}{why}")
     return out
 

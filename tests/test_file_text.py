@@ -16,7 +16,7 @@ RAW = ("\x1b", "\u202e")
 def contacts(tmp_path, patch=EVIL, finger=EVIL, n=30):
     rows = ["x,y,z,nx,ny,nz,finger,patch"]
     for i in range(n):
-        a = 0.2 * i
+        a = 0.02 * i  # a 33 deg arc of a cylinder: one patch (a whole turn is not)
         c, s = math.cos(a), math.sin(a)
         rows.append(f"{6.6 * c!r},{i % 5},{6.6 * s!r},{c!r},0,{s!r},{finger},{patch}")
     path = tmp_path / "c.csv"

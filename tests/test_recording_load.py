@@ -264,6 +264,11 @@ def test_import_tactile_stays_light_and_the_loader_needs_no_mcap():
         "print(light, 'numpy' in sys.modules, 'mcap' in sys.modules, load.__module__)\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert done.stdout.split() == ["True", "True", "False", "tactile.recording.load"]
+    assert done.stdout.split() == [
+        "True",
+        "True",
+        "False",
+        "tactile.payload.recorded",
+    ]  # (payload= there)
     with pytest.raises(AttributeError, match="no attribute 'nonesuch'"):
         tactile.nonesuch  # noqa: B018

@@ -31,12 +31,7 @@ except ImportError:  # CPython
 
 from tactile_fw import calibration, frontend, gate, settings
 from tactile_fw.commands import dispatch
-from tactile_fw.identity import (  # noqa: F401 (boot_id_from, board_id_from: re-exported)
-    FW_VERSION,
-    NO_BOARD_ID,
-    board_id_from,
-    boot_id_from,
-)
+from tactile_fw.identity import FW_VERSION, NO_BOARD_ID, board_id_from
 from tactile_fw.link import TxRing
 from tactile_fw.timing import Scheduler
 from tactile_protocol.constants import (

@@ -1,7 +1,8 @@
 """tactile host package: stream decoding, EP1/EP2 shape analysis and the CLI.
 
 Imports stay lazy: ``import tactile`` pulls in nothing heavy.  ``tactile.load_recording``
-(``tactile.recording.load``) imports NumPy when first used.
+(``tactile.recording.load``'s, with ``payload=`` from ``tactile.payload.recorded``) imports
+NumPy when first used.
 """
 
 __version__ = "0.1.0"
@@ -10,7 +11,7 @@ __all__ = ["load_recording"]
 
 def __getattr__(name):
     if name == "load_recording":
-        from tactile.recording.load import load_recording
+        from tactile.payload.recorded import load_recording
 
         return load_recording
     raise AttributeError(f"module 'tactile' has no attribute {name!r}")

@@ -16,6 +16,7 @@ import math
 import re
 
 from tactile.errors import InputError
+from tactile.files.csv_dialect import units_line
 
 __all__ = [
     "LENGTH_M",
@@ -81,8 +82,6 @@ def line(spec):
 def stated(path):
     """(line, the text after ``units:``) of the file's ``# units:`` line, or None.  Only the
     head is read, so any size will do: the reader of the rows applies its own limit."""
-    from tactile.files.csv_dialect import units_line
-
     return units_line(path, max_bytes=ANY_SIZE)
 
 

@@ -7,6 +7,18 @@ and the thesis's tables 5-7 to print beside it.
 """
 
 import contextlib
+import pathlib
+
+from tactile import units
+from tactile.commands.derive import derive
+from tactile.ep2 import analyze_patch
+from tactile.ep2.contacts_csv import read_contacts
+from tactile.recording.files import remove_recording
+from tactile.recording.session import Session
+from tactile_sim.emulator import load_scene
+from tactile_sim.emulator.device import EmulatedBoard, build_motion
+from tactile_sim.emulator.pty_server import PtyServer
+from tactile_sim.urlhandler import register
 
 # Thesis tables 5-7: (S, sd S, R, sd R, radius cm) for the tangent and position fits.
 THESIS = {
@@ -22,8 +34,6 @@ TRUE_RADIUS_CM = {"plane": None, "convex": 6.6, "concave": 11.25}
 
 def analyse(points_cm, normals, finger):
     """Tangent- and position-weighted biquadratic fits on an 8x8 grid (§5.2)."""
-    from tactile.ep2 import analyze_patch
-
     out = {}
     for weighting in ("tangent", "position"):
         out[weighting] = analyze_patch(
@@ -46,15 +56,6 @@ def replicate(kind, outdir, via="pty"):
     log is written from the scene, the contacts derived as ``tactile record --pose-log``
     does.  Returns (meta, derive lines, analysis per weighting).
     """
-    import pathlib
-
-    from tactile import units
-    from tactile.commands.derive import derive
-    from tactile.ep2.contacts_csv import read_contacts
-    from tactile.recording.files import remove_recording
-    from tactile.recording.session import Session
-    from tactile_sim.emulator import load_scene
-
     outdir = pathlib.Path(outdir)
     remove_recording(outdir)  # the replica's own scratch output: each run starts afresh
     outdir.mkdir(parents=True, exist_ok=True)
@@ -75,9 +76,6 @@ def replicate(kind, outdir, via="pty"):
 @contextlib.contextmanager
 def _on_sim(scene):
     """sim://: simulated time advances as the host reads; stop when the motion is over."""
-    from tactile_sim.emulator.device import build_motion
-    from tactile_sim.urlhandler import register
-
     register()  # 'tactile demo --via sim' names no sim:// port on its command line
     motion = build_motion(scene)
     end_us = motion.duration_s * 1e6
@@ -92,9 +90,6 @@ def _on_sim(scene):
 def _on_pty(scene):
     """A PtyServer: real time until the host is ready (its TARE done, inside the scene's
     lead-in), then as fast as possible; stop when served and drained."""
-    from tactile_sim.emulator.device import EmulatedBoard
-    from tactile_sim.emulator.pty_server import PtyServer
-
     board = EmulatedBoard(scene)
 
     def on_ready(session):

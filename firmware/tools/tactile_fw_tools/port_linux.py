@@ -18,8 +18,9 @@ import termios
 import time
 import tty
 
-from tactile_fw.board import NO_BOARD_ID, Board, boot_id_from
+from tactile_fw.board import Board
 from tactile_fw.frontend import make_sensor
+from tactile_fw.identity import NO_BOARD_ID, boot_id_from
 from tactile_fw.storage import DirStorage
 from tactile_fw.timing import TICKS_HALF, TICKS_MAX
 

@@ -4,8 +4,10 @@
   registers), with one-line errors;
 - ``stream_decoder``, ``messages``: COBS frames to protocol messages, counting loss;
 - ``client``: the handshake and the commands (CONFIG, TARE, START, SET_CAL ...);
-- ``settings``: the board's settings in SI units, one vocabulary for CLI and firmware;
 - ``flashing``, ``mpy_files``, ``raw_repl``, ``probe``, ``firmware_answer``: putting the
   firmware on a MicroPython board and checking that it answers;
 - ``live_view``: the text view of a live stream.
+
+The board's settings in SI units are ``tactile_protocol.settings``, one vocabulary for the
+CLI, the firmware and the emulator.
 """

@@ -25,7 +25,6 @@ Invalid frames in a stream are passed on, counted, never acted on.
 import logging
 import time
 
-from tactile.board import settings as board_settings
 from tactile.board.messages import INVALID
 from tactile.board.serial_port import describe_lost
 from tactile.board.stream_decoder import StreamDecoder
@@ -38,6 +37,7 @@ from tactile.errors import (
     TactileError,
 )
 from tactile_protocol import constants as C
+from tactile_protocol import settings as board_settings
 from tactile_protocol.framing import FrameEncoder
 
 log = logging.getLogger(__name__)

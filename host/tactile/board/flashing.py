@@ -35,7 +35,8 @@ from dataclasses import dataclass, field
 
 import tactile_fw
 import tactile_protocol
-from tactile.board import mpy_files, serial_port
+from tactile.board import firmware_answer, mpy_files, raw_repl, serial_port
+from tactile.board import probe as board_probe
 from tactile.errors import BoardError, InputError, MissingExtra, PortError
 from tactile.extras import hint
 
@@ -319,9 +320,6 @@ def flash(port, mpy=None, n_sensors=1, wdt_ms=0, wait_s=WAIT_S, progress=None, n
     ``mpy``: None .mpy where it fits, True .mpy or an error, False .py sources.
     ``progress(done, total)``: bytes copied; ``note(line)``: what was chosen and why.
     """
-    from tactile.board import firmware_answer, raw_repl
-    from tactile.board import probe as board_probe
-
     _check_options(n_sensors, wdt_ms)
     port = resolve(port)
     raw_repl.need_mpremote()

@@ -7,8 +7,8 @@ bookkeeping: the CLI reads the port and draws.
 
 import math
 
-from tactile.board.settings import wrench_si
 from tactile_protocol import constants as C
+from tactile_protocol.settings import wrench_si
 
 
 class SensorView:

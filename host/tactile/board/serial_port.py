@@ -18,6 +18,8 @@ import errno
 import re
 import sys
 
+from tactile.errors import InputError, PortError
+
 BAUDRATE = 115200  # USB CDC ignores it; a UART bridge needs it
 READ_TIMEOUT_S = 0.05
 
@@ -72,8 +74,6 @@ def describe_lost(port, exc, doing):
 def open_port(port, timeout=READ_TIMEOUT_S):
     """An open pyserial port for ``port`` (path or URL); raises PortError with the reason."""
     import serial
-
-    from tactile.errors import InputError, PortError
 
     if (
         port.startswith("sim://")

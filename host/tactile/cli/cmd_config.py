@@ -4,12 +4,20 @@ the board's current values.  ``--persist`` also stores them on the board (used a
 import argparse
 
 from tactile.board.client import info_dict
-from tactile.board.settings import GATES, STREAMS, problem, stream_flags, to_newtons
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.cli.cmd_info import info_lines
 from tactile.errors import InputError
 from tactile.output.textout import printable_lines
 from tactile_protocol import constants as C
+from tactile_protocol.settings import (
+    GATES,
+    MAX_DEBOUNCE,
+    MIN_RATE_HZ,
+    STREAMS,
+    stream_flags,
+    to_counts,
+    to_newtons,
+)
 
 
 def add_arguments(parser):
@@ -77,3 +85,19 @@ def _values(args, cur, streams):
         pick(args.debounce, cur.debounce),
         flags,
     )
+
+
+def problem(rate_hz, enter_N, exit_N, debounce, max_rate_hz):
+    """None, or one line naming the first value out of range and the range allowed: the
+    firmware's rule (``tactile_fw.settings.check``) in the units and options a user types,
+    checked before any CONFIG is sent."""
+    if not MIN_RATE_HZ <= rate_hz <= max_rate_hz:
+        allowed = f"{MIN_RATE_HZ}..{max_rate_hz} Hz on this board"
+        return f"--rate: {rate_hz} Hz is out of range: {allowed}"
+    if not 0 <= to_counts(enter_N):
+        return f"--enter: {enter_N:g} N is out of range: 0 N or more"
+    if not 0 <= to_counts(exit_N) <= to_counts(enter_N):
+        return f"--exit: {exit_N:g} N is out of range: 0..{enter_N:g} N (at most --enter)"
+    if not 1 <= debounce <= MAX_DEBOUNCE:
+        return f"--debounce: {debounce} is out of range: 1..{MAX_DEBOUNCE} readings"
+    return None

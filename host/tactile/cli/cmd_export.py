@@ -15,6 +15,19 @@ replaced whole (``tactile.files.atomic``), a full disk is exit 5, and an export 
 run folder holds the run's lock while it works.
 """
 
+import contextlib
+import pathlib
+import sys
+
+from tactile.errors import InputError
+from tactile.files.folder_lock import hold
+from tactile.foxglove import export_mcap
+from tactile.logs.pose import read_pose_log
+from tactile.output.textout import printable
+from tactile.recording import export_parquet
+from tactile.recording.export_target import check_outputs
+from tactile.recording.load import load_recording
+
 FORMATS = ("mcap", "parquet")
 
 
@@ -42,21 +55,10 @@ def add_arguments(parser):
 
 
 def run(args):
-    import contextlib
-    import pathlib
-
-    from tactile.errors import InputError
-    from tactile.files.folder_lock import hold
-    from tactile.output.textout import printable
-    from tactile.recording.export_parquet import contacts_path
-    from tactile.recording.export_target import check_outputs
-
     if args.format == "parquet":
-        from tactile.recording.export_parquet import require_pyarrow as require
-        from tactile.recording.export_parquet import write_parquet as write
+        require, write = export_parquet.require_pyarrow, export_parquet.write_parquet
     else:
-        from tactile.foxglove.export_mcap import require_mcap as require
-        from tactile.foxglove.export_mcap import write_mcap as write
+        require, write = export_mcap.require_mcap, export_mcap.write_mcap
     require()  # the install hint before any work
     run_dir = pathlib.Path(args.run)
     if not run_dir.is_dir():
@@ -67,10 +69,8 @@ def run(args):
     if args.pose_log:
         if args.format != "mcap":
             raise InputError("--pose-log is for --format mcap (the sensors' transforms)")
-        from tactile.logs.pose import read_pose_log
-
         pose_log = read_pose_log(args.pose_log)
-    outs = [out] if args.format == "mcap" else [out, contacts_path(out)]
+    outs = [out] if args.format == "mcap" else [out, export_parquet.contacts_path(out)]
     inside = check_outputs(run_dir, outs, f".{args.format}")
     with hold(run_dir) if inside else contextlib.nullcontext():  # one writer in a run
         summary = _export(run_dir, out, pose_log, write)
@@ -81,11 +81,6 @@ def run(args):
 
 def _export(run_dir, out, pose_log, write):
     """Read the run, write ``out``: the summary."""
-    import sys
-
-    from tactile.output.textout import printable
-    from tactile.recording.load import load_recording
-
     rec = load_recording(run_dir)
     if rec.notes:
         note = f"tactile export: note: {'; '.join(rec.notes)}"

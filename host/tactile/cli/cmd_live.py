@@ -5,7 +5,9 @@ started if the board was stopped; on exit both are undone (the board's CONFIG as
 stopped board stopped again); ``--as-is`` leaves the board as it is.  Every line
 fits 80 columns.  A ``sim://`` port runs as fast as the host reads unless its URL asks
 for ``?realtime=1``: live says so once, on stderr.  ``--foxglove`` serves the same frames to
-Foxglove (``tactile.cli.foxglove_args``).
+Foxglove (``tactile.cli.foxglove_args``).  ``--payload TOOL --pose-log LOG`` shows (and
+serves) the wrench with the tool's weight and the bias removed and the host's contact state
+(``tactile.payload.live``); the robot's log says the sensor's orientation as it runs.
 """
 
 import sys
@@ -13,12 +15,13 @@ import time
 
 from tactile.board.client import info_dict
 from tactile.board.live_view import WIDTH, LiveState
-from tactile.board.settings import STREAMS, to_newtons
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.errors import PortLost
 from tactile.output.textout import printable
+from tactile.payload import live_args
 from tactile_protocol import constants as C
+from tactile_protocol.settings import STREAMS, to_newtons
 
 REFRESH_S = 0.1
 
@@ -27,12 +30,29 @@ def add_arguments(parser):
     add_port_argument(parser)
     parser.add_argument("--duration", type=float, help="stop after S seconds (default: Ctrl-C)")
     parser.add_argument("--as-is", action="store_true", help="do not switch on SAMPLE frames")
+    parser.add_argument(
+        "--pose-log", help="the robot's log (sensor poses): with --payload, the orientation"
+    )
+    parser.add_argument(
+        "--payload",
+        action="append",
+        metavar="TOOL",
+        help="a sensor's tool file: its weight and the bias removed; needs --pose-log",
+    )
     foxglove_args.add_arguments(parser)
 
 
 def run(args):
     foxglove_args.check(args)
+    samples = None if args.as_is else True  # (live switches the SAMPLE stream on)
+    following, log = live_args.following(args.payload, args.pose_log, samples)  # before the board
     client = connect(args)
+    if following is not None:
+        try:
+            following.check(_device(client))
+        except BaseException:
+            client.close()
+            raise
     if getattr(client.port, "realtime", True) is False:  # sim:// (tactile_sim.urlhandler)
         print(
             printable(
@@ -44,8 +64,9 @@ def run(args):
     restore = live = None
     try:
         restore = None if args.as_is else _samples_on(client)
-        live = foxglove_args.start(args, _device(client))
-        _view(client, args.duration, live)
+        posed = log if getattr(log, "kind", None) in ("pose", "scara") else None
+        live = foxglove_args.start(args, _device(client), pose_log=posed)
+        _view(client, args.duration, live, following)
     except PortLost:
         restore = None  # a dead port cannot be told anything: the error alone, once
         raise
@@ -63,15 +84,18 @@ def _device(client):
     return info_dict(client.info) if client.info is not None else None
 
 
-def _view(client, duration, live=None):
+def _view(client, duration, live=None, following=None):
     """Draw the board's state until ``duration`` s have passed (or Ctrl-C); ``live``: a
-    ``tactile.foxglove.live.LiveServer`` fed every batch."""
+    ``tactile.foxglove.live.LiveServer`` fed every batch; ``following``: a tool's weight
+    removed first."""
     state, tty = LiveState(), sys.stdout.isatty()
     start = last = time.monotonic()
     drawn = 0
     try:
         while duration is None or time.monotonic() - start < duration:
             msgs, arrivals = client.read_timed()
+            if following is not None:
+                msgs, _, arrivals = following.feed(msgs, _device(client), arrivals=arrivals)
             state.update(msgs)
             if live is not None:
                 live.feed(msgs, arrivals=arrivals)

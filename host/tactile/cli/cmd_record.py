@@ -16,14 +16,22 @@ made is removed, one that was there is left as it was.
 
 import functools
 import sys
+import time
 
+from tactile.board.client import info_dict
 from tactile.cli import foxglove_args
-from tactile.cli.board_args import add_port_argument
+from tactile.cli.board_args import add_port_argument, connect
 from tactile.commands.derive import check_log, derive
 from tactile.commands.words import add_quiet
 from tactile.errors import BoardError, DataError, InputError
+from tactile.files.folder_lock import hold
 from tactile.logs.clock import log_end, show_time
-from tactile.output.textout import printable
+from tactile.output.textout import fields, printable
+from tactile.payload.live import Following
+from tactile.payload.on_board import OnBoard
+from tactile.payload.orientation import Orientations
+from tactile.payload.tool import read_tool
+from tactile.recording.session import Session
 
 
 def add_arguments(parser):
@@ -47,36 +55,57 @@ def add_arguments(parser):
     parser.add_argument(
         "--reconnect", type=float, default=30.0, help="seconds to wait for a lost port (30)"
     )
+    parser.add_argument(
+        "--payload",
+        action="append",
+        metavar="TOOL",
+        help="a sensor's tool file (tactile payload identify): its weight and the drifting bias"
+        " are removed and contacts gated on the host; needs --pose-log; once per sensor",
+    )
     add_quiet(parser)
     foxglove_args.add_arguments(parser)
 
 
-def run(args):
-    from tactile.files.folder_lock import hold
+def payload_of(args, log):
+    """[(path, Tool)] of ``--payload``, checked before anything is recorded: each file, and
+    a pose log with the sensor's orientation for every reading; and the ``Orientations``."""
+    if not args.payload:
+        return [], None
+    if log is None:
+        raise InputError("--payload: needs --pose-log (the sensor's orientation at each reading)")
+    tools = [(path, read_tool(path)) for path in args.payload]
+    orient = Orientations.of_log(log)
+    for path, tool in tools:
+        if not orient.covers(tool.sensor):
+            raise InputError(f"{path}: the tool is for sensor {tool.sensor}: {log.path} has none")
+    return tools, orient
 
+
+def run(args):
     with hold(args.out, create=True):  # one writer in the run, derive included
         return _run(args)
 
 
 def _run(args):
-    from tactile.recording.session import Session
-
     if args.duration is not None and not args.duration > 0:
         raise InputError(f"--duration: {args.duration} is not a positive number of seconds")
     if args.contacts is not None and args.contacts <= 0:
         raise InputError(f"--contacts: {args.contacts} is not a positive count")
     foxglove_args.check(args)
     if not args.port:
-        from tactile.cli.board_args import connect
-
         connect(args)  # raises the 'no port given' message
-    until = posed = None
+    until = posed = log = following = None
     if args.pose_log:  # a bad log is refused before recording, not after
-        posed, _ = _read_log(args.pose_log)
+        log, posed, _ = _read_log(args.pose_log)
+    tools, orient = payload_of(args, log)
     # a port in use is refused before anything is written
     live = foxglove_args.start(args, pose_log=posed)
+    follow = None if live is None else live.follow
+    if live is not None and tools:
+        following = Following(tools, orient, log.clock)
+        follow = _compensating(live, following)
     if args.pose_log:  # read again once the board answers: a robot (an emulator) that
-        until = functools.partial(_log_again, args, live)  # starts anew writes it anew
+        until = functools.partial(_log_again, args, live, following)  # starts anew writes it anew
     try:
         session = Session(
             args.port,
@@ -89,7 +118,8 @@ def _run(args):
             append=args.append,
             argv=sys.argv,
             until=until,
-            on_frames=live.follow if live is not None else None,
+            on_frames=follow,
+            payload=OnBoard(tools) if tools else None,
         )
     except BaseException:
         foxglove_args.stop(live, quiet=True)
@@ -110,25 +140,27 @@ def _run(args):
     print(printable(time_summary(meta.get("time_base"))))
     _log_not_over(meta, args.pose_log, args.out)
     if args.pose_log:
-        for line in derive(args.out, args.pose_log, per_contact=args.per_contact):
+        for line in derive(args.out, args.pose_log, per_contact=args.per_contact, payload=tools):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
 
 
 def _read_log(path):
-    """(the ``PoseLog`` of an EP2 log or None, until = (clock, end us, how))."""
+    """(the log, its ``PoseLog`` if an EP2 log or None, until = (clock, end us, how))."""
     log = check_log(path)
     end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
     posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
-    return posed, (log.clock, end, how)
+    return log, posed, (log.clock, end, how)
 
 
-def _log_again(args, live):
-    """The pose log as it is now the board has answered (and the Foxglove scene with it);
-    says where the run stops."""
-    posed, until = _read_log(args.pose_log)
+def _log_again(args, live, following=None):
+    """The pose log as it is now the board has answered (and the Foxglove scene and the
+    payload's orientations with it); says where the run stops."""
+    log, posed, until = _read_log(args.pose_log)
     foxglove_args.new_pose_log(live, posed)
+    if following is not None:
+        following.orient = Orientations.of_log(log)
     if not args.quiet:
         clock, end, how = until
         print(printable(f"record: stops when the pose log is done ({show_time(clock, end)}:"
@@ -151,6 +183,18 @@ def _log_not_over(meta, pose_log, out):
         " and none of it was recorded; start the robot again (an emulator: 'tactile emulate'"
         f" again, or without --once) and record again (what the board sent is kept in {out})"
     )
+
+
+def _compensating(live, following):
+    """The session's ``on_frames``: the Foxglove server fed the compensated frames."""
+
+    def follow(session, msgs, host_times):
+        info = session.client.info if session.client is not None else None
+        device = info_dict(info) if info is not None else None
+        out, host, _ = following.feed(msgs, device, host_times)
+        live.follow(session, out, host)
+
+    return follow
 
 
 def _says_kept(exc, rec):
@@ -257,10 +301,6 @@ class Progress:
             )
 
     def update(self, session):
-        import time
-
-        from tactile.output.textout import fields
-
         now = time.monotonic()
         if now - self.last < (1.0 if self.plain else 0.1):
             return

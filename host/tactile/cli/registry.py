@@ -36,6 +36,9 @@ OWN = {
     "flash": Command("tactile.cli.cmd_flash", "copy the firmware onto a MicroPython board"),
     "ep1": Command("tactile.cli.cmd_ep1", "EP1: curvature at a point from rolling probes (ch. 3)"),
     "ep2": Command("tactile.cli.cmd_ep2", "EP2: patch fit and shape classification (ch. 4)"),
+    "payload": Command(
+        "tactile.cli.cmd_payload", "identify the tool's weight (mass, centre of mass, biases)"
+    ),
     "plot": Command("tactile.cli.cmd_plot", "draw contacts, fitted patches and S/C maps as PNG"),
     "completion": Command("tactile.cli.cmd_completion", "print a bash/zsh/tcsh completion script"),
 }

@@ -38,7 +38,10 @@ from tactile.localize.readings import Readings, contact_frames
 from tactile.logs.clock import clock_of
 from tactile.logs.pose import log_columns, read_pose_log
 from tactile.logs.probe import read_probe_log
-from tactile.recording.meta import read_meta
+from tactile.payload.compensator import Compensator, words
+from tactile.payload.orientation import read_log
+from tactile.payload.tool import check_device, tool_doc
+from tactile.recording.meta import amend, read_meta
 from tactile.recording.timebase import recorded_times
 
 __all__ = ["check_log", "derive"]
@@ -60,8 +63,13 @@ def _gate(meta):
     return float(dev.get("enter_threshold_N", 0.0)), dev.get("gate", "xy")
 
 
-def derive(outdir, pose_log, per_contact=None):
-    """Write contacts.csv or probes.csv into ``outdir``; return lines to print."""
+def derive(outdir, pose_log, per_contact=None, payload=None):
+    """Write contacts.csv or probes.csv into ``outdir``; return lines to print.
+
+    ``payload``: [(tool.json's path, ``Tool``)]: each tool's weight and the bias are removed
+    from its sensor's readings and the contacts gated again on the host
+    (``tactile.payload.compensator``) before anything is localised; meta.json's "payload"
+    gets what was done (``compensation``)."""
     outdir = pathlib.Path(outdir)
     columns = log_columns(pose_log)
     try:
@@ -76,22 +84,37 @@ def derive(outdir, pose_log, per_contact=None):
     else:
         messages, times = recorded_times(data, meta, clock, outdir)
     threshold, gate = _gate(meta)
+    said = []
+    if payload:
+        messages, times, said = compensated(outdir, pose_log, messages, times, meta, payload)
     if "dtheta_x" in columns:
-        return _derive_probes(outdir, pose_log, messages, threshold, times)
-    return _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times)
+        return said + _derive_probes(outdir, pose_log, messages, threshold, times)
+    return said + _derive_posed(
+        outdir, pose_log, messages, threshold, gate, per_contact, times, bool(payload)
+    )
 
 
 def _write(path, text):
     write_bytes(path, text)  # replaced whole; a disk error is exit 5
 
 
-def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times=None):
+def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times=None, host=False):
     """SCARA joints (ch. 5) or sensor poses: contacts.csv in metres either way (the thesis's
-    tables 5-7 are in cm; ``tactile ep2 analyze --units cm`` shows them so)."""
+    tables 5-7 are in cm; ``tactile ep2 analyze --units cm`` shows them so).  ``host``: the
+    contacts are the host's gate's (a payload), and none at all is an empty contacts.csv."""
     log = read_pose_log(pose_log)
     rule = Readings.for_log(log.kind, per_contact, threshold, gate)
     t, sensor, wrench, _ = contact_frames(messages, times=times, rule=rule)
+    if log.kind == "pose" and log.probe is None and len(t) == 0:  # holds, nothing touched
+        return [
+            f"no contact readings, and no '# probe:' line in {pose_log}: no contacts.csv (a log"
+            f" of holds? tactile payload identify {outdir} --pose-log {pose_log})"
+        ]
     points, normals, finger, report = posed_world_contacts(log, t, sensor, wrench, threshold)
+    path = outdir / "contacts.csv"
+    if len(t) == 0 and host:  # the host's gate found none: the board's were the weight's
+        _write(path, format_contacts(points, normals, finger=finger))
+        return [f"0 contact readings (the host's gate found no contact) -> {path}"]
     if len(t) == 0:
         raise DataError(
             f"{outdir}: no CONTACT readings in the recording (did a finger touch? a TARE taken"
@@ -99,7 +122,6 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, time
         )
     if len(points) == 0:
         raise DataError(f"{outdir}: no contact could be localised: {_why(report, threshold)}")
-    path = outdir / "contacts.csv"
     _write(path, format_contacts(points, normals, finger=finger))  # metres, whatever the log
     lines = [f"{len(points)} of {len(t)} contact readings localised (m) -> {path}; {report}"]
     if 2 * len(points) < len(t):
@@ -144,3 +166,20 @@ def _derive_probes(outdir, pose_log, messages, threshold, times=None):
         )
     out.append(f"next: tactile ep1 estimate {path} --finger-radius {float(log.radius_m):.10g}")
     return out
+
+
+def compensated(outdir, pose_log, messages, times, meta, payload):
+    """(messages, times, lines): the frames with the tools' weight and bias removed and
+    their contacts gated on the host; meta.json's "payload" records it."""
+    device = meta.get("device")
+    for path, tool in payload:
+        check_device(tool, device, path)
+    _, orient = read_log(pose_log)
+    comp = Compensator([tool for _, tool in payload], orient, device)
+    out, index = comp.whole(messages, times)
+    report = comp.report()
+    tools = [{"file": str(path), "tool": tool_doc(tool)} for path, tool in payload]
+    before = meta.get("payload") or {}
+    amend(outdir / "meta.json", "payload", {**before, "tools": tools, "compensation": report})
+    lines = [words(r) for r in report]
+    return out, None if times is None else np.asarray(times)[index], lines

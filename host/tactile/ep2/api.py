@@ -34,11 +34,10 @@ from tactile.ep2 import (
     tilt,
 )
 from tactile.ep2.centre_result import hk_eps
-from tactile.ep2.patch_input import JetOptions, SplineOptions
 from tactile.ep2.surface_geometry import hk_labels
 from tactile.errors import DataError
 
-__all__ = ["JetOptions", "PatchResult", "SplineOptions", "analyze_patch", "analyze_sweep"]
+__all__ = ["PatchResult", "analyze_patch", "analyze_sweep"]
 
 
 def analyze_patch(

@@ -1,7 +1,9 @@
 """Many patches at once: ``analyze_patches``.
 
 Each patch is prepared as ``analyze_patch`` prepares it (validation, duplicates, centring;
-patches of one size together, ``_prepare_stacked``), then a chunk of patches is fitted by
+patches of one size together, ``_prepare_stacked``), the crease and tilt checks are
+screened for each size at once (``check_screens``; only the patches not cleared run
+``edges.check`` and ``tilt.untilt``), then a chunk of patches is fitted by
 one ``local_jet.fit`` call on a padded stack with a row mask (the fit is batch-first: the
 stack equals each patch alone, tested), and the analysis after the fit
 (positions-versus-normals test, determination, intervals, label, grid statistics:
@@ -17,6 +19,7 @@ import numpy as np
 
 from tactile.ep2 import (
     api,
+    check_screens,
     edges,
     extent,
     jet_answers,
@@ -106,11 +109,18 @@ def _chunk(patches, kw):
     unpacked = [_unpack(p) for p in patches]
     kws = [_own(p, kw) for p in patches]
     quick = _prepare_stacked(unpacked, kws)
+    preps = {}
     for j, (item, kw_j) in enumerate(zip(unpacked, kws, strict=True)):
         try:
-            prep = quick[j] or patch_input.prepare(*item, kw_j)
-            edges.check(prep)
-            prep, tilted[j] = tilt.untilt(prep)
+            preps[j] = quick[j] or patch_input.prepare(*item, kw_j)
+        except (DataError, InputError) as exc:
+            results[j] = exc
+    clear_edge, clear_tilt = _screens(preps)
+    for j, prep in preps.items():
+        try:
+            if not clear_edge[j]:
+                edges.check(prep)
+            prep, tilted[j] = (prep, None) if clear_tilt[j] else tilt.untilt(prep)
             prepared.append((j, prep))
         except (DataError, InputError) as exc:
             results[j] = exc
@@ -140,6 +150,21 @@ def _chunk(patches, kw):
                 res.warnings[:0] = [tilted[j]] if tilted[j] else []
             results[j] = res
     return results
+
+
+def _screens(preps):
+    """({j: bool}, {j: bool}): which prepared patches surely pass ``edges.check`` and are
+    surely left as they are by ``tilt.untilt`` (``check_screens``, a stack per size)."""
+    edge, tilted, groups = {}, {}, {}
+    for j, prep in preps.items():
+        groups.setdefault(len(prep.points), []).append(j)
+    for idx in groups.values():
+        P = np.stack([preps[j].points for j in idx])
+        N = np.stack([preps[j].normals for j in idx])
+        e, t = check_screens.clear(P, N, [preps[j].opts for j in idx])
+        edge.update(zip(idx, e.tolist(), strict=True))
+        tilted.update(zip(idx, t.tolist(), strict=True))
+    return edge, tilted
 
 
 def _nan(v):

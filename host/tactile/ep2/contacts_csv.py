@@ -21,7 +21,8 @@ import numpy as np
 from tactile.ep2 import extent, patch_input
 from tactile.errors import InputError, where
 from tactile.files import tabular
-from tactile.files.tabular import CsvBlocks, show
+from tactile.files.csv_dialect import show
+from tactile.files.tabular import CsvBlocks
 
 REQUIRED = ("x", "y", "z", "nx", "ny", "nz")
 MAX_BYTES = 16 * 2**30  # a streamed file (`ep2 analyze`)

@@ -42,7 +42,6 @@ from tactile.files.csv_dialect import (
     line_blocks,
     no_header,
     number_at,
-    show,
 )
 
 __all__ = [
@@ -53,7 +52,6 @@ __all__ = [
     "CsvBlocks",
     "Table",
     "read_csv",
-    "show",
 ]
 
 MAX_ROWS = 1_000_000

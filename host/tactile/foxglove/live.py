@@ -30,10 +30,10 @@ board -> host fit as it stands), else this server's own fit of the arrivals
 import time
 
 from tactile.board.client import info_dict
-from tactile.board.settings import wrench_si
 from tactile.foxglove.sinks import WebSocketSink, Worker, sdk
 from tactile.foxglove.topics import Topics
 from tactile_protocol import constants as C
+from tactile_protocol.settings import wrench_si
 
 QUEUE_FRAMES = 4096  # frames between the caller's loop and the publishing thread
 BACKLOG = 1024  # messages the SDK keeps per client before it drops the oldest

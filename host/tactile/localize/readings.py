@@ -9,8 +9,8 @@ list of decoded frames and returns the times, sensors and wrenches (N, N*m) that
 
 import numpy as np
 
-from tactile.board import settings as board_settings
 from tactile_protocol import constants as C
+from tactile_protocol import settings as board_settings
 
 __all__ = ["Readings", "contact_frames", "SCARA_PER_CONTACT"]
 

@@ -101,7 +101,7 @@ def read_pose_log(path):
         log.end_us = parse_end(path, *found["end"], clock)
     _check_overlap(log)
     if kind == "pose":
-        log.quaternion = _unit_quaternions(table, path, lines)
+        log.quaternion = tags.unit_quaternions(table, ("qw", "qx", "qy", "qz"), path=path)[0]
         log.position = table.within(("px", "py", "pz"), LIMIT)
     else:
         log.joints = table.within(("q1", "q2", "q3", "z"), LIMIT)
@@ -117,19 +117,6 @@ def read_pose_log(path):
 def log_columns(path):
     """The header row's column names of a robot log (after its ``#`` lines), stripped."""
     return [h.strip() for h in tags.scan(path)[2]]
-
-
-def _unit_quaternions(table, path, lines):
-    """(n, 4) qw, qx, qy, qz as logged, each within 1e-3 of unit length."""
-    q = table.within(("qw", "qx", "qy", "qz"), LIMIT)
-    norm = np.linalg.norm(q, axis=1)
-    bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
-    if bad.size:
-        raise InputError(
-            f"{where(path, lines[bad[0]], 'qw')}: quaternion (qw,qx,qy,qz) is not unit"
-            f" length (|q| = {norm[bad[0]]:.6g})"
-        )
-    return q
 
 
 def _check_overlap(log):

@@ -11,7 +11,10 @@ Written by the robot controller (``tactile_sim``'s ``motion_roll`` writes one th
 
 The ``#`` lines come before the header.  The times may be in the host's clocks instead
 (``t_start_utc_s,t_end_utc_s`` or ``t_start_mono_s,t_end_mono_s``), and ``# end: t_us=N``
-says when the robot is done (``tactile.logs.clock``).  The fingertip's pole is the sensor's
+says when the robot is done (``tactile.logs.clock``).  A log may give the sensor's
+orientation in the world during each hold, ``robot_log.ATTITUDE`` (``qw,qx,qy,qz`` at the
+probe's start, ``qw_end,qx_end,qy_end,qz_end`` at its end, scalar first), which removing a
+tool's weight needs (``tactile.payload``).  The fingertip's pole is the sensor's
 +x, so its ``# probe:`` line takes no ``axis=``.  The probes CSV derived from it is
 ``tactile.ep1.from_ft``'s.
 """
@@ -30,6 +33,7 @@ from tactile.logs.tags import LIMIT
 __all__ = ["ProbeLog", "read_probe_log"]
 
 LOG_COLUMNS = robot_log.COLUMNS["probe"]  # the format's (tactile.logs.robot_log)
+ATTITUDE = robot_log.ATTITUDE  # optional: the sensor's orientation during each end's hold
 MAX_PROBE = 2**31 - 1
 
 
@@ -47,6 +51,8 @@ class ProbeLog(NamedTuple):
     lines: list  # source line of each row
     clock: str = "board"  # of t_start_us/t_end_us: "board", "utc" or "monotonic" (us each)
     end_us: int | None = None  # the '# end:' line's time, in that clock
+    q_start: np.ndarray | None = None  # (m, 4) qw, qx, qy, qz: the sensor's orientation in
+    q_end: np.ndarray | None = None  # the world during the hold at the start, at the end
 
 
 def read_probe_log(path):
@@ -57,7 +63,9 @@ def read_probe_log(path):
     fingertip = _fingertip(path, found)
     half = tags.hold(path, *found["hold"]) if "hold" in found else None
     clock = clock_of(path, header_line, {h.strip() for h in header}) or "board"
-    table = read_csv(path, (LOG_COLUMNS[0],) + CLOCKS[clock][:2] + LOG_COLUMNS[3:])
+    table = read_csv(
+        path, (LOG_COLUMNS[0],) + CLOCKS[clock][:2] + LOG_COLUMNS[3:], optional_float=ATTITUDE
+    )
     probe = table.whole("probe", 0, MAX_PROBE)
     t_start, t_end = read_times(table, clock)
     return ProbeLog(
@@ -72,7 +80,24 @@ def read_probe_log(path):
         list(table.lines),
         clock,
         parse_end(path, *found["end"], clock) if "end" in found else None,
+        *_attitude(table),
     )
+
+
+def _attitude(table):
+    """(q_start, q_end) (m, 4) unit quaternions of the optional ``ATTITUDE`` columns, or
+    (None, None); InputError on some of them only, or a quaternion not of unit length."""
+    have = [c for c in ATTITUDE if c in table.columns]
+    if not have:
+        return None, None
+    if len(have) < len(ATTITUDE):
+        missing = ",".join(c for c in ATTITUDE if c not in have)
+        raise InputError(f"{where(table.path, 1)}: orientation columns without {missing}")
+    out = []
+    for names in (ATTITUDE[:4], ATTITUDE[4:]):
+        q, norm = tags.unit_quaternions(table, names, 1.0 + 1e-3)
+        out.append(q / norm[:, None])
+    return tuple(out)
 
 
 def _fingertip(path, found):

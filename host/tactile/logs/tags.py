@@ -105,3 +105,17 @@ def _vectors(at, words, sizes, usage, least, most=LIMIT):
             )
         out[key] = v
     return out
+
+
+def unit_quaternions(table, names, limit=LIMIT, path=None):
+    """(q, |q|): the (n, 4) quaternion columns ``names`` (scalar first) as logged, each within
+    1e-3 of unit length, else one line naming the first row that is not (exit 2)."""
+    q = table.within(names, limit)
+    norm = np.linalg.norm(q, axis=1)
+    bad = np.flatnonzero(np.abs(norm - 1.0) > 1e-3)
+    if bad.size:
+        raise InputError(
+            f"{where(path or table.path, table.lines[bad[0]], names[0])}: quaternion"
+            f" ({','.join(names)}) is not unit length (|q| = {norm[bad[0]]:.6g})"
+        )
+    return q, norm

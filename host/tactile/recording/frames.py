@@ -14,11 +14,11 @@ import pathlib
 import stat
 
 from tactile import units
-from tactile.board.settings import wrench_si
 from tactile.errors import HostFileError
 from tactile.files import bounded
 from tactile.files.tabular import read_csv
 from tactile_protocol import constants as C
+from tactile_protocol.settings import wrench_si
 
 FRAME_COLUMNS = (
     "seq,timestamp_us,host_monotonic_s,host_utc_s,type,sensor,phase,contact_id,flags,"

@@ -106,6 +106,25 @@ class RecordingData:
     meta: dict
     lines: np.ndarray
     notes: list = field(default_factory=list)
+    raw_force_N: np.ndarray | None = None
+    raw_torque_Nm: np.ndarray | None = None
+    host_phase: np.ndarray | None = None
+    host_contact_id: np.ndarray | None = None
+    payload: dict | None = None
+
+    def times_in(self, clock):
+        """Each row's time (int64 us) in a robot log's ``clock`` ("board": the raw stamps,
+        "utc", "monotonic": the host times), and a mask of the rows that have one."""
+        if clock == "board":
+            return self.board_us.astype(np.int64), np.ones(len(self), dtype=bool)
+        host = self.host_utc_s if clock == "utc" else self.host_monotonic_s
+        if host is None:
+            raise InputError(
+                f"{self.path}: the robot log is in the {clock} clock, but the recording has no"
+                f" host time ({self.host_time_why})"
+            )
+        known = np.isfinite(host)
+        return np.where(known, np.round(np.nan_to_num(host) * 1e6), -1).astype(np.int64), known
 
     def __len__(self):
         return len(self.seq)
@@ -122,11 +141,20 @@ class RecordingData:
 
 
 def load_recording(path):
-    """Read the ``tactile record`` directory ``path`` into a ``RecordingData``.
+    """Read the ``tactile record`` directory ``path`` into a ``RecordingData``
+    (``tactile.load_recording`` adds ``payload=``: ``tactile.payload.recorded``).
 
     Raises ``tactile.errors.InputError`` (a ``ValueError``) naming the file, line and column
     of anything malformed."""
-    path = pathlib.Path(path)
+    return _load(pathlib.Path(path))
+
+
+def robot_log_of(rec):
+    """The robot log the recording's command names, if it still exists, else None."""
+    return _pose_log(rec.path, rec.meta)
+
+
+def _load(path):
     if not path.is_dir():
         raise InputError(f"{path}: not a directory (expected 'tactile record -o {path}')")
     meta, notes = meta_of(path)

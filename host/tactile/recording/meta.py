@@ -24,11 +24,14 @@ entry), an entry ``{"unrecorded": true, ...}`` holds the difference, so the tota
 match the files.
 """
 
+import json
 import math
 
 from tactile.board.client import info_dict
 from tactile.errors import InputError
 from tactile.files import bounded
+from tactile.files.atomic import write_bytes
+from tactile.output.jsonout import clean
 from tactile.recording.run_stats import span_s
 from tactile_protocol import constants as C
 
@@ -155,6 +158,8 @@ def document(sessions):
     for k in ("gaps", "pauses"):
         doc[k] = [g for s in sessions if isinstance(s.get(k), list) for g in s[k]]
     doc["decoder"] = _decoder_totals(sessions)
+    if latest.get("payload") is not None:  # record --payload (tactile.payload)
+        doc["payload"] = latest["payload"]
     doc["sessions"] = sessions
     return doc
 
@@ -211,4 +216,21 @@ def session_entry(session):
         "decoder": client.decoder.counters.as_dict() if client is not None else None,
         "stops_at": None if session.log_end is None else session.log_end.meta(),
         "time_base": session.timing.meta(),
-    }
+    } | _payload(session)
+
+
+def _payload(session):
+    """meta.json's "payload" of a run with tools (``record --payload``)."""
+    payload = getattr(session, "payload", None)
+    return {"payload": payload.meta()} if payload else {}
+
+
+def amend(path, key, value):
+    """Set ``key`` of the meta.json at ``path`` to ``value`` (at the top and in the latest
+    session's entry, so an ``--append`` keeps it) and replace the file whole."""
+    doc = read_meta(path)
+    doc[key] = value
+    sessions = doc.get("sessions")
+    if isinstance(sessions, list) and sessions and isinstance(sessions[-1], dict):
+        sessions[-1][key] = value
+    write_bytes(path, json.dumps(clean(doc), indent=2, allow_nan=False) + "\n")

@@ -27,7 +27,6 @@ import stat
 from array import array
 
 from tactile import units
-from tactile.board.settings import wrench_si
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import InputError
 from tactile.files.tabular import Table
@@ -46,6 +45,7 @@ from tactile.recording.frames import (
 )
 from tactile.recording.meta import MAX_META_BYTES, count_rows, read_meta, sessions_of
 from tactile_protocol import constants as C
+from tactile_protocol.settings import wrench_si
 
 CUT_SHORT = {"running", "error", "write failed", *WRITE_ENDS.values()}
 ROW_TYPES = (C.MSG_SAMPLE, C.MSG_CONTACT)

@@ -83,8 +83,10 @@ class Session:
         until=None,
         on_frames=None,
         on_notice=None,
+        payload=None,
     ):
         self.port_name = port_name
+        self.payload = payload  # a tactile.payload.on_board.OnBoard: record --payload
         self.duration_s = duration_s
         self.contacts = contacts
         self.want_tare = tare
@@ -160,12 +162,16 @@ class Session:
                 f"{self.port_name}: HELLO says protocol version {hello.protocol_version}, "
                 f"this host speaks {C.PROTOCOL_VERSION}"
             )
+        if self.payload and held is None:
+            self.payload.check(self.client)
         self._prepare()
         self._heard_at = self.elapsed()  # (its HELLO and the replies just now)
 
     def _prepare(self):
-        if self.want_tare:
-            self.client.tare()
+        if self.payload:
+            self.payload.samples_on(self.client)
+        if self.want_tare:  # with tools, at any pose: their weight may be above the gate
+            self.client.tare(force=bool(self.payload))  # (the host re-tares less the weight)
             self.tared = True
         if not self.client.info.flags & C.CFG_STREAMING:
             self.client.start()
@@ -287,9 +293,15 @@ class Session:
         write, the files are settled first and nothing more is attempted but meta.json."""
         if self.ended == "running":
             self.ended = "error"
-        if self.ended == "error" and not self.rec.bytes and self.failed is None:
-            self._discard()  # no byte from a board: the run leaves nothing behind
+        if (
+            self.ended == "error"
+            and self.failed is None
+            and (not self.rec.bytes or self._refused())
+        ):
+            self._discard()  # no byte from a board, or not the tools' board: nothing left
             return
+        if self.payload:
+            self.payload.put_back(self.client)
         try:
             self._keep_backlog()
         except WriteFailed as exc:
@@ -305,6 +317,9 @@ class Session:
         if self.client is not None:
             self._close_port()
         self.rec.close()
+
+    def _refused(self):
+        return bool(self.payload) and self.payload.refused
 
     def _discard(self):
         if self.client is not None:

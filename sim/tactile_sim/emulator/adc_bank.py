@@ -20,6 +20,7 @@ import pathlib
 
 from tactile_fw_tools import ccore
 from tactile_sim.adc_model import ADS122C04Model
+from tactile_sim.emulator.cache import cache_dir
 
 SOURCE = pathlib.Path(__file__).with_name("adc_bank.c")
 FLAGS = ("-std=c99", "-O2", "-fPIC", "-ffp-contract=off", "-Wall", "-Wextra", "-Werror")
@@ -70,9 +71,7 @@ class Bank(ctypes.Structure):  # ab_bank_t
 
 @functools.lru_cache(maxsize=1)
 def library():
-    """adc_bank.c as a loaded library, built next to the C core's (``cores.cache_dir``)."""
-    from tactile_sim.emulator.cores import cache_dir
-
+    """adc_bank.c as a loaded library, built next to the C core's (``cache.cache_dir``)."""
     path = ccore.build(cache_dir(), FLAGS, ("-lm",), "libtactile_adcbank-{digest}.so", [SOURCE])
     lib = ctypes.CDLL(str(path))
     lib.ab_bank_size.restype = ctypes.c_size_t

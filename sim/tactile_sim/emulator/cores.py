@@ -17,10 +17,15 @@ whatever ``tactile flash`` put on it.
 """
 
 import functools
-import os
-import pathlib
 
+from tactile_fw.board import Board
+from tactile_fw.frontend import make_sensor
+from tactile_fw_tools import ccore
 from tactile_protocol.errors import BoardError
+from tactile_sim.emulator import adc_bank
+from tactile_sim.emulator.cache import cache_dir
+from tactile_sim.emulator.pico_core import PicoBoard
+from tactile_sim.emulator.qemu_core import QemuBoard
 
 CORES = ("python", "c")  # a scene's [board] core, sim://?core=
 SERVED = (*CORES, "qemu", "rp2040")  # also on a pty only: QEMU's image, the emulated Pico
@@ -32,16 +37,9 @@ class CoreUnavailable(BoardError):
     """The core cannot run here (the C core without a C compiler); one line, exit 4."""
 
 
-def cache_dir():
-    root = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
-    return pathlib.Path(root) / "tactile" / "ccore"
-
-
 @functools.lru_cache(maxsize=1)
 def c_library():
     """The C core as a loaded shared library, built on first use (cached across runs)."""
-    from tactile_fw_tools import ccore
-
     try:
         return ccore.load(ccore.build(cache_dir(), name="libtactile_core-{digest}.so"))
     except ccore.NoCompiler as exc:
@@ -54,9 +52,6 @@ def c_library():
 
 
 def python_board(buses, layout, link, clock, storage, **kw):
-    from tactile_fw.board import Board
-    from tactile_fw.frontend import make_sensor
-
     sensors = [make_sensor(buses[bus], slot, bus_key=bus) for bus, slot in layout]
     return Board(sensors, link, clock, storage, **kw)
 
@@ -64,9 +59,6 @@ def python_board(buses, layout, link, clock, storage, **kw):
 def c_i2c(buses):
     """What answers the C core's I2C: the converters mirrored in C (``adc_bank``) when
     ``C_I2C`` is ``"bank"`` and they can be, else None (a Python callback per transaction)."""
-    from tactile_fw_tools import ccore
-    from tactile_sim.emulator import adc_bank
-
     if C_I2C != "bank" or not adc_bank.mirrorable(buses):
         return None
     try:
@@ -76,21 +68,15 @@ def c_i2c(buses):
 
 
 def c_board(buses, layout, link, clock, storage, **kw):
-    from tactile_fw_tools.ccore import CBoard
-
     lib = c_library()
-    return CBoard(lib, buses, layout, link, clock, storage, i2c=c_i2c(buses), **kw)
+    return ccore.CBoard(lib, buses, layout, link, clock, storage, i2c=c_i2c(buses), **kw)
 
 
 def qemu_board(buses, layout, link, clock, storage, **kw):
-    from tactile_sim.emulator.qemu_core import QemuBoard
-
     return QemuBoard(buses, layout, link, clock, storage, **kw)
 
 
 def pico_board(buses, layout, link, clock, storage, **kw):
-    from tactile_sim.emulator.pico_core import PicoBoard
-
     return PicoBoard(buses, layout, link, clock, storage, **kw)
 
 

@@ -25,8 +25,8 @@ import math
 import os
 
 from tactile_fw import calibration, settings
-from tactile_fw.board import boot_id_from
 from tactile_fw.frontend import ADDRESS_PLAN
+from tactile_fw.identity import boot_id_from
 from tactile_fw.link import PipeLink
 from tactile_fw.storage import MemoryStorage
 from tactile_fw.timing import ManualClock

@@ -15,6 +15,10 @@ Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
 import numpy as np
 
 from tactile.logs.robot_log import write_log
+from tactile_sim.rig.geometry import FREDDY
+from tactile_sim.rig.objects import ch5_object
+from tactile_sim.rig.schedule import probe_schedule
+from tactile_sim.rig.timeline import timeline, timeline_length
 
 MAX_TIMELINE = 1_000_000  # load rows (one per board sample): ~17 min of probing at 1 kHz
 
@@ -74,11 +78,6 @@ def build(scene):
     The load is sampled at the board's rate, so the schedule's length in samples is
     checked before it is built: a refusal rather than minutes of work and gigabytes.
     """
-    from tactile_sim.rig.geometry import FREDDY
-    from tactile_sim.rig.objects import ch5_object
-    from tactile_sim.rig.schedule import probe_schedule
-    from tactile_sim.rig.timeline import timeline, timeline_length
-
     m = scene.motion
     schedule = probe_schedule(
         ch5_object(m["object"]),

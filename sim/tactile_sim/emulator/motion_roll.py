@@ -31,6 +31,11 @@ import numpy as np
 
 from tactile.logs.robot_log import ATTITUDE, write_log
 from tactile_sim.emulator.orientation import Track, quaternion
+from tactile_sim.ep1 import rolling
+from tactile_sim.ep1.probes import measure, simulate_probes
+from tactile_sim.ep1.rolling import CHART_MARGIN, finger_pose, true_curvature
+from tactile_sim.ep1.surfaces import fingertip, local, make
+from tactile_sim.rig.fingertip import fingertip_wrench
 
 HOLD_FRACTION = 0.8  # the central part of each hold that the log offers for reading
 ROLL_KNOTS = 65  # path samples per roll (wrench linearly interpolated in between)
@@ -73,7 +78,6 @@ class RollMotion:
     def true_rows(self):
         """The simulator's true probes as (dtheta_x, dtheta_y, du, dv) rows (m, 4): net rotation
         from the normals (eqs. 34-35) and the exact change of the finger contact point."""
-        from tactile_sim.ep1.probes import measure
 
         return measure(self.probes, self.geometry["radius_m"])
 
@@ -118,8 +122,6 @@ def _paths(finger, obj, o):
     """The contact state (u1, v1, u2, v2, psi) along each roll out, at ROLL_KNOTS times of the
     (1 - cos)/2 profile: arrays (directions, ROLL_KNOTS, 5)."""
     from scipy.integrate import solve_ivp
-
-    from tactile_sim.ep1 import rolling
 
     (u1, v1), (u2, v2) = o["finger_uv"], o["object_uv"]
     y0 = np.array([u1, v1, u2, v2, o["psi"], 0.0])
@@ -169,8 +171,6 @@ def _frame(g):
 def _starts_inside(scene, finger, obj, o):
     """The start contacts lie inside their charts: a roll that starts outside one never
     crosses its edge, so nothing would stop it integrating nonsense (for a minute)."""
-    from tactile_sim.ep1.rolling import CHART_MARGIN
-
     for key, surf in (("object_uv", obj), ("finger_uv", finger)):
         for k, name in enumerate("uv"):
             lo, hi = surf.chart[k]
@@ -183,11 +183,6 @@ def _starts_inside(scene, finger, obj, o):
 
 
 def _build(scene, o):
-    from tactile_sim.ep1.probes import simulate_probes
-    from tactile_sim.ep1.rolling import finger_pose, true_curvature
-    from tactile_sim.ep1.surfaces import fingertip, local, make
-    from tactile_sim.rig.fingertip import fingertip_wrench
-
     try:
         obj = make(o["surface"], **o["surface_params"])
     except TypeError as exc:  # a parameter the surface does not take

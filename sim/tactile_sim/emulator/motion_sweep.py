@@ -47,6 +47,8 @@ import numpy as np
 
 from tactile.logs.robot_log import write_log
 from tactile_sim.emulator.orientation import Track, quaternion, shortest_turn, turn
+from tactile_sim.ep2.objects import make
+from tactile_sim.ep2.sweep import sweep
 
 # Sensor axes in the object frame for an untwisted finger: pole +x_S = -z, y_S = +y, z_S = +x.
 _R0 = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
@@ -90,8 +92,6 @@ class SweepMotion:
     """Loads per sensor as piecewise-linear keyframes; the truth and the pose log per station."""
 
     def __init__(self, cfg, obj, noise=(0.0,) * 6):
-        from tactile_sim.ep2.sweep import sweep
-
         self.cfg = cfg
         self.obj = obj
         self.noise = np.broadcast_to(np.asarray(noise, float), (6,)).copy()  # (F, M) sigmas
@@ -240,8 +240,6 @@ class SweepMotion:
 
 def build(scene):
     """The sweep of ``scene`` (keys and their relations checked by ``scene_schema``)."""
-    from tactile_sim.ep2.objects import make
-
     cfg = {k: v for k, v in scene.motion.items() if k != "kind"}
     noise = list(scene.sensor["noise_force_N"]) + list(scene.sensor["noise_torque_Nm"])
     try:

@@ -32,6 +32,7 @@ import time
 
 from tactile.output.textout import printable
 from tactile_protocol.errors import BoardError, InputError, MissingExtra
+from tactile_sim.emulator.cache import cache_dir
 
 HERE = pathlib.Path(__file__).resolve().parent
 CHIP_JS = HERE / "pico_chip.mjs"
@@ -78,8 +79,6 @@ def node():
 def npm_prefix():
     """Where the packages of ``npm/package-lock.json`` go: the user's cache, one folder per
     lock file's content."""
-    from tactile_sim.emulator.cores import cache_dir
-
     digest = hashlib.sha256((NPM_DIR / "package-lock.json").read_bytes()).hexdigest()[:12]
     return cache_dir().parent / f"npm-pico-{digest}"
 

@@ -23,7 +23,11 @@ import socket
 import subprocess
 import time
 
+from tactile_fw import frontend
+from tactile_fw.identity import NO_BOARD_ID, board_id_from
+from tactile_fw_tools import cross
 from tactile_protocol.errors import BoardError
+from tactile_sim.emulator.cache import cache_dir
 
 QEMU = "qemu-system-arm"
 INSTALL = "apt-get install qemu-system-arm"
@@ -63,9 +67,6 @@ class QemuBoard:
     def __init__(
         self, buses, layout, link, clock, storage, max_rate_hz=None, boot_id=0, board_id=None
     ):
-        from tactile_fw import frontend
-        from tactile_fw.identity import NO_BOARD_ID, board_id_from
-
         self.buses, self.layout, self.clock, self.storage = buses, layout, clock, storage
         self.boot_id = boot_id & 0xFFFFFFFF
         self.board_id = board_id_from(NO_BOARD_ID if board_id is None else board_id)
@@ -169,9 +170,6 @@ def _die_with_parent():
 
 def image():
     """The cross-compiled image, built once per source version in the user's cache."""
-    from tactile_fw_tools import cross
-    from tactile_sim.emulator.cores import cache_dir
-
     try:
         return cross.build(cache_dir())
     except cross.NoToolchain as exc:

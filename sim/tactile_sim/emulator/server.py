@@ -252,6 +252,8 @@ class Server:
     def _turn(self, held=None):
         """One exchange: the host, the board's step, its output; False once it has ended."""
         self._host(self.idle_s())
+        if self.stop:  # told to stop by what the host sent (a board that dies at a command)
+            return True  # or from outside: nothing more reaches the host
         if held is None:
             held = self._limit(self.wants_hold())
         running = self.step(held)

@@ -18,7 +18,10 @@ import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
+from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.cores import CORES
+from tactile_sim.emulator.device import EmulatedBoard
+from tactile_sim.emulator.link_faults import LinkFaults
 
 STEP_US = 2000
 
@@ -40,10 +43,6 @@ class Serial(SerialBase):
         if self._port is None:
             raise SerialException("Port must be configured before it can be used.")
         scene_name, options = self._parse(self.port)
-        from tactile_sim.emulator import load_scene
-        from tactile_sim.emulator.device import EmulatedBoard
-        from tactile_sim.emulator.link_faults import LinkFaults
-
         # A bad scene raises its SceneError (a ValueError, as pyserial's bad settings do):
         # the CLI reports it as bad input (exit 2), naming file, section and key.
         scene = load_scene(scene_name)

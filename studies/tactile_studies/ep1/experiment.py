@@ -6,6 +6,7 @@ The simulator (``tactile_sim.ep1``) makes the probes and the truth; the host's e
 
 import numpy as np
 
+from tactile.ep1.estimator import estimate
 from tactile_sim.ep1.probes import PLUS, measure, simulate_probes
 from tactile_sim.ep1.rolling import true_curvature
 from tactile_sim.ep1.surfaces import fingertip
@@ -27,8 +28,6 @@ def run_ep1(
     **roll_kw,
 ):
     """Simulate, measure and estimate; return (rows (m, 4), Estimate, truth dict, probes)."""
-    from tactile.ep1.estimator import estimate
-
     finger = fingertip(finger_radius)
     probes = simulate_probes(finger, obj, p1, p2, dtheta, phis, **roll_kw)
     rng = np.random.default_rng(seed)

@@ -9,6 +9,7 @@ dv from that wrench localised by the host's ``tactile.localize.sphere_contact``.
 
 import numpy as np
 
+from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
 from tactile_sim.rig.fingertip import fingertip_uv, fingertip_wrench
 from tactile_sim.rig.sensor import SIGMA_F, SIGMA_M, add_noise
 
@@ -36,8 +37,6 @@ def measure_ft(
     'near_miss').  Angle noise as in ``probes.measure``.  ``method``: "moment" (line of
     action, valid with friction) or "force" (frictionless: the direction of F only).
     """
-    from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
-
     if method not in ("moment", "force"):
         raise ValueError(f"unknown method {method!r}; choose 'moment' or 'force'")
     centre, pole = (offset, 0.0, 0.0), (1.0, 0.0, 0.0)

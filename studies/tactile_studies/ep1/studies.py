@@ -12,9 +12,11 @@ import csv
 
 import numpy as np
 
+from tactile.ep1.estimator import estimate_batch
 from tactile.files.atomic import atomic_write
 from tactile_sim.ep1.probes import measure, simulate_probes, sphere_plus_probes, tile
-from tactile_sim.ep1.surfaces import fingertip, local, paraboloid
+from tactile_sim.ep1.rolling import roll
+from tactile_sim.ep1.surfaces import fingertip, local, paraboloid, sphere
 
 __all__ = [
     "FIG16",
@@ -53,8 +55,6 @@ def _identity(it, **_):
 
 def _errors(rows, R1, k_true, resolution=0.0, sigma_theta=0.0):
     """Relative kx/ky errors (truncated at 1) and status codes for (..., 8, 4) measured rows."""
-    from tactile.ep1.estimator import estimate_batch
-
     out = estimate_batch(rows[..., :2], rows[..., 2:], R1, 0.0, resolution, sigma_theta)
     kt = np.asarray(k_true, float)
     scale = np.maximum(np.abs(kt), 1e-300)
@@ -117,8 +117,6 @@ def study_paraboloid(R1=1.0, trials=100, seed=0, grid=FIG18, progress=_identity,
             tiled = tile(pr, trials)
             for noise in grid["noises"]:
                 meas = measure(tiled, R1, sigma_theta=noise, rng=rng)
-                from tactile.ep1.estimator import estimate_batch
-
                 out = estimate_batch(meas[..., :2], meas[..., 2:], R1, 0.0, 0.0, noise)
                 err = np.minimum(np.abs(out["kx"] - kx) / abs(kx), 1.0)
                 rows.append(
@@ -174,9 +172,6 @@ def study_arclength(R1=1.0, dtheta=np.pi / 2, n=121, check_ode=(0.01, 1.0, 100.0
     s = R1 * dtheta * rcr / (1 + rcr)
     rows = [{"rcr": float(r), "radius": float(r * R1), "ds": float(v)} for r, v in zip(rcr, s)]
     if check_ode:
-        from tactile_sim.ep1.rolling import roll
-        from tactile_sim.ep1.surfaces import sphere
-
         for r in check_ode:
             res = roll(fingertip(R1), sphere(r * R1), (0, 0), (0, 0), 0.0, (dtheta, 0.0, 0.0))
             rows.append({"rcr": r, "radius": r * R1, "ds": float(res.y[5]), "source": "ode"})
@@ -219,8 +214,6 @@ def study_optimal_dtheta(
         )
         offset = rng.uniform(-0.5, 0.5, (trials, 1, 1, 2))
         meas = measure(pr, R1, sigma_theta, resolution, sensor, rng, offset=offset)
-        from tactile.ep1.estimator import estimate_batch
-
         out = estimate_batch(meas[..., :2], meas[..., 2:], R1, 0.0, resolution, sigma_theta)
         k = 0.5 * (out["kx"] + out["ky"])
         err = np.minimum(

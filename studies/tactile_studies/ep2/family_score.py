@@ -26,7 +26,7 @@ import re
 
 import numpy as np
 
-from tactile_studies.ep2 import families, implicit, jet2
+from tactile_studies.ep2 import families, family_layouts, implicit, jet2
 
 BANDS = jet2.BANDS
 NOISE_BINS = ("none", "low", "mid", "high")
@@ -246,8 +246,6 @@ def table(by_estimator, keys, robust=False):
 
 
 def _rank(key, value):
-    from tactile_studies.ep2 import family_layouts
-
     order = {"family": families.FAMILIES, "noise": NOISE_BINS, "layout": family_layouts.KINDS,
              "kl": KL_BINS}  # fmt: skip
     seq = order.get(key, ())

@@ -15,10 +15,12 @@ import os
 
 import numpy as np
 
+from tactile.ep2 import analyze_patch
 from tactile.errors import DataError
 from tactile.files.atomic import atomic_write
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import sweep
+from tactile_studies.ep2 import plots
 
 ROTATIONS = (0, 10, 30, 45, 60, 80, 90)
 RADII = (5.7, 6, 7, 8, 9, 10, 20, 40, 80, 150, 300, 500, 1000)
@@ -29,8 +31,6 @@ THESIS_LAYOUT = {"centre": (0.0, 0.0)}
 
 
 def _analyse(obj, degree, weighting, maps=False, **sweep_kw):
-    from tactile.ep2 import analyze_patch
-
     d = sweep(obj, **sweep_kw)
     try:
         return analyze_patch(
@@ -135,8 +135,6 @@ def tables(trials=50, noise_pos=0.05, noise_normal=0.03, spacing=2.5, length=6.0
     the thesis; the defaults here (0.05 cm, 0.03 rad, fingers 2.5 cm apart, 6 cm
     sweep) are assumptions.  Means over ``trials`` seeds.
     """
-    from tactile.ep2 import analyze_patch
-
     rows = []
     for kind, radius in (("plane", 1.0), ("cylinder", 6.6), ("concave_cylinder", 11.25)):
         obj = make(kind, radius, 0.0, centre=(spacing, length / 2))
@@ -215,8 +213,6 @@ def run(name, out, png=True, **kw):
     rows = fn(**fixed, **kw)
     paths = [_write(out, stem, rows)]
     if png:
-        from tactile_studies.ep2 import plots
-
         paths.append(getattr(plots, plot)(rows, os.path.join(out, stem + ".png")))
     return rows, paths
 

@@ -1,0 +1,195 @@
+"""The crease and tilt checks' screens for a stack of patches of one size, at once.
+
+``edges.check`` and ``tilt.untilt`` look at one patch at a time; on smooth data nearly every
+patch passes both.  ``clear`` computes, for a stack of like-sized prepared patches, the
+numbers those checks decide on (the normals' gate and the step against the smooth field,
+the normal screen's far contacts; the tilt's fit, its chi^2, size and standard error) with
+stacked NumPy (``eigh``, normal equations) and says which patches pass each check by a
+margin (``REL``, ``ABS``) far beyond the two computations' round-off.  Only the others run
+the per-patch check, so the answers are the per-patch checks' exactly: a patch near a
+threshold, with tied normals or an ill-conditioned fit is always checked one at a time.
+"""
+
+import numpy as np
+
+from tactile.ep2 import edges, tilt
+
+REL = 1e-6  # relative margin on every decision
+ABS = 1e-9  # absolute margin, in units of the quantity's scale
+MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to the check
+TILT_COND = 1e4  # the same for the tilt's weighted fit (its rows' scales differ)
+TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than the rest
+
+
+def clear(points, normals, opts):
+    """(edges clear (B,), tilt clear (B,)): whether ``edges.check`` passes (raises nothing)
+    and whether ``tilt.untilt`` leaves the patch as it is, for ``points``, ``normals`` (B, n, 3)
+    of prepared patches (centred, unit normals) with options ``opts`` (one per patch)."""
+    noise_pos = _noise(opts, "noise_pos")
+    noise_normal = _noise(opts, "noise_normal")
+    cosmax = np.cos(np.radians([o["max_normal_angle"] for o in opts]))
+    edge = _no_edge(points, normals) & _few_far(normals, cosmax)
+    return edge, _no_tilt(points, normals, noise_pos, noise_normal)
+
+
+def _noise(opts, key):
+    return np.array([np.nan if o.get(key) is None else o[key] for o in opts], float)
+
+
+def _unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _across(m):
+    """``edges._basis`` / ``tilt._frame`` of each unit row of m: (t1, t2) (B, 3) each."""
+    ref = np.where(np.abs(m[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t1 = _unit(np.cross(m, ref))
+    return t1, np.cross(m, t1)
+
+
+def _no_edge(P, N):
+    """Whether ``edges.find`` (strict) surely finds no edge: every normal near the mean
+    (the gate), or the best step not under ``STEP_RATIO`` of the smooth field's residual."""
+    B, n, _ = P.shape
+    if n < edges.MIN_POINTS:
+        return np.ones(B, bool)
+    total = N.sum(axis=1)
+    size = np.linalg.norm(total, axis=-1)
+    low = np.einsum("bnk,bk->bn", N, total).min(axis=1)
+    gate = low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size
+    out = gate.copy()
+    todo = np.flatnonzero(~gate & (size > 1e-6))
+    if todo.size:
+        out[todo] = _step_loses(P[todo], N[todo], total[todo] / size[todo, None])
+    return out
+
+
+def _step_loses(P, N, m):
+    """``edges.find``'s ``rss_step > STEP_RATIO * smooth rss``, by the margins (else False)."""
+    n = P.shape[1]
+    C = _gram(N - N.mean(axis=1, keepdims=True)) / (n - 1)
+    w, V = np.linalg.eigh(C)
+    a = V[:, :, -1]
+    x = np.einsum("bnk,bk->bn", N, a)
+    order = np.argsort(x, axis=1)
+    xs = np.take_along_axis(x, order, axis=1)
+    gap = np.diff(xs, axis=1).min(axis=1)
+    sure = (w[:, -1] - w[:, -2] > REL * w[:, -1]) & (gap > REL * np.ptp(x, axis=1))
+    gs = np.take_along_axis(N, order[..., None], axis=1)
+    c1 = np.cumsum(gs, axis=1)
+    c2 = np.cumsum(np.sum(gs**2, axis=2), axis=1)
+    k = np.arange(1, n)
+    left = c2[:, :-1] - np.sum(c1[:, :-1] ** 2, axis=2) / k
+    right = (c2[:, -1:] - c2[:, :-1]) - np.sum((c1[:, -1:] - c1[:, :-1]) ** 2, axis=2) / (n - k)
+    ok = (k >= edges.MIN_SIDE) & (n - k >= edges.MIN_SIDE)
+    rss_step = np.where(ok, left + right, np.inf).min(axis=1)
+    t1, t2 = _across(m)
+    xy = np.stack([np.einsum("bnk,bk->bn", P, t) for t in (t1, t2)], axis=-1)
+    xy = xy - xy.mean(axis=1, keepdims=True)
+    xy = xy / np.maximum(np.ptp(xy, axis=(1, 2)), 1e-300)[:, None, None]
+    u, v = xy[..., 0], xy[..., 1]
+    A = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
+    coef, ok = _solve(A, N)
+    sure &= ok  # (a coefficient off the least squares' only adds to rss_smooth: the safe side)
+    rss_smooth = np.sum((N - A @ coef) ** 2, axis=(1, 2))
+    bound = edges.STEP_RATIO * rss_smooth * (1 + REL) + ABS * n
+    return sure & (rss_step > bound)
+
+
+def _few_far(N, cosmax):
+    """Whether ``edges.check``'s normal screen surely leaves out at most ``MAX_LEFT_OUT``."""
+    dots = np.einsum("bnk,bk->bn", N, N.sum(axis=1))
+    top = np.sort(dots, axis=1)[:, -2:] if N.shape[1] > 1 else np.repeat(dots, 2, axis=1)
+    scale = np.abs(dots).max(axis=1)
+    sure = (N.shape[1] == 1) | (top[:, 1] - top[:, 0] > REL * scale)
+    seed = N[np.arange(len(N)), np.argmax(dots, axis=1)]
+    near = np.einsum("bnk,bk->bn", N, seed) - cosmax[:, None]
+    sure &= np.all(np.abs(near) > REL, axis=1)
+    mean = _unit(np.einsum("bn,bnk->bk", (near > 0).astype(float), N))
+    cos = np.einsum("bnk,bk->bn", N, mean)
+    sure &= np.all(np.abs(cos - cosmax[:, None]) > REL, axis=1)
+    far = np.sum(cos <= cosmax[:, None], axis=1)
+    return sure & (far <= edges.MAX_LEFT_OUT)
+
+
+def _no_tilt(P, N, noise_pos, noise_normal):
+    """Whether ``tilt.untilt`` surely names no tilt (``tilt.estimate``'s fit, stacked)."""
+    B, n, _ = P.shape
+    out = np.zeros(B, bool)
+    if n < tilt.MIN_POINTS:
+        return ~out
+    total = N.sum(axis=1)
+    size = np.linalg.norm(total, axis=-1)
+    live = np.flatnonzero(size > 1e-6)
+    if not live.size:
+        return out
+    P, N, noise_pos, noise_normal = P[live], N[live], noise_pos[live], noise_normal[live]
+    m = total[live] / size[live, None]
+    R = np.stack([*_across(m), m], axis=1)  # rows: x, y, z
+    local = (P - P.mean(axis=1, keepdims=True)) @ R.transpose(0, 2, 1)
+    L = np.maximum(np.ptp(local[..., 0], axis=1), np.ptp(local[..., 1], axis=1))
+    nl = N @ R.transpose(0, 2, 1)
+    zmin = nl[..., 2].min(axis=1)
+    sure = L > ABS * np.abs(P).max(axis=(1, 2))
+    steep = sure & (zmin < 0.1 - REL)  # ``estimate``: a normal near the tangent plane
+    sure &= steep | (zmin > 0.1 + REL)
+    Ls = np.where(sure, L, 1.0)
+    x, y, z = (local / Ls[:, None, None]).transpose(2, 0, 1)
+    nz = np.where(nl[..., 2] > 0.05, nl[..., 2], 1.0)  # (only where none is under 0.1)
+    sx, sy = -nl[..., 0] / nz, -nl[..., 1] / nz
+    one, zero = np.ones_like(x), np.zeros_like(x)
+    H = np.stack([one, x, y, x * x / 2, x * y, y * y / 2, zero, zero], axis=-1)
+    Sx = np.stack([zero, one, zero, x, y, zero, one, zero], axis=-1)
+    Sy = np.stack([zero, zero, one, zero, x, y, zero, one], axis=-1)
+    sp, ok = _residual(H[..., :6], z, n - 6)
+    sp = np.where(np.isnan(noise_pos), sp, noise_pos / Ls)
+    sure &= ok | ~np.isnan(noise_pos)
+    r, ok = _residual(H[..., :3], np.stack([sx, sy], axis=-1), n - 3)
+    sn = np.where(np.isnan(noise_normal), np.hypot(r[:, 0], r[:, 1]) / np.sqrt(2), noise_normal)
+    sure &= ok | ~np.isnan(noise_normal)
+    sp, sn = np.maximum(sp, tilt.NOISE_FLOOR), np.maximum(sn, tilt.NOISE_FLOOR)
+    A = np.concatenate([H / sp[:, None, None], Sx / sn[:, None, None], Sy / sn[:, None, None]], 1)
+    b = np.concatenate([z / sp[:, None], sx / sn[:, None], sy / sn[:, None]], axis=1)
+    rhs = np.concatenate([A.transpose(0, 2, 1) @ b[..., None], np.zeros((len(A), 8, 8))], -1)
+    rhs[:, np.arange(8), 1 + np.arange(8)] = 1.0  # [A^T b | I]: the solution and the inverse
+    sol, ok = _solve(A, None, rhs, TILT_COND)
+    sure &= ok
+    coef, inv = sol[..., 0], sol[..., 1:]
+    chi2 = np.sum(((A @ coef[..., None])[..., 0] - b) ** 2, axis=1) / max(3 * n - 8, 1)
+    cov = inv[:, 6:, 6:] * np.maximum(chi2, 1.0)[:, None, None]
+    tb = coef[:, 6:]
+    big = np.hypot(tb[:, 0], tb[:, 1])
+    u = tb / np.maximum(big, 1e-300)[:, None]
+    se = np.sqrt(np.maximum(np.einsum("bi,bij,bj->b", u, cov, u), 0.0))
+    deg = np.degrees(np.arctan(big))
+    none = chi2 > tilt.MAX_CHI2 * (1 + TILT_REL)
+    none |= (deg < tilt.MIN_DEG * (1 - TILT_REL)) | (deg > tilt.MAX_DEG * (1 + TILT_REL))
+    none |= big < tilt.MIN_Z * se * (1 - TILT_REL)
+    out[live] = steep | sure & none
+    return out
+
+
+def _gram(A):
+    return A.transpose(0, 2, 1) @ A
+
+
+def _solve(A, Y, rhs=None, max_cond=MAX_COND):
+    """(the normal equations' solution (B, k, m) of A (B, n, k) against Y (B, n, m), or
+    against ``rhs`` (B, k, m) as given; whether A's condition number is under ``MAX_COND``,
+    so that it is within the margins of ``np.linalg.lstsq``'s) per patch."""
+    G = _gram(A)
+    w = np.linalg.eigvalsh(G)
+    ok = w[:, 0] > w[:, -1] / max_cond**2
+    G[~ok] = np.eye(G.shape[-1])  # (left to the check: any solvable system)
+    if rhs is None:
+        rhs = A.transpose(0, 2, 1) @ Y
+    return np.linalg.solve(G, rhs), ok
+
+
+def _residual(A, y, dof):
+    """(rms residual (B,) or (B, m) of y (B, n) or (B, n, m) fitted by A's columns, with
+    ``dof`` spare rows; ``_solve``'s ok) per patch."""
+    Y = y if y.ndim == 3 else y[..., None]
+    coef, ok = _solve(A, Y)
+    rms = np.sqrt(np.sum((A @ coef - Y) ** 2, axis=1) / max(dof, 1))
+    return (rms if y.ndim == 3 else rms[:, 0]), ok

@@ -1,0 +1,85 @@
+"""The crease and tilt checks' stacked screens (``tactile.ep2.check_screens``): a patch they
+clear passes the per-patch check exactly, and smooth patches are cleared (the batch skips
+their per-patch checks)."""
+
+import numpy as np
+
+from tactile.ep2 import check_screens, edges, patch_input, tilt
+from tactile.errors import DataError
+from tactile_sim.ep2 import make
+
+GRID = np.linspace(0.0, 4.0, 6)
+XY = np.column_stack([np.repeat(GRID, 6), np.tile(GRID, 6)])
+
+
+def _smooth(kind, noise, rng):
+    obj = make(kind, 8.0)
+    z, _, _ = obj.eval(XY[:, 0], XY[:, 1])
+    pts = np.column_stack([XY, z]) + noise * rng.standard_normal((36, 3))
+    nrm = obj.normals(XY[:, 0], XY[:, 1]) + noise * rng.standard_normal((36, 3))
+    return pts, nrm
+
+
+def _turned(nrm, deg):
+    a = np.radians(deg)
+    return nrm @ np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]]).T
+
+
+def _crease(dihedral, rng, noise=0.005):
+    half = np.radians(180 - dihedral) / 2
+    u = XY[:, 0] - 2.0 + rng.uniform(-0.5, 0.5)
+    pts = np.column_stack([u * np.cos(half), XY[:, 1], -np.abs(u) * np.sin(half)])
+    nrm = np.where((u < 0)[:, None], [[np.sin(half), 0, np.cos(half)]],
+                   [[-np.sin(half), 0, np.cos(half)]])  # fmt: skip
+    return pts + noise * rng.standard_normal(pts.shape), nrm + noise * rng.standard_normal((36, 3))
+
+
+def _patches():
+    """(points, normals, what) of smooth, noise-free, tilted, creased and flipped patches."""
+    rng = np.random.default_rng(7)
+    out = []
+    for kind in ("sphere", "cylinder", "saddle", "pit"):
+        out += [(*_smooth(kind, 0.01, rng), "smooth") for _ in range(10)]
+        out.append((*_smooth(kind, 0.0, rng), "noise-free"))
+        for deg in (0.5, 1.0, 2.0, 4.0, 9.9, 12.0):
+            pts, nrm = _smooth(kind, 0.002, rng)
+            out.append((pts, _turned(nrm, deg), "tilted"))
+        pts, nrm = _smooth(kind, 0.01, rng)
+        nrm[:3] *= -1
+        out.append((pts, nrm, "flipped"))
+    out += [(*_crease(d, rng), "crease") for d in (35.0, 90.0, 120.0, 150.0, 163.0, 170.0)]
+    return out
+
+
+def _screened(patches):
+    kw = patch_input.keywords()
+    preps = [patch_input.prepare(p, n, None, None, kw) for p, n, _ in patches]
+    P = np.stack([p.points for p in preps])
+    N = np.stack([p.normals for p in preps])
+    return preps, *check_screens.clear(P, N, [p.opts for p in preps])
+
+
+def _trips_edges(prep):
+    try:
+        edges.check(prep)
+    except DataError:
+        return True
+    return False
+
+
+def test_a_cleared_patch_passes_the_per_patch_checks():
+    patches = _patches()
+    preps, edge_ok, tilt_ok = _screened(patches)
+    trips = [_trips_edges(p) for p in preps]
+    named = [tilt.untilt(p)[1] is not None for p in preps]
+    assert not any(t and ok for t, ok in zip(trips, edge_ok, strict=True))
+    assert not any(t and ok for t, ok in zip(named, tilt_ok, strict=True))
+    what = [w for _, _, w in patches]
+    assert sum(t for t, w in zip(trips, what, strict=True) if w in ("crease", "flipped")) >= 6
+    assert sum(t for t, w in zip(named, what, strict=True) if w == "tilted") >= 8
+
+
+def test_smooth_patches_are_cleared_of_both_checks():
+    patches = [p for p in _patches() if p[2] == "smooth"]
+    _, edge_ok, tilt_ok = _screened(patches)
+    assert edge_ok.mean() >= 0.9 and tilt_ok.mean() >= 0.9
