@@ -114,3 +114,29 @@ def test_the_emulators_own_unplugged_port_coming_back_is_the_same_session(tmp_pa
             while server.replays == 0:
                 port.read(4096)
     assert starts == [board.scene_start_us] and board.scene_start_us >= 400_000
+
+
+@pytest.mark.parametrize("scene", ["ch5_convex", "ep2_sweep_sphere", "ep1_roll", "payload_poses"])
+def test_every_robot_log_is_written_from_the_scenes_start(scene, tmp_path):
+    """Each motion's robot log, written for a start of the scene at board time T, is the log
+    of its start at 0 moved by T: every window and the end (what emulate writes at a replay)."""
+    from tactile_sim.commands.emulate import _write_log
+
+    motion = EmulatedBoard(load_scene(scene)).motion
+    texts = []
+    for at_us in (0, 12_345_678):
+        _write_log(motion, tmp_path / f"{at_us}.csv", at_us)
+        texts.append((tmp_path / f"{at_us}.csv").read_text().splitlines())
+    head = next(i for i, line in enumerate(texts[0]) if not line.startswith("#"))
+    names = texts[0][head].split(",")
+    starts = [names.index(c) for c in names if c.startswith(("t_start", "t_end"))]
+    assert len(starts) == 2 and len(texts[0]) == len(texts[1]) > head + 1
+    for a, b in zip(texts[0][head + 1 :], texts[1][head + 1 :]):
+        a, b = a.split(","), b.split(",")
+        assert [int(b[k]) - int(a[k]) for k in starts] == [12_345_678] * 2
+        assert [v for k, v in enumerate(a) if k not in starts] == [
+            v for k, v in enumerate(b) if k not in starts
+        ]
+    (end0,) = [ln for ln in texts[0] if ln.startswith("# end:")]
+    (end1,) = [ln for ln in texts[1] if ln.startswith("# end:")]
+    assert int(end1.split("=")[1]) - int(end0.split("=")[1]) == 12_345_678
