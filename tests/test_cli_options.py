@@ -62,3 +62,26 @@ def test_a_negative_number_reaches_each_commands_own_check(tmp_path, capsys):
 @pytest.mark.parametrize("name", sorted(commands()))
 def test_every_command_says_an_unknown_option_in_one_line(capsys, name):
     one_line(*run(capsys, name, "--no-such-option"), f"tactile {name}")
+
+
+@pytest.mark.parametrize(
+    "args, meant",
+    [
+        (("recrod", "-o", "run"), "'record'"),
+        (("ep2", "analyse", "c.csv"), "'analyze'"),
+        (("ep2", "analyze", "c.csv", "--metod", "spline"), "'--method'"),
+        (("ep2", "analyze", "c.csv", "--weighting", "tangnt"), "'tangent'"),
+        (("record", "--prot", "/dev/ttyACM0", "-o", "run"), "'--port'"),
+        (("emulate", "ch5_convex", "--fats"), "'--fast'"),
+        (("demo", "--object", "cilinder"), "'cylinder'"),
+    ],
+)
+def test_a_mistyped_command_or_option_gets_a_did_you_mean(capsys, args, meant):
+    code, err = run(capsys, *args)
+    one_line(code, err, f"; did you mean {meant}? (see 'tactile")
+
+
+@pytest.mark.parametrize("args", [("zzzzzz",), ("info", "--zzzzzz"), ("ep2", "qqq")])
+def test_nothing_close_is_not_guessed(capsys, args):
+    code, err = run(capsys, *args)
+    assert code == 2 and "did you mean" not in err, err

@@ -80,6 +80,19 @@ def test_a_missing_port_is_one_line_naming_both(name, tmp_path, monkeypatch, cap
     assert "--port" in err and "TACTILE_PORT" in err, err
 
 
+@pytest.mark.parametrize("name", sorted(BOARD))
+def test_a_port_that_is_not_there_is_one_wording_across_commands(name, tmp_path, capsys):
+    (tmp_path / "m.json").write_text(
+        json.dumps({"id": 1, "matrix": [[float(i == j) for j in range(6)] for i in range(6)]})
+    )
+    argv = {"calibrate": [tmp_path / "m.json"], "record": ["-o", tmp_path / "run"]}.get(name, [])
+    assert cli_main.main([name, "--port", "/dev/ttyNOPE0", *map(str, argv)]) == 4
+    assert capsys.readouterr().err == (
+        f"tactile {name}: error: /dev/ttyNOPE0: no such port (is the board plugged in?"
+        " 'tactile ports' lists them)\n"
+    )
+
+
 def test_every_default_is_shown_once():
     for path, parser in tree():
         assert parser.formatter_class is cli_main._Help, path

@@ -135,3 +135,21 @@ def test_sim_rejects_object_smaller_than_the_sweep(tmp_path, capsys):
     assert code == 2
     assert "sweep reaches beyond the object" in capsys.readouterr().err
     assert not (tmp_path / "s.csv").exists()  # a refused run leaves no empty file behind
+
+
+def test_analyze_takes_a_run_folder_as_plot_and_export_do(cyl_csv, tmp_path, capsys):
+    run = tmp_path / "run1"
+    run.mkdir()
+    (run / "contacts.csv").write_bytes(cyl_csv.read_bytes())
+    outs = []
+    for source in (run / "contacts.csv", run):
+        capsys.readouterr()
+        assert main(["ep2", "analyze", str(source), "--json"]) == 0
+        outs.append(capsys.readouterr().out)
+    assert outs[0] == outs[1] and '"shape":"cylinder"' in outs[1]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["ep2", "analyze", str(empty)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"tactile ep2: error: {empty}: no contacts.csv in this directory (expected" \
+        f" 'tactile record -o {empty} --pose-log LOG')\n"  # fmt: skip

@@ -7,6 +7,7 @@ run carries the same topics and schemas; a client that never reads costs the rec
 nothing.  ``foxglove-sdk`` and ``websockets`` are in the ``test`` extra."""
 
 import json
+import re
 import socket
 import struct
 import sys
@@ -239,7 +240,16 @@ def test_live_serves_on_the_asked_port_and_says_so(cli):
     thread.join(30)
     code, out, err = result["r"]
     assert code == 0 and "sensor 0  |F|" in out, err
-    assert f"serving ws://127.0.0.1:{port} (50 Hz per sensor)" in err
+    assert f"serving ws://127.0.0.1:{port} (50 Hz per sensor by the board's clock)" in err
+    line = next(ln for ln in err.splitlines() if "foxglove: published" in ln)
+    found = re.search(r"published (\d+) of (\d+) frames \((\d+) left out by the rate, 50 Hz per"
+                      r" sensor by the board's clock; (\d+) status or reply frames?\); 0 dropped",
+                      re.sub(r"(?<=\d),(?=\d)", "", line))  # fmt: skip
+    assert found, line
+    published, offered, left, other = map(int, found.groups())
+    assert left > 0 and published + left + other == offered  # every frame the board sent
+    counted = int(re.findall(r"frames (\d+)  lost 0", out)[-1])  # live's own count, which
+    assert offered <= counted <= offered + 5  # has the handshake's frames too
     got = [ns for t, ns, _ in client.received]
     assert 5 <= len(got) <= 60  # 50 Hz by the board's clock over < 1 s subscribed
 

@@ -204,8 +204,8 @@ def test_no_repl_ends_the_flash_before_anything_is_written(board, cli):
 def test_a_missing_port_is_one_line(cli):
     code, _, err = cli("flash", "--port", "/dev/ttyNOPE")
     assert code == 4 and err == (
-        "tactile flash: error: port /dev/ttyNOPE not found (is the board plugged in? see "
-        "'tactile ports')\n"
+        "tactile flash: error: /dev/ttyNOPE: no such port (is the board plugged in? 'tactile"
+        " ports' lists them)\n"
     )
 
 

@@ -65,3 +65,33 @@ def test_a_realtime_sim_port_is_not_flagged(cli):
     code, out, err = cli("live", "--port", "sim://press?realtime=1", "--duration", "0.3")
     assert code == 0 and err == "", err
     assert "sensor 0  |F|" in out
+
+
+def _info(port, streaming=None):
+    """The board's settings and flags, after starting or stopping it (``streaming``)."""
+    from tactile.board.client import BoardClient
+    from tactile.board.serial_port import open_port
+
+    client = BoardClient(open_port(port), port)
+    try:
+        client.handshake(2.0)
+        if streaming is not None:
+            client.start() if streaming else client.stop()
+        i = client.get_info()
+        return (i.rate_hz, i.enter_threshold, i.exit_threshold, i.debounce, i.flags)
+    finally:
+        client.close()
+
+
+@pytest.mark.parametrize("streaming", [False, True])
+def test_live_leaves_the_board_streaming_or_stopped_as_it_found_it(cli, streaming):
+    """INFO after ``live`` is INFO before it: the settings, and whether the board streams (a
+    stopped board used to be left streaming)."""
+    from tactile_sim.emulator.servers import serve
+
+    with serve("ch5_plane", realtime=False) as server:
+        before = _info(server.path, streaming)
+        code, out, err = cli("live", "--port", server.path, "--duration", "0.3")
+        after = _info(server.path)
+    assert code == 0 and "sensor 0  |F|" in out, err
+    assert bool(before[4] & C.CFG_STREAMING) is streaming and after == before

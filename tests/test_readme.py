@@ -23,25 +23,34 @@ recording the walkthrough made:
 
 Every other line must exit 0 without a traceback, a NaN or a ``warning:``; ``record`` must
 end on its own with nothing lost, and ``ep2 analyze`` and the Python example must name the
-scene's shape. The install line names an extra that brings every other user extra. The EP2
-sweep block of docs/cli.md runs the same way, and every link of the README and docs/ must
-resolve.
+scene's shape.  The walkthrough runs twice in a row on one emulator (its second ``record``
+and a second pass through it all: the emulator plays its scene again for each host), and
+docs/cli.md's example of ``flash``'s line is what the emulated Pico printed.  The install
+line names an extra that brings every other user extra, and the README and docs/cli.md list
+them all; what the walkthrough writes is ignored by git at a clone's root; every figure's
+caption names the commands that draw it (the README's is drawn again, pixel for pixel). The
+EP2 sweep block of docs/cli.md runs the same way, and every link of the README and docs/
+must resolve.  The demo's part of the README: tests/test_readme_demo.py.
 """
 
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import ROOT
 
 pytestmark = pytest.mark.realtime  # on the wall clock: bench/realtime_soak.py
 
 README = ROOT / "README.md"
+DEMO_BEGIN = "<!-- bench/readme_demo.py writes from here"
+DEMO_END = "<!-- bench/readme_demo.py writes up to here -->"
 MAKE = ["make demo", "make test"]
 SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere"}
 ASSIGN = re.compile(r"^([A-Z_][A-Z0-9_]*)=(\S+)\s*(#.*)?$")
@@ -73,8 +82,10 @@ def test_the_readme_is_a_front_door():
     assert all(not ln.strip() for ln in lines[1:first])  # the block right under the title
     # no command hides in a fence the runner does not read, nor behind a placeholder
     fences = re.findall(r"^```(\w*)$", text, re.M)
-    assert fences.count("sh") == len(blocks) and set(fences) <= {"sh", "python", ""}
+    assert fences.count("sh") == len(blocks) and set(fences) <= {"sh", "python", "text", ""}
     assert fences.count("python") == len(_python_blocks()) == 1
+    begin, end = text.index(DEMO_BEGIN), text.index(DEMO_END)  # the demo's output, only
+    assert fences.count("text") == 1 and begin < text.index("```text") < end
     for line in (ln for b in blocks for ln in _commands(b)):
         command = line.split(" #")[0]
         assert not re.search(r"\[--|\w\|\w|\bDIR\b|\bP\b|<\w+>", command), line
@@ -86,17 +97,49 @@ def test_the_install_extra_brings_every_user_extra():
     text = README.read_text(encoding="utf-8")
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     extras = extras["optional-dependencies"]
-    (named,) = set(re.findall(r"pip install 'tactile-shape\[(\w+)\]'", text))
+    (named,) = set(re.findall(r"pip install '?tactile-shape\[(\w+)\]'", text))
     users = set().union(*(extras[k] for k in extras if k not in ("test", named)))
     assert users and set(extras[named]) == users  # no more, no less
     assert set(extras[named]) <= set(extras["test"])  # and make test installs them
+    # the README's list of them and docs/cli.md's name every one (foxglove was left out)
+    listed = re.search(r"brings every extra: (.*?)\. The import", " ".join(text.split()))[1]
+    cli = " ".join((ROOT / "docs" / "cli.md").read_text(encoding="utf-8").split())
+    cli = re.search(r"Dependencies: .*?; extras (.*?)\. Nothing", cli)[1]
+    for extra in set(extras) - {"test", named}:
+        assert f"`{extra}`" in listed and f"`{extra}`" in cli, extra
+
+
+def test_the_walkthroughs_outputs_are_ignored_at_the_root_of_a_clone():
+    """What the README's commands write into a clone (the emulator's log and calibration
+    file, the runs, docs/cli.md's sweep) is ignored by git there, and only there."""
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    text = (ROOT / "docs" / "cli.md").read_text(encoding="utf-8")  # and its sweep block
+    sweep = [b for b in re.findall(r"```sh\n(.*?)```", text, re.S) if "ep2_sweep_sphere" in b]
+    written = set()
+    for line in [ln for b in _blocks() for ln in b] + "".join(sweep).splitlines():
+        for path in re.findall(r"(?:-o|--pose-log|--cal-file) (\S+)", line.split(" #")[0]):
+            written.add(path.split("/")[0])
+    assert {"poses.csv", "FT9999.cal", "run1", "run2", "sweep.csv"} <= written
+
+    def ignored(path):  # (a file, or a folder's file: /run1/ names a folder)
+        return any(
+            subprocess.run(["git", "check-ignore", "--no-index", "-q", p], cwd=ROOT).returncode == 0
+            for p in (path, f"{path}/contacts.csv")
+        )
+
+    for path in sorted(written):
+        assert ignored(path) and not ignored(f"docs/{path}"), path
 
 
 @pytest.mark.slow
-def test_every_block_runs_as_written(tmp_path):
+def test_every_block_runs_as_written_twice_in_a_row_on_one_emulator(tmp_path):
+    """The walkthrough as written (two runs of the robot, run1 and run2), then again on the
+    same emulator, in the same folder once its runs are cleared, as a user who goes through
+    it a second time: the board flashed again, its calibration now 9999."""
     blocks = _blocks()
-    ran = _run_blocks(blocks[1:], tmp_path)
-    assert ran == len(blocks) - 1 and ran >= 3  # every block but the two make commands
+    ran = _run_blocks(blocks[1:], tmp_path, passes=2)
+    assert ran == 2 * (len(blocks) - 1) and ran >= 6  # every block but the two make commands
     # the Python example, on the recording the walkthrough made (run1)
     (python,) = _python_blocks()
     roots = [str(ROOT / d) for d in SOURCES]
@@ -123,33 +166,43 @@ def test_the_cli_reference_sweep_runs_as_written(tmp_path):
     assert _run_blocks(sweeps, tmp_path) == 1
 
 
-def _run_blocks(blocks, cwd):
-    """Run ``blocks`` in order in ``cwd``, as one terminal session; returns how many ran."""
+def _run_blocks(blocks, cwd, passes=1):
+    """Run ``blocks`` in order in ``cwd``, as one terminal session, ``passes`` times with the
+    same emulator (terminal 1 is started once; a later pass first removes the folders the
+    first wrote with -o, as ``record`` refuses to overwrite a run); how many blocks ran."""
     os.symlink(Path(sys.executable).absolute().parents[1], cwd / ".venv")
     roots = [str(ROOT / d) for d in SOURCES]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     env["XDG_STATE_HOME"] = str(cwd / "state")  # a new emulated Pico's flash for this run
-    emulators, pty, ran, scene = [], None, 0, None
+    emulators, pty, ran, scene, flashed = [], None, 0, None, []
     try:
-        for block in blocks:
-            for line in _commands(block):
-                if "# terminal 1" in line:
-                    scene = re.search(r" emulate (\S+)", line).group(1)
-                    emulators.append(_background(line, cwd, env))
-                    pty = emulators[-1].stdout.readline().strip()
-                    assert pty.startswith("/dev/"), emulators[-1].stderr.read()
-                    continue
-                assign = ASSIGN.match(line)
-                if assign:
-                    assert assign.group(1) == "PORT" and pty, line  # the one definition changed
-                    env["PORT"] = pty
-                    continue
-                _run(line.replace("--port /dev/pts/N", f"--port {pty}"), cwd, env, scene)
-            ran += 1
+        for n in range(passes):
+            for block in blocks:
+                for line in _commands(block):
+                    if "# terminal 1" in line:
+                        if n == 0:
+                            scene = re.search(r" emulate (\S+)", line).group(1)
+                            emulators.append(_background(line, cwd, env))
+                            pty = emulators[-1].stdout.readline().strip()
+                            assert pty.startswith("/dev/"), emulators[-1].stderr.read()
+                        continue
+                    assign = ASSIGN.match(line)
+                    if assign:
+                        assert assign.group(1) == "PORT" and pty, line  # the one definition changed
+                        env["PORT"] = pty
+                        continue
+                    if n and " record " in line:
+                        shutil.rmtree(cwd / re.search(r" -o (\S+)", line).group(1), True)
+                    line = line.replace("--port /dev/pts/N", f"--port {pty}")
+                    out = _run(line, cwd, env, scene, calibrated=n > 0)
+                    if " flash " in line:
+                        flashed.append(out)
+                ran += 1
     finally:  # the shell and the emulator it started: no emulator outlives its test
         for emulator in emulators:
             os.killpg(emulator.pid, signal.SIGTERM)
             emulator.wait(10)
+    _check_flash_example(flashed)
     return ran
 
 
@@ -159,7 +212,7 @@ def _background(line, cwd, env):
                             stderr=pipe, start_new_session=True)  # fmt: skip
 
 
-def _run(line, cwd, env, scene):
+def _run(line, cwd, env, scene, calibrated=False):
     r = subprocess.run(["bash", "-c", line], cwd=cwd, env=env, capture_output=True,
                        text=True, timeout=300)  # fmt: skip
     if " ports" in line and r.returncode == 1:
@@ -170,8 +223,8 @@ def _run(line, cwd, env, scene):
     assert "warning:" not in r.stderr, (line, r.stderr)
     if " flash " in line:  # copied, reset, and the firmware answered
         assert re.search(r"it answers: tactile firmware \S+ \(protocol", r.stdout), r.stdout
-    if " info " in line:
-        assert "calibration ids [0]" in r.stdout, r.stdout  # as the README says
+    if " info " in line:  # as the README says: 0 until the sensor is calibrated
+        assert f"calibration ids [{9999 if calibrated else 0}]" in r.stdout, r.stdout
     if " config " in line:
         assert re.search(r"^rate +250 Hz", r.stdout, re.M), r.stdout
     if " calibrate " in line:  # the board stored the file's matrix and says so
@@ -190,6 +243,54 @@ def _run(line, cwd, env, scene):
         assert Path(cwd, re.search(r" -o (\S+)", line).group(1)).stat().st_size > 0
     if " live " in line:
         assert "sensor 0" in r.stdout, r.stdout
+    return r.stdout
+
+
+def _check_flash_example(lines):
+    """docs/cli.md's example of flash's success line is what an emulated Pico printed: as
+    many files, the same firmware, sensors and rates."""
+    if not lines:
+        return
+    text = " ".join((ROOT / "docs" / "cli.md").read_text(encoding="utf-8").split())
+    (example,) = re.findall(r"flashed \d+ files as .*? \(ceiling \d+ Hz\)", text)
+    said = re.search(r"flashed \d+ files as .*? \(ceiling \d+ Hz\)", lines[0])[0]  # a new board
+    mask = lambda t: re.sub(r"/dev/\S+|\(\d+ stale removed\) ", "", t)  # noqa: E731
+    assert mask(example) == mask(said), (example, said)
+
+
+def _figures():
+    """(page, png path, the file its caption names, the commands it names) per figure of the
+    README and docs/: the caption is the italic paragraph right under the image."""
+    for page in [README, *sorted((ROOT / "docs").glob("*.md"))]:
+        text = page.read_text(encoding="utf-8")
+        for m in re.finditer(r"^!\[[^\]]*\]\(([^)\s]+\.png)\)$", text, re.M):
+            caption = " ".join(text[m.end() :].strip("\n").split("\n\n")[0].split())
+            assert caption.startswith("*") and caption.endswith("*"), (page.name, m[1])
+            named = re.search(r"`([\w.-]+\.png)` of ", caption)
+            commands = re.findall(r"`(tactile [^`]+)`", caption)
+            assert named and commands, (page.name, m[1], caption)  # the file, the commands
+            yield page, page.parent / m[1], named[1], commands
+
+
+def test_every_figure_caption_names_the_command_that_draws_it(cli, tmp_path, monkeypatch):
+    """Each figure's caption names the commands that draw it and the file they write; the
+    README's figure (docs/plot.md's too) is drawn again here by them, pixel for pixel."""
+    from matplotlib.image import imread
+
+    figures = list(_figures())
+    assert {page.name for page, *_ in figures} >= {"README.md", "plot.md", "ep1.md"}
+    monkeypatch.chdir(tmp_path)
+    drawn = {}
+    for page, png, named, commands in figures:
+        if page.name not in ("README.md", "plot.md"):  # (a study's figures take minutes:
+            assert png.name == named, (page.name, png)  # the file named, not drawn here)
+            continue
+        if tuple(commands) not in drawn:
+            for command in commands:
+                code, out, err = cli(*command.split()[1:])
+                assert code == 0, (command, err)
+            drawn[tuple(commands)] = imread(tmp_path / named)
+        assert np.array_equal(drawn[tuple(commands)], imread(png)), (page.name, png)
 
 
 def _slug(heading):

@@ -89,3 +89,32 @@ def test_a_clock_that_outruns_the_host_is_not_a_time_base():
 def test_a_recording_without_a_time_base_cannot_join_a_host_clock_log():
     with pytest.raises(DataError, match="no time base .recorded by an older tactile"):
         recorded_times(b"", {"sessions": [{"bytes": 0}]}, "utc", "run1")
+
+
+def _summary(board_step_us, host_step_s, n):
+    """``record``'s time base line for ``n`` samples a board step and a host step apart."""
+    from tactile.cli.cmd_record import time_summary
+
+    rc = RecordingClock()
+    arrivals = [5.0 + host_step_s * k for k in range(n)]
+    rc.take([sample(k * board_step_us) for k in range(n)], arrivals)
+    rc.refit()
+    return time_summary(rc.meta())
+
+
+def test_fast_mode_says_board_time_only_not_that_something_is_wrong():
+    line = _summary(100_000, 0.035, 30)  # the board's clock 2.86 x the host's
+    assert line == (
+        "time base: fast mode: board time only (the board's clock ran 2.86 x as fast as the"
+        " host's, as an emulator's --fast does)"
+    )
+    assert "not usable" not in _summary(100_000, 0.01, 30)  # (10 x)
+    assert _summary(100_000, 0.3, 30).startswith("time base: not usable: the board clock ran")
+
+
+def test_a_fit_of_one_bin_claims_no_drift():
+    """Frames within one bin (a run that recorded nothing): no "drift +0.0 ppm, 1 bins"."""
+    assert _summary(1_000, 0.001, 2) == (
+        "time base: an offset only (2 frames, too few to measure the board clock's drift)"
+    )
+    assert "ppm, " in _summary(100_000, 0.1, 30)  # a real fit says its drift

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import tactile_fw
 import tactile_protocol
-from tactile.board import firmware_answer, mpy_files, raw_repl
+from tactile.board import firmware_answer, mpy_files, raw_repl, serial_port
 from tactile.board import probe as board_probe
 from tactile.errors import BoardError, InputError, MissingExtra, PortError
 from tactile.extras import hint
@@ -88,7 +88,7 @@ def resolve(port):
 
 def _check_port(port):
     if port.startswith("/dev/") and not os.path.exists(port):
-        raise PortError(f"port {port} not found (is the board plugged in? see 'tactile ports')")
+        raise PortError(serial_port.no_such_port(port))
 
 
 def _check_options(n_sensors, wdt_ms):

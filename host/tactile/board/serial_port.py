@@ -37,12 +37,17 @@ def _permission_hint():
     return "close other programs and check the port's permissions"
 
 
+def no_such_port(port):
+    """The one line of every command for a port that is not there."""
+    return f"{port}: no such port (is the board plugged in? 'tactile ports' lists them)"
+
+
 def describe_open_error(port, exc):
     """One line naming ``port`` and why opening it failed (``exc``: an OSError)."""
     code = getattr(exc, "errno", None)
     text = str(exc).lower()
     if code in _GONE or "no such file" in text or "filenotfound" in text:
-        return f"{port}: no such port (is the board plugged in? 'tactile ports' lists them)"
+        return no_such_port(port)
     if code in (errno.EACCES, errno.EPERM) or "permission denied" in text:
         return f"{port}: permission denied; {_permission_hint()}"
     if code in _BUSY or "exclusively lock" in text or "busy" in text:

@@ -5,7 +5,7 @@ import sys
 
 from tactile import units
 from tactile.cli import cmd_ep2_map
-from tactile.commands.words import add_quiet
+from tactile.commands.words import add_quiet, contacts_of
 from tactile.ep2 import contacts_csv
 from tactile.ep2.many import MAX_JOBS, outcomes
 from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
@@ -21,7 +21,11 @@ WEIGHTINGS = ("auto", "tangent", "position")
 def add_arguments(parser):
     subs = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     p = subs.add_parser("analyze", help="fit and classify every patch of a contacts CSV")
-    p.add_argument("file", help="CSV with x,y,z,nx,ny,nz [,finger] [,patch]")
+    p.add_argument(
+        "file",
+        help="CSV with x,y,z,nx,ny,nz [,finger] [,patch], or a 'tactile record -o DIR' folder"
+        " (DIR/contacts.csv)",
+    )
     p.add_argument(
         "--method",
         choices=METHODS,
@@ -81,6 +85,7 @@ def add_arguments(parser):
 def run(args):
     if args.action == "map":
         return cmd_ep2_map.run(args)
+    args.file = str(contacts_of(args.file))  # a run folder: its contacts.csv
     if args.grid < 2:
         raise InputError(f"--grid must be at least 2 (got {args.grid})")
     if args.segments < 1:

@@ -1,7 +1,8 @@
 """``tactile live --port P``: a terminal view of force/torque and contact state.
 
-By default the SAMPLE stream is switched on for the session (not persisted)
-and the board's configuration is restored on exit; ``--as-is`` leaves it.  Every line
+By default the SAMPLE stream is switched on for the session (not persisted), and streaming
+started if the board was stopped; on exit both are undone (the board's CONFIG as it was, a
+stopped board stopped again); ``--as-is`` leaves the board as it is.  Every line
 fits 80 columns.  A ``sim://`` port runs as fast as the host reads unless its URL asks
 for ``?realtime=1``: live says so once, on stderr.  ``--foxglove`` serves the same frames to
 Foxglove (``tactile.cli.foxglove_args``).  ``--payload TOOL --pose-log LOG`` shows (and
@@ -72,7 +73,7 @@ def run(args):
     finally:
         try:
             if restore is not None:
-                client.configure(*restore)
+                _restore(client, *restore)
         finally:
             client.close()
             foxglove_args.stop(live)
@@ -108,7 +109,8 @@ def _view(client, duration, live=None, following=None):
 
 
 def _samples_on(client):
-    """Turn the SAMPLE stream on; return the CONFIG values that restore the board."""
+    """Turn the SAMPLE stream on and start streaming; return what ``_restore`` needs: the
+    CONFIG values as they were (None: not changed), and whether the board was streaming."""
     i = client.get_info()
     values = (
         i.rate_hz,
@@ -117,11 +119,21 @@ def _samples_on(client):
         i.debounce,
         i.flags & C.CFG_WRITABLE & ~C.CFG_PERSIST,
     )
-    if not values[4] & STREAMS["samples"]:
+    changed = not values[4] & STREAMS["samples"]
+    if changed:
         client.configure(*values[:4], values[4] | STREAMS["samples"])
-    if not i.flags & C.CFG_STREAMING:
+    streaming = bool(i.flags & C.CFG_STREAMING)
+    if not streaming:
         client.start()
-    return values
+    return (values if changed else None), streaming
+
+
+def _restore(client, values, streaming):
+    """The board as ``_samples_on`` found it: its CONFIG, and stopped if it was."""
+    if values is not None:
+        client.configure(*values)
+    if not streaming:
+        client.stop()
 
 
 def _draw(state, client, elapsed, tty, drawn):

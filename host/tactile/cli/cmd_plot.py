@@ -10,7 +10,7 @@ import pathlib
 import re
 
 from tactile import units
-from tactile.commands.words import add_out
+from tactile.commands.words import add_out, contacts_of
 from tactile.ep2 import analyze_patch
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError
@@ -147,12 +147,7 @@ def _draw(plot, *args, **kw):
 def _source(path):
     """(csv path, file-name stem, default output directory) for a CSV or a record directory."""
     if path.is_dir():
-        csv_path = path / "contacts.csv"
-        if not csv_path.is_file():
-            raise InputError(
-                f"{path}: no contacts.csv in this directory (expected 'tactile record -o {path}')"
-            )
-        return csv_path, path.resolve().name or "contacts", path
+        return contacts_of(path), path.resolve().name or "contacts", path
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
     return path, path.stem, path.parent

@@ -14,6 +14,7 @@ written until the command ends: a second ``record`` or an ``export`` into it is 
 made is removed, one that was there is left as it was.
 """
 
+import functools
 import sys
 import time
 
@@ -22,7 +23,7 @@ from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.commands.derive import check_log, derive
 from tactile.commands.words import add_quiet
-from tactile.errors import BoardError, InputError
+from tactile.errors import BoardError, DataError, InputError
 from tactile.files.folder_lock import hold
 from tactile.logs.clock import log_end, show_time
 from tactile.output.textout import fields, printable
@@ -93,18 +94,18 @@ def _run(args):
     foxglove_args.check(args)
     if not args.port:
         connect(args)  # raises the 'no port given' message
-    until = posed = log = None
-    if args.pose_log:
-        log = check_log(args.pose_log)  # a bad log is refused before recording, not after
-        end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
-        until = (log.clock, end, how)
-        posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
+    until = posed = log = following = None
+    if args.pose_log:  # a bad log is refused before recording, not after
+        log, posed, _ = _read_log(args.pose_log)
     tools, orient = payload_of(args, log)
     # a port in use is refused before anything is written
     live = foxglove_args.start(args, pose_log=posed)
     follow = None if live is None else live.follow
     if live is not None and tools:
-        follow = _compensating(live, Following(tools, orient, log.clock))
+        following = Following(tools, orient, log.clock)
+        follow = _compensating(live, following)
+    if args.pose_log:  # read again once the board answers: a robot (an emulator) that
+        until = functools.partial(_log_again, args, live, following)  # starts anew writes it anew
     try:
         session = Session(
             args.port,
@@ -123,14 +124,6 @@ def _run(args):
     except BaseException:
         foxglove_args.stop(live, quiet=True)
         raise
-    if until is not None and not args.quiet:
-        print(
-            printable(
-                f"record: stops when the pose log is done ({show_time(until[0], until[1])}:"
-                f" {until[2]}), or on Ctrl-C"
-            ),
-            file=sys.stderr,
-        )
     progress = None if args.quiet else Progress(args.duration, args.contacts)
     if progress:
         session.on_progress = progress.update
@@ -145,11 +138,51 @@ def _run(args):
         foxglove_args.stop(live)
     print(printable(summary(meta, args.out)))  # the folder is the user's
     print(printable(time_summary(meta.get("time_base"))))
+    _log_not_over(meta, args.pose_log, args.out)
     if args.pose_log:
         for line in derive(args.out, args.pose_log, per_contact=args.per_contact, payload=tools):
             out = sys.stderr if line.startswith("warning:") else sys.stdout
             print(printable(line), file=out)  # a line may quote the pose log
     return 0
+
+
+def _read_log(path):
+    """(the log, its ``PoseLog`` if an EP2 log or None, until = (clock, end us, how))."""
+    log = check_log(path)
+    end, how = log_end(log.t_end if hasattr(log, "t_end") else log.t_end_us, log.end_us)
+    posed = log if getattr(log, "kind", None) in ("pose", "scara") else None  # not EP1's
+    return log, posed, (log.clock, end, how)
+
+
+def _log_again(args, live, following=None):
+    """The pose log as it is now the board has answered (and the Foxglove scene and the
+    payload's orientations with it); says where the run stops."""
+    log, posed, until = _read_log(args.pose_log)
+    foxglove_args.new_pose_log(live, posed)
+    if following is not None:
+        following.orient = Orientations.of_log(log)
+    if not args.quiet:
+        clock, end, how = until
+        print(printable(f"record: stops when the pose log is done ({show_time(clock, end)}:"
+                        f" {how}), or on Ctrl-C"), file=sys.stderr)  # fmt: skip
+    return until
+
+
+def _log_not_over(meta, pose_log, out):
+    """A robot log in the board's clock that had ended before the recording began: one line
+    saying so (exit 3), the recording kept."""
+    stop, segments = meta.get("stops_at"), (meta.get("time_base") or {}).get("segments")
+    if not stop or stop["clock"] != "board" or not segments:
+        return
+    first_us, end_us = segments[0]["board_first_us"], stop["time_us"]
+    if first_us < end_us:
+        return
+    raise DataError(
+        f"{pose_log}: the robot's log ended at board {end_us / 1e6:.3f} s, before this"
+        f" recording began (the board's clock read {first_us / 1e6:.3f} s): its run is over"
+        " and none of it was recorded; start the robot again (an emulator: 'tactile emulate'"
+        f" again, or without --once) and record again (what the board sent is kept in {out})"
+    )
 
 
 def _compensating(live, following):
@@ -179,8 +212,15 @@ def time_summary(time_base):
         return "time base: none (no frame arrived)"
     s = segs[-1]
     more = f" (segment {len(segs)} of {len(segs)}, one per boot)" if len(segs) > 1 else ""
+    why = s.get("why", "no fit")
     if not s.get("usable"):
-        return f"time base: not usable{more}: {s.get('why', 'no fit')}"
+        return f"time base{more}: {why}" if why.startswith("fast mode") else (
+            f"time base: not usable{more}: {why}")  # fmt: skip
+    if s["bins"] < 2:  # (one bin: an offset, no drift to speak of)
+        return (
+            f"time base{more}: an offset only ({_count(s['frames'], 'frame')}, too few to"
+            " measure the board clock's drift)"
+        )
     return (
         f"time base{more}: board clock drift {s['drift_ppm']:+.1f} ppm, {s['bins']} bins;"
         f" arrival delay mean {s['arrival_delay_mean_ms']:.2f} ms, max"

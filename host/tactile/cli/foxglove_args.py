@@ -68,8 +68,8 @@ def start(args, device=None, pose_log=None):
     server = LiveServer(
         args.foxglove_host, args.foxglove_port, args.foxglove_rate, device, pose_log, per_contact
     )
-    rate = f"{args.foxglove_rate:g} Hz per sensor" if args.foxglove_rate else "every frame"
-    print(printable(f"foxglove: serving {server.url} ({rate})"), file=sys.stderr, flush=True)
+    print(printable(f"foxglove: serving {server.url} ({_rate(args.foxglove_rate)})"),
+          file=sys.stderr, flush=True)  # fmt: skip
     if args.foxglove_host not in LOOPBACK:
         print(
             printable(
@@ -79,6 +79,19 @@ def start(args, device=None, pose_log=None):
             file=sys.stderr,
         )
     return server
+
+
+def new_pose_log(server, pose_log):
+    """The robot wrote its log anew as its run started (an emulator replaying its scene):
+    ``server``'s scene localises by ``pose_log`` from the first frame on."""
+    if server is not None and server.scene is not None and pose_log is not None:
+        server.scene.live.log = pose_log
+
+
+def _rate(rate_hz):
+    """The rate in words: by the board's clock, which an emulator in fast mode runs faster
+    than the host's (a client then gets more messages per second of its own)."""
+    return f"{rate_hz:g} Hz per sensor by the board's clock" if rate_hz else "every frame"
 
 
 def _count(n, what, plural="s"):
@@ -92,10 +105,12 @@ def stop(server, quiet=False):
     s = server.close()
     if quiet:
         return
-    line = (
-        f"foxglove: published {s['published']:,} of {s['frames']:,} frames;"
-        f" {s['dropped']:,} dropped (the publisher fell behind)"
-    )
+    line = f"foxglove: published {s['published']:,} of {_count(s['offered'], 'frame')}"
+    out = [f"{s['decimated']:,} left out by the rate, {_rate(s['rate_hz'])}"] * bool(s["decimated"])
+    out += [_count(s["other"], "status or reply frame")] * bool(s["other"])
+    if out:
+        line += f" ({'; '.join(out)})"
+    line += f"; {s['dropped']:,} dropped (the publisher fell behind)"
     if s["failed"]:
         line += f"; {s['failed']:,} failed ({s['error']})"
     print(printable(line), file=sys.stderr, flush=True)  # the error may quote a client

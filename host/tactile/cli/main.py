@@ -7,6 +7,7 @@ work lives in the library.
 """
 
 import argparse
+import difflib
 import logging
 import os
 import re
@@ -31,11 +32,32 @@ class Parser(argparse.ArgumentParser):
         self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message):  # (the message may quote what was typed)
-        self.exit(2, printable(f"{self.prog}: error: {message} (see '{self.prog} --help')") + "\n")
+        said = f"{message}{did_you_mean(self, message)}"
+        self.exit(2, printable(f"{self.prog}: error: {said} (see '{self.prog} --help')") + "\n")
 
 
 # argparse's own pattern takes -3 and -.5 but not -3e-9, which it then reads as an option
 NEGATIVE_NUMBER = re.compile(r"^-(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
+CHOICE = re.compile(r"argument ([^:]+): invalid choice: '([^']*)'")
+UNKNOWN = re.compile(r"unrecognized arguments: (.*)$")
+
+
+def did_you_mean(parser, message):
+    """``; did you mean 'record'?`` for a mistyped command, subcommand or choice (argparse's
+    ``invalid choice``) or option (``unrecognized arguments``), when one is close
+    (difflib, as Python 3.12's ``suggest_on_error``); else ''."""
+    actions = [a for p in (parser, *_subparsers(parser)) for a in p._actions]
+    if found := CHOICE.search(message):  # (argparse names an argument as below)
+        named = [a for a in actions if found[1] in ("/".join(a.option_strings), a.metavar)]
+        typed, known = found[2], [str(c) for a in named if a.choices for c in a.choices]
+    elif found := UNKNOWN.search(message):
+        words = [w for w in found[1].split() if w.startswith("-")]
+        typed = words[0].split("=")[0] if words else ""
+        known = [o for a in actions for o in a.option_strings if o.startswith("--")]
+    else:
+        return ""
+    close = difflib.get_close_matches(typed, known, n=1, cutoff=0.6) if typed else []
+    return f"; did you mean '{close[0]}'?" if close else ""
 
 
 def _top_parser(names, listed=None):

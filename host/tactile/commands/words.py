@@ -4,12 +4,15 @@ hidden aliases that say once, on stderr, what replaced them.
 
 ``add_out`` adds ``-o/--out`` (plus hidden old long options); ``add_quiet`` adds
 ``-q/--quiet``; ``renamed`` maps an old choice value (``concave-cylinder``) to its one
-spelling (``concave_cylinder``).
+spelling (``concave_cylinder``); ``contacts_of`` is what a command taking contacts reads of
+a run folder (its ``contacts.csv``) or a CSV.
 """
 
 import argparse
+import pathlib
 import sys
 
+from tactile.errors import InputError
 from tactile.output.textout import printable
 
 OUT = ("-o", "--out")
@@ -66,3 +69,18 @@ def renamed(old_to_new, prog=""):
         return new
 
     return convert
+
+
+def contacts_of(path):
+    """The contacts CSV that ``path`` names: the file itself, or a ``tactile record -o DIR``
+    folder's ``contacts.csv`` (InputError, exit 2, for a folder without one)."""
+    path = pathlib.Path(path)
+    if not path.is_dir():
+        return path
+    csv_path = path / "contacts.csv"
+    if not csv_path.is_file():
+        raise InputError(
+            f"{path}: no contacts.csv in this directory (expected 'tactile record -o {path}"
+            " --pose-log LOG')"
+        )
+    return csv_path

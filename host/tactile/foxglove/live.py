@@ -98,6 +98,7 @@ class LiveServer:
         self.sink = WebSocketSink(fox, self.context, host, port, BACKLOG, listener)
         self.host, self.port = host, self.sink.port
         self.fed = 0
+        self.offered = self.other = 0  # every frame fed; ... not a reading (HELLO, STATUS)
         self._clock = None
         self._info = None
         self._fit_at = 0.0
@@ -117,8 +118,12 @@ class LiveServer:
         ``arrivals`` (monotonic s per message) are fitted here."""
         if host_times is None:
             host_times = self._stamp(msgs, arrivals)
+        self.offered += len(msgs)
         for m, t in zip(msgs, host_times):
-            if m.type_code not in (C.MSG_SAMPLE, C.MSG_CONTACT) or not self.decimator.keep(m):
+            if m.type_code not in (C.MSG_SAMPLE, C.MSG_CONTACT):
+                self.other += 1
+                continue
+            if not self.decimator.keep(m):
                 continue
             self.fed += 1
             ns = time.time_ns() if t is None else round(t[1] * 1e6) * 1000
@@ -172,6 +177,9 @@ class LiveServer:
         return {
             "url": self.url,
             "rate_hz": self.rate_hz,
+            "offered": self.offered,  # every frame the board sent
+            "other": self.other,  # ... not a reading: HELLO, INFO, ACK, STATUS
+            "decimated": self.offered - self.other - self.fed,  # readings left out by the rate
             "frames": self.fed,
             "published": w.done,
             "dropped": w.dropped,

@@ -32,7 +32,9 @@ nothing (a firmware hung after its HELLO) ends the run: a ``BoardError`` (exit 4
 host's own stall (``tactile.recording.run_clock``: Ctrl-Z, a paused VM, a slow disk): the
 loop first reads what waits on the port, notes the stall in ``pauses``, and starts the
 silence window again.  Times in meta.json are ``RunClock``'s: they never go back.
-``until`` = (clock, us, how): stop once the pose log's end has passed (``LogEnd``).
+``until`` = (clock, us, how): stop once the pose log's end has passed (``LogEnd``); or a
+function giving it, called once the board has answered (a robot's log written as its run
+starts: an emulator's, for the session that has just opened the port).
 """
 
 import time
@@ -120,10 +122,14 @@ class Session:
         self.utc = utc
         self.until = until
         self.timing = RecordingClock(self.rec.rows_offset)
-        self.log_end = None if until is None else LogEnd(until, self.timing, clock, utc)
+        self._until_of = until if callable(until) else None
+        self.log_end = None if until is None or self._until_of else self._log_end(until)
         self._heard_at = 0.0  # elapsed() at the latest frame (or the start, or a stall)
         self._pinged_at = None
         self._fit_at = 0.0
+
+    def _log_end(self, until):
+        return LogEnd(until, self.timing, self.clock, self.utc)
 
     # -- connection ------------------------------------------------------------
     def _connect(self):
@@ -141,6 +147,9 @@ class Session:
             if held is not None:
                 held.release()
             raise
+        if self._until_of is not None:  # (the log as it is now the board has answered)
+            self.until = until = self._until_of()
+            self.log_end, self._until_of = self._log_end(until), None
         if held is not None:
             self._same_board(hello, held)
         self.identity.seen(hello)

@@ -228,12 +228,21 @@ def segment_meta(seg, utc_minus_mono):
         "usable": seg.usable(),
     }
     if not seg.usable():
-        pace = f"ran {1 / f.rate:.3g} x as fast as" if f.rate > 0 else "did not follow"
-        out["why"] = (
-            f"the board clock {pace} the host's (|drift| > {MAX_DRIFT_PPM:g} ppm): not a"
-            " crystal's drift (an emulator in fast mode?)"
-        )
+        out["why"] = _why_unusable(f.rate)
     return out
+
+
+def _why_unusable(rate):
+    """Why a fit of ``rate`` (host s per board s) is no clock's: a board clock that outran the
+    host's is an emulator in fast mode, whose frames have board time only."""
+    if rate > 0 and 1 / rate > 1 + MAX_DRIFT_PPM * 1e-6:
+        return (
+            f"fast mode: board time only (the board's clock ran {1 / rate:.3g} x as fast as the"
+            " host's, as an emulator's --fast does)"
+        )
+    pace = f"ran {1 / rate:.3g} x as fast as" if rate > 0 else "did not follow"
+    limit = f"|drift| > {MAX_DRIFT_PPM:g} ppm"
+    return f"the board clock {pace} the host's ({limit}): no crystal's drift"
 
 
 @dataclass(frozen=True)

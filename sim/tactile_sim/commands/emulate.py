@@ -13,6 +13,13 @@ bridged to the pty and the scene's sensors served over semihosting
 (``tactile_sim.emulator.qemu_server``); needs ``arm-none-eabi-gcc`` and
 ``qemu-system-arm``, and a scene without ``[link] disconnect`` windows.
 
+The scene plays from the first host's open (``--now``: at once), and again from its start
+for each later host session, as a robot started again: ``--pose-log`` is then written
+again, stamped by the board's clock at the new start, before the board hears the host
+(``--once``: the scene plays once, whatever hosts come and go).  ``--duration`` is the
+board's time served, whether or not a host came (one that does not come is waited for a
+few seconds, as any hold).
+
 The board's id (HELLO ``board_id``, which ``record`` checks after a lost port): with
 ``--link``, derived from the link's path, so that an emulator restarted behind the same link
 is the same board, rebooted; without, drawn at random, so that two emulators differ;
@@ -46,8 +53,15 @@ def add_arguments(parser):
         "--duration",
         type=float,
         metavar="S",
-        help="stop at this scene time, in seconds, whether or not a host reads (--fast holds "
-        "for a host that is gone or not reading at most a few seconds at a time)",
+        help="stop after this much of the board's time, in seconds, whether or not a host "
+        "came or reads (the board waits for a host that is not there, or not reading, at most"
+        " a few seconds at a time)",
+    )
+    parser.add_argument(
+        "--once",
+        action="store_true",
+        help="play the scene once (default: again from its start for each new host session,"
+        " as a robot started again, --pose-log written again)",
     )
     parser.add_argument("--no-faults", action="store_true", help="ignore the scene's [link] faults")
     parser.add_argument(
@@ -99,13 +113,17 @@ def run(args):
     if args.flash and args.core != "rp2040":
         raise InputError("--flash: only with --core rp2040 (the emulated Pico's flash file)")
     flash = {"flash": args.flash} if args.flash else {}  # (the emulated Pico's)
+    if args.duration is not None and not args.duration > 0:
+        raise InputError(f"--duration: {args.duration} is not a positive number of seconds")
+    log = (lambda at_us: _write_log(board.motion, args.pose_log, at_us)) if args.pose_log else None
     server = server_for(board, link_path=args.link, realtime=not args.fast, faults=faults,
                         disconnects=disconnects, duration_s=args.duration,
-                        when_opened=not args.now, **flash)  # fmt: skip
+                        when_opened=not args.now, replay=not args.once, on_scene=log,
+                        **flash)  # fmt: skip
     server.prepare()  # built or powered (or refused in one line) before the port is offered
     _exit_on_sigterm()  # so that QEMU, the chip and the --link go too
-    if args.pose_log:
-        _write_log(board.motion, args.pose_log)
+    if log is not None:
+        log(0)
     if args.cal_file:
         _write_cal(scene, args.cal_file)
     path = server.open()
@@ -113,8 +131,9 @@ def run(args):
     when = "now" if args.now else "when a host opens the port"
     if args.core == "rp2040":  # a Pico powers up with its USB cable
         when = "now, running while a host has the port open" if args.fast else "now"
+    again = "" if args.once else ", again for each new host"
     print(printable(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
-                    f"starting {when}; Ctrl-C to stop"), file=sys.stderr)  # fmt: skip
+                    f"starting {when}{again}; Ctrl-C to stop"), file=sys.stderr)  # fmt: skip
     with server:  # serves until its duration, the board's end or Ctrl-C; then closes
         server.wait()
     return 0
@@ -139,12 +158,13 @@ def _exit_on_sigterm():
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
 
-def _write_log(motion, path):
-    """The robot's log: joints or sensor poses (EP2, ch. 5) or the probe log (EP1 roll)."""
+def _write_log(motion, path, at_us):
+    """The robot's log: joints or sensor poses (EP2, ch. 5) or the probe log (EP1 roll),
+    stamped by the board's clock from ``at_us``, the scene's start (replaced whole)."""
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
         raise InputError(f"--pose-log: this scene's motion has no robot log ({path})")
-    write(path)  # tactile.files.atomic: not a file there, exit 2; a disk error, exit 5
+    write(path, at_us)  # tactile.files.atomic: not a file there, exit 2; a disk error, exit 5
 
 
 def _write_cal(scene, path):

@@ -100,6 +100,7 @@ class EmulatedBoard:
             raise ValueError(f"core must be one of {', '.join(cores.SERVED)}, got {self.core!r}")
         self.motion = motion if motion is not None else build_motion(scene)
         self.clock = ManualClock(0)
+        self.scene_start_us = 0  # the models' time at which the scene (last) started
         self.link = PipeLink(LINK_CAPACITY)
         self.buses, self.adcs, self.models = [], [], []
         layout = [self._sensor(i) for i in range(scene.board["sensors"])]
@@ -143,8 +144,10 @@ class EmulatedBoard:
         weight = ToolWeight.from_scene(self.scene)
         model = FTModel(
             self.scene.sensor,
-            (lambda t, i=i: self.motion.wrench_at(t, i)) if weight is None
-            else weight.loaded(self.motion, i),
+            self._scene_time(
+                (lambda t, i=i: self.motion.wrench_at(t, i)) if weight is None
+                else weight.loaded(self.motion, i)
+            ),
             seed=self.scene.seed * 7919 + i,
             drift=GaugeDrift.from_sensor(self.scene.sensor, self.scene.seed, i),
         )  # fmt: skip
@@ -169,6 +172,18 @@ class EmulatedBoard:
 
     def _now(self):
         return self.clock.t_us
+
+    def _scene_time(self, wrench_at):
+        """``wrench_at(t_s)`` of the scene's time, taken at the models' time ``t_s``."""
+        return lambda t: wrench_at(t - self.scene_start_us * 1e-6)
+
+    def restart_scene(self, t_us, faults=True):
+        """Play the scene from its start at the models' time ``t_us`` (the board runs on,
+        its settings and clock as they are): the motion and, with ``faults``, the sensor
+        faults count from there."""
+        self.scene_start_us = int(t_us)
+        if faults and self.faults is not None:
+            self.faults.restart(t_us)
 
     @property
     def t_us(self):

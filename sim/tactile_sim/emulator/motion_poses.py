@@ -63,11 +63,12 @@ class PosesMotion:
             for i in range(self.sensors)
         ]
 
-    def write_pose_log(self, path):
+    def write_pose_log(self, path, at_us=0):
         """The robot's pose log (``tactile.logs.robot_log``): the holds, the sensor's
-        noise and the scene's end."""
-        end_us = int(self.windows_us[-1, 1])
-        write_log(path, "pose", self.poses(), sensor=self.noise, end_us=end_us)
+        noise and the scene's end; ``at_us``: the board's clock at the scene's start."""
+        end_us = at_us + int(self.windows_us[-1, 1])
+        rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]
+        write_log(path, "pose", rows, sensor=self.noise, end_us=end_us)
 
 
 def build(scene):

@@ -63,12 +63,13 @@ class RigMotion:
             rows.append((int(ts[0] * 1e6), int(ts[-1] * 1e6), finger, *map(float, q)))
         return rows
 
-    def write_pose_log(self, path):
+    def write_pose_log(self, path, at_us=0):
         """The robot controller's log: joints per touch, the rig's lengths (m) and the scene's
         end (board us, where ``tactile record`` stops) in comments
-        (``tactile.logs.robot_log``)."""
-        end_us = round(self.duration_s * 1e6)
-        write_log(path, "scara", self.poses(), rig=self.lengths, end_us=end_us)
+        (``tactile.logs.robot_log``); ``at_us``: the board's clock at the scene's start."""
+        end_us = at_us + round(self.duration_s * 1e6)
+        rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]
+        write_log(path, "scara", rows, rig=self.lengths, end_us=end_us)
 
 
 def build(scene):

@@ -96,13 +96,15 @@ class RollMotion:
         """Half the readable part of a hold, around the logged times (us)."""
         return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
 
-    def write_probe_log(self, path):
+    def write_probe_log(self, path, at_us=0):
         """The robot's probe log (``tactile.logs.robot_log``; ``tactile.logs.probe`` reads it):
-        the fingertip, the readable half width of a hold and the scene's end in comments."""
+        the fingertip, the readable half width of a hold and the scene's end in comments;
+        ``at_us``: the board's clock at the scene's start."""
         g = self.geometry
         probe = (g["radius_m"], g["centre_m"])
-        end_us = round(self.duration_s * 1e6)
-        write_log(path, "probe", self.probe_log(), probe=probe, hold_us=self.half_width_us(),
+        end_us = at_us + round(self.duration_s * 1e6)
+        rows = [(i, t0 + at_us, t1 + at_us, *rest) for i, t0, t1, *rest in self.probe_log()]
+        write_log(path, "probe", rows, probe=probe, hold_us=self.half_width_us(),
                   end_us=end_us, more=ATTITUDE)  # fmt: skip
 
 

@@ -225,15 +225,16 @@ class SweepMotion:
         rows.sort(key=lambda r: (r[0], r[2]))
         return rows
 
-    def write_pose_log(self, path):
+    def write_pose_log(self, path, at_us=0):
         """The robot's pose log (``tactile.logs.pose`` reads it), with the
         fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
         accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
         scene's end (``# end:``), where ``tactile record`` stops
-        (``tactile.logs.robot_log``)."""
+        (``tactile.logs.robot_log``); ``at_us``: the board's clock at the scene's start."""
         centre, radius, axis = self.probe()
-        end_us = round(self.duration_s * 1e6)
-        write_log(path, "pose", self.poses(), probe=(radius, centre, axis), sensor=self.noise,
+        end_us = at_us + round(self.duration_s * 1e6)
+        rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]
+        write_log(path, "pose", rows, probe=(radius, centre, axis), sensor=self.noise,
                   end_us=end_us)  # fmt: skip
 
 

@@ -64,10 +64,22 @@ class PicoServer(Server):
     def t_us(self):
         """The chip's time powered (``board_us``), counted on over its resets."""
         chip = self.chip
-        if chip.resets != self._resets:  # a new clock from 0
+        if chip is None:  # (halted: its time as it ended)
+            return self.board_us
+        if chip.resets != self._resets:  # a new clock from 0, and the scene with it
             self._before, self._resets = self.board_us, chip.resets
+            self.board.restart_scene(0, faults=False)
         self.board_us = self._before + chip.t_us
         return self.board_us
+
+    def scene_at_us(self):
+        """The chip's clock (the firmware's stamps) at the scene's start: its first I2C
+        transaction after its last reset, and from there the scene's latest start."""
+        origin = self.chip.origin if self.chip is not None else None
+        return int(origin or 0) + self.board.scene_start_us
+
+    def models_us(self):
+        return self.chip.scene_us  # (the chip's latest time, not its latest I2C's)
 
     def wants_hold(self):
         present = self.endpoint.host_present

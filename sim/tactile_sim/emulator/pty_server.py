@@ -113,15 +113,19 @@ class PtyServer(Server):
         self.board.skip_to(t_us)
         self.skipped += 1
 
-    # --- the scene's disconnect windows -----------------------------------------------------
+    # --- the scene's disconnect windows (from the scene's start) ------------------------------
+    def _windows(self):
+        at = self.board.scene_start_us
+        return [(a + at, b + at) for a, b in self.disconnects]
+
     def _unplugged(self, t_us):
-        for a, b in self.disconnects:
+        for a, b in self._windows():
             if a <= t_us < b:
                 return b
         return None
 
     def _next_unplug(self, t_us):
-        for a, _ in self.disconnects:
+        for a, _ in self._windows():
             if a > t_us:
                 return a
         return None
@@ -143,5 +147,6 @@ class PtyServer(Server):
                     time.sleep(lag)
         self.to_host.clear()
         self._present_since = None
+        self._replugged = True  # the same session, back: not a new run of the scene
         self.open()
         self.reconnects += 1

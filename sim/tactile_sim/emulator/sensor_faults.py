@@ -12,10 +12,21 @@ KINDS = ("i2c_timeout", "i2c_nack", "stuck_drdy", "saturate")
 
 
 class FaultSchedule:
+    """The scene's faults on the models' clock (us), from the scene's start (``restart``)."""
+
     def __init__(self, events, emulator):
-        self.events = sorted(events, key=lambda e: e["at_us"])
+        self.scene = sorted(events, key=lambda e: e["at_us"])
+        self.events = list(self.scene)
         self.emu = emulator
         self.active = []  # (end_us, undo)
+
+    def restart(self, at_us):
+        """The scene again from the models' time ``at_us``: what is active ends, and every
+        fault is due again ``at_s`` after it."""
+        for _, undo in self.active:
+            undo()
+        self.active = []
+        self.events = [dict(e, at_us=e["at_us"] + int(at_us)) for e in self.scene]
 
     @classmethod
     def from_scene(cls, scene, emulator):

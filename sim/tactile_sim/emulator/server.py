@@ -14,6 +14,12 @@
   always ends at its duration;
 - **drain:** at the end of a fast run, the host reads what is in flight before the run ends;
   one that takes nothing for ``HOLD_LIMIT_S`` is given up on;
+- **the scene's start:** the scene plays from the board's start (``when_opened``: from the
+  first host's open); with ``replay``, each later host session (not the return of the
+  server's own unplugged port) plays it again from its start, the board running on with
+  its settings and clock.  ``on_scene(t_us)`` hears the board's clock (its frames' stamps)
+  at each start, before the host's first byte of that session reaches the board: the
+  emulator writes the robot's log for the new run there;
 - **open, close** and the thread that serves.
 
 A core supplies only ``step(held)`` (let the board run a little, not while ``held``; False
@@ -79,19 +85,29 @@ class Server:
     ``realtime``: on the wall clock (may change while serving), else as fast as possible;
     ``faults``: the scene's ``LinkFaults`` on what the board sends; ``disconnects``: the
     scene's unplugged windows (s), for a core that serves them (``SERVES_DISCONNECTS``);
-    ``duration_s``: the board's time served (None: until stopped); ``when_opened``: start
-    the board only once a host has the port open; ``clock``: the wall clock (tests inject).
+    ``duration_s``: the board's time served (None: until stopped), counted whether or not a
+    host came; ``when_opened``: start the board once a host has the port open (in a run
+    with a duration, at most ``HOLD_LIMIT_S`` after serving began: no host, the run starts
+    without one); ``replay``: each new host session plays the scene from its start;
+    ``on_scene(t_us)``: told the board's clock at each start of the scene; ``clock``: the
+    wall clock (tests inject).
     """
 
     SERVES_DISCONNECTS = False
 
     def __init__(self, board, link_path=None, realtime=True, faults=None, disconnects=(),
-                 duration_s=None, when_opened=False, clock=None):  # fmt: skip
+                 duration_s=None, when_opened=False, replay=False, on_scene=None,
+                 clock=None):  # fmt: skip
         if disconnects and not self.SERVES_DISCONNECTS:
             raise ValueError(f"{type(self).__name__} serves no [link] disconnect windows")
         self.board, self.link_path, self.realtime, self.faults = board, link_path, realtime, faults
         self.disconnects = sorted((int(a * 1e6), int(b * 1e6)) for a, b in disconnects)
         self.duration_s, self.when_opened = duration_s, when_opened
+        self.replay, self.on_scene = replay, on_scene
+        self.replays = 0  # host sessions that played the scene again
+        self._sessions = 0  # host sessions announced
+        self._replugged = False  # the next announce is the server's own port coming back
+        self._scene_at = 0  # the board's clock at the scene's start, as last told on_scene
         self.clock = clock or time.monotonic
         self.endpoint = None
         self.to_host = bytearray()  # what waits for the host
@@ -155,6 +171,33 @@ class Server:
     def halt(self):
         """Stop what the core started (idempotent)."""
 
+    def scene_at_us(self):
+        """The board's clock (its frames' stamps) at the scene's latest start."""
+        return getattr(self.board, "scene_start_us", 0)  # (0: a stand-in without a scene)
+
+    def models_us(self):
+        """The simulated sensors' clock now (where a replayed scene starts)."""
+        return self.board.t_us
+
+    # --- the scene's start ------------------------------------------------------------------
+    def _new_session(self):
+        """A host has just been announced: with ``replay``, a new session (not the first,
+        nor the server's own port coming back) plays the scene from its start."""
+        self._sessions += 1
+        replug, self._replugged = self._replugged, False
+        if self.replay and self._sessions > 1 and not replug:
+            self.board.restart_scene(self.models_us())
+            self.replays += 1
+        self._tell_scene()
+
+    def _tell_scene(self):
+        """``on_scene`` hears of a new start of the scene (by the board's clock)."""
+        at = self.scene_at_us()
+        if at != self._scene_at:
+            self._scene_at = at
+            if self.on_scene is not None:
+                self.on_scene(at)
+
     # --- the endpoint -----------------------------------------------------------------------
     @property
     def path(self):
@@ -214,14 +257,17 @@ class Server:
         if held is None:
             held = self._limit(self.wants_hold())
         running = self.step(held)
+        self._tell_scene()  # (a core whose scene restarts by itself: a Pico's reset)
         self._pump()
         return running
 
     def _wait_for_host(self):
-        """Until a host is announced (True) or ``stop`` (False)."""
+        """Until a host is announced (True), ``stop`` (False) or, in a run with a duration,
+        ``HOLD_LIMIT_S`` without one (True: the run starts, and its duration counts)."""
+        self._limit.bounded = self.duration_s is not None
         while not self.stop:
             self._host(WAIT_FOR_HOST_S)
-            if self.endpoint.host_present:
+            if self.endpoint.host_present or not self._limit(True):
                 return True
         return False
 
@@ -239,6 +285,7 @@ class Server:
         if not announced and not self.keeps_for_absent_host:
             self.to_host.clear()  # nobody is listening: the first thing a host sees is new
         if announced and not ep.host_present:
+            self._new_session()  # (before the host's first byte reaches the board)
             self.opened()
         ep.host_present, self.readable = announced, readable
         if readable and announced:

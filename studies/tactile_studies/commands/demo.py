@@ -6,7 +6,8 @@ firmware, simulated transducer) streams CONTACT frames over a serial port;
 capture, frames, meta), localises each contact on the wheel probe with the
 robot's pose log (eqs. 60-62), fits tangent- and position-weighted
 biquadratic patches on an 8x8 grid, and this prints S, sd S, R, sd R and
-radius beside the thesis's tables 5-7.
+radius beside the thesis's tables 5-7, and per surface its label, contacts, localised
+readings and frames lost.
 """
 
 import pathlib
@@ -39,7 +40,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    print("Chapter 5 replica on the board emulator (ch5_* scenes): biquadratic, 8x8 grid")
+    true = ", ".join(f"{r:g}" for r in replica.TRUE_RADIUS_CM.values() if r)
+    print(printable(f"Chapter 5 replica on the emulator: biquadratic, 8x8 grid; true r {true} cm"))
     head = ("S", "sd S", "R 1/cm", "sd 1/cm", "r cm")
     print(printable(f"{'surface':<17}{'fit':<9}{'':>6}" + "".join(f"{h:>{W}}" for h in head)))
     for name in dict.fromkeys(args.object or KINDS):
@@ -49,16 +51,13 @@ def run(args):
         for weighting, res in results.items():
             _row(name, weighting, "ours", _ours(res))
             _row("", "", "thesis", replica.THESIS[kind][weighting])
-        true = replica.TRUE_RADIUS_CM[kind]
         print(
             printable(
-                f"{'':<17}{meta['contacts_ended']} contacts, {results['tangent'].n_points}"
-                f" localised readings, {meta['decoder']['lost_frames']} frames lost"
+                f"{'':<17}label {results['tangent'].shape}; {meta['contacts_ended']} contacts,"
+                f" {results['tangent'].n_points} localised, {meta['decoder']['lost_frames']} lost"
             )
         )
-        true_r = f"; true radius {true} cm" if true else ""
-        print(printable(f"{'':<17}label '{results['tangent'].shape}'{true_r}"))
-        print(printable(f"{'':<17}recording: {outdir}"))
+    print(printable(f"recordings: {pathlib.Path(args.out) / '*'} (one per surface)"))
     return 0
 
 
