@@ -10,7 +10,7 @@ import pytest
 from conftest import ROOT
 
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(str(ROOT / d) for d in ("protocol",
-       "firmware", "firmware/tools", "host", "sim", "studies"))}  # fmt: skip
+       "firmware", "tools", "host", "sim", "studies"))}  # fmt: skip
 TACTILE = f"{sys.executable} -m tactile"
 
 

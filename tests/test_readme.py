@@ -54,7 +54,7 @@ DEMO_END = "<!-- bench/readme_demo.py writes up to here -->"
 MAKE = ["make demo", "make test"]
 SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere"}
 ASSIGN = re.compile(r"^([A-Z_][A-Z0-9_]*)=(\S+)\s*(#.*)?$")
-SOURCES = ("protocol", "firmware", "firmware/tools", "host", "sim", "studies")  # import roots
+SOURCES = ("protocol", "firmware", "tools", "host", "sim", "studies")  # import roots
 
 
 def _blocks():

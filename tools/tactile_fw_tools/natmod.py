@@ -25,7 +25,7 @@ import sys
 import tarfile
 import tempfile
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 SRC = ROOT / "firmware" / "c"
 NATMOD = SRC / "natmod"
 SHIPPED = ROOT / "firmware" / "tactile_fw" / "tactile_native.mpy"

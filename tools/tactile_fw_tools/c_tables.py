@@ -14,7 +14,7 @@ import re
 import struct
 import sys
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 HERE = ROOT / "firmware" / "c"  # where the generated files live
 for sub in ("protocol", "firmware"):
     if str(ROOT / sub) not in sys.path:

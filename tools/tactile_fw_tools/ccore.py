@@ -19,7 +19,7 @@ from tactile_fw.identity import NO_BOARD_ID, board_id_from
 from tactile_fw.timing import TICKS_PERIOD
 from tactile_protocol.constants import BOARD_ID_SIZE
 
-SRC = pathlib.Path(__file__).resolve().parents[2] / "c"
+SRC = pathlib.Path(__file__).resolve().parents[2] / "firmware" / "c"
 CFLAGS = ("-std=c99", "-O2", "-fPIC", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
 SANITIZE = ("-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-g", "-O1")
 TICKS_BITS = TICKS_PERIOD.bit_length() - 1  # MicroPython's ticks_us wraps at 2^30

@@ -15,7 +15,7 @@ import shutil
 import subprocess
 import sys
 
-SRC = pathlib.Path(__file__).resolve().parents[2] / "c"
+SRC = pathlib.Path(__file__).resolve().parents[2] / "firmware" / "c"
 PORT = SRC / "qemu"
 CC = "arm-none-eabi-gcc"
 CFLAGS = (
