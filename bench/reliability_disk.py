@@ -137,7 +137,8 @@ def _size(path):
         return 0
 
 
-def _good(tmp):
+def good_run(tmp):
+    """A whole recording of the press scene in ``tmp`` (made once)."""
     out = tmp / "good"
     if not out.exists():
         code, _, err = tactile(*RECORD, "--contacts", 2, "-o", out)
@@ -148,7 +149,7 @@ def _good(tmp):
 
 def probe_damaged(tmp, damage, what):
     out = tmp / damage.replace(" ", "-")
-    shutil.copytree(_good(tmp), out)
+    shutil.copytree(good_run(tmp), out)
     if damage == "torn row":
         (out / "frames.csv").write_bytes((out / "frames.csv").read_bytes()[:-25])
     elif damage == "no meta.json":
@@ -165,7 +166,7 @@ def probe_damaged(tmp, damage, what):
 
 def probe_append_torn(tmp):
     out = tmp / "append-torn"
-    shutil.copytree(_good(tmp), out)
+    shutil.copytree(good_run(tmp), out)
     (out / "frames.csv").write_bytes((out / "frames.csv").read_bytes()[:-25])
     code, _, err = tactile(*RECORD, "--duration", 0.3, "-o", out, "--append")
     lines = (out / "frames.csv").read_text().splitlines()[1:]

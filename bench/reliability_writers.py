@@ -23,10 +23,10 @@ import threading
 import time
 from pathlib import Path
 
+from reliability_disk import RECORD, good_run
 from reliability_ports import CLI, _start, one_line, outcome, recording_complete, tactile
 
 AREA = "One writer per run, and outputs that never overwrite"
-RECORD = ("record", "--port", "sim://press", "--quiet")
 PARQUET = ("--format", "parquet")
 
 
@@ -68,15 +68,6 @@ def _wait_for_bytes(path, more_than, proc, timeout_s=60):
         time.sleep(0.02)
 
 
-def _good(tmp):
-    out = tmp / "good"
-    if not out.exists():
-        code, _, err = tactile(*RECORD, "--contacts", 2, "-o", out)
-        if code:
-            raise RuntimeError(f"record failed: {err}")
-    return out
-
-
 def probe_second_record(tmp, append):
     """The first (in this process) has made its files and holds the folder, no byte yet;
     the second, another process, starts then."""
@@ -87,7 +78,7 @@ def probe_second_record(tmp, append):
     out = tmp / ("append" if append else "second")
     more = ("--append",) if append else ()
     if append:
-        shutil.copytree(_good(tmp), out)
+        shutil.copytree(good_run(tmp), out)
     first = Session("sim://press", out, duration_s=0.5, append=append)
     code, _, err = tactile(*RECORD, "--duration", 0.5, "-o", out, *more)
     try:
@@ -122,7 +113,7 @@ def probe_together(tmp):
 
 def probe_export_over(tmp, name):
     run = tmp / f"over-{name}"
-    shutil.copytree(_good(tmp), run)
+    shutil.copytree(good_run(tmp), run)
     before = _snapshot(run)
     code, _, err = tactile("export", run, *PARQUET, "-o", run / name)
     return (
@@ -146,7 +137,7 @@ def probe_export_node(tmp, kind):
     folder.mkdir()
     _node(folder / "out", kind)
     before = _snapshot(folder)
-    code, _, err = tactile("export", _good(tmp), *PARQUET, "-o", folder / "out")
+    code, _, err = tactile("export", good_run(tmp), *PARQUET, "-o", folder / "out")
     what = {"FIFO": "a FIFO", "device": "a device node (/dev/full's numbers)"}[kind]
     if kind == "device" and os.geteuid() != 0:
         what = "a symlink to /dev/null"
@@ -162,7 +153,7 @@ def probe_export_dir(tmp):
     (folder / "adir").mkdir(parents=True)
     (folder / "adir.tmp").write_text("the user's own file")
     before = _snapshot(folder)
-    code, _, err = tactile("export", _good(tmp), *PARQUET, "-o", folder / "adir")
+    code, _, err = tactile("export", good_run(tmp), *PARQUET, "-o", folder / "adir")
     named = "the message names adir.tmp" if "adir.tmp" in err else ""
     return (
         "`export -o adir`, a directory, beside the user's `adir.tmp`",
@@ -182,7 +173,7 @@ def probe_export_fsize(tmp):
         resource.setrlimit(resource.RLIMIT_FSIZE, (4096, resource.RLIM_INFINITY))
 
     before = _snapshot(folder)
-    r = subprocess.run([*CLI, "export", str(_good(tmp)), *PARQUET, "-o",
+    r = subprocess.run([*CLI, "export", str(good_run(tmp)), *PARQUET, "-o",
                         str(folder / "x.parquet")], capture_output=True, text=True,
                        preexec_fn=limit, timeout=120)  # fmt: skip
     return (
@@ -209,7 +200,7 @@ def probe_export_while_recording(tmp):
 def probe_no_port(tmp, append):
     if append:
         out = tmp / "no-port-append"
-        shutil.copytree(_good(tmp), out)
+        shutil.copytree(good_run(tmp), out)
         before, where = _snapshot(out), out
     else:
         out = tmp / "no-port" / "a" / "run"
