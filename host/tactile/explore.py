@@ -1,0 +1,406 @@
+"""Closed-loop exploration: the next touch placed where the patch is least known (§6.2.2-6.2.3).
+
+The thesis's future work asks that what has been felt choose the next probe: the principal
+directions to steer it (§6.2.2, "curvature flow"), the shapes still feasible to guide it
+(§6.2.3, the interpretation tree).  Here, for a fingertip that touches one point at a time:
+
+1. **Seed.**  Until a fit answers, touches come from ``SEED``: the region's centre, then points
+   on a circle of 0.7 of its half-size, spread so that any two span the plane.
+2. **Fit.**  Every contact so far goes to EP2 (``tactile.ep2.analyze_patch``): the curvature at
+   the patch centre, its 95 % intervals, the label and the votes of the S bands.
+3. **Choose.**  Candidate touches lie on a grid in the current fit's principal-direction frame
+   (u along direction1, v across it, on the fitted surface).  Each is scored by the S interval
+   the fit would have with one more contact there, predicted at the fitted surface with the
+   current noise stated (the design's effect alone, an A-optimal criterion on S); while the fit
+   says ``plane`` by the widest k interval instead.  The best scoring candidate is touched next,
+   along the fitted normal.  A fit that is refused falls back to the point farthest from every
+   contact (space filling).
+4. **Stop** (``status``) once the label is confident: not ``uncertain``, its confidence (the top
+   S band's share of the vote, or a plane's test) at least ``confidence``, and at least
+   ``MIN_TOUCHES`` contacts; or when the budget is spent, saying what is still unknown
+   (``unknown``).
+5. **Edges.**  From ``edges.MIN_POINTS`` contacts on, ``tactile.ep2.edges.find`` looks for two
+   faces; a touch that lands across an edge is named, and exploration keeps to the face of
+   the first touch (§6.2.2: "a new EP could be performed for each side of the discontinuity").
+
+EP1's roll direction (``next_roll``): along the principal direction whose curvature the probes
+so far know least (eqs. 29-33, Euler's equation, eq. 64).
+
+Lengths are in the caller's unit throughout (the CLI's: m).
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tactile.ep2 import analyze_patch, analyze_patches, edges
+from tactile.errors import DataError, InputError
+
+__all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "next_roll",
+           "seed_points", "unknown"]  # fmt: skip
+
+MIN_TOUCHES = edges.MIN_POINTS  # a label waits until an edge could be seen (8)
+SEED = (90.0, 210.0, 330.0, 30.0, 150.0, 270.0)  # seed angles on the circle (deg)
+SEED_RADIUS = 0.7  # of the region's half-size
+GRID = 9  # candidates per side of the principal-direction grid
+MIN_GAP = 0.15  # of the half-size: no candidate this close to a contact
+STEP = 1e-4  # of the half-size: the finite difference of the fitted surface's slope
+
+
+@dataclass(frozen=True)
+class Region:
+    """Where to explore: ``centre`` (3,), ``normal`` (3,) pointing from the object toward the
+    finger (the touches come along -normal), ``half`` the half-size of the square explored,
+    ``standoff`` the distance a touch starts above the expected surface."""
+
+    centre: tuple
+    normal: tuple
+    half: float
+    standoff: float
+
+    def axes(self):
+        """(e1, e2, n): two unit vectors across the normal and the normal."""
+        n = _unit(np.asarray(self.normal, float))
+        ref = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        e1 = _unit(ref - (ref @ n) * n)
+        return e1, np.cross(n, e1), n
+
+    def local(self, points):
+        """Region-frame (x, y) of world points (k, 3)."""
+        e1, e2, _ = self.axes()
+        d = np.asarray(points, float) - np.asarray(self.centre, float)
+        return np.column_stack([d @ e1, d @ e2])
+
+
+@dataclass(frozen=True)
+class TouchPlan:
+    """The next touch: start (3,), unit direction (3,), travel limit, where in the principal
+    frame (u, v) or None for a seed, and why (one line)."""
+
+    start: tuple
+    direction: tuple
+    max_travel: float
+    uv: tuple | None
+    why: str
+
+
+@dataclass
+class Fit:
+    """What the contacts so far say: the ``PatchResult`` or None, the refusal's line, the
+    label and its confidence as the stop rule reads them, and an edge found (``edges.Edge``)."""
+
+    result: object = None
+    refused: str | None = None
+    label: str = "none"
+    confidence: float = 0.0
+    edge: object = None
+
+    def row(self, touch):
+        """explore.csv's row: touch, S, S_lo, S_hi, shape, confidence (None: no value)."""
+        r = self.result
+        s = r.S if r is not None else None
+        lo, hi = r.S_interval if r is not None and r.S_interval else (None, None)
+        conf = round(self.confidence, 6) if r is not None else None
+        return {"touch": touch, "S": s, "S_lo": lo, "S_hi": hi, "shape": self.label,
+                "confidence": conf}  # fmt: skip
+
+
+def fit_of(points, normals, confidence=0.95, **options):
+    """``Fit`` of the contacts (k, 3): ``analyze_patch`` with ``options``; the label is the
+    top S band once its share of the vote reaches ``confidence`` (EP2's own label asks
+    0.999), ``plane`` with the flatness test's p-value, else ``uncertain``."""
+    pts, nrm = np.asarray(points, float), np.asarray(normals, float)
+    if len(pts) < 3:
+        return Fit(refused=f"{len(pts)} contact(s): a fit needs 3 at least")
+    try:
+        res = analyze_patch(pts, nrm, **options)
+    except edges.EdgeError as exc:
+        return Fit(refused=str(exc), label="edge", edge=exc.edge)
+    except (DataError, InputError) as exc:
+        return Fit(refused=str(exc), label="refused")
+    label, conf = res.shape, float(res.confidence)
+    if label == "uncertain" and res.votes:
+        top = max(res.votes, key=res.votes.get)
+        conf = float(res.votes[top])
+        label = top if conf >= confidence else "uncertain"
+    return Fit(result=res, label=label, confidence=conf)
+
+
+def confident(fit, n, confidence=0.95, min_touches=MIN_TOUCHES):
+    """Whether ``fit`` of ``n`` contacts ends the exploration."""
+    return (
+        fit.result is not None
+        and fit.label not in ("uncertain", "refused", "edge", "none")
+        and fit.confidence >= confidence
+        and n >= min_touches
+    )
+
+
+def unknown(fit, n):
+    """One line: what ``n`` contacts leave unknown (for a budget spent)."""
+    r = fit.result
+    if r is None:
+        why = fit.refused or "no fit"
+        return f"after {n} touches the curvature is not determined: {why}"
+    if fit.label == "plane" or r.S is None:
+        w = max(_width(r.k1_interval), _width(r.k2_interval))
+        return (
+            f"after {n} touches a plane cannot be told from a curvature under"
+            f" {0.5 * w:.3g} per unit length (95 %); plane confidence {fit.confidence:.3f}"
+        )
+    lo, hi = r.S_interval or (r.S, r.S)
+    feasible = sorted(r.votes, key=r.votes.get, reverse=True) or [r.shape]
+    shares = ", ".join(f"{k} {r.votes.get(k, 0.0):.3f}" for k in feasible)
+    return (
+        f"after {n} touches S is {r.S:.3f} in [{lo:.3f}, {hi:.3f}] (95 %, width"
+        f" {hi - lo:.3f}); labels still feasible: {shares}"
+    )
+
+
+def seed_points(region, k):
+    """World start points of the first ``k`` seed touches (the centre, then ``SEED``)."""
+    e1, e2, n = region.axes()
+    c = np.asarray(region.centre, float)
+    out = [c]
+    for a in SEED[: max(k - 1, 0)]:
+        t = math.radians(a)
+        out.append(c + SEED_RADIUS * region.half * (math.cos(t) * e1 + math.sin(t) * e2))
+    return [p + region.standoff * n for p in out[:k]]
+
+
+@dataclass
+class Explorer:
+    """The loop's state: contacts so far, each touch's ``Fit``; ``plan`` the next touch,
+    ``add`` a contact (or a miss) and refit.  ``options`` go to ``analyze_patch``."""
+
+    region: Region
+    confidence: float = 0.95
+    max_touches: int = 9
+    min_touches: int = MIN_TOUCHES
+    options: dict = field(default_factory=dict)
+    points: list = field(default_factory=list)
+    normals: list = field(default_factory=list)
+    fits: list = field(default_factory=list)
+    missed: list = field(default_factory=list)  # start points of touches that found nothing
+    notes: list = field(default_factory=list)
+    keep: np.ndarray | None = None  # rows on the first touch's face, once an edge is found
+
+    @property
+    def touches(self):
+        return len(self.points) + len(self.missed)
+
+    @property
+    def fit(self):
+        return self.fits[-1] if self.fits else Fit()
+
+    def done(self):
+        """'label' (confident), 'budget' (spent) or None (go on)."""
+        if confident(self.fit, self._used(), self.confidence, self.min_touches):
+            return "label"
+        return "budget" if self.touches >= self.max_touches else None
+
+    def _used(self):
+        return len(self.points) if self.keep is None else int(self.keep.sum())
+
+    def add(self, point, normal, plan=None):
+        """A contact (world); returns its ``Fit``.  ``point`` None: ``plan`` missed."""
+        if point is None:
+            self.missed.append(np.asarray(plan.start if plan else self.region.centre, float))
+            self.notes.append(f"touch {self.touches}: no contact within the travel")
+            self.fits.append(self.fit)
+            return self.fit
+        self.points.append(np.asarray(point, float))
+        self.normals.append(_unit(np.asarray(normal, float)))
+        self._edge()
+        pts, nrm = np.array(self.points), np.array(self.normals)
+        if self.keep is not None:
+            pts, nrm = pts[self.keep], nrm[self.keep]
+        fit = fit_of(pts, nrm, self.confidence, **self.options)
+        if fit.edge is not None and self.keep is None:  # (seen by the fit's check, not ``find``)
+            self._split(fit.edge)
+            fit = fit_of(np.array(self.points)[self.keep], np.array(self.normals)[self.keep],
+                         self.confidence, **self.options)  # fmt: skip
+        self.fits.append(fit)
+        return fit
+
+    def _edge(self):
+        """Look for two faces once there are enough contacts; keep the first touch's."""
+        if self.keep is not None:
+            self.keep = np.append(self.keep, self._same_side(self.points[-1]))
+            if not self.keep[-1]:
+                self.notes.append(f"touch {self.touches}: {self._across}")
+            return
+        if len(self.points) < edges.MIN_POINTS:
+            return
+        edge = edges.find(np.array(self.points), np.array(self.normals))
+        if edge is not None:
+            self._split(edge)
+
+    def _split(self, edge):
+        first = 0 if 0 in edge.sides[0] else 1
+        self.keep = np.zeros(len(self.points), bool)
+        self.keep[edge.sides[first]] = True
+        self._face = (edge.point, edge.normals[first], edge.normals[1 - first])
+        self._across = f"lands across an edge: {edge.describe()}; exploring the first face"
+        self.notes.append(f"touch {self.touches}: {self._across}")
+
+    def _same_side(self, p):
+        point, mine, other = self._face
+        return bool((np.asarray(p) - point) @ (other - mine) <= 0.0)
+
+    def plan(self):
+        """The next ``TouchPlan``."""
+        n = len(self.points)
+        fit = self.fit
+        if fit.result is None and n < 1 + len(SEED) and not self.missed:
+            start = seed_points(self.region, n + 1)[-1]
+            return self._down(start, None, f"seed {n + 1}")
+        pts = np.array(self.points + self.missed).reshape(-1, 3)
+        if fit.result is None:
+            return self._down(self._farthest(pts), None, "space filling (no fit yet)")
+        return self._best(fit.result, pts)
+
+    def _down(self, start, uv, why):
+        n = np.asarray(self.region.normal, float)
+        d = -_unit(n)
+        return TouchPlan(tuple(start), tuple(d), 2.0 * self.region.standoff, uv, why)
+
+    def _farthest(self, pts):
+        """A start point above the grid point of the region farthest from every contact."""
+        e1, e2, n = self.region.axes()
+        g = np.linspace(-self.region.half, self.region.half, GRID)
+        xy = np.array([(a, b) for a in g for b in g])
+        have = self.region.local(pts) if len(pts) else np.zeros((0, 2))
+        gap = np.min(np.linalg.norm(xy[:, None] - have[None], axis=-1), axis=1) if len(pts) \
+            else np.ones(len(xy))  # fmt: skip
+        x, y = xy[int(np.argmax(gap))]
+        c = np.asarray(self.region.centre, float)
+        return c + x * e1 + y * e2 + self.region.standoff * n
+
+    def _best(self, res, pts):
+        cands = candidates(res, self.region, pts)
+        if not len(cands["uv"]):
+            return self._down(self._farthest(pts), None, "space filling (no candidate left)")
+        used, nrm = np.array(self.points), np.array(self.normals)
+        if self.keep is not None:
+            used, nrm = used[self.keep], nrm[self.keep]
+        score, what = scores(res, used, nrm, cands, self.options)
+        k = int(np.argmin(score))
+        if not np.isfinite(score[k]):
+            return self._down(self._farthest(pts), None, "space filling (no candidate scores)")
+        n = cands["normal"][k]
+        start = cands["point"][k] + self.region.standoff * n
+        u, v = (float(t) for t in cands["uv"][k])
+        why = f"predicted {what} {score[k]:.3g} at (u, v) = ({u:.3g}, {v:.3g})"
+        return TouchPlan(tuple(start), tuple(-n), 2.0 * self.region.standoff, (u, v), why)
+
+
+def candidates(res, region, pts):
+    """Candidate touches on the fit's principal-direction grid within the region: dict of
+    ``uv`` (k, 2) principal coordinates, ``point`` (k, 3) and ``normal`` (k, 3) on the fitted
+    surface (world)."""
+    frame, h = res.frame, region.half
+    d1 = frame.to_patch_dirs(np.asarray(res.direction1, float))[:2]
+    d1 = _unit(d1) if np.linalg.norm(d1) > 1e-12 else np.array([1.0, 0.0])
+    d2 = np.array([-d1[1], d1[0]])
+    g = np.linspace(-math.sqrt(2.0) * h, math.sqrt(2.0) * h, GRID + 4)
+    uv = np.array([(a, b) for a in g for b in g])
+    centre = frame.to_patch(np.asarray(region.centre, float)[None])[0, :2]
+    xy = centre + uv[:, :1] * d1 + uv[:, 1:] * d2
+    with np.errstate(all="ignore"):
+        z = res.surface(xy)
+        eps = STEP * h
+        zx = (res.surface(xy + [eps, 0.0]) - res.surface(xy - [eps, 0.0])) / (2 * eps)
+        zy = (res.surface(xy + [0.0, eps]) - res.surface(xy - [0.0, eps])) / (2 * eps)
+    point = frame.to_world(np.column_stack([xy, z]))
+    normal = frame.to_world_dirs(np.column_stack([-zx, -zy, np.ones_like(zx)]))
+    normal = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+    inside = np.all(np.abs(region.local(point)) <= h * (1 + 1e-9), axis=1)
+    inside &= np.all(np.isfinite(point), axis=1) & np.all(np.isfinite(normal), axis=1)
+    if len(pts):  # (across the region: a missed touch's start counts as a contact)
+        have = region.local(pts)
+        gap = np.min(np.linalg.norm(region.local(point)[:, None] - have[None], axis=-1), axis=1)
+        inside &= gap > MIN_GAP * h
+    return {"uv": uv[inside], "point": point[inside], "normal": normal[inside]}
+
+
+def scores(res, pts, nrm, cands, options):
+    """(score per candidate, what it is): the S interval's width with one more contact at
+    the candidate (the fit's noise stated), or the widest k interval where the fit has no S
+    (a plane); inf where the fit with it is refused."""
+    opts = dict(options)
+    opts["noise_pos"] = options.get("noise_pos", res.noise_pos)
+    opts["noise_normal"] = options.get("noise_normal", res.noise_normal)
+    patches = [
+        (np.vstack([pts, p[None]]), np.vstack([nrm, n[None]]))
+        for p, n in zip(cands["point"], cands["normal"], strict=True)
+    ]
+    out = analyze_patches(patches, **opts)
+    use_s = res.S_interval is not None
+    score = np.full(len(out), np.inf)
+    for i, r in enumerate(out):
+        if isinstance(r, Exception):
+            continue
+        if use_s and r.S_interval is not None:
+            score[i] = _width(r.S_interval)
+        elif not use_s:
+            score[i] = max(_width(r.k1_interval), _width(r.k2_interval))
+    return score, ("S interval width" if use_s else "widest k interval (1/unit)")
+
+
+def _width(iv):
+    return math.inf if iv is None or None in iv else float(iv[1] - iv[0])
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+# --- EP1: the next roll direction (§6.2.1, eqs. 29-33, 64).
+
+
+def next_roll(dtheta, dp, finger_radius, u0=0.0):
+    """The next EP1 roll: (phi, motion, why).  ``phi`` the commanded rotation axis's angle in
+    the probe's contact frame (``tactile_sim.ep1.probes``' convention), ``motion`` the unit
+    (x, y) the contact moves along (= (-sin phi, cos phi)).
+
+    With fewer than two independent directions: x, then the direction across those rolled.
+    Otherwise, along the principal direction of the current estimate (eqs. 29-33) whose
+    curvature the design knows least: probe i's rows of eq. 33 give S = (K1 + K2~)^-1 the
+    covariance s^2 (A^T A)^-1, the principal value s_w = w^T S w (eq. 64's form) a variance
+    g^T C g, g = (w_x^2, 2 w_x w_y, w_y^2), and the curvature kappa = 1/s - 1/R1 that variance
+    over s^4.  A roll along w adds rows measuring S w directly.
+    """
+    th = np.asarray(dtheta, float).reshape(-1, 2)
+    p = np.asarray(dp, float).reshape(-1, 2)
+    a = np.column_stack([-th[:, 1], th[:, 0]])  # each probe's motion direction x angle
+    if len(a) == 0:
+        return _roll(np.array([1.0, 0.0]), "seed: along x")
+    norms = np.linalg.norm(a, axis=1)
+    dirs = a[norms > 0] / norms[norms > 0, None]
+    if len(dirs) < 2 or np.linalg.svd(dirs, compute_uv=False)[-1] < 1e-3:
+        base = dirs[0] if len(dirs) else np.array([0.0, 1.0])
+        return _roll(np.array([-base[1], base[0]]), "seed: across the directions rolled")
+    A = np.concatenate([np.column_stack([a, np.zeros(len(a))]),
+                        np.column_stack([np.zeros(len(a)), a])])  # fmt: skip
+    b = np.concatenate([finger_radius * p[:, 0], finger_radius * math.cos(u0) * p[:, 1]])
+    k, *_ = np.linalg.lstsq(A, b, rcond=None)
+    cov = np.linalg.pinv(A.T @ A)
+    S = np.array([[k[0], k[1]], [k[1], k[2]]])
+    s, vec = np.linalg.eigh(S)
+    var = []
+    for j in range(2):
+        w = vec[:, j]
+        g = np.array([w[0] ** 2, 2 * w[0] * w[1], w[1] ** 2])
+        var.append(float(g @ cov @ g) / max(s[j] ** 4, 1e-300))
+    j = int(np.argmax(var))
+    kappa = 1.0 / s[j] - 1.0 / finger_radius if s[j] != 0 else math.inf
+    return _roll(vec[:, j], f"along the least-known principal direction (curvature {kappa:.3g})")
+
+
+def _roll(motion, why):
+    m = _unit(np.asarray(motion, float))
+    if m[0] < 0 or (m[0] == 0 and m[1] < 0):
+        m = -m  # (a direction, not a sense)
+    return math.atan2(-m[0], m[1]), (float(m[0]), float(m[1])), why
