@@ -1,0 +1,343 @@
+"""``tactile explore --port P --robot HOST:PORT -o RUN``: touch where the patch is least known.
+
+The loop (``tactile.explore`` plans, docs/explore.md): the robot touches (``tactile.robot``:
+a start, a direction, a force, a travel limit) and holds; the board's SAMPLE frames of the
+hold above the board's contact gate are averaged; the spherical fingertip localises the
+contact (``tactile.localize.sphere_contact``, then the sensor's pose at the hold); EP2 refits
+with intervals; the planner chooses the next touch.  It stops when the label is confident
+(``--confidence``) or ``--max-touches`` are spent, and then prints the label on one line:
+exit 0, or 3 with what is still unknown.
+
+RUN/contacts.csv (EP2's contract, m), RUN/explore.csv (a row per touch: touch, S, S_lo,
+S_hi, shape, confidence; ``null`` where there is no value) and RUN/meta.json are replaced
+whole after every touch, under the run folder's lock: nothing felt is lost when a run ends
+early.  Lengths in m, forces in N.  The sensor is tared once at the start, before any
+touch; the touches keep the hand's orientation, so the tool's weight stays tared out.
+"""
+
+import datetime
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+from tactile import __version__
+from tactile.board.client import info_dict
+from tactile.cli import foxglove_args
+from tactile.cli.board_args import add_port_argument, connect
+from tactile.commands.words import add_quiet
+from tactile.errors import BoardError, DataError, InputError
+from tactile.explore import Explorer, Region, unknown
+from tactile.files.atomic import atomic_write
+from tactile.files.folder_lock import hold
+from tactile.foxglove.scene import contacts_update, patch_mesh, patch_update
+from tactile.foxglove.topics import CONTACTS_TOPIC, PATCH_TOPIC
+from tactile.localize import format_contacts, pose_from_quaternion, sphere_contact, to_world
+from tactile.output.textout import printable
+from tactile.robot import RobotClient, parse_address
+from tactile_protocol import constants as C
+from tactile_protocol import settings as board_settings
+
+COLUMNS = ("touch", "S", "S_lo", "S_hi", "shape", "confidence")
+UNITS_LINE = "# units: 1 (touch: a count; S, S_lo, S_hi: shape index; confidence: 0-1)"
+WRAP = 2**32  # the board's µs stamps wrap
+HOLD_S = 0.2  # a robot that does not know the board's clock: the hold read after its answer
+READ_S = 5.0  # longest wait for the hold's frames
+NEXT_TOPIC = "/tactile/next_touch"
+
+
+def add_arguments(parser):
+    add_port_argument(parser)
+    parser.add_argument("--robot", required=True, metavar="HOST:PORT", help="the robot's address")
+    parser.add_argument("-o", "--out", required=True, help="run folder")
+    parser.add_argument(
+        "--confidence",
+        type=float,
+        default=0.95,
+        help="stop once the label's confidence reaches this (0-1; 0.95)",
+    )
+    parser.add_argument(
+        "--max-touches", type=int, default=18, help="touch budget (18: the thesis's 3 x 6 plan)"
+    )
+    parser.add_argument(
+        "--half-size",
+        type=float,
+        default=0.015,
+        help="half the side of the square explored (m; 0.015)",
+    )
+    parser.add_argument(
+        "--standoff",
+        type=float,
+        default=0.015,
+        help="a touch starts this far above the expected surface (m; 0.015)",
+    )
+    parser.add_argument("--force", type=float, default=3.0, help="press force (N; 3)")
+    parser.add_argument(
+        "--finger-radius",
+        type=float,
+        default=0.012,
+        help="the spherical fingertip's radius (m; 0.012)",
+    )
+    parser.add_argument(
+        "--finger-offset",
+        type=float,
+        default=0.03,
+        help="its centre along the sensor's +x axis (m; 0.03)",
+    )
+    parser.add_argument("--json", action="store_true", help="the result as one JSON object")
+    add_quiet(parser)
+    foxglove_args.add_arguments(parser)  # fmt: skip
+
+
+def check(args):
+    """Bad options, each one line (exit 2), before anything moves."""
+    if not 0.0 < args.confidence < 1.0:
+        raise InputError(f"--confidence: {args.confidence} is not a probability in (0, 1)")
+    if not 1 <= args.max_touches <= 1000:
+        raise InputError(f"--max-touches: {args.max_touches} is not a count in 1-1000")
+    for name in ("half_size", "standoff", "force", "finger_radius"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"--{name.replace('_', '-')}: {v} is not a positive number")
+    if not math.isfinite(args.finger_offset):
+        raise InputError(f"--finger-offset: {args.finger_offset} is not a number")
+    foxglove_args.check(args)
+    return parse_address(args.robot)
+
+
+def run(args):
+    address = check(args)
+    with hold(args.out, create=True):
+        return Run(args, address).run()
+
+
+class Run:
+    """One exploration: the board, the robot, the planner and the run folder."""
+
+    def __init__(self, args, address, clock=time.monotonic):
+        self.args, self.address, self.clock = args, address, clock
+        self.started = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+        self.client = self.robot = self.live = None
+        self.explorer, self.R, self.gate = None, np.eye(3), 0.0
+        self.rows, self.ended, self.device = [], "error", None
+
+    def run(self):
+        try:
+            self.client = connect(self.args)
+            self.device = info_dict(self.client.info)
+            self.live = foxglove_args.start(self.args, self.device)
+            self.robot = RobotClient(self.address)
+            self._start()
+            self._loop()
+        finally:
+            self._close()
+        return self._finish()
+
+    def _start(self):
+        """Tare unloaded, stream, and place the region under the fingertip."""
+        self.client.tare()
+        if not self.client.info.flags & C.CFG_STREAMING:
+            self.client.start()
+        pose = self.robot.pose()
+        R, t = pose_from_quaternion(pose.position_m, pose.quaternion, scalar_first=True)
+        self.R = R
+        pole = R[:, 0]  # the fingertip's pole: the touches come along it at first
+        a = self.args
+        centre = t + a.finger_offset * pole + (a.finger_radius + a.standoff) * pole
+        region = Region(tuple(centre), tuple(-pole), a.half_size, a.standoff)
+        self.explorer = Explorer(region, a.confidence, a.max_touches)
+        self.gate = board_settings.to_newtons(self.client.info.enter_threshold)
+
+    def _loop(self):
+        ex = self.explorer
+        while ex.done() is None:
+            plan = ex.plan()
+            self._publish_next(plan)
+            point, normal, why = self._touch(plan)
+            fit = ex.add(point, normal, plan)
+            self._say(ex.touches, plan, point, why, fit)
+            self._write()
+            self._publish(fit)
+        self.ended = ex.done()
+
+    def _touch(self, plan):
+        """(world point, normal, None) of the contact ``plan`` finds, or (None, None, why)."""
+        a = self.args
+        d = np.asarray(plan.direction, float)
+        centre = np.asarray(plan.start, float) - a.finger_radius * d  # the leading point
+        origin = centre - a.finger_offset * self.R[:, 0]
+        self._drain()
+        touch = self.robot.touch(tuple(origin), tuple(d), a.force, plan.max_travel)
+        if not touch.touched:
+            return None, None, f"no contact within {plan.max_travel:.4g} m"
+        wrench, n = self._hold(touch.t_us)
+        if wrench is None:
+            return None, None, f"no frame above the gate ({self.gate:g} N) during the hold"
+        R, t = pose_from_quaternion(touch.pose.position_m, touch.pose.quaternion,
+                                    scalar_first=True)  # fmt: skip
+        c = sphere_contact(wrench[None, :3], wrench[None, 3:], (a.finger_offset, 0.0, 0.0),
+                           a.finger_radius, self.gate)  # fmt: skip
+        if not c.usable[0]:
+            return None, None, f"the hold's wrench ({n} frames) does not locate a contact"
+        p, nrm = to_world(R, t, c.point[0], c.normal[0])
+        return p, nrm, None
+
+    def _drain(self):
+        while self.client.waiting():
+            self._feed(self.client.read_timed())
+
+    def _feed(self, got):
+        msgs, times = got
+        if self.live is not None:
+            self.live.feed(msgs, arrivals=times)
+        return msgs
+
+    def _hold(self, window):
+        """Mean wrench (6,) in N, N*m of the SAMPLE frames of the hold above the gate, and
+        their count; (None, 0) if none.  ``window`` the board-clock (t0, t1) µs, or None."""
+        rows, deadline = [], self.clock() + (READ_S if window else HOLD_S)
+        while self.clock() < deadline:
+            for m in self._feed(self.client.read_timed()):
+                if m.type_code != C.MSG_SAMPLE:
+                    continue
+                if window is not None:
+                    since = (m.timestamp_us - window[0]) % WRAP
+                    if since > (window[1] - window[0]) % WRAP:
+                        if since < WRAP // 2:
+                            deadline = 0.0  # past the hold: all of it is in
+                        continue
+                w = board_settings.wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
+                if math.hypot(*w[:3]) > self.gate:
+                    rows.append(w)
+        return (np.mean(rows, axis=0), len(rows)) if rows else (None, 0)
+
+    def _say(self, k, plan, point, why, fit):
+        if self.args.quiet:
+            return
+        where = "missed: " + why if point is None else "contact at (" + ", ".join(
+            f"{v:.4f}" for v in point) + ") m"  # fmt: skip
+        conf = f" {fit.confidence:.3f}" if fit.result is not None else ""
+        line = f"explore: touch {k} ({plan.why}): {where}; fit: {fit.label}{conf}"
+        print(printable(line), file=sys.stderr, flush=True)
+        for note in self.explorer.notes[len(getattr(self, "_said", ())) :]:
+            print(printable(f"explore: {note}"), file=sys.stderr, flush=True)
+        self._said = list(self.explorer.notes)
+
+    def _write(self):
+        """contacts.csv, explore.csv and meta.json, each replaced whole."""
+        ex, out = self.explorer, self.args.out
+        pts = np.array(ex.points).reshape(-1, 3)
+        nrm = np.array(ex.normals).reshape(-1, 3)
+        with atomic_write(f"{out}/contacts.csv", text=True) as fh:
+            fh.write(format_contacts(pts, nrm))
+        with atomic_write(f"{out}/explore.csv", text=True) as fh:
+            fh.write(explore_csv([f.row(i + 1) for i, f in enumerate(ex.fits)]))
+        with atomic_write(f"{out}/meta.json", text=True) as fh:
+            fh.write(json.dumps(self._meta(), indent=2) + "\n")
+
+    def _meta(self):
+        ex, a = self.explorer, self.args
+        fit = ex.fit
+        return {
+            "tactile_version": __version__,
+            "protocol_version": C.PROTOCOL_VERSION,
+            "command": sys.argv,
+            "port": a.port,
+            "robot": a.robot,
+            "started_at": self.started,
+            "ended": self.ended,
+            "device": self.device,
+            "options": {
+                "confidence": a.confidence,
+                "max_touches": a.max_touches,
+                "half_size_m": a.half_size,
+                "standoff_m": a.standoff,
+                "force_N": a.force,
+                "finger_radius_m": a.finger_radius,
+                "finger_offset_m": a.finger_offset,
+            },  # fmt: skip
+            "touches": ex.touches,
+            "contacts": len(ex.points),
+            "label": fit.label,
+            "confidence": _finite(fit.confidence),
+            "unknown": None if self.ended == "label" else unknown(fit, ex.touches),
+            "notes": list(ex.notes),
+            "units": {"lengths": "m", "forces": "N", "S": "1", "confidence": "1"},
+        }
+
+    def _publish_next(self, plan):
+        if self.live is not None:
+            ns = time.time_ns()
+            msg = contacts_update("next_touch", [plan.start], [plan.direction], ns)
+            self.live.topics.scene(NEXT_TOPIC, msg, ns)
+
+    def _publish(self, fit):
+        if self.live is None:
+            return
+        ex, ns = self.explorer, time.time_ns()
+        pts = np.array(ex.points).reshape(-1, 3)
+        self.live.topics.scene(CONTACTS_TOPIC, contacts_update("contacts", pts,
+                               np.array(ex.normals).reshape(-1, 3), ns), ns)  # fmt: skip
+        r = fit.result
+        record = r.to_dict(1) if r is not None else {"shape": None, "error": fit.refused}
+        mesh = patch_mesh(r) if r is not None and r.shape != "uncertain" else None
+        anchor = pts.mean(axis=0) if len(pts) else np.zeros(3)
+        self.live.topics.scene(PATCH_TOPIC, patch_update(record, mesh, anchor, len(pts), ns), ns)
+
+    def _close(self):
+        try:
+            if self.robot is not None and self.explorer is not None:
+                self.robot.pose()  # (a press is held until the next command: end it)
+        except BoardError:
+            pass
+        for part in (self.robot, self.client):
+            if part is not None:
+                part.close()
+        foxglove_args.stop(self.live, quiet=self.args.quiet)
+        if self.explorer is not None and self.explorer.touches:
+            self._write()
+
+    def _finish(self):
+        ex = self.explorer
+        fit = ex.fit
+        line = final_line(fit, ex.touches, self.ended)
+        if self.args.json:
+            row = fit.row(ex.touches)
+            s_iv = None if row["S_lo"] is None else [row["S_lo"], row["S_hi"]]
+            print(json.dumps(self._meta() | {"S": row["S"], "S_interval": s_iv}))
+        else:
+            print(printable(line))
+        if self.ended != "label":
+            raise DataError(f"explore: {unknown(fit, ex.touches)}")
+        return 0
+
+
+def final_line(fit, touches, ended):
+    """The result on one line."""
+    r = fit.result
+    s = ""
+    if r is not None and r.S is not None and r.S_interval:
+        s = f", S {r.S:.3f} in [{r.S_interval[0]:.3f}, {r.S_interval[1]:.3f}] (95 %)"
+    how = "confident" if ended == "label" else "not confident: the budget is spent"
+    conf = f" {fit.confidence:.3f}" if r is not None else ""
+    return f"{fit.label} (confidence{conf or ' none'}, {how}) after {touches} touches{s}"
+
+
+def explore_csv(rows):
+    """explore.csv's text: the units line, the header, a row per touch (``null``: none)."""
+    lines = [UNITS_LINE, ",".join(COLUMNS)]
+    for row in rows:
+        lines.append(",".join(_cell(row[c]) for c in COLUMNS))
+    return "\n".join(lines) + "\n"
+
+
+def _cell(v):
+    if v is None or isinstance(v, float) and not math.isfinite(v):
+        return "null"
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def _finite(v):
+    return v if isinstance(v, (int, float)) and math.isfinite(v) else None
