@@ -20,6 +20,7 @@ import json
 import math
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -36,7 +37,7 @@ from tactile.foxglove.scene import contacts_update, patch_mesh, patch_update
 from tactile.foxglove.topics import CONTACTS_TOPIC, PATCH_TOPIC
 from tactile.localize import format_contacts, pose_from_quaternion, sphere_contact, to_world
 from tactile.output.textout import printable
-from tactile.robot import RobotClient, parse_address
+from tactile.robot import RobotClient, RobotError, parse_address
 from tactile_protocol import constants as C
 from tactile_protocol import settings as board_settings
 
@@ -46,6 +47,7 @@ WRAP = 2**32  # the board's µs stamps wrap
 HOLD_S = 0.2  # a robot that does not know the board's clock: the hold read after its answer
 READ_S = 5.0  # longest wait for the hold's frames
 NEXT_TOPIC = "/tactile/next_touch"
+UNREACHABLE = ": unreachable"  # (the robot's line for a pose outside its reach, docs/robot.md)
 
 
 def add_arguments(parser):
@@ -120,7 +122,7 @@ class Run:
         self.args, self.address, self.clock = args, address, clock
         self.started = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
         self.client = self.robot = self.live = None
-        self.explorer, self.R, self.gate = None, np.eye(3), 0.0
+        self.explorer, self.R, self.gate, self.home = None, np.eye(3), 0.0, None
         self.rows, self.ended, self.device = [], "error", None
 
     def run(self):
@@ -140,7 +142,7 @@ class Run:
         self.client.tare()
         if not self.client.info.flags & C.CFG_STREAMING:
             self.client.start()
-        pose = self.robot.pose()
+        pose = self.home = self.robot.pose()
         R, t = pose_from_quaternion(pose.position_m, pose.quaternion, scalar_first=True)
         self.R = R
         pole = R[:, 0]  # the fingertip's pole: the touches come along it at first
@@ -169,10 +171,16 @@ class Run:
         centre = np.asarray(plan.start, float) - a.finger_radius * d  # the leading point
         origin = centre - a.finger_offset * self.R[:, 0]
         self._drain()
-        touch = self.robot.touch(tuple(origin), tuple(d), a.force, plan.max_travel)
+        try:
+            touch, msgs = self._reading(self.robot.touch, tuple(origin), tuple(d), a.force,
+                                        plan.max_travel)  # fmt: skip
+        except RobotError as exc:  # a start the arm cannot reach: a touch spent, go on
+            if UNREACHABLE not in str(exc):
+                raise
+            return None, None, str(exc)
         if not touch.touched:
             return None, None, f"no contact within {plan.max_travel:.4g} m"
-        wrench, n = self._hold(touch.t_us)
+        wrench, n = self._hold(touch.t_us, msgs)
         if wrench is None:
             return None, None, f"no frame above the gate ({self.gate:g} N) during the hold"
         R, t = pose_from_quaternion(touch.pose.position_m, touch.pose.quaternion,
@@ -184,6 +192,17 @@ class Run:
         p, nrm = to_world(R, t, c.point[0], c.normal[0])
         return p, nrm, None
 
+    def _reading(self, call, *args):
+        """``call(*args)`` (a robot command) while the board's stream is read: the emulated
+        arm answers once the board's clock has passed the motion, and the board's clock
+        waits for a host that reads.  Returns (its answer, the messages read meanwhile)."""
+        msgs = []
+        with ThreadPoolExecutor(1) as pool:
+            job = pool.submit(call, *args)
+            while not job.done():
+                msgs += self._feed(self.client.read_timed())
+            return job.result(), msgs
+
     def _drain(self):
         while self.client.waiting():
             self._feed(self.client.read_timed())
@@ -194,12 +213,13 @@ class Run:
             self.live.feed(msgs, arrivals=times)
         return msgs
 
-    def _hold(self, window):
+    def _hold(self, window, msgs):
         """Mean wrench (6,) in N, N*m of the SAMPLE frames of the hold above the gate, and
-        their count; (None, 0) if none.  ``window`` the board-clock (t0, t1) µs, or None."""
+        their count; (None, 0) if none.  ``window`` the board-clock (t0, t1) µs, or None;
+        ``msgs`` those read while the robot moved."""
         rows, deadline = [], self.clock() + (READ_S if window else HOLD_S)
         while self.clock() < deadline:
-            for m in self._feed(self.client.read_timed()):
+            for m in msgs or self._feed(self.client.read_timed()):
                 if m.type_code != C.MSG_SAMPLE:
                     continue
                 if window is not None:
@@ -211,6 +231,7 @@ class Run:
                 w = board_settings.wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
                 if math.hypot(*w[:3]) > self.gate:
                     rows.append(w)
+            msgs = None
         return (np.mean(rows, axis=0), len(rows)) if rows else (None, 0)
 
     def _say(self, k, plan, point, why, fit):
@@ -288,8 +309,8 @@ class Run:
 
     def _close(self):
         try:
-            if self.robot is not None and self.explorer is not None:
-                self.robot.pose()  # (a press is held until the next command: end it)
+            if self.robot is not None and self.home is not None:
+                self._reading(self.robot.move, self.home)  # (ends the press it holds)
         except BoardError:
             pass
         for part in (self.robot, self.client):
