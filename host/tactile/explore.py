@@ -203,11 +203,17 @@ class Explorer:
     def _used(self):
         return len(self.points) if self.keep is None else int(self.keep.sum())
 
-    def add(self, point, normal, plan=None):
-        """A contact (world); returns its ``Fit``.  ``point`` None: ``plan`` missed."""
+    def add(self, point, normal, plan=None, why=None):
+        """A contact (world); returns its ``Fit``.  ``point`` None: ``plan`` missed (``why``);
+        its aim (half its travel on) keeps later touches away."""
         if point is None:
-            self.missed.append(np.asarray(plan.start if plan else self.region.centre, float))
-            self.notes.append(f"touch {self.touches}: no contact within the travel")
+            aim = (
+                self.region.centre
+                if plan is None
+                else (np.asarray(plan.start) + 0.5 * plan.max_travel * np.asarray(plan.direction))
+            )
+            self.missed.append(np.asarray(aim, float))
+            self.notes.append(f"touch {self.touches}: {why or 'no contact within the travel'}")
             self.fits.append(self.fit)
             return self.fit
         self.points.append(np.asarray(point, float))

@@ -3,7 +3,9 @@
 The loop (``tactile.explore`` plans, docs/explore.md): the robot touches (``tactile.robot``:
 a start, a direction, a force, a travel limit) and holds; the board's SAMPLE frames of the
 hold above the board's contact gate are averaged; the spherical fingertip localises the
-contact (``tactile.localize.sphere_contact``, then the sensor's pose at the hold); EP2 refits
+contact (``--localise force``: the force's line through the fingertip's centre, frictionless as
+§5.1.1's probe; ``moment``: the line of action, valid with friction; then the sensor's pose at
+the hold); EP2 refits
 with intervals; the planner chooses the next touch.  It stops when the label is confident
 (``--confidence``) or ``--max-touches`` are spent, and then prints the label on one line:
 exit 0, or 3 with what is still unknown.
@@ -35,7 +37,13 @@ from tactile.files.atomic import atomic_write
 from tactile.files.folder_lock import hold
 from tactile.foxglove.scene import contacts_update, patch_mesh, patch_update
 from tactile.foxglove.topics import CONTACTS_TOPIC, PATCH_TOPIC
-from tactile.localize import format_contacts, pose_from_quaternion, sphere_contact, to_world
+from tactile.localize import (
+    format_contacts,
+    pose_from_quaternion,
+    sphere_contact,
+    sphere_contact_frictionless,
+    to_world,
+)
 from tactile.output.textout import printable
 from tactile.robot import RobotClient, RobotError, parse_address
 from tactile_protocol import constants as C
@@ -88,6 +96,13 @@ def add_arguments(parser):
         default=0.03,
         help="its centre along the sensor's +x axis (m; 0.03)",
     )
+    parser.add_argument(
+        "--localise",
+        choices=("force", "moment"),
+        default="force",
+        help="contact from the force alone (frictionless, §5.1.1; default) or"
+        " from the line of action (with friction)",
+    )
     parser.add_argument("--json", action="store_true", help="the result as one JSON object")
     add_quiet(parser)
     foxglove_args.add_arguments(parser)  # fmt: skip
@@ -111,8 +126,10 @@ def check(args):
 
 def run(args):
     address = check(args)
+    explore = Run(args, address)
+    explore.connect()  # (a board or robot that is not there leaves no run folder behind)
     with hold(args.out, create=True):
-        return Run(args, address).run()
+        return explore.run()
 
 
 class Run:
@@ -125,12 +142,19 @@ class Run:
         self.explorer, self.R, self.gate, self.home = None, np.eye(3), 0.0, None
         self.rows, self.ended, self.device = [], "error", None
 
-    def run(self):
+    def connect(self):
         try:
             self.client = connect(self.args)
             self.device = info_dict(self.client.info)
-            self.live = foxglove_args.start(self.args, self.device)
             self.robot = RobotClient(self.address)
+            self.home = self.robot.pose()
+        except BaseException:
+            self._close()
+            raise
+
+    def run(self):
+        try:
+            self.live = foxglove_args.start(self.args, self.device)
             self._start()
             self._loop()
         finally:
@@ -142,7 +166,7 @@ class Run:
         self.client.tare()
         if not self.client.info.flags & C.CFG_STREAMING:
             self.client.start()
-        pose = self.home = self.robot.pose()
+        pose = self.home
         R, t = pose_from_quaternion(pose.position_m, pose.quaternion, scalar_first=True)
         self.R = R
         pole = R[:, 0]  # the fingertip's pole: the touches come along it at first
@@ -158,7 +182,7 @@ class Run:
             plan = ex.plan()
             self._publish_next(plan)
             point, normal, why = self._touch(plan)
-            fit = ex.add(point, normal, plan)
+            fit = ex.add(point, normal, plan, why)
             self._say(ex.touches, plan, point, why, fit)
             self._write()
             self._publish(fit)
@@ -185,8 +209,12 @@ class Run:
             return None, None, f"no frame above the gate ({self.gate:g} N) during the hold"
         R, t = pose_from_quaternion(touch.pose.position_m, touch.pose.quaternion,
                                     scalar_first=True)  # fmt: skip
-        c = sphere_contact(wrench[None, :3], wrench[None, 3:], (a.finger_offset, 0.0, 0.0),
-                           a.finger_radius, self.gate)  # fmt: skip
+        centre = (a.finger_offset, 0.0, 0.0)
+        if a.localise == "force":
+            c = sphere_contact_frictionless(wrench[None, :3], centre, a.finger_radius, self.gate)
+        else:
+            c = sphere_contact(wrench[None, :3], wrench[None, 3:], centre, a.finger_radius,
+                               self.gate)  # fmt: skip
         if not c.usable[0]:
             return None, None, f"the hold's wrench ({n} frames) does not locate a contact"
         p, nrm = to_world(R, t, c.point[0], c.normal[0])
@@ -237,7 +265,7 @@ class Run:
     def _say(self, k, plan, point, why, fit):
         if self.args.quiet:
             return
-        where = "missed: " + why if point is None else "contact at (" + ", ".join(
+        where = "missed" if point is None else "contact at (" + ", ".join(
             f"{v:.4f}" for v in point) + ") m"  # fmt: skip
         conf = f" {fit.confidence:.3f}" if fit.result is not None else ""
         line = f"explore: touch {k} ({plan.why}): {where}; fit: {fit.label}{conf}"
@@ -278,6 +306,7 @@ class Run:
                 "force_N": a.force,
                 "finger_radius_m": a.finger_radius,
                 "finger_offset_m": a.finger_offset,
+                "localise": a.localise,
             },  # fmt: skip
             "touches": ex.touches,
             "contacts": len(ex.points),
@@ -309,7 +338,7 @@ class Run:
 
     def _close(self):
         try:
-            if self.robot is not None and self.home is not None:
+            if self.robot is not None and self.explorer is not None:
                 self._reading(self.robot.move, self.home)  # (ends the press it holds)
         except BoardError:
             pass
