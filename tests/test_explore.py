@@ -226,9 +226,11 @@ def test_cli_explores_the_emulated_sphere(cli, emulated, tmp_path):
 def test_cli_budget_spent_exits_3_saying_what_is_unknown(cli, emulated, tmp_path):
     port, robot = emulated
     out = tmp_path / "run"
+    fox = ["--foxglove", "--foxglove-port", "0"]
     code, stdout, stderr = cli("explore", "--port", port, "--robot", robot, "-o", out,
-                               "--max-touches", "4")  # fmt: skip
+                               "--max-touches", "4", *fox)  # fmt: skip
     assert code == 3
+    assert "foxglove: serving ws://127.0.0.1:" in stderr  # (contacts, patch, next touch live)
     assert "not confident: the budget is spent" in stdout and len(stdout.splitlines()) == 1
     assert "explore: after 4 touches" in stderr.splitlines()[-1]
     assert json.loads((out / "meta.json").read_text())["ended"] == "budget"

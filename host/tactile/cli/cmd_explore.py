@@ -36,7 +36,7 @@ from tactile.explore import Explorer, Region, unknown
 from tactile.files.atomic import atomic_write
 from tactile.files.folder_lock import hold
 from tactile.foxglove.scene import contacts_update, patch_mesh, patch_update
-from tactile.foxglove.topics import CONTACTS_TOPIC, PATCH_TOPIC
+from tactile.foxglove.topics import CONTACTS_TOPIC, NEXT_TOUCH_TOPIC, PATCH_TOPIC
 from tactile.localize import (
     format_contacts,
     pose_from_quaternion,
@@ -54,7 +54,6 @@ UNITS_LINE = "# units: 1 (touch: a count; S, S_lo, S_hi: shape index; confidence
 WRAP = 2**32  # the board's µs stamps wrap
 HOLD_S = 0.2  # a robot that does not know the board's clock: the hold read after its answer
 READ_S = 5.0  # longest wait for the hold's frames
-NEXT_TOPIC = "/tactile/next_touch"
 UNREACHABLE = ": unreachable"  # (the robot's line for a pose outside its reach, docs/robot.md)
 
 
@@ -321,7 +320,7 @@ class Run:
         if self.live is not None:
             ns = time.time_ns()
             msg = contacts_update("next_touch", [plan.start], [plan.direction], ns)
-            self.live.topics.scene(NEXT_TOPIC, msg, ns)
+            self.live.topics.scene(NEXT_TOUCH_TOPIC, msg, ns)
 
     def _publish(self, fit):
         if self.live is None:
