@@ -19,14 +19,11 @@ directions to steer it (§6.2.2, "curvature flow"), the shapes still feasible to
    S band's share of the vote, or a plane's test) at least ``confidence``, and at least
    ``MIN_TOUCHES`` contacts; or when the budget is spent, saying what is still unknown
    (``unknown``).
-5. **Edges.**  From ``edges.MIN_POINTS`` contacts on, ``tactile.ep2.edges.find`` looks for two
-   faces; a touch that lands across an edge is named, and exploration keeps to the face of
-   the first touch (§6.2.2: "a new EP could be performed for each side of the discontinuity").
+5. **Edges.**  From ``edges.MIN_POINTS`` contacts on, ``edges.find`` looks for two faces; a touch
+   across an edge is named, and exploration keeps to the first touch's face (§6.2.2).
 
 EP1's roll direction (``next_roll``): along the principal direction whose curvature the probes
-so far know least (eqs. 29-33, Euler's equation, eq. 64).
-
-Lengths are in the caller's unit throughout (the CLI's: m).
+so far know least (eqs. 29-33, Euler's equation, eq. 64).  Lengths: the caller's unit.
 """
 
 import math
@@ -99,11 +96,9 @@ class Fit:
     def row(self, touch):
         """explore.csv's row: touch, S, S_lo, S_hi, shape, confidence (None: no value)."""
         r = self.result
-        s = r.S if r is not None else None
         lo, hi = r.S_interval if r is not None and r.S_interval else (None, None)
-        conf = round(self.confidence, 6) if r is not None else None
-        return {"touch": touch, "S": s, "S_lo": lo, "S_hi": hi, "shape": self.label,
-                "confidence": conf}  # fmt: skip
+        return {"touch": touch, "S": r and r.S, "S_lo": lo, "S_hi": hi, "shape": self.label,
+                "confidence": r and round(self.confidence, 6)}  # fmt: skip
 
 
 def fit_of(points, normals, confidence=0.95, **options):
@@ -129,12 +124,8 @@ def fit_of(points, normals, confidence=0.95, **options):
 
 def confident(fit, n, confidence=0.95, min_touches=MIN_TOUCHES):
     """Whether ``fit`` of ``n`` contacts ends the exploration."""
-    return (
-        fit.result is not None
-        and fit.label not in ("uncertain", "refused", "edge", "none")
-        and fit.confidence >= confidence
-        and n >= min_touches
-    )
+    named = fit.result is not None and fit.label != "uncertain"
+    return named and fit.confidence >= confidence and n >= min_touches
 
 
 def unknown(fit, n):
@@ -257,8 +248,7 @@ class Explorer:
 
     def plan(self):
         """The next ``TouchPlan``."""
-        n = len(self.points)
-        fit = self.fit
+        n, fit = len(self.points), self.fit
         if fit.result is None and n < 1 + len(SEED) and not self.missed:
             start = seed_points(self.region, n + 1)[-1]
             return self._down(start, None, f"seed {n + 1}")
@@ -268,8 +258,7 @@ class Explorer:
         return self._best(fit.result, pts)
 
     def _down(self, start, uv, why):
-        n = np.asarray(self.region.normal, float)
-        d = -_unit(n)
+        d = -_unit(np.asarray(self.region.normal, float))
         return TouchPlan(tuple(start), tuple(d), 2.0 * self.region.standoff, uv, why)
 
     def _farthest(self, pts):
@@ -277,10 +266,8 @@ class Explorer:
         e1, e2, n = self.region.axes()
         g = np.linspace(-self.region.half, self.region.half, GRID)
         xy = np.array([(a, b) for a in g for b in g])
-        have = self.region.local(pts) if len(pts) else np.zeros((0, 2))
-        gap = np.min(np.linalg.norm(xy[:, None] - have[None], axis=-1), axis=1) if len(pts) \
-            else np.ones(len(xy))  # fmt: skip
-        x, y = xy[int(np.argmax(gap))]
+        have = np.vstack([self.region.local(pts), [[np.inf, np.inf]]])  # (none: any will do)
+        x, y = xy[int(np.argmax(np.min(np.linalg.norm(xy[:, None] - have[None], axis=-1), 1)))]
         c = np.asarray(self.region.centre, float)
         return c + x * e1 + y * e2 + self.region.standoff * n
 
