@@ -105,8 +105,9 @@ def touch(obj, plan, rng, noise_pos, noise_normal):
     return p + noise_pos * rng.standard_normal(3), _tilt_normals(n, noise_normal, rng)[0]
 
 
-def truth_label(obj):
-    s = true_s(obj, 0.0, 0.0)
+def truth_label(obj, r):
+    """The band of the true S at the fit's patch centre (the label's point)."""
+    s = centre_s(obj, r)
     return "plane" if s is None else S_NAMES[int(s_class(s))]
 
 
@@ -124,7 +125,7 @@ def run_explore(obj, spec, seed):
     opts = {"noise_pos": spec[4], "noise_normal": spec[5]}
     ex = Explorer(Region((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), HALF, STANDOFF), max_touches=BUDGET,
                   options=opts)  # fmt: skip
-    want, first, wrong, at_stop, trace = truth_label(obj), None, False, None, []
+    first, wrong, at_stop, trace = None, False, None, []
     while ex.touches < BUDGET:  # on past the stop: the error after the same budget as fixed
         plan = ex.plan()
         p, n = touch(obj, plan, rng, spec[4], spec[5])
@@ -132,7 +133,8 @@ def run_explore(obj, spec, seed):
         r = fit.result
         trace.append((ex.touches, r.S if r else None, r.S_interval if r else None, fit.label))
         if ex.done() == "label" and first is None and not wrong:
-            first, wrong = (ex.touches, False) if fit.label == want else (None, True)
+            good = fit.label == truth_label(obj, r)
+            first, wrong = (ex.touches, False) if good else (None, True)
             at_stop = s_error(obj, r)
     return first, wrong, at_stop, s_error(obj, ex.fit.result), trace
 
@@ -148,7 +150,7 @@ def run_fixed(obj, spec, seed):
               origin=(-2.5, -3.0), noise_pos=spec[4], noise_normal=spec[5], seed=seed)  # fmt: skip
     fit = fit_of(d["points"], d["normals"], noise_pos=spec[4], noise_normal=spec[5])
     ok = fit.result is not None and fit.label not in ("uncertain",) and fit.confidence >= 0.95
-    want = truth_label(obj)
+    want = truth_label(obj, fit.result) if fit.result is not None else None
     return (18 if ok and fit.label == want else None), ok and fit.label != want, s_error(obj,
             fit.result)  # fmt: skip
 

@@ -22,8 +22,8 @@ directions to steer it (§6.2.2, "curvature flow"), the shapes still feasible to
 5. **Edges.**  From ``edges.MIN_POINTS`` contacts on, ``edges.find`` looks for two faces; a touch
    across an edge is named, and exploration keeps to the first touch's face (§6.2.2).
 
-EP1's roll direction (``next_roll``): along the principal direction whose curvature the probes
-so far know least (eqs. 29-33, Euler's equation, eq. 64).  Lengths: the caller's unit.
+EP1's roll direction (``next_roll``): along the principal direction whose roll tells most about
+the principal curvatures (eqs. 29-33, Euler's equation, eq. 64).  Lengths: the caller's unit.
 """
 
 import math
@@ -359,11 +359,12 @@ def next_roll(dtheta, dp, finger_radius, u0=0.0):
     (x, y) the contact moves along (= (-sin phi, cos phi)).
 
     With fewer than two independent directions: x, then the direction across those rolled.
-    Otherwise, along the principal direction of the current estimate (eqs. 29-33) whose
-    curvature the design knows least: probe i's rows of eq. 33 give S = (K1 + K2~)^-1 the
-    covariance s^2 (A^T A)^-1, the principal value s_w = w^T S w (eq. 64's form) a variance
-    g^T C g, g = (w_x^2, 2 w_x w_y, w_y^2), and the curvature kappa = 1/s - 1/R1 that variance
-    over s^4.  A roll along w adds rows measuring S w directly.
+    Otherwise along a principal direction of the current estimate (eqs. 29-33; §6.2.1: two
+    directions give eq. 64's principal curvatures): the one whose roll leaves the least total
+    variance of the two principal curvatures, the design's A-optimal choice.  Probe i's rows
+    of eq. 33 give S = (K1 + K2~)^-1 the covariance s^2 (A^T A)^-1; a principal value
+    s_w = w^T S w the variance g^T C g, g = (w_x^2, 2 w_x w_y, w_y^2); kappa = 1/s - 1/R1 that
+    over s^4.  A roll along w adds eq. 33's rows for a = |a| w, measuring S w.
     """
     th = np.asarray(dtheta, float).reshape(-1, 2)
     p = np.asarray(dp, float).reshape(-1, 2)
@@ -375,25 +376,25 @@ def next_roll(dtheta, dp, finger_radius, u0=0.0):
     if len(dirs) < 2 or np.linalg.svd(dirs, compute_uv=False)[-1] < 1e-3:
         base = dirs[0] if len(dirs) else np.array([0.0, 1.0])
         return _roll(np.array([-base[1], base[0]]), "seed: across the directions rolled")
-    A = np.concatenate([np.column_stack([a, np.zeros(len(a))]),
-                        np.column_stack([np.zeros(len(a)), a])])  # fmt: skip
+    A = _eq33_rows(a)
     b = np.concatenate([finger_radius * p[:, 0], finger_radius * math.cos(u0) * p[:, 1]])
     k, *_ = np.linalg.lstsq(A, b, rcond=None)
-    cov = np.linalg.pinv(A.T @ A)
-    S = np.array([[k[0], k[1]], [k[1], k[2]]])
-    s, vec = np.linalg.eigh(S)
-    var = []
-    for j in range(2):
-        w = vec[:, j]
-        g = np.array([w[0] ** 2, 2 * w[0] * w[1], w[1] ** 2])
-        var.append(float(g @ cov @ g) / max(s[j] ** 4, 1e-300))
-    j = int(np.argmax(var))
-    kappa = 1.0 / s[j] - 1.0 / finger_radius if s[j] != 0 else math.inf
-    return _roll(vec[:, j], f"along the least-known principal direction (curvature {kappa:.3g})")
+    s, vec = np.linalg.eigh(np.array([[k[0], k[1]], [k[1], k[2]]]))
+    g = np.stack([vec[0] ** 2, 2 * vec[0] * vec[1], vec[1] ** 2]) / np.maximum(s**2, 1e-300)
+    rolls = (np.vstack([A, _eq33_rows(np.mean(norms) * vec[:, j][None])]) for j in (0, 1))
+    total = [np.einsum("ij,ik,kj->", g, np.linalg.pinv(m.T @ m), g) for m in rolls]
+    best = int(np.argmin(total))  # (the total variance of kappa_1, kappa_2 after each roll)
+    kappa = 1.0 / s[best] - 1.0 / finger_radius if s[best] != 0 else math.inf
+    return _roll(vec[:, best], f"along the principal direction that tells most (curvature"
+                 f" {kappa:.3g})")  # fmt: skip
+
+
+def _eq33_rows(a):
+    """Eq. 33's two rows per probe, a = (-dtheta_y, dtheta_x) (k, 2), in (k1, k2, k3)."""
+    return np.concatenate([np.pad(a, ((0, 0), (0, 1))), np.pad(a, ((0, 0), (1, 0)))])
 
 
 def _roll(motion, why):
     m = _unit(np.asarray(motion, float))
-    if m[0] < 0 or (m[0] == 0 and m[1] < 0):
-        m = -m  # (a direction, not a sense)
+    m = -m if m[0] < 0 or (m[0] == 0 and m[1] < 0) else m  # (a direction, not a sense)
     return math.atan2(-m[0], m[1]), (float(m[0]), float(m[1])), why
