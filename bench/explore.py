@@ -1,7 +1,7 @@
 """``tactile explore``'s planner against the thesis's fixed 3 x 6 plan, in process.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/explore.py [--split tune|holdout]
-     [--seeds 20] [--plots DIR] [--ep1]
+     [--seeds 20] [--plots DIR (out/explore)] [--ep1]
 
 Objects: the EP2 families (``tactile_sim.ep2.objects``: sphere, cylinder, concave cylinder,
 pit, saddle, plane) in the tables 5-7 setup of docs/ep2.md (lengths in cm: a 5 x 6 cm patch,
@@ -17,7 +17,8 @@ noise (seeds 1000..), for the final table only.
 
 Per object: touches to a confident correct label (median, max; "-" never), the share within 9,
 confident wrong labels, and RMS S error at the end against the truth at each one's patch
-centre.  ``--plots DIR``: per object, S with its interval against touches (one seed).
+centre.  ``--plots DIR`` (out/explore): per object, S with its interval against touches (the
+first seed), ``explore_SPLIT_OBJECT.png``.
 ``--ep1``: EP1's next roll (``tactile.explore.next_roll``) against the fixed "+" pattern on
 the rolling model (``tactile_sim.ep1``).
 """
@@ -264,7 +265,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--split", choices=sorted(SPLITS), default="tune")
     ap.add_argument("--seeds", type=int, default=20)
-    ap.add_argument("--plots", help="folder for the per-object plots (PNG)")
+    ap.add_argument(
+        "--plots",
+        default="out/explore",
+        help="folder for the per-object plots (PNG; out/explore); '' for none",
+    )
     ap.add_argument("--ep1", action="store_true", help="also the EP1 roll-direction table")
     args = ap.parse_args()
     t0 = time.process_time()
