@@ -251,3 +251,26 @@ def test_cli_bad_options_exit_2(cli, tmp_path, args, says):
     argv = [x for kv in base.items() for x in kv]
     code, _, stderr = cli("explore", *argv, "-o", tmp_path / "r")
     assert code == 2 and says in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_the_hold_is_the_frames_of_its_window_above_the_gate_across_a_wrap():
+    from tactile.board.messages import Contact, Sample
+    from tactile.cli.cmd_explore import hold_wrench
+
+    def sample(t_us, fz_N):
+        return Sample(0, t_us % 2**32, 0, 0, 0, 0, round(fz_N * 1e6), 1000, 0, 0)
+
+    t0 = 2**32 - 3000  # the board's µs stamps wrap inside the hold
+    before = [sample(t0 - 1000, 9.0)]  # a frame before the hold: not in it
+    hold = [sample(t0 + k * 2000, 3.0 + 0.1 * k) for k in range(4)]  # 3.0 .. 3.3 N
+    light = [sample(t0 + 500, 0.5)]  # under the gate
+    other = [Contact(0, t0 + 700, 0, 1, 1, 0, 0, 0, 9_000_000, 0, 0, 0)]  # not a SAMPLE
+    after = [sample(t0 + 9000, 9.0)]  # past the hold: reading stops
+    late = [sample(t0 + 100, 50.0)]  # a batch after the one past the hold: never read
+    batches = iter([before + hold[:2], light + other + hold[2:] + after, late])
+    w, n = hold_wrench(batches, (t0, (t0 + 6000) % 2**32), 1.39)
+    assert n == 4 and w[2] == pytest.approx(3.15) and w[3] == pytest.approx(1e-3)
+    assert next(batches) is late
+    w, n = hold_wrench(iter([light + hold]), None, 1.39)  # no window: every frame of the read
+    assert n == 4 and w[2] == pytest.approx(3.15)
+    assert hold_wrench(iter([light]), None, 1.39) == (None, 0)

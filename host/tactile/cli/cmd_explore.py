@@ -203,7 +203,7 @@ class Run:
             return None, None, str(exc)
         if not touch.touched:
             return None, None, f"no contact within {plan.max_travel:.4g} m"
-        wrench, n = self._hold(touch.t_us, msgs)
+        wrench, n = hold_wrench(self._batches(msgs, touch.t_us), touch.t_us, self.gate)
         if wrench is None:
             return None, None, f"no frame above the gate ({self.gate:g} N) during the hold"
         R, t = pose_from_quaternion(touch.pose.position_m, touch.pose.quaternion,
@@ -240,26 +240,13 @@ class Run:
             self.live.feed(msgs, arrivals=times)
         return msgs
 
-    def _hold(self, window, msgs):
-        """Mean wrench (6,) in N, N*m of the SAMPLE frames of the hold above the gate, and
-        their count; (None, 0) if none.  ``window`` the board-clock (t0, t1) µs, or None;
-        ``msgs`` those read while the robot moved."""
-        rows, deadline = [], self.clock() + (READ_S if window else HOLD_S)
+    def _batches(self, first, window):
+        """``first`` (what was read while the robot moved), then what the board sends, for
+        ``READ_S`` (``HOLD_S`` for a robot that does not know the board's clock)."""
+        yield first
+        deadline = self.clock() + (READ_S if window else HOLD_S)
         while self.clock() < deadline:
-            for m in msgs or self._feed(self.client.read_timed()):
-                if m.type_code != C.MSG_SAMPLE:
-                    continue
-                if window is not None:
-                    since = (m.timestamp_us - window[0]) % WRAP
-                    if since > (window[1] - window[0]) % WRAP:
-                        if since < WRAP // 2:
-                            deadline = 0.0  # past the hold: all of it is in
-                        continue
-                w = board_settings.wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
-                if math.hypot(*w[:3]) > self.gate:
-                    rows.append(w)
-            msgs = None
-        return (np.mean(rows, axis=0), len(rows)) if rows else (None, 0)
+            yield self._feed(self.client.read_timed())
 
     def _say(self, k, plan, point, why, fit):
         if self.args.quiet:
@@ -361,6 +348,30 @@ class Run:
         if self.ended != "label":
             raise DataError(f"explore: {unknown(fit, ex.touches)}")
         return 0
+
+
+def hold_wrench(batches, window, gate_N):
+    """Mean wrench (6,) in N, N*m of the SAMPLE frames of a hold whose force exceeds
+    ``gate_N``, and their count; (None, 0) if none.  ``batches`` yields lists of messages;
+    ``window`` the hold's board-clock (t0, t1) µs (stamps wrap at 2^32), read until a frame
+    past it arrives; None: every frame of every batch."""
+    rows = []
+    for msgs in batches:
+        past = False
+        for m in msgs:
+            if m.type_code != C.MSG_SAMPLE:
+                continue
+            if window is not None:
+                since = (m.timestamp_us - window[0]) % WRAP
+                if since > (window[1] - window[0]) % WRAP:
+                    past |= since < WRAP // 2  # after the hold (before it: an old frame)
+                    continue
+            w = board_settings.wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
+            if math.hypot(*w[:3]) > gate_N:
+                rows.append(w)
+        if past:
+            break
+    return (np.mean(rows, axis=0), len(rows)) if rows else (None, 0)
 
 
 def final_line(fit, touches, ended):
