@@ -142,6 +142,7 @@ class CommandedMotion:
         t = max(_us(now_s), self.end_s)
         if self.pressed is not None:
             depth, d = self.pressed
+            self._key(t, self._w[-1])  # pressed until now
             t = self._key(t + max(depth / self.cfg["speed_mps"], RAMP_MIN_S), np.zeros(6))
             self.p = self.p - depth * d
             self.pressed = None
