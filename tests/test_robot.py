@@ -19,7 +19,7 @@ from tactile.robot import Pose, RobotClient, RobotError, parse_address
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.orientation import matrix
 from tactile_sim.emulator.robot_server import EmulatedArm, RobotServer, board_waiter
-from tactile_sim.emulator.scene import SCENE_DIR, Scene
+from tactile_sim.emulator.scene import SCENE_DIR, Scene, load_scene
 from tactile_sim.emulator.servers import server_for
 
 H = math.sqrt(0.5)
@@ -464,3 +464,21 @@ def test_emulate_serves_the_arm_only_for_a_commanded_scene(cli):
     assert code == 0 and path.startswith("/dev/pts/")
     host, port = parse_address(address)
     assert host == "127.0.0.1" and port > 0
+
+
+@pytest.mark.parametrize(
+    ("motion", "why"),
+    [
+        ("home_m = [0.0, 0.0, 0.0]", "[motion] home_m: unreachable home_m: the fingertip would be"),
+        ("home_m = [0.0, 0.0, 0.2]", "[motion] home_m: unreachable home_m: fingertip centre"),
+        ("workspace_max_m = [0.03, -0.04, 0.06]", "[motion] workspace_max_m: y must be >"),
+        ('object = "plane"\nfinger_radius_m = 0.0', "[motion] finger_radius_m: must be finite, >"),
+    ],
+)
+def test_a_commanded_scene_that_cannot_be_is_one_line_exit_2(tmp_path, motion, why):
+    path = tmp_path / "arm.toml"
+    path.write_text(f'[motion]\nkind = "commanded"\n{motion}\n', encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        EmulatedArm(load_scene(path))
+    assert err.value.exit_code == 2 and "\n" not in str(err.value)
+    assert str(err.value).startswith(f"{path}: {why}"), str(err.value)
