@@ -482,3 +482,15 @@ def test_a_commanded_scene_that_cannot_be_is_one_line_exit_2(tmp_path, motion, w
         EmulatedArm(load_scene(path))
     assert err.value.exit_code == 2 and "\n" not in str(err.value)
     assert str(err.value).startswith(f"{path}: {why}"), str(err.value)
+
+
+def test_a_bad_pose_is_bad_input_and_a_taken_address_is_refused():
+    with pytest.raises(InputError, match="quaternion: must have unit length") as err:
+        Pose((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.1))
+    assert err.value.exit_code == 2
+    with pytest.raises(InputError, match=r"position_m\[1\]: must be finite"):
+        Pose((0.0, math.inf, 0.0))
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        with pytest.raises(InputError, match=f"--robot 127.0.0.1:{port}: cannot listen there"):
+            RobotServer(_arm(), "127.0.0.1", port)

@@ -39,8 +39,9 @@ class RobotError(BoardError):
     """The robot refused a command, answered nonsense, or could not be reached (exit 4)."""
 
 
-class WireError(ValueError):
-    """A line of the robot protocol that is not what it must be (the message is one line)."""
+class WireError(InputError):
+    """A value of the robot protocol that is not what it must be: a bad ``Pose`` or touch
+    argument is bad input (exit 2); the client turns a bad answer into a RobotError."""
 
 
 @dataclasses.dataclass(frozen=True)
