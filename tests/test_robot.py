@@ -4,7 +4,10 @@ in one line while the server serves on, and a touch seen in the board's decoded 
 
 import json
 import math
+import os
 import socket
+import subprocess
+import sys
 import threading
 import tomllib
 
@@ -494,3 +497,37 @@ def test_a_bad_pose_is_bad_input_and_a_taken_address_is_refused():
         port = taken.getsockname()[1]
         with pytest.raises(InputError, match=f"--robot 127.0.0.1:{port}: cannot listen there"):
             RobotServer(_arm(), "127.0.0.1", port)
+
+
+def test_tactile_emulate_robot_end_to_end(tmp_path):
+    """``tactile emulate SCENE --robot 127.0.0.1:0 --pose-log``, a process: a touch over TCP
+    while a host reads the board's port, and the pose log's row for its hold."""
+    log = tmp_path / "poses.csv"
+    cmd = [sys.executable, "-m", "tactile.cli.main", "emulate", "explore_cylinder", "--fast",
+           "--robot", "127.0.0.1:0", "--pose-log", str(log)]  # fmt: skip
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))  # this checkout's sources
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    try:
+        path = proc.stdout.readline().decode().strip()
+        address = proc.stdout.readline().decode().strip()
+        port = serial.Serial(path, timeout=0.02)
+        result = {}
+
+        def command():
+            with RobotClient(address, timeout_s=30) as client:
+                result["touch"] = client.touch((0.0, 0.0, 0.06), (0, 0, -1), 5.0, 0.05)
+
+        worker = threading.Thread(target=command)
+        worker.start()
+        while worker.is_alive():  # a host reading, so the fast board's time runs
+            port.read(4096)
+        port.close()
+    finally:
+        proc.terminate()
+        _, err = proc.communicate(timeout=30)
+    touch = result["touch"]
+    assert touch.touched and touch.force_N == pytest.approx(5.0)
+    rows = read_pose_log(log)
+    assert (rows.t_start[0], rows.t_end[0]) == touch.t_us and len(rows) == 1
+    np.testing.assert_allclose(rows.position[0], touch.pose.position_m, atol=1e-15)
+    assert b"Traceback" not in err
