@@ -146,8 +146,9 @@ def test_a_robot_that_hangs_up_or_never_answers_is_exit_4(fake):
     client = RobotClient(robot.address, timeout_s=0.2)
     with pytest.raises(BoardTimeout) as late:
         client.pose()
-    client.close()
     assert late.value.exit_code == 4 and "no answer within 0.2 s" in str(late.value)
+    with pytest.raises(RobotError, match="the connection is closed"):  # not a late answer
+        client.pose()
 
 
 def test_nobody_listening_is_exit_4_with_a_hint():
