@@ -280,7 +280,7 @@ def test_the_press_holds_until_the_next_command_and_a_move_lets_go():
     assert np.linalg.norm(held[:3]) == pytest.approx(4.0)
     np.testing.assert_allclose(m.wrench_at(touch.t_us[1] * 1e-6 + 10.0), held)
     now[0] = touch.t_us[1] + 10_000_000  # the board's clock 10 s on: the next command
-    turned = (math.cos(0.3), 0.0, math.sin(0.3) * H * 2**0.5, 0.0)
+    turned = (math.cos(0.3), 0.0, math.sin(0.3), 0.0)  # 0.6 rad about y
     target = Pose((0.0, 0.01, 0.09), turned)
     arm.move(Pose((0.0, 0.01, 0.05), DOWN))  # backs out first, so the path is clear
     np.testing.assert_allclose(m.wrench_at(now[0] * 1e-6), held)  # still pressed at its start
