@@ -29,7 +29,7 @@ from tactile.errors import BoardError, BoardTimeout, InputError
 
 __all__ = ["MAX_LINE_BYTES", "Pose", "Robot", "RobotClient", "RobotError", "Touch",
            "WireError", "parse_address", "pose_from_wire", "pose_to_wire", "read_line",
-           "touch_from_wire", "touch_to_wire"]  # fmt: skip
+           "touch_from_wire", "touch_request", "touch_to_wire"]  # fmt: skip
 
 MAX_LINE_BYTES = 64 * 1024  # one request or answer; a pose is ~100 bytes
 UNIT_TOLERANCE = 1e-6  # |q| must be 1 within this; the quaternion is then renormalised
@@ -39,8 +39,9 @@ class RobotError(BoardError):
     """The robot refused a command, answered nonsense, or could not be reached (exit 4)."""
 
 
-class WireError(ValueError):
-    """A line of the robot protocol that is not what it must be (the message is one line)."""
+class WireError(InputError):
+    """A value of the robot protocol that is not what it must be: a bad ``Pose`` or touch
+    argument is bad input (exit 2); the client turns a bad answer into a RobotError."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -261,11 +262,13 @@ class RobotClient:
         try:
             self._sock.sendall(json.dumps(request, allow_nan=False).encode() + b"\n")
             line = read_line(self._reader)
-        except TimeoutError:
+        except TimeoutError:  # (a late answer would be taken for the next one's: let go)
+            self.close()
             raise BoardTimeout(f"{self.name}: no answer within {self.timeout_s:g} s") from None
         except WireError as exc:
             raise RobotError(f"{self.name}: {exc}") from None
         except OSError as exc:
+            self.close()
             raise RobotError(f"{self.name}: connection lost ({exc.strerror or exc})") from None
         if not line:
             raise RobotError(f"{self.name}: the robot closed the connection")

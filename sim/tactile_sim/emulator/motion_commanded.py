@@ -39,7 +39,8 @@ import math
 import numpy as np
 
 from tactile.logs.robot_log import write_log
-from tactile_sim.emulator.orientation import Track, quaternion, turn
+from tactile.robot import RobotError
+from tactile_sim.emulator.orientation import Track, matrix, quaternion, turn
 from tactile_sim.ep2.fingertip_contact import first_contact, gap
 from tactile_sim.ep2.objects import make
 
@@ -51,8 +52,9 @@ CLEAR_M = 1e-9  # the fingertip may graze the object, not enter it
 DOWN = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
 
 
-class Unreachable(ValueError):
-    """A pose the arm cannot take: outside the workspace, or the fingertip in the object."""
+class Unreachable(RobotError):
+    """A pose the arm cannot take: outside the workspace, or the fingertip in the object
+    (exit 4, as a real arm's refusal; the line server answers it in one line)."""
 
 
 def _us(t_s):
@@ -142,6 +144,7 @@ class CommandedMotion:
         t = max(_us(now_s), self.end_s)
         if self.pressed is not None:
             depth, d = self.pressed
+            self._key(t, self._w[-1])  # pressed until now
             t = self._key(t + max(depth / self.cfg["speed_mps"], RAMP_MIN_S), np.zeros(6))
             self.p = self.p - depth * d
             self.pressed = None
@@ -172,8 +175,15 @@ class CommandedMotion:
         self.R, self.p = np.asarray(R, float), np.asarray(p, float)
         return end
 
-    def move(self, R, p, now_s):
-        """Go to the sensor pose (R, p); the time (s) the arm gets there."""
+    def pose(self):
+        """(position (3,), quaternion (w, x, y, z)) of the sensor, world from sensor, where
+        the last command leaves it."""
+        return self.p.copy(), quaternion(self.R)
+
+    def move(self, q, p, now_s):
+        """Go to the sensor pose (unit quaternion q, world from sensor; position p); the time
+        (s) the arm gets there."""
+        R = matrix(q)
         self.check(R, p)
         t = self._travel(self._begin(now_s), R, p)
         self.end_s = t

@@ -35,8 +35,8 @@ from tactile.robot import (
     touch_to_wire,
 )
 from tactile_protocol.errors import InputError, TactileError
-from tactile_sim.emulator.motion_commanded import CommandedMotion, Unreachable, build
-from tactile_sim.emulator.orientation import matrix, quaternion
+from tactile_sim.emulator.device import build_motion
+from tactile_sim.emulator.scene import Scene
 
 __all__ = ["EmulatedArm", "RobotServer", "board_waiter"]
 
@@ -65,16 +65,17 @@ def board_waiter(board_us, stall_s=STALL_S, sleep=time.sleep, clock=time.monoton
 
 
 class EmulatedArm:
-    """A ``Robot`` over a ``commanded`` scene (a ``Scene`` or its built motion)."""
+    """A ``Robot`` over a ``commanded`` scene (a ``Scene``, or the motion an
+    ``EmulatedBoard`` built of one).  A pose it cannot take is a ``RobotError``."""
 
     def __init__(self, scene, clock=lambda: 0, wait=None, pose_log=None, at_us=0):
-        if isinstance(scene, CommandedMotion):
+        if not isinstance(scene, Scene):
             self.motion = scene
         elif scene.motion["kind"] != "commanded":
             raise InputError(f"{scene.path}: [motion] kind: the arm needs kind = "
                              f"\"commanded\", got {scene.motion['kind']!r}")  # fmt: skip
         else:
-            self.motion = build(scene)
+            self.motion = build_motion(scene)
         self.clock, self.wait, self.pose_log, self.at_us = clock, wait, pose_log, at_us
         self.lock = threading.Lock()  # one command at a time, whoever asks
 
@@ -87,15 +88,12 @@ class EmulatedArm:
             self.wait(self.at_us + round(end_s * 1e6))
 
     def pose(self):
-        m = self.motion
-        return Pose(tuple(m.p.tolist()), tuple(quaternion(m.R).tolist()))
+        p, q = self.motion.pose()
+        return Pose(tuple(p.tolist()), tuple(q.tolist()))
 
     def move(self, pose):
         with self.lock:
-            try:
-                end = self.motion.move(matrix(pose.quaternion), pose.position_m, self._now_s())
-            except Unreachable as exc:
-                raise RobotError(str(exc)) from None
+            end = self.motion.move(pose.quaternion, pose.position_m, self._now_s())
             self._done(end)
             return self.pose()
 
@@ -105,10 +103,7 @@ class EmulatedArm:
         except WireError as exc:
             raise InputError(f"touch: {exc}") from None
         with self.lock:
-            try:
-                touched, moved, f, hold = self.motion.touch(p, d, force, travel, self._now_s())
-            except Unreachable as exc:
-                raise RobotError(str(exc)) from None
+            touched, moved, f, hold = self.motion.touch(p, d, force, travel, self._now_s())
             t_us = None
             if hold is not None:
                 t_us = tuple(self.at_us + round(t * 1e6) for t in hold)
