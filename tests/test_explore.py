@@ -274,3 +274,15 @@ def test_the_hold_is_the_frames_of_its_window_above_the_gate_across_a_wrap():
     w, n = hold_wrench(iter([light + hold]), None, 1.39)  # no window: every frame of the read
     assert n == 4 and w[2] == pytest.approx(3.15)
     assert hold_wrench(iter([light]), None, 1.39) == (None, 0)
+
+
+def test_cli_a_start_the_arm_cannot_reach_is_a_touch_spent(cli, emulated, tmp_path):
+    port, robot = emulated
+    out = tmp_path / "run"  # seeds 0.035 m off the centre: outside the arm's +-0.03 m
+    code, stdout, stderr = cli("explore", "--port", port, "--robot", robot, "-o", out,
+                               "--max-touches", "3", "--half-size", "0.05")  # fmt: skip
+    assert code == 3 and "after 3 touches" in stdout
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["touches"] == 3 and meta["contacts"] == 1
+    assert sum("unreachable start" in n for n in meta["notes"]) == 2
+    assert len((out / "explore.csv").read_text().splitlines()) == 2 + 3
