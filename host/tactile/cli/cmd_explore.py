@@ -44,6 +44,7 @@ from tactile.localize import (
     sphere_contact_frictionless,
     to_world,
 )
+from tactile.output.jsonout import clean, dumps
 from tactile.output.textout import printable
 from tactile.robot import RobotClient, RobotError, parse_address
 from tactile_protocol import constants as C
@@ -270,7 +271,7 @@ class Run:
         with atomic_write(f"{out}/explore.csv", text=True) as fh:
             fh.write(explore_csv([f.row(i + 1) for i, f in enumerate(ex.fits)]))
         with atomic_write(f"{out}/meta.json", text=True) as fh:
-            fh.write(json.dumps(self._meta(), indent=2) + "\n")
+            fh.write(json.dumps(clean(self._meta()), indent=2, allow_nan=False) + "\n")
 
     def _meta(self):
         ex, a = self.explorer, self.args
@@ -342,7 +343,7 @@ class Run:
         if self.args.json:
             row = fit.row(ex.touches)
             s_iv = None if row["S_lo"] is None else [row["S_lo"], row["S_hi"]]
-            print(json.dumps(self._meta() | {"S": row["S"], "S_interval": s_iv}))
+            print(dumps(self._meta() | {"S": row["S"], "S_interval": s_iv}))
         else:
             print(printable(line))
         if self.ended != "label":
