@@ -140,7 +140,7 @@ class Run:
         self.started = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
         self.client = self.robot = self.live = None
         self.explorer, self.R, self.gate, self.home = None, np.eye(3), 0.0, None
-        self.rows, self.ended, self.device = [], "error", None
+        self.said, self.ended, self.device = 0, "error", None
 
     def connect(self):
         try:
@@ -157,6 +157,9 @@ class Run:
             self.live = foxglove_args.start(self.args, self.device)
             self._start()
             self._loop()
+        except KeyboardInterrupt:
+            self.ended = "interrupted"  # (meta.json says so; every contact is kept)
+            raise
         finally:
             self._close()
         return self._finish()
@@ -257,9 +260,9 @@ class Run:
         conf = f" {fit.confidence:.3f}" if fit.result is not None else ""
         line = f"explore: touch {k} ({plan.why}): {where}; fit: {fit.label}{conf}"
         print(printable(line), file=sys.stderr, flush=True)
-        for note in self.explorer.notes[len(getattr(self, "_said", ())) :]:
+        for note in self.explorer.notes[self.said :]:
             print(printable(f"explore: {note}"), file=sys.stderr, flush=True)
-        self._said = list(self.explorer.notes)
+        self.said = len(self.explorer.notes)
 
     def _write(self):
         """contacts.csv, explore.csv and meta.json, each replaced whole."""
