@@ -255,6 +255,53 @@ def ep1_bench(trials):
         print(f"| {name} | {rms([x for x in v if x is not None]):.4f} |")
 
 
+SCENES = ("explore_sphere", "explore_cylinder", "explore_saddle", "explore_pit")
+SCENE_LABELS = {"explore_sphere": "sphere", "explore_cylinder": "cylinder",
+                "explore_saddle": "saddle", "explore_pit": "concave_sphere"}  # fmt: skip
+
+
+def emulated_bench(runs):
+    """``tactile explore`` itself on the shipped commanded scenes: the emulated board (the
+    firmware, the F/T sensor's noise, the tool's weight) and the emulated arm, in process."""
+    import contextlib
+    import io
+    import json
+    import tempfile
+
+    from tactile.cli.main import main as tactile
+    from tactile_sim.emulator.device import EmulatedBoard
+    from tactile_sim.emulator.robot_server import EmulatedArm, RobotServer, board_waiter
+    from tactile_sim.emulator.scene import load_scene
+    from tactile_sim.emulator.servers import server_for
+
+    print("| scene (emulated board and arm) | label: right / runs | touches median / max |"
+          " S (mean) | wall s / run |")  # fmt: skip
+    print("|---|---|---|---|---|")
+    for name in SCENES:
+        got, touches, s_values, wall = 0, [], [], time.perf_counter()
+        for _ in range(runs):
+            board = EmulatedBoard(load_scene(name))
+            arm = EmulatedArm(board.motion, lambda b=board: b.t_us,
+                              board_waiter(lambda b=board: b.t_us))  # fmt: skip
+            server = server_for(board, realtime=False, when_opened=False, replay=False)
+            server.prepare()
+            out, err = io.StringIO(), io.StringIO()
+            with RobotServer(arm, "127.0.0.1", 0) as robot, server, tempfile.TemporaryDirectory(
+            ) as tmp, contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):  # fmt: skip
+                tactile(["explore", "--port", server.path, "--robot", robot.address, "-o",
+                         f"{tmp}/run", "--json", "-q"])  # fmt: skip
+            r = json.loads(out.getvalue() or "{}")
+            got += r.get("label") == SCENE_LABELS[name] and r.get("ended") == "label"
+            touches.append(r.get("touches", 0))
+            s_values += [r["S"]] if r.get("S") is not None else []
+        s_mean = f"{np.mean(s_values):.3f}" if s_values else "-"
+        print(
+            f"| {name} | {got} / {runs} | {int(np.median(touches))} / {max(touches)} |"
+            f" {s_mean} | {(time.perf_counter() - wall) / runs:.1f} |",
+            flush=True,
+        )
+
+
 def _k_err(est, truth):
     if est.k1 is None or est.k2 is None:
         return None
@@ -271,11 +318,20 @@ def main():
         help="folder for the per-object plots (PNG; out/explore); '' for none",
     )
     ap.add_argument("--ep1", action="store_true", help="also the EP1 roll-direction table")
+    ap.add_argument(
+        "--emulated",
+        type=int,
+        default=0,
+        metavar="RUNS",
+        help="also tactile explore on the emulated board and arm, RUNS per scene",
+    )
     args = ap.parse_args()
     t0 = time.process_time()
     table(args.split, args.seeds, args.plots)
     if args.ep1:
         ep1_bench(args.seeds)
+    if args.emulated:
+        emulated_bench(args.emulated)
     print(f"\n({time.process_time() - t0:.0f} CPU s)")
 
 

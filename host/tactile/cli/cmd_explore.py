@@ -105,7 +105,7 @@ def add_arguments(parser):
     )
     parser.add_argument("--json", action="store_true", help="the result as one JSON object")
     add_quiet(parser)
-    foxglove_args.add_arguments(parser)  # fmt: skip
+    foxglove_args.add_arguments(parser)
 
 
 def check(args):
