@@ -15,9 +15,9 @@ directions to steer it (§6.2.2, "curvature flow"), the shapes still feasible to
    says ``plane`` by the widest k interval instead.  The best scoring candidate is touched next,
    along the fitted normal.  A fit that is refused falls back to the point farthest from every
    contact (space filling).
-4. **Stop** (``status``) once the label is confident: not ``uncertain``, its confidence (the top
-   S band's share of the vote, or a plane's test) at least ``confidence``, and at least
-   ``MIN_TOUCHES`` contacts; or when the budget is spent, saying what is still unknown
+4. **Stop** (``Explorer.done``) once the label is confident: not ``uncertain``, its confidence
+   (the top S band's share of the vote, or a plane's test) at least ``confidence``, and at
+   least ``MIN_TOUCHES`` contacts; or when the budget is spent, saying what is still unknown
    (``unknown``).
 5. **Edges.**  From ``edges.MIN_POINTS`` contacts on, ``edges.find`` looks for two faces; a touch
    across an edge is named, and exploration keeps to the first touch's face (§6.2.2).
@@ -40,7 +40,7 @@ __all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "n
 MIN_TOUCHES = edges.MIN_POINTS  # a label waits until an edge could be seen (8)
 SEED = (90.0, 210.0, 330.0, 30.0, 150.0, 270.0)  # seed angles on the circle (deg)
 SEED_RADIUS = 0.7  # of the region's half-size
-GRID = 9  # candidates per side of the principal-direction grid
+GRID = 13  # candidates per side of the principal-direction grid (and of the space filling)
 MIN_GAP = 0.15  # of the half-size: no candidate this close to a contact
 STEP = 1e-4  # of the half-size: the finite difference of the fitted surface's slope
 
@@ -297,7 +297,7 @@ def candidates(res, region, pts):
     d1 = frame.to_patch_dirs(np.asarray(res.direction1, float))[:2]
     d1 = _unit(d1) if np.linalg.norm(d1) > 1e-12 else np.array([1.0, 0.0])
     d2 = np.array([-d1[1], d1[0]])
-    g = np.linspace(-math.sqrt(2.0) * h, math.sqrt(2.0) * h, GRID + 4)
+    g = np.linspace(-math.sqrt(2.0) * h, math.sqrt(2.0) * h, GRID)
     uv = np.array([(a, b) for a in g for b in g])
     centre = frame.to_patch(np.asarray(region.centre, float)[None])[0, :2]
     xy = centre + uv[:, :1] * d1 + uv[:, 1:] * d2
