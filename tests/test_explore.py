@@ -286,3 +286,31 @@ def test_cli_a_start_the_arm_cannot_reach_is_a_touch_spent(cli, emulated, tmp_pa
     assert meta["touches"] == 3 and meta["contacts"] == 1
     assert sum("unreachable start" in n for n in meta["notes"]) == 2
     assert len((out / "explore.csv").read_text().splitlines()) == 2 + 3
+
+
+def test_cli_foxglove_gets_the_contacts_the_patch_and_the_next_touch(
+    cli, emulated, tmp_path, monkeypatch
+):
+    from tactile.cli import foxglove_args
+
+    published, fed = [], []
+
+    class Live:  # what explore gives the live server: frames, and scene messages per topic
+        class topics:
+            @staticmethod
+            def scene(topic, message, ns):
+                published.append((topic, type(message).__name__))
+
+        @staticmethod
+        def feed(msgs, arrivals=None):
+            fed.extend(msgs)
+
+    monkeypatch.setattr(foxglove_args, "start", lambda args, device=None: Live)
+    monkeypatch.setattr(foxglove_args, "stop", lambda server, quiet=False: None)
+    port, robot = emulated
+    code, _, _ = cli("explore", "--port", port, "--robot", robot, "-o", tmp_path / "r",
+                     "--max-touches", "4", "--foxglove")  # fmt: skip
+    assert code == 3 and fed
+    assert {kind for _, kind in published} == {"SceneUpdate"}
+    topics = [t for t, _ in published]  # before each touch its plan, after it the scene
+    assert topics == ["/tactile/next_touch", "/tactile/contacts", "/tactile/patch"] * 4
