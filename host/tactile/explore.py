@@ -132,7 +132,7 @@ def unknown(fit, n):
     """One line: what ``n`` contacts leave unknown (for a budget spent)."""
     r = fit.result
     if r is None:
-        why = fit.refused or "no fit"
+        why = fit.refused or "fewer than 3 contacts were found (the misses are named above)"
         return f"after {n} touches the curvature is not determined: {why}"
     if fit.label == "plane" or r.S is None:
         w = max(_width(r.k1_interval), _width(r.k2_interval))
