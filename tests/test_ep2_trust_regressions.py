@@ -24,7 +24,7 @@ from conftest import load_bench
 
 from tactile.ep2 import analyze_patch
 from tactile.errors import DataError
-from tactile.output.jsonout import dumps
+from tactile.output.text import dumps
 from tactile_sim.ep2 import make, sweep
 from tactile_sim.ep2.sweep import write_csv
 from tactile_studies.ep2 import cases, peers, truth

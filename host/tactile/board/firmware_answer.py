@@ -17,7 +17,7 @@ import time
 from tactile.board.client import BoardClient
 from tactile.board.serial_port import open_port
 from tactile.errors import BoardTimeout, PortError, PortLost
-from tactile.output.textout import printable
+from tactile.output.text import printable
 
 SETTLE_S = 0.3  # after the reset, before looking for the port
 ASK_GONE_S = 1.0  # the port went and came back: ask after this long

@@ -5,7 +5,7 @@ or a JSON matrix (docs/calibration.md); ``--dry-run`` shows what would be sent."
 from tactile.calib import convert, files, install
 from tactile.calib.units import describe
 from tactile.cli.board_args import add_port_argument, connect
-from tactile.output.textout import (
+from tactile.output.text import (
     printable,  # the label and notes quote the file
     printable_lines,  # the file's words
 )

@@ -7,7 +7,7 @@ from tactile.board.client import info_dict
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.cli.cmd_info import info_lines
 from tactile.errors import InputError
-from tactile.output.textout import printable_lines
+from tactile.output.text import printable_lines
 from tactile_protocol import constants as C
 from tactile_protocol.settings import (
     GATES,

@@ -4,7 +4,7 @@ Damaged input is not an error: it is skipped, counted, and the counters
 close the output (exit 0).  A frame whose content breaks the protocol's
 limits prints as INVALID, naming the message and the field, and is counted
 (``invalid``).  Only an unreadable file is an error (exit 2).  Text and JSON
-follow one rule (``tactile.output.textout``): device strings are escaped and a
+follow one rule (``tactile.output.text``): device strings are escaped and a
 non-finite number is ``null`` in both.
 """
 
@@ -12,8 +12,7 @@ import sys
 
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import InputError
-from tactile.output.jsonout import dumps
-from tactile.output.textout import fields, printable
+from tactile.output.text import dumps, fields, printable
 
 CHUNK = 1 << 16
 

@@ -11,8 +11,7 @@ from tactile.ep2.many import MAX_JOBS, outcomes
 from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
 from tactile.ep2.record_units import in_unit
 from tactile.errors import DataError, InputError
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable_lines
+from tactile.output.text import dumps, printable_lines
 
 METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")

@@ -23,7 +23,7 @@ from tactile.errors import InputError
 from tactile.files.folder_lock import hold
 from tactile.foxglove import export_mcap
 from tactile.logs.pose import read_pose_log
-from tactile.output.textout import printable
+from tactile.output.text import printable
 from tactile.recording import export_parquet
 from tactile.recording.export_target import check_outputs
 from tactile.recording.load import load_recording

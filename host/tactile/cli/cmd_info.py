@@ -2,8 +2,7 @@
 
 from tactile.board.client import info_dict
 from tactile.cli.board_args import add_port_argument, connect
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable_lines
+from tactile.output.text import dumps, printable_lines
 
 
 def add_arguments(parser):
@@ -25,7 +24,7 @@ def run(args):
 
 
 def info_lines(d):
-    """The INFO as lines of text, to print through ``tactile.output.textout.printable_lines``
+    """The INFO as lines of text, to print through ``tactile.output.text.printable_lines``
     (the device's own string is escaped there)."""
     return [
         f"firmware      {d['fw_major']}.{d['fw_minor']}.{d['fw_patch']}"

@@ -18,7 +18,7 @@ from tactile.board.live_view import WIDTH, LiveState
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.errors import PortLost
-from tactile.output.textout import printable
+from tactile.output.text import printable
 from tactile.payload import live_args
 from tactile_protocol import constants as C
 from tactile_protocol.settings import STREAMS, to_newtons

@@ -13,8 +13,7 @@ import sys
 from tactile.commands.words import add_out
 from tactile.errors import InputError
 from tactile.files.atomic import check_target
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable_lines
+from tactile.output.text import dumps, printable_lines
 from tactile.payload.from_run import identify_run
 from tactile.payload.holds import TRIM
 from tactile.payload.tool import GRAVITY, MAX_GRAVITY, MAX_SENSOR, tool_doc, write_tool

@@ -15,7 +15,7 @@ from tactile.ep2 import analyze_patch
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError
 from tactile.output import plots
-from tactile.output.textout import printable
+from tactile.output.text import printable
 from tactile.recording.meta import read_meta
 
 WHAT = ("contacts", "patch", "maps")

@@ -3,8 +3,7 @@
 import sys
 
 from tactile.board.serial_port import list_ports
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable
+from tactile.output.text import dumps, printable
 
 
 def add_arguments(parser):

@@ -26,7 +26,7 @@ from tactile.commands.words import add_quiet
 from tactile.errors import BoardError, DataError, InputError
 from tactile.files.folder_lock import hold
 from tactile.logs.clock import log_end, show_time
-from tactile.output.textout import fields, printable
+from tactile.output.text import fields, printable
 from tactile.payload.live import Following
 from tactile.payload.on_board import OnBoard
 from tactile.payload.orientation import Orientations

@@ -7,7 +7,7 @@ offset, before its first TARE since power-up, is above the gate.
 
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.errors import InputError
-from tactile.output.textout import printable
+from tactile.output.text import printable
 from tactile_protocol import constants as C
 
 

@@ -6,7 +6,7 @@ import sys
 
 from tactile.errors import InputError
 from tactile.foxglove.live import LiveServer, require_foxglove
-from tactile.output.textout import printable
+from tactile.output.text import printable
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765

@@ -17,8 +17,7 @@ from tactile import __version__
 from tactile.cli import registry
 from tactile.commands.words import ENV_PORT
 from tactile.errors import TactileError
-from tactile.output.logs import Escaped
-from tactile.output.textout import printable
+from tactile.output.text import Escaped, printable
 
 
 class Parser(argparse.ArgumentParser):
@@ -146,7 +145,7 @@ def full_parser():
 def _logging(verbose):
     """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr, for
     this call only: returns the undo (``main`` may run many times in one process).  Each
-    line escaped; the libraries the project adopts log here too (``tactile.output.logs``)."""
+    line escaped; the libraries the project adopts log here too (``tactile.output.text``)."""
     logger = logging.getLogger("tactile")
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(Escaped("tactile %(name)s: %(message)s"))

@@ -4,8 +4,7 @@ contact sensor's options, their checks, and the printed result."""
 import math
 
 from tactile.errors import InputError
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable
+from tactile.output.text import dumps, printable
 
 CURVATURES = ("kx", "ky", "k1", "k2")
 SHOWN = ("status", "kx", "ky", "k1", "k2", "direction1", "residual", "n_probes", "message")

@@ -13,7 +13,7 @@ import pathlib
 import sys
 
 from tactile.errors import InputError
-from tactile.output.textout import printable
+from tactile.output.text import printable
 
 OUT = ("-o", "--out")
 ENV_PORT = "TACTILE_PORT"  # the port of every command that opens one, when --port is not given

@@ -15,7 +15,7 @@ With a robot's ``pose_log`` (a ``PoseLog``) the 3D scene is published too: conta
 transforms and the EP2 patch (``tactile.foxglove.live_scene``, off this loop as well).
 
 The SDK's own log lines (a client's bad message, a connection) go to the ``tactile.foxglove``
-logger, escaped and at most ``tactile.output.logs.LINES`` per ``INTERVAL_S``
+logger, escaped and at most ``tactile.output.text.LINES`` per ``INTERVAL_S``
 (``tactile.foxglove.sinks.sdk``): shown with ``tactile -v``, never raw, never without it.
 
 Start-up: ``tactile live`` imports this module whether or not it serves, so what needs

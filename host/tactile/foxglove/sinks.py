@@ -11,7 +11,7 @@ so a topic is declared once and logged once, whichever sinks listen:
   it was (the SDK's own error names no errno).
 
 Both are context managers (``close`` on the way out).  ``sdk`` imports foxglove-sdk for an
-extra and hands its log lines to ``tactile.output.logs.adopt`` (escaped, rate-limited, shown
+extra and hands its log lines to ``tactile.output.text.adopt`` (escaped, rate-limited, shown
 with ``tactile -v``).  ``Worker`` is the one bounded queue, stop marker and thread of the
 live view: ``put`` never waits, a full queue drops the item and counts it.
 """
@@ -22,7 +22,7 @@ import threading
 
 from tactile.errors import InputError
 from tactile.extras import need
-from tactile.output import logs
+from tactile.output.text import adopt
 
 __all__ = ["McapSink", "Sink", "WebSocketSink", "Worker", "sdk"]
 
@@ -35,7 +35,7 @@ def sdk(extra, purpose, *modules):
     SDK's loggers adopted before its first line.  Returns (modules..., the ``Adopted``
     handler)."""
     found = need(extra, purpose, "foxglove", *modules)
-    return (*found, logs.adopt(SDK_LOGGER, LOGGER))
+    return (*found, adopt(SDK_LOGGER, LOGGER))
 
 
 class Sink:

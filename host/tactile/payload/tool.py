@@ -30,7 +30,7 @@ import numpy as np
 from tactile.errors import InputError
 from tactile.files import bounded
 from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.output.text import printable
 
 __all__ = ["FORMAT", "GRAVITY", "Tool", "check_device", "read_tool", "tool_doc", "write_tool"]
 

@@ -49,7 +49,7 @@ import numpy as np
 from tactile import units
 from tactile.errors import InputError
 from tactile.files import atomic, folder_lock
-from tactile.output.jsonout import clean, dumps
+from tactile.output.text import clean, dumps
 from tactile.recording.frames import (
     CAPTURE,
     DEVICE,

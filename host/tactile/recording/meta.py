@@ -31,7 +31,7 @@ from tactile.board.client import info_dict
 from tactile.errors import InputError
 from tactile.files import bounded
 from tactile.files.atomic import write_bytes
-from tactile.output.jsonout import clean
+from tactile.output.text import clean
 from tactile.recording.run_stats import span_s
 from tactile_protocol import constants as C
 

@@ -33,7 +33,7 @@ import sys
 from tactile.calib.ati import format_cal
 from tactile.errors import InputError
 from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.output.text import printable
 from tactile_sim.emulator import load_scene, pty_link
 from tactile_sim.emulator.device import EmulatedBoard, link_board_id
 from tactile_sim.emulator.ft_model import per_volt_matrix

@@ -9,7 +9,7 @@ from tactile import units
 from tactile.commands.words import add_out
 from tactile.errors import InputError
 from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.output.text import printable
 
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")
 MAP_OBJECTS = ("box_corner", "capped_cylinder", "rounded_edge", "saddle_map")  # ep2 map's

@@ -14,7 +14,7 @@ from tactile.commands.ep1_estimate import (
 from tactile.commands.words import add_out, renamed
 from tactile.errors import DataError, InputError
 from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.output.text import printable
 
 OBJECTS = (
     "plane",

@@ -9,8 +9,7 @@ import os
 
 from tactile.commands.words import add_out, add_quiet
 from tactile.errors import InputError
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable
+from tactile.output.text import dumps, printable
 
 
 def _common(parser):

@@ -6,7 +6,7 @@ of ``tactile study`` (``tactile.commands.groups``): the studies load when one ru
 
 from tactile.commands.words import add_out
 from tactile.errors import InputError
-from tactile.output.textout import printable, printable_lines
+from tactile.output.text import printable, printable_lines
 
 
 def _add(parser):
