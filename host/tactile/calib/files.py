@@ -17,8 +17,7 @@ other keys.
 import json
 import math
 
-from tactile.calib import MAX_ID, MatrixFile, ati
-from tactile.calib import units as U
+from tactile.calib import MAX_ID, SI, MatrixFile, ati, describe, parse
 from tactile.errors import InputError, where
 from tactile.files import bounded, csv_dialect
 from tactile.files.csv_dialect import DECIMAL, number, show
@@ -69,7 +68,7 @@ def _cell_place(path, line, r, j):
 
 
 def _csv(path):
-    spec, cal_id, id_from = U.SI, None, None
+    spec, cal_id, id_from = SI, None, None
     for line, text in csv_dialect.comment_lines(path, MAX_BYTES):
         key, sep, value = text.lstrip("#").partition(":")
         key = key.strip().lower()
@@ -86,7 +85,7 @@ def _csv(path):
             id_from = f"line {line}"
         else:
             try:
-                spec = U.parse(value)
+                spec = parse(value)
             except ValueError as exc:
                 raise InputError(f"{where(path, line)}: units: {exc}") from None
     matrix, places = [], []
@@ -116,7 +115,7 @@ def _csv(path):
             f"{path}: {len(matrix)} row{'s' * (len(matrix) != 1)} of numbers, need 6"
             f" ({' '.join(ROWS)}, one per line)"
         )
-    label = f"CSV matrix, {U.describe(spec)}"
+    label = f"CSV matrix, {describe(spec)}"
     return MatrixFile(path, "CSV", matrix, spec, cal_id, id_from, label, [], places)
 
 
@@ -138,18 +137,18 @@ def _json(path, data):
         )
     if "matrix" not in doc:
         raise InputError(f"{path}: field 'matrix': missing (6 lists of 6 numbers)")
-    spec = U.SI
+    spec = SI
     if "units" in doc:
         if not isinstance(doc["units"], str):
             raise InputError(f"{path}: field 'units': must be text like 'N, N-m per count'")
         try:
-            spec = U.parse(doc["units"])
+            spec = parse(doc["units"])
         except ValueError as exc:
             raise InputError(f"{path}: field 'units': {exc}") from None
     cal_id = check_id(doc["id"], f"{path}: field 'id'") if "id" in doc else None
     matrix = _json_matrix(path, doc["matrix"])
     places = [f"{path}: field matrix[{r}] ({ROWS[r]})" for r in range(6)]
-    label = f"JSON matrix, {U.describe(spec)}"
+    label = f"JSON matrix, {describe(spec)}"
     id_from = "field 'id'" if cal_id is not None else None
     return MatrixFile(path, "JSON", matrix, spec, cal_id, id_from, label, [], places)
 

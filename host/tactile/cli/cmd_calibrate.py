@@ -2,8 +2,7 @@
 sensor, then verify them through INFO (id and checksum).  FILE is ATI's ``.cal`` XML, a CSV
 or a JSON matrix (docs/calibration.md); ``--dry-run`` shows what would be sent."""
 
-from tactile.calib import convert, files, install
-from tactile.calib.units import describe
+from tactile.calib import board_matrix, describe, files
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.output.text import (
     printable,  # the label and notes quote the file
@@ -30,7 +29,7 @@ def add_arguments(parser):
 
 def run(args):
     mf = files.read(args.file, args.index)
-    bm = convert.to_board(mf, args.volts_per_count, args.id)
+    bm = board_matrix.to_board(mf, args.volts_per_count, args.id)
     scale = f"; {args.volts_per_count:.6g} V per count" if args.volts_per_count else ""
     print(printable(f"{args.file}: {mf.label}{scale}"))
     for note in mf.notes:
@@ -39,16 +38,16 @@ def run(args):
         printable(
             f"id {bm.cal_id} ({'--id' if args.id is not None else mf.id_from});"
             f" condition number {bm.condition:.3g} (rows scaled to unit length; refused above"
-            f" {convert.MAX_CONDITION:g}); checksum 0x{bm.crc:04x}"
+            f" {board_matrix.MAX_CONDITION:g}); checksum 0x{bm.crc:04x}"
         )
     )
     if args.dry_run:
         print(printable(f"would send (from {describe(mf.units)}):"))
-        print(printable_lines(convert.table(bm.coeffs)))
+        print(printable_lines(board_matrix.table(bm.coeffs)))
         return 0
     client = connect(args)
     try:
-        sensor, _ = install.install(client, bm, args.sensor)
+        sensor, _ = board_matrix.install(client, bm, args.sensor)
     finally:
         client.close()
     print(
