@@ -12,8 +12,8 @@ from rotations import angle, rx, ry, rz
 from scene_golden import strip_columns
 
 from tactile.files.tabular import read_csv
-from tactile.localize.kinematics import pose_from_quaternion, scara_pose
 from tactile.localize.posed import sensor_poses
+from tactile.localize.world import pose_from_quaternion, scara_pose
 from tactile.logs import robot_log
 from tactile.logs.pose import read_pose_log
 from tactile.logs.probe import read_probe_log

@@ -20,7 +20,7 @@ from tactile.board.stream_decoder import StreamDecoder
 from tactile.ep1.estimator import estimate
 from tactile.ep1.from_ft import fingertip_uv, probe_report, probes_from_frames
 from tactile.errors import InputError
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.probes import sphere_contact
 from tactile.logs.probe import read_probe_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator import SceneError, load_scene

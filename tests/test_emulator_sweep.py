@@ -22,7 +22,7 @@ from tactile.localize.posed import (
     posed_world_contacts,
     sensor_poses,
 )
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.probes import sphere_contact
 from tactile.logs.pose import read_pose_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR, SceneError, load_scene

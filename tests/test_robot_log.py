@@ -6,8 +6,8 @@ import pytest
 
 from tactile import units
 from tactile.files.tabular import read_csv
-from tactile.localize.kinematics import pose_from_quaternion
 from tactile.localize.posed import sensor_poses
+from tactile.localize.world import pose_from_quaternion
 from tactile.logs import robot_log
 from tactile.logs.pose import read_pose_log
 from tactile.logs.probe import read_probe_log

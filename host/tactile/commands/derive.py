@@ -13,7 +13,7 @@ log's header says what it is:
   ``tactile.logs.probe``, turned into probes by ``tactile.ep1.from_ft``) -> ``probes.csv``.
 
 The CONTACT frames come from ``capture.bin`` (the recording's source of truth); which of them
-are readings is ``tactile.localize.readings``'s rule.  A log stamped in a host clock (UTC or
+are readings is ``tactile.localize.contact``'s rule.  A log stamped in a host clock (UTC or
 monotonic, ``tactile.logs.clock``) is joined through the time base in ``meta.json``: each
 frame's board stamp becomes that clock's time (``tactile.recording.timebase.recorded_times``).
 
@@ -33,8 +33,8 @@ from tactile.errors import DataError, InputError
 from tactile.files import bounded
 from tactile.files.atomic import write_bytes
 from tactile.localize import format_contacts
+from tactile.localize.contact import Readings, contact_frames
 from tactile.localize.posed import posed_world_contacts
-from tactile.localize.readings import Readings, contact_frames
 from tactile.logs.clock import clock_of
 from tactile.logs.pose import log_columns, read_pose_log
 from tactile.logs.probe import read_probe_log

@@ -18,7 +18,7 @@ import numpy as np
 
 from tactile.errors import InputError
 from tactile.localize.contact import STATUS
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.probes import sphere_contact
 
 __all__ = ["fingertip_uv", "probes_from_frames", "probe_report"]
 

@@ -4,7 +4,7 @@
 host stamps ``tactile.recording.timebase.RecordingClock.take`` gave them and returns a
 ``Batch``: the readings it localised (world points in m, object normals), the sensors whose
 pose-log window changed (for a transform), and the contacts that ended.  The rule for
-which CONTACT frames are readings is ``derive``'s (``tactile.localize.readings``) and the
+which CONTACT frames are readings is ``derive``'s (``tactile.localize.contact``) and the
 localisation is ``posed_world_contacts``, so a run's contacts equal its contacts.csv when
 the log is in the board's clock.  A host-clock log is joined by the running fit of the
 arrivals here, by the final fit in contacts.csv: a reading at a window's edge may differ.
@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.errors import InputError
+from tactile.localize.contact import Readings, contact_frames
 from tactile.localize.posed import posed_world_contacts, sensor_poses, window_index
-from tactile.localize.readings import Readings, contact_frames
 from tactile_protocol import constants as C
 
 __all__ = ["Batch", "LiveContacts"]

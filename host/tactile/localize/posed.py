@@ -25,9 +25,8 @@ import numpy as np
 
 from tactile.errors import InputError
 from tactile.localize.contact import NO_CONTACT
-from tactile.localize.kinematics import pose_from_quaternion, scara_pose
-from tactile.localize.pipeline import posed_contacts, scara_contacts
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.probes import sphere_contact
+from tactile.localize.world import pose_from_quaternion, posed_contacts, scara_contacts, scara_pose
 
 __all__ = [
     "PoseReport",
