@@ -41,7 +41,7 @@ from scipy.spatial.transform import Rotation
 from tactile.cli.main import main as tactile
 from tactile.commands.derive import derive
 from tactile.errors import DataError
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import read_probe_log
 from tactile.payload import Tool, write_tool
 from tactile.payload import weight as tool_weight
 from tactile.payload.from_run import identify_run

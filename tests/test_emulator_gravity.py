@@ -20,9 +20,9 @@ from scene_golden import GOLDEN, digests
 
 from tactile.board.client import BoardClient
 from tactile.ep1.estimator import estimate
-from tactile.ep1.from_ft import probes_from_frames
+from tactile.ep1.probes import probes_from_frames
 from tactile.logs import robot_log
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import read_probe_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator import SceneError, load_scene
 from tactile_sim.emulator.ft_model import FULL_SCALE_CODE

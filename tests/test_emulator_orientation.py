@@ -15,8 +15,7 @@ from tactile.files.tabular import read_csv
 from tactile.localize.posed import sensor_poses
 from tactile.localize.world import pose_from_quaternion, scara_pose
 from tactile.logs import robot_log
-from tactile.logs.pose import read_pose_log
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import read_pose_log, read_probe_log
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.orientation import Track, turn

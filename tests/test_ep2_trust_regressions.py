@@ -562,7 +562,7 @@ def _emulated_contacts(tmp_path, seed, noiseless=False):
     from sweep_record import record_sweep
 
     from tactile.localize.posed import posed_world_contacts
-    from tactile.logs.pose import read_pose_log
+    from tactile.logs.read import read_pose_log
     from tactile_sim.emulator.scene import SCENE_DIR
 
     text = (SCENE_DIR / "ep2_sweep_sphere.toml").read_text(encoding="utf-8")

@@ -22,7 +22,7 @@ import sys
 from tactile.errors import InputError
 from tactile.files.folder_lock import hold
 from tactile.foxglove import export_mcap
-from tactile.logs.pose import read_pose_log
+from tactile.logs.read import read_pose_log
 from tactile.output.text import printable
 from tactile.recording import export_parquet
 from tactile.recording.export_target import check_outputs

@@ -25,7 +25,7 @@ from tactile.commands.derive import check_log, derive
 from tactile.commands.words import add_quiet
 from tactile.errors import BoardError, DataError, InputError
 from tactile.files.folder_lock import hold
-from tactile.logs.clock import log_end, show_time
+from tactile.logs.tags import log_end, show_time
 from tactile.output.text import fields, printable
 from tactile.payload.live import Following
 from tactile.payload.on_board import OnBoard

@@ -3,7 +3,7 @@
 Conventions (docs/localize.md): wrenches are the load ON THE PROBE (ATI's convention) in the
 sensor frame, moments about the sensor origin; returned normals are the OBJECT's outward
 normals (from the object toward the probe), as the EP2 contacts CSV expects.  The robot's
-pose log is read by ``tactile.logs.pose``; which CONTACT frames are readings is
+pose log is read by ``tactile.logs.read``; which CONTACT frames are readings is
 ``readings``.
 """
 

@@ -3,19 +3,19 @@
 The F/T wire carries no pose, so a robot controller logs what it did beside the recording
 (§5.1.1-5.1.2, §3.2).  Three kinds, all CSV with ``#`` comment lines before the header:
 
-- ``pose`` (any robot; read by ``tactile.logs.pose``): per finger, a window in which
+- ``pose`` (any robot; read by ``tactile.logs.read``): per finger, a window in which
   its sensor frame's pose in the world is held, ``px,py,pz`` (m) and the unit quaternion
   ``qw,qx,qy,qz`` (scalar first);
-- ``scara`` (the ch. 5 rig, eq. 62; read by ``tactile.logs.pose``): joint angles
+- ``scara`` (the ch. 5 rig, eq. 62; read by ``tactile.logs.read``): joint angles
   ``q1,q2,q3`` (rad) and height ``z`` (m) per window; ``finger`` is the pass;
-- ``probe`` (EP1 through a wrist F/T sensor; read by ``tactile.logs.probe``): per probe a
+- ``probe`` (EP1 through a wrist F/T sensor; read by ``tactile.logs.read``): per probe a
   time in the hold at its start and at its end, and the commanded rotation (rad); optionally
   (``ATTITUDE``) the sensor's orientation in the world during those holds, unit quaternions
   ``qw,qx,qy,qz`` (start) and ``qw_end,qx_end,qy_end,qz_end`` (end), world from sensor,
   scalar first.  A reader that does not need them ignores them.
 
 Times name their clock (``CLOCKS``): the board's (``t_start_us,t_end_us``), UTC or the
-recording host's monotonic clock (seconds; ``tactile.logs.clock`` reads them, and the
+recording host's monotonic clock (seconds; ``tactile.logs.tags`` reads them, and the
 recording's time base joins them to the frames).  Comment lines (``TAGS``, read by
 ``tactile.logs.tags``): ``# probe: sphere radius_m=R centre_m=cx,cy,cz [axis=ax,ay,az]``
 (the fingertip in the sensor frame), ``# rig: scara L1=.. L2=.. L3=.. L4=..`` (m),

@@ -14,7 +14,7 @@ A log without orientations (no ``qw,qx,qy,qz``: a probe log, or any other CSV) i
 import numpy as np
 
 from tactile.errors import DataError, InputError
-from tactile.logs.pose import GENERIC, SCARA, log_columns, read_pose_log
+from tactile.logs.read import GENERIC, SCARA, log_columns, read_pose_log
 from tactile.payload.fit import identify
 from tactile.payload.holds import TRIM, hold_means, reading_rows
 from tactile.payload.orientation import ANY, Orientations

@@ -43,7 +43,7 @@ from tactile import units
 from tactile.ep2.contacts_csv import REQUIRED
 from tactile.errors import InputError
 from tactile.files.tabular import read_csv
-from tactile.logs.pose import log_columns
+from tactile.logs.read import log_columns
 from tactile.recording.frames import META
 from tactile.recording.meta import sessions_of
 from tactile.recording.recover import frames_of, meta_of

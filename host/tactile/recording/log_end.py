@@ -2,10 +2,10 @@
 
 ``until`` is (clock, end in us, how it was found): the clock is the board's (its latest stamp
 heard, or between frames the board -> host fit at the host's time) or one of the host's
-(monotonic, UTC), as ``tactile.logs.clock`` names them.
+(monotonic, UTC), as ``tactile.logs.tags`` names them.
 """
 
-from tactile.logs.clock import show_time
+from tactile.logs.tags import show_time
 
 
 class LogEnd:

@@ -97,7 +97,7 @@ class RollMotion:
         return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
 
     def write_probe_log(self, path, at_us=0):
-        """The robot's probe log (``tactile.logs.robot_log``; ``tactile.logs.probe`` reads it):
+        """The robot's probe log (``tactile.logs.robot_log``; ``tactile.logs.read`` reads it):
         the fingertip, the readable half width of a hold and the scene's end in comments;
         ``at_us``: the board's clock at the scene's start."""
         g = self.geometry

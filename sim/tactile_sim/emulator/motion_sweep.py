@@ -226,7 +226,7 @@ class SweepMotion:
         return rows
 
     def write_pose_log(self, path, at_us=0):
-        """The robot's pose log (``tactile.logs.pose`` reads it), with the
+        """The robot's pose log (``tactile.logs.read`` reads it), with the
         fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
         accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
         scene's end (``# end:``), where ``tactile record`` stops
