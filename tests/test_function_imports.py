@@ -51,13 +51,11 @@ DEFERRED = {
         "make_board: tactile_fw.frontend": BOARD_RAM,
     },
     "host/tactile/__init__.py": {
-        "__getattr__: tactile.payload.recorded": LIGHT_PACKAGE,
+        "__getattr__: tactile.payload.apply": LIGHT_PACKAGE,
     },
     "host/tactile/payload/__init__.py": {
         "__getattr__: tactile.payload": LIVE_PAYLOAD,
-    },
-    "host/tactile/payload/live_args.py": {
-        "following: tactile.payload.live": LIVE_PAYLOAD,
+        "following: tactile.payload.apply": LIVE_PAYLOAD,
         "following: tactile.payload.orientation": LIVE_PAYLOAD,
         "following: tactile.payload.tool": LIVE_PAYLOAD,
     },

@@ -7,7 +7,7 @@ fits 80 columns.  A ``sim://`` port runs as fast as the host reads unless its UR
 for ``?realtime=1``: live says so once, on stderr.  ``--foxglove`` serves the same frames to
 Foxglove (``tactile.cli.foxglove_args``).  ``--payload TOOL --pose-log LOG`` shows (and
 serves) the wrench with the tool's weight and the bias removed and the host's contact state
-(``tactile.payload.live``); the robot's log says the sensor's orientation as it runs.
+(``tactile.payload.apply``); the robot's log says the sensor's orientation as it runs.
 """
 
 import sys
@@ -19,7 +19,7 @@ from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
 from tactile.errors import PortLost
 from tactile.output.text import printable
-from tactile.payload import live_args
+from tactile.payload import following as payload_following
 from tactile_protocol import constants as C
 from tactile_protocol.settings import STREAMS, to_newtons
 
@@ -45,7 +45,7 @@ def add_arguments(parser):
 def run(args):
     foxglove_args.check(args)
     samples = None if args.as_is else True  # (live switches the SAMPLE stream on)
-    following, log = live_args.following(args.payload, args.pose_log, samples)  # before the board
+    following, log = payload_following(args.payload, args.pose_log, samples)  # before the board
     client = connect(args)
     if following is not None:
         try:

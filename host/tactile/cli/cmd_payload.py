@@ -1,7 +1,7 @@
 """``tactile payload identify RUN --pose-log LOG -o tool.json``: the tool's mass, centre of mass
 and the sensor's biases, from a recording of the unloaded finger held at the log's poses.
 
-The work is ``tactile.payload.from_run.identify_run``; this prints each parameter with its
+The work is ``tactile.payload.fit.identify_run``; this prints each parameter with its
 standard error and unit, and the fit's residual, and writes tool.json
 (``tactile.payload.tool``).  A log without orientations is bad input (exit 2); poses that do
 not determine the fit exit 3 with one line saying what is missing.  Nothing is written on
@@ -14,8 +14,7 @@ from tactile.commands.words import add_out
 from tactile.errors import InputError
 from tactile.files.atomic import check_target
 from tactile.output.text import dumps, printable_lines
-from tactile.payload.from_run import identify_run
-from tactile.payload.holds import TRIM
+from tactile.payload.fit import TRIM, identify_run
 from tactile.payload.tool import GRAVITY, MAX_GRAVITY, MAX_SENSOR, tool_doc, write_tool
 
 

@@ -27,8 +27,7 @@ from tactile.errors import BoardError, DataError, InputError
 from tactile.files.folder_lock import hold
 from tactile.logs.tags import log_end, show_time
 from tactile.output.text import fields, printable
-from tactile.payload.live import Following
-from tactile.payload.on_board import OnBoard
+from tactile.payload.apply import Following, OnBoard
 from tactile.payload.orientation import Orientations
 from tactile.payload.tool import read_tool
 from tactile.recording.session import Session

@@ -142,7 +142,7 @@ class RecordingData:
 
 def load_recording(path):
     """Read the ``tactile record`` directory ``path`` into a ``RecordingData``
-    (``tactile.load_recording`` adds ``payload=``: ``tactile.payload.recorded``).
+    (``tactile.load_recording`` adds ``payload=``: ``tactile.payload.apply``).
 
     Raises ``tactile.errors.InputError`` (a ``ValueError``) naming the file, line and column
     of anything malformed."""

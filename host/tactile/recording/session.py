@@ -86,7 +86,7 @@ class Session:
         payload=None,
     ):
         self.port_name = port_name
-        self.payload = payload  # a tactile.payload.on_board.OnBoard: record --payload
+        self.payload = payload  # a tactile.payload.apply.OnBoard: record --payload
         self.duration_s = duration_s
         self.contacts = contacts
         self.want_tare = tare
