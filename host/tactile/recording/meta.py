@@ -32,7 +32,7 @@ from tactile.errors import InputError
 from tactile.files import bounded
 from tactile.files.atomic import write_bytes
 from tactile.output.text import clean
-from tactile.recording.run_stats import span_s
+from tactile.recording.run_state import span_s
 from tactile_protocol import constants as C
 
 MAX_META_BYTES = 64 * 2**20  # meta.json: a few kB, more with many gaps
