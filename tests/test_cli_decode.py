@@ -98,7 +98,7 @@ def test_group_dispatch_skips_a_missing_module():
     import argparse
     from importlib.metadata import EntryPoint
 
-    from tactile.commands.groups import add_group
+    from tactile.commands import add_group
 
     group = "tactile.commands.sim"
     found = [EntryPoint(n, m, group) for n, m in (("ep0", "tactile_sim.commands.no_such_module"),

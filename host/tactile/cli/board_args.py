@@ -5,7 +5,7 @@ import os
 
 from tactile.board import serial_port
 from tactile.board.client import BoardClient
-from tactile.commands.words import ENV_PORT
+from tactile.commands import ENV_PORT
 from tactile.errors import InputError
 
 PORT_HELP = "serial device or URL (sim://SCENE for the in-process emulator)"

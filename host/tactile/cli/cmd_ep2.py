@@ -5,7 +5,7 @@ import sys
 
 from tactile import units
 from tactile.cli import cmd_ep2_map
-from tactile.commands.words import add_quiet, contacts_of
+from tactile.commands import add_quiet, contacts_of
 from tactile.ep2 import contacts_csv
 from tactile.ep2.many import MAX_JOBS, outcomes
 from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG

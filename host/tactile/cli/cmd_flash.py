@@ -7,7 +7,7 @@ import sys
 from tactile.board import firmware_answer, flashing
 from tactile.board.flashing import WAIT_S
 from tactile.cli.board_args import add_port_argument, port_of
-from tactile.commands.words import add_quiet
+from tactile.commands import add_quiet
 from tactile.output.text import printable
 
 

@@ -10,7 +10,7 @@ an error: the output is checked before the work and written whole after it.
 
 import sys
 
-from tactile.commands.words import add_out
+from tactile.commands import add_out
 from tactile.errors import InputError
 from tactile.files.atomic import check_target
 from tactile.output.text import dumps, printable_lines

@@ -10,7 +10,7 @@ import pathlib
 import re
 
 from tactile import units
-from tactile.commands.words import add_out, contacts_of
+from tactile.commands import add_out, contacts_of
 from tactile.ep2 import analyze_patch
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError

@@ -21,8 +21,8 @@ import time
 from tactile.board.client import info_dict
 from tactile.cli import foxglove_args
 from tactile.cli.board_args import add_port_argument, connect
+from tactile.commands import add_quiet
 from tactile.commands.derive import check_log, derive
-from tactile.commands.words import add_quiet
 from tactile.errors import BoardError, DataError, InputError
 from tactile.files.folder_lock import hold
 from tactile.logs.tags import log_end, show_time

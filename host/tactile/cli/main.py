@@ -15,7 +15,7 @@ import sys
 
 from tactile import __version__
 from tactile.cli import registry
-from tactile.commands.words import ENV_PORT
+from tactile.commands import ENV_PORT
 from tactile.errors import TactileError
 from tactile.output.text import Escaped, printable
 

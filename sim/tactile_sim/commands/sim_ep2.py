@@ -1,12 +1,12 @@
 """``tactile sim ep2``: simulate a three-finger EP2 sweep into a contacts CSV.
 
-A family of ``tactile sim`` (``tactile.commands.groups``): the simulator's NumPy models load
+A family of ``tactile sim`` (``tactile.commands``): the simulator's NumPy models load
 when it runs, not when ``tactile sim``'s parser is built."""
 
 import io
 
 from tactile import units
-from tactile.commands.words import add_out
+from tactile.commands import add_out
 from tactile.errors import InputError
 from tactile.files.atomic import write_bytes
 from tactile.output.text import printable

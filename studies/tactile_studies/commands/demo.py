@@ -12,7 +12,7 @@ readings and frames lost.
 
 import pathlib
 
-from tactile.commands.words import renamed
+from tactile.commands import renamed
 from tactile.output.text import printable
 from tactile_studies import replica
 

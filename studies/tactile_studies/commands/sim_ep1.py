@@ -1,17 +1,18 @@
 """``tactile sim ep1``: simulate EP1's rolling probes on an object, estimate, compare.
 
-A family of ``tactile sim`` (``tactile.commands.groups``), from the studies: it runs the
+A family of ``tactile sim`` (``tactile.commands``), from the studies: it runs the
 host's estimator on the simulator's probes (``tactile_studies.ep1.experiment``), which load
 NumPy and SciPy when it runs, not when ``tactile sim``'s parser is built."""
 
 import math
 
-from tactile.commands.ep1_estimate import (
+from tactile.commands import (
+    add_out,
     add_sensor_arguments,
     check_sensor_arguments,
     print_result,
+    renamed,
 )
-from tactile.commands.words import add_out, renamed
 from tactile.errors import DataError, InputError
 from tactile.files.atomic import write_bytes
 from tactile.output.text import printable

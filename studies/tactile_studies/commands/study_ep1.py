@@ -2,12 +2,12 @@
 
 Each writes NAME.csv and NAME.png (fig. 20: NAME_SENSOR.png, one per sensor model) into
 --out, and prints the path of every file it wrote.  A family of ``tactile study``
-(``tactile.commands.groups``): the studies load when one runs.
+(``tactile.commands``): the studies load when one runs.
 """
 
 import os
 
-from tactile.commands.words import add_out, add_quiet
+from tactile.commands import add_out, add_quiet
 from tactile.errors import InputError
 from tactile.output.text import dumps, printable
 
