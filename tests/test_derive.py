@@ -4,7 +4,7 @@ with the reading rule of ``tactile.localize.contact``."""
 import numpy as np
 import pytest
 
-from tactile.board.messages import Contact
+from tactile.board.stream_decoder import Contact
 from tactile.commands import derive
 from tactile.errors import InputError
 from tactile.localize.contact import contact_frames

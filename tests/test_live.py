@@ -3,7 +3,7 @@
 import pytest
 
 from tactile.board.live_view import LiveState
-from tactile.board.messages import Contact, Sample
+from tactile.board.stream_decoder import Contact, Sample
 from tactile_protocol import constants as C
 
 

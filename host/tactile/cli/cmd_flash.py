@@ -4,7 +4,7 @@ holds no MicroPython REPL, a step on the board fails, or the firmware does not a
 
 import sys
 
-from tactile.board import firmware_answer, flashing
+from tactile.board import flashing, handover
 from tactile.board.flashing import WAIT_S
 from tactile.cli.board_args import add_port_argument, port_of
 from tactile.commands import add_quiet
@@ -51,7 +51,7 @@ def run(args):
     print(
         printable(
             f"flashed {len(done.written)} files as {kind} to {done.port}{stale} and reset it;"
-            f" it answers: {firmware_answer.describe(done.info)}"
+            f" it answers: {handover.describe(done.info)}"
         )
     )
     return 0

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.board.messages import Contact, Sample
+from tactile.board.stream_decoder import Contact, Sample
 from tactile.errors import InputError
 from tactile.payload.drift import BLOCK_S, BiasTracker
 from tactile.payload.tool import weight

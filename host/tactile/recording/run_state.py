@@ -42,7 +42,7 @@ heard, or between frames the board -> host fit at the host's time) or one of the
 import copy
 import time
 
-from tactile.board.messages import board_id_text
+from tactile.board.stream_decoder import board_id_text
 from tactile.errors import BoardError
 from tactile.logs.tags import show_time
 from tactile_protocol import constants as C
