@@ -41,7 +41,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tactile.errors import InputError
-from tactile.files.atomic import atomic_write
+from tactile.files.writing import atomic_write
 from tactile.output.text import printable
 from tactile_sim.emulator.ft_model import sensitivity_matrix
 

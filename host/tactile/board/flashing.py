@@ -36,8 +36,7 @@ from dataclasses import dataclass, field
 import tactile_fw
 import tactile_protocol
 from tactile.board import handover, raw_repl, serial_port
-from tactile.errors import BoardError, InputError, MissingExtra, PortError
-from tactile.extras import hint
+from tactile.errors import BoardError, InputError, MissingExtra, PortError, hint
 
 log = logging.getLogger(__name__)
 

@@ -11,7 +11,7 @@ replaced by versions that stop at the session's deadline, which every step sets
 (``Session.step``); the rest of mpremote (raw-paste, ``exec``, ``follow``) is used as is.
 A step that fails or runs out of time is one ``BoardError`` line naming the step.
 
-mpremote is the ``board`` extra, imported only when a session opens (``tactile.extras``).
+mpremote is the ``board`` extra, imported only when a session opens (``tactile.errors``).
 
 **.mpy files**: which ones a board loads, and what mpy-cross makes.
 
@@ -40,8 +40,7 @@ import time
 from dataclasses import dataclass
 
 from tactile.board.serial_port import describe_lost, open_port
-from tactile.errors import BoardError, PortError, PortLost, TactileError
-from tactile.extras import need
+from tactile.errors import BoardError, PortError, PortLost, TactileError, need
 
 READ_TIMEOUT_S = 2.0  # mpremote's own reads (a raw-paste window, "OK"): at most this long
 POLL_S = 0.002  # read_until's look at the port while nothing is waiting

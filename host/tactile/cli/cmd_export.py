@@ -11,7 +11,7 @@ stderr says what was rebuilt.
 
 ``-o`` is checked before any work (``tactile.recording.export``): a new file or a
 regular file, never a directory, a device or a FIFO, never a file of the run; the file is
-replaced whole (``tactile.files.atomic``), a full disk is exit 5, and an export into the
+replaced whole (``tactile.files.writing``), a full disk is exit 5, and an export into the
 run folder holds the run's lock while it works.
 """
 
@@ -20,7 +20,7 @@ import pathlib
 import sys
 
 from tactile.errors import InputError
-from tactile.files.folder_lock import hold
+from tactile.files.writing import hold
 from tactile.foxglove import export_mcap
 from tactile.logs.read import read_pose_log
 from tactile.output.text import printable

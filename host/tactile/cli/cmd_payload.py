@@ -12,7 +12,7 @@ import sys
 
 from tactile.commands import add_out
 from tactile.errors import InputError
-from tactile.files.atomic import check_target
+from tactile.files.writing import check_target
 from tactile.output.text import dumps, printable_lines
 from tactile.payload.fit import TRIM, identify_run
 from tactile.payload.tool import GRAVITY, MAX_GRAVITY, MAX_SENSOR, tool_doc, write_tool

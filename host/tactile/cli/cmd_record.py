@@ -8,7 +8,7 @@ With a pose log it stops on its own once the log's end has passed (its ``# end:`
 or half a second after its last entry), and says so while it waits.  The summary names the
 board -> host time base (``tactile.recording.timebase``); ``warning:`` lines go to stderr.
 ``--foxglove`` serves the frames to Foxglove while recording (``tactile.cli.foxglove_args``).
-The run folder's lock (``tactile.files.folder_lock``) is held from before anything is
+The run folder's lock (``tactile.files.writing``) is held from before anything is
 written until the command ends: a second ``record`` or an ``export`` into it is refused
 (exit 5).  A run that fails before the board sent a byte leaves nothing behind: a folder it
 made is removed, one that was there is left as it was.
@@ -24,7 +24,7 @@ from tactile.cli.board_args import add_port_argument, connect
 from tactile.commands import add_quiet
 from tactile.commands.derive import check_log, derive
 from tactile.errors import BoardError, DataError, InputError
-from tactile.files.folder_lock import hold
+from tactile.files.writing import hold
 from tactile.logs.tags import log_end, show_time
 from tactile.output.text import fields, printable
 from tactile.payload.apply import Following, OnBoard

@@ -30,7 +30,7 @@ from tactile.board.stream_decoder import decode_bytes
 from tactile.ep1.probes import format_probes, probe_report, probes_from_frames
 from tactile.errors import DataError, InputError
 from tactile.files import bounded
-from tactile.files.atomic import write_bytes
+from tactile.files.writing import write_bytes
 from tactile.localize import format_contacts
 from tactile.localize.contact import Readings, contact_frames
 from tactile.localize.posed import posed_world_contacts

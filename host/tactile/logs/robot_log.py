@@ -26,7 +26,7 @@ written with ``repr``, so a reader gets back the very floats the writer had.
 """
 
 from tactile import units
-from tactile.files.atomic import atomic_write
+from tactile.files.writing import atomic_write
 
 __all__ = [
     "ATTITUDE",

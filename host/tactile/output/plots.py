@@ -21,9 +21,8 @@ import numpy as np
 
 from tactile.ep2 import extent
 from tactile.ep2.patch_frame import unit_normals
-from tactile.errors import InputError
-from tactile.extras import pyplot
-from tactile.files.atomic import atomic_write
+from tactile.errors import InputError, pyplot
+from tactile.files.writing import atomic_write
 from tactile.output.text import printable
 
 __all__ = [

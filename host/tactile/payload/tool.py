@@ -18,7 +18,7 @@ tool.json is one JSON object with exactly those keys (each key names its unit), 
 pose log).  ``read_tool`` refuses anything else: an unknown or missing key, a value that is
 not a finite number in range, a vector of the wrong length; one line naming the file and
 the field (``InputError``, exit 2).  ``write_tool`` replaces the file whole
-(``tactile.files.atomic``).  ``check_device`` refuses a tool for another sensor or another
+(``tactile.files.writing``).  ``check_device`` refuses a tool for another sensor or another
 calibration than the board's (``InputError``).
 
 **The tool's weight** in the sensor frame, and a wrench with it removed.
@@ -39,7 +39,7 @@ import numpy as np
 
 from tactile.errors import InputError
 from tactile.files import bounded
-from tactile.files.atomic import write_bytes
+from tactile.files.writing import write_bytes
 from tactile.output.text import printable
 
 __all__ = [

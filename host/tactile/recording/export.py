@@ -15,14 +15,14 @@ never a NaN.
 **Where ``tactile export`` may write**, checked before any work is done.
 
 - Each output is a new file in an existing folder or a regular file
-  (``tactile.files.atomic.check_target``): never a directory, a device (``/dev/null``
+  (``tactile.files.writing.check_target``): never a directory, a device (``/dev/null``
   included), a FIFO or a socket (exit 2).
 - Never a file of the run being exported.  Paths are compared once symlinks are resolved,
   so a link to capture.bin is capture.bin.  Inside the run folder an export may name a new
   file, or an earlier export of its own format (a name ending ``.mcap`` or ``.parquet``),
   but never the recording's own files (``RUN_FILES``, even before they exist) nor any other
   file already there (exit 2).
-- An export into the run folder holds the run's lock (``tactile.files.folder_lock``) while
+- An export into the run folder holds the run's lock (``tactile.files.writing``) while
   it reads and writes, so it is refused (exit 5) while a ``record`` writes there, and a
   ``record`` is refused while it writes.
 """
@@ -34,9 +34,8 @@ import pathlib
 import numpy as np
 
 from tactile import __version__
-from tactile.errors import InputError
-from tactile.extras import need
-from tactile.files.atomic import atomic_write, check_target
+from tactile.errors import InputError, need
+from tactile.files.writing import atomic_write, check_target
 from tactile.recording.frames import CAPTURE, DEVICE, FRAMES, META
 
 __all__ = ["RUN_FILES", "check_outputs"]
@@ -120,7 +119,7 @@ def _describe(what, rec, why):
 
 def write_parquet(rec, path):
     """Write ``rec`` to ``path`` (frames) and, with contacts, ``NAME.contacts.parquet``
-    beside it, each replaced whole (``tactile.files.atomic``).  Returns a summary."""
+    beside it, each replaced whole (``tactile.files.writing``).  Returns a summary."""
     _, pq = require_pyarrow()
     path = pathlib.Path(path)
     out = {"path": str(path), "frames": len(rec), "contacts": None, "contacts_path": None}

@@ -30,7 +30,7 @@ import math
 from tactile.board.client import info_dict
 from tactile.errors import InputError
 from tactile.files import bounded
-from tactile.files.atomic import write_bytes
+from tactile.files.writing import write_bytes
 from tactile.output.text import clean
 from tactile.recording.run_state import span_s
 from tactile_protocol import constants as C

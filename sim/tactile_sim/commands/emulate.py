@@ -32,7 +32,7 @@ import sys
 
 from tactile.calib.ati import format_cal
 from tactile.errors import InputError
-from tactile.files.atomic import write_bytes
+from tactile.files.writing import write_bytes
 from tactile.output.text import printable
 from tactile_sim.emulator import load_scene, pty_link
 from tactile_sim.emulator.device import EmulatedBoard, link_board_id
@@ -164,7 +164,7 @@ def _write_log(motion, path, at_us):
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
         raise InputError(f"--pose-log: this scene's motion has no robot log ({path})")
-    write(path, at_us)  # tactile.files.atomic: not a file there, exit 2; a disk error, exit 5
+    write(path, at_us)  # tactile.files.writing: not a file there, exit 2; a disk error, exit 5
 
 
 def _write_cal(scene, path):

@@ -8,7 +8,7 @@ import io
 from tactile import units
 from tactile.commands import add_out
 from tactile.errors import InputError
-from tactile.files.atomic import write_bytes
+from tactile.files.writing import write_bytes
 from tactile.output.text import printable
 
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")

@@ -14,7 +14,7 @@ from tactile.commands import (
     renamed,
 )
 from tactile.errors import DataError, InputError
-from tactile.files.atomic import write_bytes
+from tactile.files.writing import write_bytes
 from tactile.output.text import printable
 
 OBJECTS = (

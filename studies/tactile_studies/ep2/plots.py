@@ -10,8 +10,8 @@ when one is called.
 
 import numpy as np
 
-from tactile.extras import pyplot
-from tactile.files.atomic import atomic_write
+from tactile.errors import pyplot
+from tactile.files.writing import atomic_write
 from tactile.output.legends import place_legend
 from tactile.output.plots import image_format
 
