@@ -100,7 +100,7 @@ def test_decode_non_finite_calibration_is_refused_alike_in_text_and_json(tmp_pat
 
 
 def test_text_output_writes_non_finite_numbers_as_null_like_json():
-    from tactile.cli.cmd_decode import _text
+    from tactile.cli.cmd_board import _text
     from tactile.output.text import dumps
 
     d = {"type": "X", "a": math.nan, "b": -math.inf, "c": 1.5, "s": "ok\x1b"}

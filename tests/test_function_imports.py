@@ -112,7 +112,7 @@ def test_at_most_30_remain():
 
 
 def test_the_cli_defers_no_import():
-    """The CLI's commands are imported only when they run (tactile.cli.registry), so they
+    """The CLI's commands are imported only when they run (tactile.cli.main), so they
     import their library at module level; the families of a group command are the one
     exception."""
     cli = [k for k in LISTED if k.startswith(("host/tactile/cli/", "host/tactile/commands/"))]

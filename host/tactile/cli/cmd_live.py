@@ -5,7 +5,7 @@ started if the board was stopped; on exit both are undone (the board's CONFIG as
 stopped board stopped again); ``--as-is`` leaves the board as it is.  Every line
 fits 80 columns.  A ``sim://`` port runs as fast as the host reads unless its URL asks
 for ``?realtime=1``: live says so once, on stderr.  ``--foxglove`` serves the same frames to
-Foxglove (``tactile.cli.foxglove_args``).  ``--payload TOOL --pose-log LOG`` shows (and
+Foxglove (``tactile.cli.options``).  ``--payload TOOL --pose-log LOG`` shows (and
 serves) the wrench with the tool's weight and the bias removed and the host's contact state
 (``tactile.payload.apply``); the robot's log says the sensor's orientation as it runs.
 """
@@ -15,8 +15,14 @@ import time
 
 from tactile.board.client import info_dict
 from tactile.board.live_view import WIDTH, LiveState
-from tactile.cli import foxglove_args
-from tactile.cli.board_args import add_port_argument, connect
+from tactile.cli.options import (
+    add_foxglove_arguments,
+    add_port_argument,
+    check_foxglove,
+    connect,
+    start_foxglove,
+    stop_foxglove,
+)
 from tactile.errors import PortLost
 from tactile.output.text import printable
 from tactile.payload import following as payload_following
@@ -39,11 +45,11 @@ def add_arguments(parser):
         metavar="TOOL",
         help="a sensor's tool file: its weight and the bias removed; needs --pose-log",
     )
-    foxglove_args.add_arguments(parser)
+    add_foxglove_arguments(parser)
 
 
 def run(args):
-    foxglove_args.check(args)
+    check_foxglove(args)
     samples = None if args.as_is else True  # (live switches the SAMPLE stream on)
     following, log = payload_following(args.payload, args.pose_log, samples)  # before the board
     client = connect(args)
@@ -65,7 +71,7 @@ def run(args):
     try:
         restore = None if args.as_is else _samples_on(client)
         posed = log if getattr(log, "kind", None) in ("pose", "scara") else None
-        live = foxglove_args.start(args, _device(client), pose_log=posed)
+        live = start_foxglove(args, _device(client), pose_log=posed)
         _view(client, args.duration, live, following)
     except PortLost:
         restore = None  # a dead port cannot be told anything: the error alone, once
@@ -76,7 +82,7 @@ def run(args):
                 _restore(client, *restore)
         finally:
             client.close()
-            foxglove_args.stop(live)
+            stop_foxglove(live)
     return 0
 
 

@@ -1,10 +1,11 @@
 """What a ``tactile`` command is made of, for the CLI and for the packages that add commands
 to it.
 
-A command is a module with ``add_arguments(parser)`` and ``run(args) -> int``; it parses,
-calls and prints, and the work lives in a library.  ``tactile`` imports it only when it runs
-(or shows its help).  A ``Command`` names that module and carries the one line that
-``tactile --help`` shows, so listing every command imports none of them.
+A command is a module with ``add_arguments(parser)`` and ``run(args) -> int``, or a ``Verb``
+holding those two in a module that holds several commands; it parses, calls and prints, and
+the work lives in a library.  ``tactile`` imports it only when it runs (or shows its help).
+A ``Command`` names that module (``package.module``, or ``package.module:VERB``) and carries
+the one line that ``tactile --help`` shows, so listing every command imports none of them.
 
 ``tactile.cli`` has a table of its own commands.  Other packages add theirs through entry
 points (pyproject.toml), as python-can's interfaces do:
@@ -49,6 +50,7 @@ import argparse
 import math
 import pathlib
 import sys
+from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import NamedTuple
 
@@ -60,10 +62,18 @@ PORTS = "tactile.ports"
 
 
 class Command(NamedTuple):
-    """A command as ``tactile`` lists it: its module (imported when it runs) and its help."""
+    """A command as ``tactile`` lists it: its module (imported when it runs), or the module
+    and the name of its ``Verb`` there (``module:VERB``), and its help."""
 
     module: str
     help: str
+
+
+class Verb(NamedTuple):
+    """One of the commands a module holds: its ``add_arguments(parser)`` and ``run(args)``."""
+
+    add_arguments: Callable
+    run: Callable
 
 
 def absent(error, module):
