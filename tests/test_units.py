@@ -154,7 +154,7 @@ def test_a_file_without_the_line_is_read_as_before_and_cannot_be_converted(tmp_p
 
 def test_probes_and_frames_refuse_a_unit_they_do_not_hold(tmp_path):
     from tactile.ep1.probes import read_probes
-    from tactile.recording.frames import read_frames
+    from tactile.recording.layout import read_frames
 
     probes = tmp_path / "probes.csv"
     probes.write_text("# units: deg\ndtheta_x,dtheta_y,du,dv\n1,2,3,4\n")

@@ -6,7 +6,6 @@
 - ``client``: the handshake and the commands (CONFIG, TARE, START, SET_CAL ...);
 - ``flashing``, ``raw_repl``, ``handover``: putting the firmware on a MicroPython board
   and checking that it answers;
-- ``live_view``: the text view of a live stream.
 
 The board's settings in SI units are ``tactile_protocol.settings``, one vocabulary for the
 CLI, the firmware and the emulator.

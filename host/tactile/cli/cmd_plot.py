@@ -16,7 +16,7 @@ from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError
 from tactile.output import plots
 from tactile.output.text import printable
-from tactile.recording.meta import read_meta
+from tactile.recording.layout import read_meta
 
 WHAT = ("contacts", "patch", "maps")
 METHODS = ("jet", "spline")

@@ -39,7 +39,7 @@ from tactile.logs.tags import clock_of
 from tactile.payload.compensator import Compensator, words
 from tactile.payload.orientation import read_log
 from tactile.payload.tool import check_device, tool_doc
-from tactile.recording.meta import amend, read_meta
+from tactile.recording.layout import amend, read_meta
 from tactile.recording.timebase import recorded_times
 
 __all__ = ["check_log", "derive"]

@@ -5,7 +5,7 @@ pose is held.
 
 The F/T wire carries no pose: the robot controller logs, per finger, time windows in which
 the pose of that finger's sensor is held.  Two formats (CSV, ``#`` comment lines before the
-header; the columns, comment lines and time columns are ``tactile.logs.robot_log``'s, which
+header; the columns, comment lines and time columns are ``tactile.logs``'s, which
 writes them too):
 
 - generic (any robot): ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: the sensor
@@ -31,7 +31,7 @@ the world through the log are ``tactile.localize.posed``'s.
 and at its end, and the commanded rotation.
 
 Written by the robot controller (``tactile_sim``'s ``motion_roll`` writes one through
-``tactile.logs.robot_log``)::
+``tactile.logs``)::
 
     # probe: sphere radius_m=0.01 centre_m=0.05,0,0
     # hold: half_width_us=80000          (optional: readable time on each side of a logged time)
@@ -41,7 +41,7 @@ Written by the robot controller (``tactile_sim``'s ``motion_roll`` writes one th
 The ``#`` lines come before the header.  The times may be in the host's clocks instead
 (``t_start_utc_s,t_end_utc_s`` or ``t_start_mono_s,t_end_mono_s``), and ``# end: t_us=N``
 says when the robot is done (``tactile.logs.tags``).  A log may give the sensor's
-orientation in the world during each hold, ``robot_log.ATTITUDE`` (``qw,qx,qy,qz`` at the
+orientation in the world during each hold, ``tactile.logs.ATTITUDE`` (``qw,qx,qy,qz`` at the
 probe's start, ``qw_end,qx_end,qy_end,qz_end`` at its end, scalar first), which removing a
 tool's weight needs (``tactile.payload``).  The fingertip's pole is the sensor's
 +x, so its ``# probe:`` line takes no ``axis=``.  The probes CSV derived from it is
@@ -57,13 +57,13 @@ from tactile import units
 from tactile.errors import InputError, where
 from tactile.files.csv_dialect import show
 from tactile.files.tabular import read_csv
-from tactile.logs import robot_log, tags
-from tactile.logs.tags import CLOCKS, LIMIT, clock_of, parse_end, read_times
+from tactile.logs import ATTITUDE, CLOCKS, COLUMNS, tags
+from tactile.logs.tags import LIMIT, clock_of, parse_end, read_times
 
 __all__ = ["PoseLog", "read_pose_log", "log_columns", "ProbeLog", "read_probe_log"]
 
-GENERIC = robot_log.COLUMNS["pose"]  # the format's columns (tactile.logs.robot_log)
-SCARA = robot_log.COLUMNS["scara"]
+GENERIC = COLUMNS["pose"]  # the format's columns (tactile.logs)
+SCARA = COLUMNS["scara"]
 MAX_FINGER = 2**31 - 1  # a sensor index (generic log) or a pass number (SCARA log)
 
 
@@ -155,8 +155,8 @@ def _check_overlap(log):
             )
 
 
-LOG_COLUMNS = robot_log.COLUMNS["probe"]  # the format's (tactile.logs.robot_log)
-ATTITUDE = robot_log.ATTITUDE  # optional: the sensor's orientation during each end's hold
+LOG_COLUMNS = COLUMNS["probe"]  # the format's (tactile.logs)
+# (and, optional, ATTITUDE: the sensor's orientation during each end's hold)
 MAX_PROBE = 2**31 - 1
 
 

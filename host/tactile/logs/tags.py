@@ -1,6 +1,6 @@
 """What a robot log says before its rows: its ``# tag: ...`` lines, and its clock.
 
-The ``# tag: ...`` lines before a robot log's header (``robot_log.TAGS``), read.
+The ``# tag: ...`` lines before a robot log's header (``tactile.logs.TAGS``), read.
 
 ``scan`` finds them; ``probe``, ``rig``, ``sensor`` and ``hold`` read one each (the ``# end:``
 line is the clock's: ``parse_end``).  Each error is one ``InputError``
@@ -30,8 +30,7 @@ import numpy as np
 
 from tactile.errors import InputError, where
 from tactile.files.csv_dialect import preamble, show
-from tactile.logs import robot_log
-from tactile.logs.robot_log import TAGS
+from tactile.logs import CLOCKS, TAGS
 
 __all__ = ["scan", "probe", "rig", "sensor", "hold"]
 
@@ -146,10 +145,6 @@ def unit_quaternions(table, names, limit=LIMIT, path=None):
 MAX_BOARD_US = 2**32 - 1  # the board's clock is a 32-bit microsecond counter (PROTOCOL.md)
 MAX_HOST_S = 1e10  # s: UTC until the year 2286, or a monotonic clock up for 317 years
 END_GRACE_S = 0.5
-
-# clock -> (start column, end column, the '# end:' line's key): the format's (robot_log)
-CLOCKS = robot_log.CLOCKS
-TIME_COLUMNS = robot_log.TIME_COLUMNS
 
 
 def clock_of(path, line, names):

@@ -4,9 +4,9 @@ the loader and the tabular export.
 - ``session``: ``tactile record``'s loop (reconnects, PINGs, stop conditions), with
   ``run_state``: the same board after a reconnection, the run's own time and the host's
   stalls, its counts, and a pose log's end;
-- ``frames``: frames.csv's row, the run's file names, whole lines, the reader;
+- ``layout``: frames.csv's row, the run's file names, whole lines, the reader; meta.json;
 - ``files``: capture.bin, frames.csv, device.jsonl and meta.json as they are written;
-- ``meta``, ``recover``, ``load``: meta.json, runs cut short, ``load_recording``;
+- ``recover``, ``load``: runs cut short, ``load_recording``;
 - ``timebase``, ``timefit``: board time to host time (a robot log in a host clock is joined
   to the frames through it);
 - ``export``: the Parquet export, and where an export may write.

@@ -36,7 +36,7 @@ import numpy as np
 from tactile import __version__
 from tactile.errors import InputError, need
 from tactile.files.writing import atomic_write, check_target
-from tactile.recording.frames import CAPTURE, DEVICE, FRAMES, META
+from tactile.recording.layout import CAPTURE, DEVICE, FRAMES, META
 
 __all__ = ["RUN_FILES", "check_outputs"]
 

@@ -31,10 +31,10 @@ A directory that already holds a capture is refused unless ``append`` is set; th
 new bytes follow the old ones and nothing recorded is ever lost: a run cut short has its
 torn last row cut and frames.csv completed from capture.bin first
 (``tactile.recording.recover``), and meta.json keeps one entry per session with totals
-over them (``tactile.recording.meta``).
+over them (``tactile.recording.layout``).
 
 frames.csv's row, the file names, the whole-line helpers and the reader are
-``tactile.recording.frames``, below this module and ``recover``.
+``tactile.recording.layout``, below this module and ``recover``.
 """
 
 import contextlib
@@ -50,7 +50,7 @@ from tactile import units
 from tactile.errors import InputError
 from tactile.files import writing
 from tactile.output.text import clean, dumps
-from tactile.recording.frames import (
+from tactile.recording.layout import (
     CAPTURE,
     DEVICE,
     FRAME_COLUMNS,
@@ -58,11 +58,13 @@ from tactile.recording.frames import (
     META,
     WRITE_ENDS,
     WriteFailed,
+    count_rows,
     cut_torn,
+    document,
     frame_row,
+    previous_sessions,
     put,
 )
-from tactile.recording.meta import count_rows, document, previous_sessions
 from tactile.recording.recover import complete_frames
 from tactile_protocol import constants as C
 

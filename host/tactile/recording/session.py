@@ -45,7 +45,7 @@ from tactile.board.client import BoardClient
 from tactile.board.serial_port import open_port
 from tactile.errors import BoardError, HostFileError, PortError, PortLost
 from tactile.recording.files import Recording, WriteFailed
-from tactile.recording.meta import session_entry
+from tactile.recording.layout import session_entry
 from tactile.recording.run_state import (
     BoardIdentity,
     Held,
@@ -434,7 +434,7 @@ class Session:
 
     # -- metadata -------------------------------------------------------------------
     def meta(self):
-        """This session's entry in meta.json (``tactile.recording.meta`` adds the totals)."""
+        """This session's entry in meta.json (``tactile.recording.layout`` adds the totals)."""
         return session_entry(self)
 
     def _write_meta(self):
