@@ -153,16 +153,21 @@ def _json(path, data):
     return MatrixFile(path, "JSON", matrix, spec, cal_id, id_from, label, [], places)
 
 
+def _six(field, v, what, need):
+    """``v`` when it is a list of six, else InputError naming ``field``: how many ``what`` it
+    holds (or its type), and ``need``."""
+    if not isinstance(v, list) or len(v) != 6:
+        n = _count(v, what) if isinstance(v, list) else type(v).__name__
+        raise InputError(f"{field}: {n}, need {need}")
+    return v
+
+
 def _json_matrix(path, m):
-    if not isinstance(m, list) or len(m) != 6:
-        n = _count(m, "row") if isinstance(m, list) else type(m).__name__
-        raise InputError(f"{path}: field 'matrix': {n}, need a list of 6 rows ({' '.join(ROWS)})")
+    _six(f"{path}: field 'matrix'", m, "row", f"a list of 6 rows ({' '.join(ROWS)})")
     out = []
     for r, row in enumerate(m):
         field = f"{path}: field matrix[{r}] ({ROWS[r]})"
-        if not isinstance(row, list) or len(row) != 6:
-            n = _count(row, "value") if isinstance(row, list) else type(row).__name__
-            raise InputError(f"{field}: {n}, need a list of 6 numbers (gauges {' '.join(GAUGES)})")
+        _six(field, row, "value", f"a list of 6 numbers (gauges {' '.join(GAUGES)})")
         values = []
         for j, v in enumerate(row):
             place = f"{path}: field matrix[{r}][{j}] ({ROWS[r]}, {GAUGES[j]})"
