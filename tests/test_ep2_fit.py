@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-from tactile.ep2 import bspline_patch as bp
+from tactile.ep2 import spline as bp
 from tactile.errors import DataError
 
 

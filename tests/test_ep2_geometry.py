@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tactile.ep2.surface_geometry import (
+from tactile.ep2.geometry import (
     curvatures,
     curvedness_c,
     curvedness_r,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tactile.ep2 import centre_result
-from tactile.ep2.surface_geometry import S_EDGES, S_NAMES
+from tactile.ep2.geometry import S_EDGES, S_NAMES
 
 
 def _vote_with_arrays(s_est, s_sd, p_flat):

@@ -136,7 +136,7 @@ def _close(got, want, outcome, group, split=False):
     their sensitivity to the patch's data (a batched fit sums in another order than one
     patch alone: ``tests/tolerance.py``)."""
     from tactile.ep2.contacts_csv import Contacts
-    from tactile.ep2.many import analyze_one
+    from tactile.ep2.stream import analyze_one
     from tactile.output.jsonout import dumps
 
     _skeleton(got, want)
@@ -156,7 +156,7 @@ OPTS = dict(method="jet", order=None, segments=1, weighting="auto", grid=8, nois
 def _per_patch(groups, split=False):
     """The records of ``analyze_sweep`` patch by patch (the CLI before issue 13's batch)."""
     from tactile.cli.cmd_ep2 import patch_id
-    from tactile.ep2.many import analyze_one
+    from tactile.ep2.stream import analyze_one
 
     return [analyze_one(g, patch_id(g.patch), OPTS, split) for g in groups]
 
@@ -215,11 +215,11 @@ def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monke
     """Several chunks of a scattered file: --jobs 1 and 2, blocks of 1 KiB and of the
     default, and the non-streaming run (the whole list first) print the same bytes; the
     batch gives the per-patch records, split parts included."""
-    from tactile.ep2 import many
+    from tactile.ep2 import stream
     from tactile.files import tabular
     from tactile.output.jsonout import dumps
 
-    monkeypatch.setattr(many, "CHUNK", 4)  # 14 patches: four chunks, the last short
+    monkeypatch.setattr(stream, "CHUNK", 4)  # 14 patches: four chunks, the last short
     path = _many_patches(tmp_path, 14, split_some=split)
     flags = ["--json", *(["--split"] if split else [])]
     one = _run(capsys, str(path), *flags)
@@ -352,14 +352,14 @@ def test_small_chunks_and_blocks_print_the_bytes_of_the_whole_file_at_once(
 ):
     """A few hundred patches of 9 to 36 contacts: read in 2 KiB blocks and fitted 7 patches
     at a time (--jobs 1 and 2), the output is that of every patch in one chunk."""
-    from tactile.ep2 import many
+    from tactile.ep2 import stream
     from tactile.files import tabular
 
     path = str(_sizes_csv(tmp_path, 300))
-    monkeypatch.setattr(many, "CHUNK", 10**6)  # the whole file in one chunk
+    monkeypatch.setattr(stream, "CHUNK", 10**6)  # the whole file in one chunk
     whole = _run(capsys, path, "--json")
     assert whole[0] in (0, 3) and len(whole[1].splitlines()) == 300
-    monkeypatch.setattr(many, "CHUNK", 7)
+    monkeypatch.setattr(stream, "CHUNK", 7)
     monkeypatch.setattr(tabular, "BLOCK_BYTES", 2048)
     assert _run(capsys, path, "--json") == whole
     assert _run(capsys, path, "--json", "--jobs", "2") == whole

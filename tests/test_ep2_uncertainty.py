@@ -7,11 +7,11 @@ import pytest
 
 from tactile.ep2 import (
     analyze_patch,
-    bspline_patch,
+    spline,
     spline_analysis,
     uncertainty,
 )
-from tactile.ep2.surface_geometry import shape_entries, shape_index
+from tactile.ep2.geometry import shape_entries, shape_index
 from tactile_sim.ep2 import make, sweep
 
 
@@ -55,7 +55,7 @@ def test_critical_values_span_chi2_1_to_chi2_2():
 def test_tensor_jacobian_matches_finite_differences():
     x, y = _scatter(seed=1)
     z = -0.3 * x * x + 0.1 * x * y - 0.2 * y * y + 0.05 * x * x * y
-    fit = bspline_patch.fit(x, y, z, -0.6 * x, -0.4 * y, 1.0, 1.0, 1.0)
+    fit = spline.fit(x, y, z, -0.6 * x, -0.4 * y, 1.0, 1.0, 1.0)
     xs, ys = spline_analysis._grid_lines(np.column_stack([x, y]), 6)
     rows = fit.grid_rows(xs, ys, first=1)
     t, G = uncertainty.tensor_and_jacobian(np.split(rows @ fit.coef, 5), rows)
@@ -125,13 +125,11 @@ def test_interval_coverage_on_gaussian_tensors(t_true, key, truth):
 
 @pytest.mark.parametrize("degree, segments", [((2, 2), (1, 1)), ((3, 2), (1, 1)), ((2, 2), (2, 2))])
 def test_jet_span_reproduces_the_monomials(degree, segments):
-    tx = bspline_patch.knots(degree[0], segments[0])
-    ty = bspline_patch.knots(degree[1], segments[1])
+    tx = spline.knots(degree[0], segments[0])
+    ty = spline.knots(degree[1], segments[1])
     Q = spline_analysis.jet_span(*degree, tx, ty)
     u, v = _scatter(seed=7)
-    rows = bspline_patch.rowwise_kron(
-        bspline_patch.basis(u, degree[0], tx), bspline_patch.basis(v, degree[1], ty)
-    )
+    rows = spline.rowwise_kron(spline.basis(u, degree[0], tx), spline.basis(v, degree[1], ty))
     mono = np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v])
     assert np.allclose(rows @ Q, mono, atol=1e-12)
 
@@ -140,8 +138,8 @@ def _fit(z, zx, zy, x, y, seed=None, noise=0.0):
     if seed is not None:
         rng = np.random.default_rng(seed)
         z, zx, zy = (a + noise * rng.standard_normal(a.size) for a in (z, zx, zy))
-    domain, rows = bspline_patch.prepare(x, y)
-    f = bspline_patch.fit(x, y, z, zx, zy, 1.0, 1.0, 1.0, domain=domain, rows=rows)
+    domain, rows = spline.prepare(x, y)
+    f = spline.fit(x, y, z, zx, zy, 1.0, 1.0, 1.0, domain=domain, rows=rows)
     return f, rows, (z, zx, zy)
 
 
@@ -189,8 +187,8 @@ def test_leverage_is_the_hat_diagonal_and_grid_rows_match_rows():
     z = -0.3 * x * x
     w = (2.0, 0.5, 0.7)
     for solver in ("svd", "qr", "gelsy"):
-        f = bspline_patch.fit(x, y, z, -0.6 * x, 0 * y, *w, solver=solver)
-        a0, a1, a2 = bspline_patch.design(x, y, f.domain, f.degree, f.tx, f.ty)
+        f = spline.fit(x, y, z, -0.6 * x, 0 * y, *w, solver=solver)
+        a0, a1, a2 = spline.design(x, y, f.domain, f.degree, f.tx, f.ty)
         A = np.vstack([w[0] * a0, w[1] * a1, w[2] * a2])
         hat = A @ np.linalg.solve(A.T @ A, A.T)
         assert np.allclose(f.leverage, np.diag(hat), atol=1e-10)

@@ -34,7 +34,7 @@ from tactile.ep2 import (
     tilt,
 )
 from tactile.ep2.centre_result import hk_eps
-from tactile.ep2.surface_geometry import hk_labels
+from tactile.ep2.geometry import hk_labels
 from tactile.errors import DataError
 
 __all__ = ["PatchResult", "analyze_patch", "analyze_sweep"]

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from tactile.ep2 import uncertainty
-from tactile.ep2.surface_geometry import (
+from tactile.ep2.geometry import (
     S_EDGES,
     S_NAMES,
     curvedness_c,
@@ -202,7 +202,7 @@ def _mean_sd(v, ok):
 # --- Shape labels with a confidence (§4.8.2, tables 1-3; beyond the thesis: intervals).
 #
 # Labels: plane, sphere, cylinder, saddle, concave_cylinder, concave_sphere (the S bands of
-# ``surface_geometry.S_REGIONS``) or uncertain.
+# ``geometry.S_REGIONS``) or uncertain.
 #
 # - plane: the curvedness is below what the data resolve. The grid-mean shape operator t = (a, b,
 # c) (symmetric 2x2 entries, so no k1 >= k2 ordering bias) is tested against zero: d^2 = t^T

@@ -15,8 +15,8 @@ import numpy as np
 
 from tactile.ep2 import centre_result, patch_frame
 from tactile.ep2.centre_result import DERIVS
+from tactile.ep2.geometry import principal
 from tactile.ep2.jet_terms import design, exponents, mv, powers, size
-from tactile.ep2.surface_geometry import principal
 from tactile.errors import DataError
 
 MAX_HALF_WIDTH = 0.25  # of 1/L: the 2-jet's noise half-width (95 %) beyond which k is unknown

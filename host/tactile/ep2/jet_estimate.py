@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tactile.ep2.geometry import shape_entries
 from tactile.ep2.jet_terms import mv, pick, size, vm
-from tactile.ep2.surface_geometry import shape_entries
 
 SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's dof
 BIAS_EVIDENCE = 4.0  # a measured bias counts beyond this many times its own noise

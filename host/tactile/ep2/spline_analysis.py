@@ -3,7 +3,7 @@
 Kept to reproduce chapters 4-5 (``--order 3 --weighting tangent`` is the
 thesis's bicubic at 100:1, §4.9), not the default: on the held-out grid the
 centre jet (``local_jet``) is more accurate.  Frame and units as there; the
-fit is ``bspline_patch``; weights are the thesis's fixed ratios or, for
+fit is ``spline``; weights are the thesis's fixed ratios or, for
 ``auto``, per-row-type noise (REML, ``VC_PASSES`` passes); ``shrink_to_jet``
 shrinks the tensor-product excess toward the 2-jet; ``uncertainty.model_bias`` adds the
 biquadratic's bias on round surfaces to the intervals.  The headline
@@ -16,8 +16,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from tactile.ep2 import bspline_patch, centre_result, patch_frame, uncertainty
-from tactile.ep2.surface_geometry import principal, shape_entries
+from tactile.ep2 import centre_result, patch_frame, spline, uncertainty
+from tactile.ep2.geometry import principal, shape_entries
 from tactile.errors import DataError
 
 WEIGHTINGS = ("auto", "tangent", "position")
@@ -136,11 +136,11 @@ def _noise(noise_pos, noise_normal, scale):
 def _fit_weighted(p, sx, sy, weighting, sig, opts):
     """Fit with the chosen weights; ``auto`` estimates the unstated noise (``VC_PASSES``)."""
     x, y, z = p[:, 0], p[:, 1], p[:, 2]
-    domain, rows = bspline_patch.prepare(x, y, opts["degree"], opts["segments"])
+    domain, rows = spline.prepare(x, y, opts["degree"], opts["segments"])
     kw = dict(opts, domain=domain, rows=rows)
     if weighting in ("tangent", "position"):
         w_pos, w_s = (1.0, THESIS_RATIO) if weighting == "tangent" else (THESIS_RATIO, 1.0)
-        return bspline_patch.fit(x, y, z, sx, sy, w_pos, w_s, w_s, **kw), (None, None), rows
+        return spline.fit(x, y, z, sx, sy, w_pos, w_s, w_s, **kw), (None, None), rows
     g2 = sx * sx + sy * sy
     stated = sig
     sp, sn = (1.0 if s is None else s for s in sig)  # unstated: start at 1:1
@@ -148,7 +148,7 @@ def _fit_weighted(p, sx, sy, weighting, sig, opts):
     for i in range(passes + 1):
         w_pos = 1.0 / (sp * np.sqrt(1.0 + g2))
         w_s = 1.0 / (sn * (1.0 + g2))
-        fit = bspline_patch.fit(x, y, z, sx, sy, w_pos, w_s, w_s, **kw)
+        fit = spline.fit(x, y, z, sx, sy, w_pos, w_s, w_s, **kw)
         if i < passes:
             fp, fs = _variance_factors(fit, w_pos, w_s)
             sp = sp if stated[0] is not None else max(sp * np.sqrt(fp), NOISE_FLOOR)
@@ -222,9 +222,7 @@ def jet_span(kx, ky, tx, ty):
     u = np.linspace(0.0, 1.0, nx + 2)
     v = np.linspace(0.0, 1.0, ny + 2)
     uu, vv = (g.ravel() for g in np.meshgrid(u, v, indexing="ij"))
-    rows = bspline_patch.rowwise_kron(
-        bspline_patch.basis(uu, kx, tx), bspline_patch.basis(vv, ky, ty)
-    )
+    rows = spline.rowwise_kron(spline.basis(uu, kx, tx), spline.basis(vv, ky, ty))
     mono = np.column_stack([np.ones_like(uu), uu, vv, uu * uu, uu * vv, vv * vv])
     return np.linalg.lstsq(rows, mono, rcond=None)[0]
 
@@ -233,7 +231,7 @@ def shrink_to_jet(fit, z, sx, sy, s2, rows):
     """Shrink ``fit`` (a ``SplineFit``) toward its 2-jet.  Returns (fit, w, d2).
 
     ``z, sx, sy`` are the data the fit was made from and ``rows`` its
-    unweighted design rows (``bspline_patch.prepare``), for the residuals;
+    unweighted design rows (``spline.prepare``), for the residuals;
     ``s2`` the variance factor of the weighted rows (chi^2/dof, or 1 with the
     noise stated).  Patches with no excess (degree < 2, or exactly a 2-jet)
     come back unchanged with w = 1.

@@ -1,7 +1,7 @@
 """Patch-level curvature, its covariance, and 95 % intervals for S, k1, k2 and |k|max.
 
 The patch is summarised by the grid mean t = (a, b, c) of the symmetric
-shape-operator entries (``surface_geometry.shape_entries``): m = (a + c)/2 is
+shape-operator entries (``geometry.shape_entries``): m = (a + c)/2 is
 the mean curvature, v = ((a - c)/2, b) the anisotropy, h = |v|, and
 k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
 
@@ -32,7 +32,7 @@ k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
 
 import numpy as np
 
-from tactile.ep2.surface_geometry import shape_entries, shape_index
+from tactile.ep2.geometry import shape_entries, shape_index
 
 Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124

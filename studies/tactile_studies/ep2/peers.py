@@ -3,13 +3,13 @@
 ``jet``: quadric (2-jet) least squares z = c + g.x + x^T A x / 2 about the patch centre,
 curvature at the centre; ``with_normals`` adds the slope rows weighted 1/sigma as in the
 main fit.  It works in the patch frame of ``tactile.ep2.patch_frame`` and takes its
-curvature from ``surface_geometry``, so only the surface estimate differs.
+curvature from ``geometry``, so only the surface estimate differs.
 """
 
 import numpy as np
 
 from tactile.ep2 import patch_frame
-from tactile.ep2.surface_geometry import curvatures
+from tactile.ep2.geometry import curvatures
 
 
 def _framed(points, normals):

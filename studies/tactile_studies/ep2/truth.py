@@ -13,7 +13,7 @@ first and second fundamental forms (§2.2): with p, q = h_x, h_y and W^2 = 1 + p
 
 signed positive where the surface is convex toward +z, the finger's side (a cap
 z = -(x^2 + y^2)/(2R) has k1 = k2 = +1/R).  This route shares nothing with
-``tactile.ep2.surface_geometry`` (Cholesky of I) on purpose: it checks it.  It does share
+``tactile.ep2.geometry`` (Cholesky of I) on purpose: it checks it.  It does share
 the estimator's patch frame, which defines where the estimand is: so it is a study
 (application layer), not part of the simulator.
 """
