@@ -1,19 +1,30 @@
-"""Differential geometry of a height field z = f(x, y) (§2.2, eqs. 5-16).
+"""The patch frame, the jet's terms, and the differential geometry of a height field.
 
-Sign convention (§5.1.2 and issue 3): the unit normal points from the object
-toward the finger (+z of the patch frame) and curvatures are POSITIVE where the
-surface is convex toward the finger.  With the textbook second fundamental form
-L = f_xx / W taken against the +z normal a cap z = -r^2/(2R) has curvature
--1/R, so here L, M, N are taken against the inward normal: L = -f_xx / W.
+**Frame** (§4.1 step 2, §5.1.2): z is the outward mean normal (normals point from the
+object toward the finger), the origin the contacts' centroid, x the world x axis projected
+onto the tangent plane (world y if x is nearly normal).  In that frame the slopes
+dz/dx = -nx/nz, dz/dy = -ny/nz stay finite.
 
-Principal curvatures come from the shape operator written as a symmetric 2x2
-matrix P = C^-1 II C^-T in an orthonormal tangent basis (C is the Cholesky
-factor of the first fundamental form I = C C^T).  Its eigenvalues are
-k = m +/- hypot((a - c)/2, b) with m = (a + c)/2: exact at umbilics and
-planes, no k1 - k2 division and no square root of a negative round-off.
+**Jet terms**: monomials x^i y^j / (i! j!) by degree and their rows (value, d/dx, d/dy),
+shared by the default fit (``local_jet``), its answers and its consistency test, and the
+batched matrix-vector products they use.
+
+**Geometry of z = f(x, y)** (§2.2, eqs. 5-16).  Sign convention (§5.1.2): curvatures are
+POSITIVE where the surface is convex toward the finger.  With the textbook second
+fundamental form L = f_xx / W taken against the +z normal a cap z = -r^2/(2R) has
+curvature -1/R, so here L, M, N are taken against the inward normal: L = -f_xx / W.
+Principal curvatures come from the shape operator written as a symmetric 2x2 matrix
+P = C^-1 II C^-T in an orthonormal tangent basis (C the Cholesky factor of the first
+fundamental form I = C C^T).  Its eigenvalues k = m +/- hypot((a - c)/2, b), m = (a + c)/2,
+are exact at umbilics and planes: no k1 - k2 division, no square root of a negative
+round-off.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
+
+from tactile.errors import DataError
 
 
 def principal(zx, zy, zxx, zxy, zyy):
@@ -190,3 +201,147 @@ def s_region_map(s):
     """Array of S-region names for a map of S values (fig. 50)."""
     names = np.array(S_NAMES, dtype=object)
     return names[s_class(np.asarray(s))]
+
+
+MAX_NORMAL_ANGLE_DEG = 80.0
+
+
+@dataclass(frozen=True)
+class PatchFrame:
+    """Rigid frame: ``rot`` rows are the patch x, y, z axes in world coordinates."""
+
+    origin: np.ndarray
+    rot: np.ndarray
+
+    def to_patch(self, points):
+        return (np.asarray(points, float) - self.origin) @ self.rot.T
+
+    def to_patch_dirs(self, vectors):
+        return np.asarray(vectors, float) @ self.rot.T
+
+    def to_world(self, points):
+        return np.asarray(points, float) @ self.rot + self.origin
+
+    def to_world_dirs(self, vectors):
+        return np.asarray(vectors, float) @ self.rot
+
+    def rotated_about_z(self, angle):
+        """The same frame turned by ``angle`` (rad) about its own z axis (§4.10 refit)."""
+        c, s = np.cos(angle), np.sin(angle)
+        turn = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        return PatchFrame(self.origin, turn @ self.rot)
+
+
+def unit_normals(normals):
+    """Normalise rows; zero-length rows raise ``DataError`` naming the row index."""
+    n, ok = unit_rows(normals)
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        raise DataError(f"normal of contact {bad[0]} has zero length")
+    return n
+
+
+def unit_rows(normals):
+    """(rows (..., 3) made unit, (...) whether each was non-zero: a zero or non-finite row
+    is left as it is).  A row far from unit length (1e-300 or 1e300) is first divided by
+    its largest component, so the squares in its norm neither overflow nor underflow."""
+    n = np.asarray(normals, float)
+    big = np.max(np.abs(n), axis=-1) if n.size else np.zeros(n.shape[:-1])
+    ok = (big > 0) & (big < np.inf)
+    big = np.where(ok, big, 1.0)[..., None]
+    n = np.where((big > 1e-100) & (big < 1e100), n, n / big)
+    norm = np.linalg.norm(n, axis=-1)[..., None]
+    return np.where(ok[..., None], n / np.where(ok[..., None], norm, 1.0), n), ok
+
+
+def frame_from_contacts(points, normals):
+    """Patch frame from contacts and UNIT normals (z = normalised mean normal)."""
+    mean = normals.mean(axis=0)
+    norm = np.linalg.norm(mean)
+    if norm < 1e-6:
+        raise DataError(
+            "normals inconsistent with one patch: they cancel out (mean normal is zero)"
+        )
+    ez = mean / norm
+    ref = np.array([1.0, 0.0, 0.0]) if abs(ez[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    ex = ref - (ref @ ez) * ez
+    ex /= np.linalg.norm(ex)
+    ey = np.cross(ez, ex)
+    return PatchFrame(np.asarray(points, float).mean(axis=0), np.vstack([ex, ey, ez]))
+
+
+def slopes(normals_patch, max_angle_deg=MAX_NORMAL_ANGLE_DEG, lines=None):
+    """dz/dx = -nx/nz, dz/dy = -ny/nz (§4.5.1) for unit normals in the patch frame.
+
+    A normal more than ``max_angle_deg`` from the patch z axis makes the
+    height-field model unusable there: ``DataError`` naming the contact.
+    """
+    nz = normals_patch[:, 2]
+    limit = np.cos(np.radians(max_angle_deg))
+    bad = np.flatnonzero(nz < limit)
+    if bad.size:
+        i = bad[0]
+        angle = np.degrees(np.arccos(np.clip(nz[i], -1.0, 1.0)))
+        where = f"line {lines[i]}" if lines is not None else f"contact {i}"
+        raise DataError(
+            f"normals inconsistent with one patch: {where} is {angle:.1f} deg from the mean normal"
+            f" (limit {max_angle_deg:g} deg; split the sweep or check the normals' sign)"
+        )
+    return -normals_patch[:, 0] / nz, -normals_patch[:, 1] / nz
+
+
+def exponents(order):
+    """(i, j) of the jet's monomials x^i y^j, by degree (the column order)."""
+    return [(i, d - i) for d in range(order + 1) for i in range(d, -1, -1)]
+
+
+def size(order):
+    return (order + 1) * (order + 2) // 2
+
+
+def rows(x, y, order, dx=0, dy=0):
+    """Rows of d^(dx+dy)/dx^dx dy^dy of the jet sum c_ij x^i y^j / (i! j!), (..., p): with
+    this scaling a derivative only shifts the exponents (zero where they would go negative),
+    and the coefficients are the jet's derivatives at the centre."""
+    px, py = powers(x, order), powers(y, order)
+    zero = np.zeros_like(x)
+    out = [px[i - dx] * py[j - dy] if i >= dx and j >= dy else zero for i, j in exponents(order)]
+    return np.stack(out, -1)
+
+
+def powers(x, order):
+    """[x^k / k!] for k = 0..order."""
+    out = [np.ones_like(x)]
+    for k in range(1, order + 1):
+        out.append(out[-1] * x / k)
+    return out
+
+
+def design(x, y, order):
+    """Rows of the jet's value, d/dx and d/dy: three (..., p) arrays."""
+    return rows(x, y, order), rows(x, y, order, 1, 0), rows(x, y, order, 0, 1)
+
+
+def mv(M, v):
+    """Batched matrix times vector: (B, m, p) @ (B, p) -> (B, m)."""
+    return (M @ v[..., None])[..., 0]
+
+
+def vm(v, M):
+    """Batched vector times matrix: (B, m) @ (B, m, p) -> (B, p)."""
+    return (v[:, None, :] @ M)[:, 0]
+
+
+def unit(v):
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def pick(by_order, which):
+    """Per patch, the entry of ``by_order`` (order -> (B, ...)) at that patch's order."""
+    out = np.array(next(iter(by_order.values())), copy=True)
+    for o, v in by_order.items():
+        sel = which == o
+        if sel.any():
+            out[sel] = v[sel]
+    return out

@@ -26,7 +26,7 @@ In one's head (thesis §4.5-4.6 made local; §5.1.2's frame):
    noise, and the order above the top, sized as a sphere or cylinder of the measured
    curvature would size it (a circle's z6 = 5 z4^2 / z2).
 
-``fit`` returns a ``jet_estimate.JetStack`` (items 5-6 are ``jet_estimate``'s);
+``fit`` returns a ``jet_answers.JetStack`` (items 5-6 are ``jet_answers``');
 ``jet_answers`` turns it into results and refusals.  Each pass of the fit is a ``JetFit``.
 """
 
@@ -35,8 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import jet_estimate
-from tactile.ep2.jet_terms import design, mv, pick, size, unit, vm
+from tactile.ep2 import jet_answers
+from tactile.ep2.geometry import design, mv, pick, size, unit, vm
 
 TOP_ORDER = 4
 TOP_REDUNDANCY = 1.2  # an order is fitted where the rows are this many times its terms
@@ -138,7 +138,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
             break
         live = np.array(again)
         f.put(live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap, limit))
-    return jet_estimate.answer(f, keep, reason, warnings, np.isfinite(noise))
+    return jet_answers.answer(f, keep, reason, warnings, np.isfinite(noise))
 
 
 def _per_patch(v, B):
@@ -151,7 +151,7 @@ def _per_patch(v, B):
 # --- 1. screening and the frame -------------------------------------------------------------
 def _frame(P, N, keep):
     """(origin (B, 3), axes (B, 3, 3), L (B,), centre (B, 2), spread (B,): L, 0 for one point)
-    as ``patch_frame`` builds it, from the contacts kept."""
+    as ``geometry.frame_from_contacts`` builds it, from the contacts kept."""
     w = keep.astype(float)
     z = unit(vm(w, N))
     ref = np.where((np.abs(z[:, :1]) < 0.9), [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])

@@ -1,6 +1,6 @@
 """True curvature of a sim height field AT THE PATCH CENTRE (the EP2 estimand).
 
-The patch frame is the library's (``tactile.ep2.patch_frame.frame_from_contacts``:
+The patch frame is the library's (``tactile.ep2.geometry.frame_from_contacts``:
 origin at the centroid, z = mean unit normal); the patch centre is the middle of
 the contacts' bounding box in patch-frame x, y.  The true surface point is where
 the patch-frame z line through that centre meets the surface (1-D Newton root).
@@ -20,7 +20,7 @@ the estimator's patch frame, which defines where the estimand is: so it is a stu
 
 import numpy as np
 
-from tactile.ep2.patch_frame import frame_from_contacts
+from tactile.ep2.geometry import frame_from_contacts
 
 
 def hessian(obj, x, y):
