@@ -363,3 +363,29 @@ def test_small_chunks_and_blocks_print_the_bytes_of_the_whole_file_at_once(
     monkeypatch.setattr(tabular, "BLOCK_BYTES", 2048)
     assert _run(capsys, path, "--json") == whole
     assert _run(capsys, path, "--json", "--jobs", "2") == whole
+
+
+@pytest.mark.parametrize(
+    ("sizes", "chunk", "rows", "want"),
+    [
+        ([10] * 7, 3, 1000, [3, 3, 1]),  # the count cuts
+        ([10] * 7, 100, 25, [2, 2, 2, 1]),  # the contacts cut
+        ([5, 40, 5, 5], 100, 30, [1, 1, 2]),  # a patch over the budget goes alone
+        ([], 4, 100, []),
+    ],
+)
+def test_chunks_hold_at_most_chunk_patches_and_chunk_rows_contacts(
+    monkeypatch, sizes, chunk, rows, want
+):
+    """Work units are cut by count and by contacts, so memory in flight follows the rows
+    however large the patches; every patch goes in one, in order."""
+    from types import SimpleNamespace
+
+    from tactile.ep2 import stream
+
+    monkeypatch.setattr(stream, "CHUNK", chunk)
+    monkeypatch.setattr(stream, "CHUNK_ROWS", rows)
+    named = [(SimpleNamespace(points=np.zeros((n, 3))), str(i)) for i, n in enumerate(sizes)]
+    got = list(stream.chunks(named))
+    assert [len(w) for w in got] == want
+    assert [name for w in got for _, name in w] == [str(i) for i in range(len(sizes))]

@@ -5,8 +5,9 @@
 one ``Outcome`` per patch, in input order, as soon as its chunk (and every chunk before
 it) is done.
 
-Patches go in chunks of ``CHUNK`` consecutive patches, each chunk fitted together by
-``analyze_patches``.  The chunks are the same whatever ``jobs`` is, so the output is too:
+Patches go in chunks of ``CHUNK`` consecutive patches (fewer where their contacts pass
+``CHUNK_ROWS``), each chunk fitted by one ``analyze_patches`` call, which sorts it into
+stacks of like size.  The chunks are the same whatever ``jobs`` is, so the output is too:
 with ``jobs > 1`` chunks go to that many worker processes, at most a few chunks per
 worker in flight, so memory does not grow with the file.  With ``split``, a patch whose
 normals break (§6.2.5) is cut and analysed part by part (``analyze_sweep``); the others of
@@ -22,16 +23,17 @@ it, C and C_mean shifted by -(2/pi) ln(scale) (C = (2/pi) ln R, thesis §4.8.2),
 import functools
 from collections import deque
 from dataclasses import dataclass
-from itertools import islice
 
 import numpy as np
 
 from tactile.ep2 import geometry, patch_input
-from tactile.ep2.api import CHUNK, analyze_patches, analyze_sweep, sweep_parts
+from tactile.ep2.api import analyze_patches, analyze_sweep, sweep_parts
 from tactile.errors import DataError, InputError
 from tactile.units import c_shift
 
 MAX_JOBS = 256
+CHUNK = 2048  # consecutive patches to a unit of work, fitted in stacks of like size
+CHUNK_ROWS = 2**16  # ... and at most this many contacts, however large the patches
 _IN_FLIGHT = 4  # chunks queued per worker: enough to keep it busy, little memory
 
 
@@ -87,7 +89,7 @@ def analyze_chunk(work, opts, split):
         for part in parts or [whole]:
             patches.append(part)
             owners.append(i)
-    results = analyze_patches(patches, chunk=max(1, len(patches)), **opts)
+    results = analyze_patches(patches, **opts)  # stacks of like size (``api.stacks``)
     found = {}
     for i, res in zip(owners, results, strict=True):
         found.setdefault(i, []).append(res)
@@ -151,9 +153,17 @@ def _quiet_worker():
 
 
 def chunks(named):
-    """Lists of (group, name), ``CHUNK`` consecutive patches each (the last may be short)."""
-    named = iter(named)
-    while work := list(islice(named, CHUNK)):
+    """Lists of (group, name) of consecutive patches: ``CHUNK`` each, or fewer where their
+    contacts would pass ``CHUNK_ROWS`` (at least one patch a list)."""
+    work, rows = [], 0
+    for item in named:
+        n = len(item[0].points)
+        if work and (len(work) == CHUNK or rows + n > CHUNK_ROWS):
+            yield work
+            work, rows = [], 0
+        work.append(item)
+        rows += n
+    if work:
         yield work
 
 
