@@ -172,12 +172,20 @@ def hk_labels(K, H, eps_k=0.0, eps_h=0.0, table=2):
     With table 2, K > 0 with H = 0 cannot occur (K <= H^2); a sign pattern
     the table lacks (round-off, or table 1 with a zero sign) reads "flat".
     """
+    names = _HK_NAMES[table == 2]
+    if np.ndim(K) == 0 and np.ndim(H) == 0:  # one pair (a patch's label): Python floats
+        k, h, ek, eh = float(K), float(H), float(eps_k), float(eps_h)
+        code = 3 * ((k > ek) - (k < -ek)) + (h > eh) - (h < -eh) + 4
+        return np.array(names[code], dtype=object)
     sk, sh = hk_sign(K, H, eps_k, eps_h)
-    names = HK_TABLE2 if table == 2 else HK_TABLE1
-    out = np.empty(np.shape(sk), dtype=object)
-    for idx in np.ndindex(out.shape):
-        out[idx] = names.get((int(sk[idx]), int(sh[idx])), "flat")
-    return out
+    code = 3 * sk + sh + 4  # (sign K, sign H) -> 0..8
+    return names[code]
+
+
+_HK_NAMES = tuple(
+    np.array([t.get((k, h), "flat") for k in (-1, 0, 1) for h in (-1, 0, 1)], dtype=object)
+    for t in (HK_TABLE1, HK_TABLE2)
+)
 
 
 # S regions (6.2.4, fig. 50): the S axis cut into Koenderink's named bands.

@@ -189,8 +189,9 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
         wp = 1.0 / (s[:, :1] * np.sqrt(1.0 + g2))
         ws = 1.0 / (s[:, 1:] * (1.0 + g2))
         w = np.concatenate([wp, ws, ws], -1) * kk
-        f = _qr_fits(A, b, w, top_cap, n_kept)
-        if rnd == 1 or stated.all():
+        last = rnd == 1 or stated.all()
+        f = _qr_fits(A, b, w, top_cap, n_kept, last)
+        if last:
             break
         sig = _reml(f, s, stated, keep)
     f.origin, f.axes, f.L, f.centre, f.xy, f.g2 = origin, axes, L, centre, np.stack([x, y], -1), g2
@@ -199,9 +200,10 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
     return f
 
 
-def _qr_fits(A, b, w, top_cap, n_kept):
+def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
     """One QR of the weighted jet (columns by degree) and what it says of every order: the
-    residuals and leverages of order o are those of Q's first size(o) columns."""
+    residuals and leverages of order o are those of Q's first size(o) columns.  Without
+    ``solve`` (a pass that only sizes the noise) R is not inverted."""
     Aw, bw = A * w[..., None], b * w
     p_top = size(top_cap)
     short = p_top - Aw.shape[1]  # fewer rows than the top jet's terms: zero rows, so R is square
@@ -228,7 +230,8 @@ def _qr_fits(A, b, w, top_cap, n_kept):
         h = h + np.sum(Q[..., cols] ** 2, -1)
         resid[o], hat[o] = r, h
     ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
-    return JetFit(Q, _upper_inverse(R, d), cn, qb, top, quiet, ok2, Aw, w, resid, hat)
+    Rinv = _upper_inverse(R, d) if solve else None
+    return JetFit(Q, Rinv, cn, qb, top, quiet, ok2, Aw, w, resid, hat)
 
 
 def _upper_inverse(R, d):
