@@ -113,8 +113,22 @@ def row_names(lines, rows=None):
     """How messages name the fitted contacts: their CSV lines, their row numbers in the input
     (where duplicates were dropped) or None (as numbered)."""
     if lines is not None:
-        return [f"line {n}" for n in lines]
-    return None if rows is None else [f"contact {int(n)}" for n in rows]
+        return RowNames("line", lines)
+    return None if rows is None else RowNames("contact", [int(n) for n in rows])
+
+
+class RowNames:
+    """Fitted contact k's name, ``names[k]``, made only when a message asks for it (most
+    patches name none)."""
+
+    def __init__(self, word, numbers):
+        self.word, self.numbers = word, numbers
+
+    def __getitem__(self, k):
+        return f"{self.word} {self.numbers[k]}"
+
+    def __len__(self):
+        return len(self.numbers)
 
 
 def check_order(method, order):
