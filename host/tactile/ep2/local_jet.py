@@ -203,16 +203,19 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
 def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
     """One QR of the weighted jet (columns by degree) and what it says of every order: the
     residuals and leverages of order o are those of Q's first size(o) columns.  Without
-    ``solve`` (a pass that only sizes the noise) R is not inverted."""
-    Aw, bw = A * w[..., None], b * w
+    ``solve`` (a pass that only sizes the noise) R is not inverted nor the order above the
+    top weighted."""
     p_top = size(top_cap)
-    short = p_top - Aw.shape[1]  # fewer rows than the top jet's terms: zero rows, so R is square
+    short = p_top - A.shape[1]  # fewer rows than the top jet's terms: zero rows, so R is square
     if short > 0:
-        Aw = np.concatenate([Aw, np.zeros((len(Aw), short, Aw.shape[2]))], 1)
-        bw, w = (np.concatenate([v, np.zeros((len(v), short))], 1) for v in (bw, w))
-    cn = np.sqrt(np.sum(Aw[..., :p_top] ** 2, axis=1))
+        A = np.concatenate([A, np.zeros((len(A), short, A.shape[2]))], 1)
+        b, w = (np.concatenate([v, np.zeros((len(v), short))], 1) for v in (b, w))
+    bw = b * w
+    Aw = A * w[..., None] if solve else None  # (with the order above the top: its bias)
+    X = Aw[..., :p_top] if solve else A[..., :p_top] * w[..., None]
+    cn = np.sqrt(np.einsum("bij,bij->bj", X, X))
     cn = np.where(cn > 0, cn, 1.0)
-    Q, R = np.linalg.qr(Aw[..., :p_top] / cn[:, None, :])
+    Q, R = np.linalg.qr(X / cn[:, None, :])
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     top = np.full(len(A), 2)
     quiet = np.full(len(A), 2)
@@ -223,12 +226,11 @@ def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
         fits = (NOISE_REDUNDANCY * size(o) <= 3 * n_kept) & det
         quiet = np.where(fits & (quiet == o - 1), o, quiet)
     qb = vm(bw, Q)
-    resid, hat, r, h = {}, {}, bw, np.zeros(bw.shape)
+    resid, hat = {}, {}
     for o in range(2, top_cap + 1):
-        cols = slice(size(o - 1) if o > 2 else 0, size(o))
-        r = r - mv(Q[..., cols], qb[:, cols])
-        h = h + np.sum(Q[..., cols] ** 2, -1)
-        resid[o], hat[o] = r, h
+        Qo = Q[..., : size(o)]
+        resid[o] = bw - mv(Qo, qb[:, : size(o)])
+        hat[o] = np.einsum("bij,bij->bi", Qo, Qo)
     ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
     Rinv = _upper_inverse(R, d) if solve else None
     return JetFit(Q, Rinv, cn, qb, top, quiet, ok2, Aw, w, resid, hat)
