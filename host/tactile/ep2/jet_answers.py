@@ -247,7 +247,7 @@ def disagreements(xy, heights, slopes, keep, axes, scale):
 def _fit(A, b):
     """(coef[first 5 after any constant], cov of all coefs, residuals, determined) of
     least squares A c = b for a stack; the noise from the residuals."""
-    cn = np.sqrt(np.sum(A * A, 1))
+    cn = np.sqrt(np.einsum("bij,bij->bj", A, A))
     cn = np.where(cn > 0, cn, 1.0)
     Q, R = np.linalg.qr(A / cn[:, None, :])
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
@@ -255,9 +255,9 @@ def _fit(A, b):
     R = R + np.eye(R.shape[-1]) * tiny[:, None, :]  # (a patch not determined: not compared)
     qb = (b[:, None, :] @ Q)[:, 0]
     resid = b - mv(Q, qb)
-    rows = np.sum(A != 0, -1) > 0
+    rows = np.any(A != 0, -1)
     dof = np.maximum(rows.sum(-1) - A.shape[2], 1)
-    s2 = np.sum(resid * resid, -1) / dof
+    s2 = np.einsum("bi,bi->b", resid, resid) / dof
     Rinv = np.linalg.inv(R) / cn[:, :, None]
     coef = mv(Rinv, qb)
     cov = Rinv @ np.swapaxes(Rinv, -1, -2) * s2[:, None, None]
