@@ -254,7 +254,7 @@ def test_cli_bad_options_exit_2(cli, tmp_path, args, says):
 
 
 def test_the_hold_is_the_frames_of_its_window_above_the_gate_across_a_wrap():
-    from tactile.board.messages import Contact, Sample
+    from tactile.board.stream_decoder import Contact, Sample
     from tactile.cli.cmd_explore import hold_wrench
 
     def sample(t_us, fz_N):
@@ -291,7 +291,7 @@ def test_cli_a_start_the_arm_cannot_reach_is_a_touch_spent(cli, emulated, tmp_pa
 def test_cli_foxglove_gets_the_contacts_the_patch_and_the_next_touch(
     cli, emulated, tmp_path, monkeypatch
 ):
-    from tactile.cli import foxglove_args
+    from tactile.cli import cmd_explore
 
     published, fed = [], []
 
@@ -305,8 +305,8 @@ def test_cli_foxglove_gets_the_contacts_the_patch_and_the_next_touch(
         def feed(msgs, arrivals=None):
             fed.extend(msgs)
 
-    monkeypatch.setattr(foxglove_args, "start", lambda args, device=None: Live)
-    monkeypatch.setattr(foxglove_args, "stop", lambda server, quiet=False: None)
+    monkeypatch.setattr(cmd_explore, "start_foxglove", lambda args, device=None: Live)
+    monkeypatch.setattr(cmd_explore, "stop_foxglove", lambda server, quiet=False: None)
     port, robot = emulated
     code, _, _ = cli("explore", "--port", port, "--robot", robot, "-o", tmp_path / "r",
                      "--max-touches", "4", "--foxglove")  # fmt: skip

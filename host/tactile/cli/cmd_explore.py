@@ -28,13 +28,18 @@ import numpy as np
 
 from tactile import __version__
 from tactile.board.client import info_dict
-from tactile.cli import foxglove_args
-from tactile.cli.board_args import add_port_argument, connect
-from tactile.commands.words import add_quiet
+from tactile.cli.options import (
+    add_foxglove_arguments,
+    add_port_argument,
+    check_foxglove,
+    connect,
+    start_foxglove,
+    stop_foxglove,
+)
+from tactile.commands import add_quiet
 from tactile.errors import BoardError, DataError, InputError
 from tactile.explore import Explorer, Region, unknown
-from tactile.files.atomic import atomic_write
-from tactile.files.folder_lock import hold
+from tactile.files.writing import atomic_write, hold
 from tactile.foxglove.scene import contacts_update, patch_mesh, patch_update
 from tactile.foxglove.topics import CONTACTS_TOPIC, NEXT_TOUCH_TOPIC, PATCH_TOPIC
 from tactile.localize import (
@@ -44,8 +49,7 @@ from tactile.localize import (
     sphere_contact_frictionless,
     to_world,
 )
-from tactile.output.jsonout import clean, dumps
-from tactile.output.textout import printable
+from tactile.output.text import clean, dumps, printable
 from tactile.robot import RobotClient, RobotError, parse_address
 from tactile_protocol import constants as C
 from tactile_protocol import settings as board_settings
@@ -105,7 +109,7 @@ def add_arguments(parser):
     )
     parser.add_argument("--json", action="store_true", help="the result as one JSON object")
     add_quiet(parser)
-    foxglove_args.add_arguments(parser)
+    add_foxglove_arguments(parser)
 
 
 def check(args):
@@ -120,7 +124,7 @@ def check(args):
             raise InputError(f"--{name.replace('_', '-')}: {v} is not a positive number")
     if not math.isfinite(args.finger_offset):
         raise InputError(f"--finger-offset: {args.finger_offset} is not a number")
-    foxglove_args.check(args)
+    check_foxglove(args)
     return parse_address(args.robot)
 
 
@@ -154,7 +158,7 @@ class Run:
 
     def run(self):
         try:
-            self.live = foxglove_args.start(self.args, self.device)
+            self.live = start_foxglove(self.args, self.device)
             self._start()
             self._loop()
         except KeyboardInterrupt:
@@ -335,7 +339,7 @@ class Run:
         for part in (self.robot, self.client):
             if part is not None:
                 part.close()
-        foxglove_args.stop(self.live, quiet=self.args.quiet)
+        stop_foxglove(self.live, quiet=self.args.quiet)
         if self.explorer is not None and self.explorer.touches:
             self._write()
 

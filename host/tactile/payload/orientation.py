@@ -1,7 +1,7 @@
 """The sensor's orientation at any reading's time, from a robot's log.
 
 A robot log gives, per sensor, windows in which the sensor is held at a known pose
-(``tactile.logs.pose``: a generic log's quaternions, a SCARA log's joints).  A
+(``tactile.logs.read``: a generic log's quaternions, a SCARA log's joints).  A
 reading inside a window has that window's orientation.  Between two windows of its sensor
 the robot is moving and the log does not say how: the orientation is interpolated along
 the shortest rotation from the end of one window to the start of the next, with a
@@ -16,8 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from tactile.errors import InputError
 from tactile.localize.posed import sensor_poses
-from tactile.logs.pose import log_columns, read_pose_log
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import log_columns, read_pose_log, read_probe_log
 
 __all__ = ["ANY", "Orientations", "read_log"]
 

@@ -14,7 +14,7 @@ Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
 
 import numpy as np
 
-from tactile.logs.robot_log import write_log
+from tactile.logs import write_log
 from tactile_sim.rig.geometry import FREDDY
 from tactile_sim.rig.objects import ch5_object
 from tactile_sim.rig.schedule import probe_schedule
@@ -66,7 +66,7 @@ class RigMotion:
     def write_pose_log(self, path, at_us=0):
         """The robot controller's log: joints per touch, the rig's lengths (m) and the scene's
         end (board us, where ``tactile record`` stops) in comments
-        (``tactile.logs.robot_log``); ``at_us``: the board's clock at the scene's start."""
+        (``tactile.logs``); ``at_us``: the board's clock at the scene's start."""
         end_us = at_us + round(self.duration_s * 1e6)
         rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]
         write_log(path, "scara", rows, rig=self.lengths, end_us=end_us)
