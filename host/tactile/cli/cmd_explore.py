@@ -59,52 +59,33 @@ UNITS_LINE = "# units: 1 (touch: a count; S, S_lo, S_hi: shape index; confidence
 WRAP = 2**32  # the board's µs stamps wrap
 HOLD_S = 0.2  # a robot that does not know the board's clock: the hold read after its answer
 READ_S = 5.0  # longest wait for the hold's frames
+DRAIN_READS = 64  # reads (64 KiB each at most) of what came between touches
 UNREACHABLE = ": unreachable"  # (the robot's line for a pose outside its reach, docs/robot.md)
+
+
+# (option, type, default, help): the stop rule and the geometry, lengths in m
+OPTIONS = (
+    ("--confidence", float, 0.95, "stop once the label's confidence reaches this (0-1)"),
+    ("--max-touches", int, 18, "touch budget (18: the thesis's 3 x 6 plan)"),
+    ("--half-size", float, 0.015, "half the side of the square explored (m)"),
+    ("--standoff", float, 0.015, "a touch starts this far above the expected surface (m)"),
+    ("--force", float, 3.0, "press force (N)"),
+    ("--finger-radius", float, 0.012, "the spherical fingertip's radius (m)"),
+    ("--finger-offset", float, 0.03, "its centre along the sensor's +x axis (m)"),
+)
 
 
 def add_arguments(parser):
     add_port_argument(parser)
     parser.add_argument("--robot", required=True, metavar="HOST:PORT", help="the robot's address")
     parser.add_argument("-o", "--out", required=True, help="run folder")
-    parser.add_argument(
-        "--confidence",
-        type=float,
-        default=0.95,
-        help="stop once the label's confidence reaches this (0-1; 0.95)",
-    )
-    parser.add_argument(
-        "--max-touches", type=int, default=18, help="touch budget (18: the thesis's 3 x 6 plan)"
-    )
-    parser.add_argument(
-        "--half-size",
-        type=float,
-        default=0.015,
-        help="half the side of the square explored (m; 0.015)",
-    )
-    parser.add_argument(
-        "--standoff",
-        type=float,
-        default=0.015,
-        help="a touch starts this far above the expected surface (m; 0.015)",
-    )
-    parser.add_argument("--force", type=float, default=3.0, help="press force (N; 3)")
-    parser.add_argument(
-        "--finger-radius",
-        type=float,
-        default=0.012,
-        help="the spherical fingertip's radius (m; 0.012)",
-    )
-    parser.add_argument(
-        "--finger-offset",
-        type=float,
-        default=0.03,
-        help="its centre along the sensor's +x axis (m; 0.03)",
-    )
+    for flag, kind, default, text in OPTIONS:
+        parser.add_argument(flag, type=kind, default=default, help=text)
     parser.add_argument(
         "--localise",
         choices=("force", "moment"),
         default="force",
-        help="contact from the force alone (frictionless, §5.1.1; default) or"
+        help="contact from the force alone (frictionless, §5.1.1) or"
         " from the line of action (with friction)",
     )
     parser.add_argument("--json", action="store_true", help="the result as one JSON object")
@@ -216,11 +197,11 @@ class Run:
             return None, None, f"no frame above the gate ({self.gate:g} N) during the hold"
         R, t = pose_from_quaternion(touch.pose.position_m, touch.pose.quaternion,
                                     scalar_first=True)  # fmt: skip
-        centre = (a.finger_offset, 0.0, 0.0)
+        tip = (a.finger_offset, 0.0, 0.0)  # the fingertip's centre in the sensor frame
         if a.localise == "force":
-            c = sphere_contact_frictionless(wrench[None, :3], centre, a.finger_radius, self.gate)
+            c = sphere_contact_frictionless(wrench[None, :3], tip, a.finger_radius, self.gate)
         else:
-            c = sphere_contact(wrench[None, :3], wrench[None, 3:], centre, a.finger_radius,
+            c = sphere_contact(wrench[None, :3], wrench[None, 3:], tip, a.finger_radius,
                                self.gate)  # fmt: skip
         if not c.usable[0]:
             return None, None, f"the hold's wrench ({n} frames) does not locate a contact"
@@ -239,7 +220,11 @@ class Run:
             return job.result(), msgs
 
     def _drain(self):
-        while self.client.waiting():
+        """What the board sent since the last touch (bounded: a board in fast mode never
+        stops sending)."""
+        for _ in range(DRAIN_READS):
+            if not self.client.waiting():
+                return
             self._feed(self.client.read_timed())
 
     def _feed(self, got):
