@@ -34,8 +34,9 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from tactile.ep1.estimator import next_roll  # noqa: E402
 from tactile.ep2.geometry import S_NAMES, s_class  # noqa: E402
-from tactile.explore import Explorer, Region, fit_of, next_roll  # noqa: E402
+from tactile.explore import Explorer, Region, fit_of  # noqa: E402
 from tactile_sim.ep2.objects import make  # noqa: E402
 from tactile_sim.ep2.sweep import _tilt_normals, sweep  # noqa: E402
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from conftest import load_bench
 
-from tactile.explore import Explorer, Fit, Region, fit_of, next_roll, unknown
+from tactile.ep1.estimator import next_roll
+from tactile.explore import Explorer, Fit, Region, fit_of, unknown
 from tactile_sim.ep2.objects import make
 
 bench = load_bench("explore")
@@ -69,20 +70,25 @@ def _whys(obj, seed):
 
 
 @pytest.mark.parametrize(
-    "name, obj, truth",
+    "name, obj, truth, seeds",
     [
-        ("plane", make("plane", slope=(0.3, 0.1), centre=(0.0, 0.0)), "plane"),
+        ("plane", make("plane", slope=(0.3, 0.1), centre=(0.0, 0.0)), "plane", (0, 1, 2)),
         (
             "saddle near the cylinder band",
             make("quadric", k=(0.1, -0.045), centre=(0, 0), rotation_deg=20),
             "saddle",
+            (0, 1, 2),
         ),  # fmt: skip
-        ("ridge", Crease(0.5, 0.5), None),
-        ("valley", Crease(-0.4, -1.0), None),
+        ("ridge", Crease(0.5, 0.5), None, (0, 1, 2)),
+        # (without the doubt on normals the fit misses, each of these was a concave
+        # cylinder or a cylinder with confidence over 0.99)
+        ("valley", Crease(-0.4, -1.0), None, (5, 6, 7)),
+        ("valley across", Crease(-0.3, 0.8, rot=1.2), None, (0, 1, 2)),
+        ("shallow ridge", Crease(0.25, -0.5, rot=2.0), None, (1, 3, 5)),
     ],
 )
-def test_no_confident_wrong_label_on_adversarial_surfaces(name, obj, truth):
-    for seed in range(3):
+def test_no_confident_wrong_label_on_adversarial_surfaces(name, obj, truth, seeds):
+    for seed in seeds:
         ex = explore(obj, seed, max_touches=12)
         if ex.done() == "label":
             assert ex.fit.label == truth, (name, seed, ex.fit.label, ex.fit.confidence)

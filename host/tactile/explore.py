@@ -22,8 +22,7 @@ directions to steer it (§6.2.2, "curvature flow"), the shapes still feasible to
 5. **Edges.**  From ``edges.MIN_POINTS`` contacts on, ``edges.find`` looks for two faces; a touch
    across an edge is named, and exploration keeps to the first touch's face (§6.2.2).
 
-EP1's roll direction (``next_roll``): along the principal direction whose roll tells most about
-the principal curvatures (eqs. 29-33, Euler's equation, eq. 64).  Lengths: the caller's unit.
+EP1's next roll is ``tactile.ep1.estimator.next_roll``.  Lengths: the caller's unit.
 """
 
 import math
@@ -34,8 +33,8 @@ import numpy as np
 from tactile.ep2 import analyze_patch, analyze_patches, edges
 from tactile.errors import DataError, InputError
 
-__all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "next_roll",
-           "seed_points", "unknown"]  # fmt: skip
+__all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "seed_points",
+           "unknown"]  # fmt: skip
 
 MIN_TOUCHES = edges.MIN_POINTS  # a label waits until an edge could be seen (8)
 SEED = (90.0, 210.0, 330.0, 30.0, 150.0, 270.0)  # seed angles on the circle (deg)
@@ -43,6 +42,7 @@ SEED_RADIUS = 0.7  # of the region's half-size
 GRID = 13  # candidates per side of the principal-direction grid (and of the space filling)
 MIN_GAP = 0.15  # of the half-size: no candidate this close to a contact
 STEP = 1e-4  # of the half-size: the finite difference of the fitted surface's slope
+DOUBT_SD = 3.5  # a normal this many sds off the fit withholds the label (``Explorer._doubt``)
 
 
 @dataclass(frozen=True)
@@ -92,6 +92,7 @@ class Fit:
     label: str = "none"
     confidence: float = 0.0
     edge: object = None
+    doubt: str | None = None  # why a label that looks confident is not given
 
     def row(self, touch):
         """explore.csv's row: touch, S, S_lo, S_hi, shape, confidence (None: no value)."""
@@ -131,6 +132,8 @@ def confident(fit, n, confidence=0.95, min_touches=MIN_TOUCHES):
 def unknown(fit, n):
     """One line: what ``n`` contacts leave unknown (for a budget spent)."""
     r = fit.result
+    if fit.doubt:
+        return f"after {n} touches {fit.doubt}"
     if r is None:
         why = fit.refused or "fewer than 3 contacts were found (the misses are named above)"
         return f"after {n} touches the curvature is not determined: {why}"
@@ -218,8 +221,26 @@ class Explorer:
             self._split(fit.edge)
             fit = fit_of(np.array(self.points)[self.keep], np.array(self.normals)[self.keep],
                          self.confidence, **self.options)  # fmt: skip
+        self._doubt(fit, pts, nrm)
         self.fits.append(fit)
         return fit
+
+    def _doubt(self, fit, pts, nrm):
+        """A label about to be confident is withheld while a contact's normal is over
+        ``DOUBT_SD`` of the fit's normal noise off the fitted surface's: a smooth patch
+        through contacts on two faces (a valley of two planes read as a concave cylinder)
+        misses the normals near the edge by 4-20 of them, a smooth surface by 3.4 at most
+        (the bench's objects)."""
+        r = fit.result
+        if not confident(fit, len(pts), self.confidence, self.min_touches):
+            return
+        _, fitted = on_fit(r, r.frame.to_patch(pts)[:, :2], STEP * r.scale)
+        off = np.degrees(np.arccos(np.clip(np.sum(fitted * nrm, axis=1), -1.0, 1.0)))
+        if off.max() > DOUBT_SD * math.degrees(r.noise_normal or 0.0):
+            fit.doubt = (f"the fit misses a normal by {off.max():.1f} deg ({DOUBT_SD:g} x its"
+                         " noise at most on a smooth patch): an edge near?")  # fmt: skip
+            fit.label = "uncertain"
+            self.notes.append(f"touch {self.touches}: {fit.doubt} not labelled yet")
 
     def _edge(self):
         """Look for two faces once there are enough contacts; keep the first touch's."""
@@ -300,15 +321,7 @@ def candidates(res, region, pts):
     g = np.linspace(-math.sqrt(2.0) * h, math.sqrt(2.0) * h, GRID)
     uv = np.array([(a, b) for a in g for b in g])
     centre = frame.to_patch(np.asarray(region.centre, float)[None])[0, :2]
-    xy = centre + uv[:, :1] * d1 + uv[:, 1:] * d2
-    with np.errstate(all="ignore"):
-        z = res.surface(xy)
-        eps = STEP * h
-        zx = (res.surface(xy + [eps, 0.0]) - res.surface(xy - [eps, 0.0])) / (2 * eps)
-        zy = (res.surface(xy + [0.0, eps]) - res.surface(xy - [0.0, eps])) / (2 * eps)
-    point = frame.to_world(np.column_stack([xy, z]))
-    normal = frame.to_world_dirs(np.column_stack([-zx, -zy, np.ones_like(zx)]))
-    normal = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+    point, normal = on_fit(res, centre + uv[:, :1] * d1 + uv[:, 1:] * d2, STEP * h)
     inside = np.all(np.abs(region.local(point)) <= h * (1 + 1e-9), axis=1)
     inside &= np.all(np.isfinite(point), axis=1) & np.all(np.isfinite(normal), axis=1)
     if len(pts):  # (across the region: a missed touch's start counts as a contact)
@@ -316,6 +329,16 @@ def candidates(res, region, pts):
         gap = np.min(np.linalg.norm(region.local(point)[:, None] - have[None], axis=-1), axis=1)
         inside &= gap > MIN_GAP * h
     return {"uv": uv[inside], "point": point[inside], "normal": normal[inside]}
+
+
+def on_fit(res, xy, eps):
+    """World points and unit normals (k, 3) of the fitted surface at patch-frame xy (k, 2)."""
+    with np.errstate(all="ignore"):
+        z = res.surface(xy)
+        zx = (res.surface(xy + [eps, 0.0]) - res.surface(xy - [eps, 0.0])) / (2 * eps)
+        zy = (res.surface(xy + [0.0, eps]) - res.surface(xy - [0.0, eps])) / (2 * eps)
+        n = res.frame.to_world_dirs(np.column_stack([-zx, -zy, np.ones_like(zx)]))
+        return res.frame.to_world(np.column_stack([xy, z])), n / np.linalg.norm(n, axis=1)[:, None]
 
 
 def scores(res, pts, nrm, cands, options):
@@ -348,53 +371,3 @@ def _width(iv):
 
 def _unit(v):
     return v / np.linalg.norm(v)
-
-
-# --- EP1: the next roll direction (§6.2.1, eqs. 29-33, 64).
-
-
-def next_roll(dtheta, dp, finger_radius, u0=0.0):
-    """The next EP1 roll: (phi, motion, why).  ``phi`` the commanded rotation axis's angle in
-    the probe's contact frame (``tactile_sim.ep1.probes``' convention), ``motion`` the unit
-    (x, y) the contact moves along (= (-sin phi, cos phi)).
-
-    With fewer than two independent directions: x, then the direction across those rolled.
-    Otherwise along a principal direction of the current estimate (eqs. 29-33; §6.2.1: two
-    directions give eq. 64's principal curvatures): the one whose roll leaves the least total
-    variance of the two principal curvatures, the design's A-optimal choice.  Probe i's rows
-    of eq. 33 give S = (K1 + K2~)^-1 the covariance s^2 (A^T A)^-1; a principal value
-    s_w = w^T S w the variance g^T C g, g = (w_x^2, 2 w_x w_y, w_y^2); kappa = 1/s - 1/R1 that
-    over s^4.  A roll along w adds eq. 33's rows for a = |a| w, measuring S w.
-    """
-    th = np.asarray(dtheta, float).reshape(-1, 2)
-    p = np.asarray(dp, float).reshape(-1, 2)
-    a = np.column_stack([-th[:, 1], th[:, 0]])  # each probe's motion direction x angle
-    if len(a) == 0:
-        return _roll(np.array([1.0, 0.0]), "seed: along x")
-    norms = np.linalg.norm(a, axis=1)
-    dirs = a[norms > 0] / norms[norms > 0, None]
-    if len(dirs) < 2 or np.linalg.svd(dirs, compute_uv=False)[-1] < 1e-3:
-        base = dirs[0] if len(dirs) else np.array([0.0, 1.0])
-        return _roll(np.array([-base[1], base[0]]), "seed: across the directions rolled")
-    A = _eq33_rows(a)
-    b = np.concatenate([finger_radius * p[:, 0], finger_radius * math.cos(u0) * p[:, 1]])
-    k, *_ = np.linalg.lstsq(A, b, rcond=None)
-    s, vec = np.linalg.eigh(np.array([[k[0], k[1]], [k[1], k[2]]]))
-    g = np.stack([vec[0] ** 2, 2 * vec[0] * vec[1], vec[1] ** 2]) / np.maximum(s**2, 1e-300)
-    rolls = (np.vstack([A, _eq33_rows(np.mean(norms) * vec[:, j][None])]) for j in (0, 1))
-    total = [np.einsum("ij,ik,kj->", g, np.linalg.pinv(m.T @ m), g) for m in rolls]
-    best = int(np.argmin(total))  # (the total variance of kappa_1, kappa_2 after each roll)
-    kappa = 1.0 / s[best] - 1.0 / finger_radius if s[best] != 0 else math.inf
-    return _roll(vec[:, best], f"along the principal direction that tells most (curvature"
-                 f" {kappa:.3g})")  # fmt: skip
-
-
-def _eq33_rows(a):
-    """Eq. 33's two rows per probe, a = (-dtheta_y, dtheta_x) (k, 2), in (k1, k2, k3)."""
-    return np.concatenate([np.pad(a, ((0, 0), (0, 1))), np.pad(a, ((0, 0), (1, 0)))])
-
-
-def _roll(motion, why):
-    m = _unit(np.asarray(motion, float))
-    m = -m if m[0] < 0 or (m[0] == 0 and m[1] < 0) else m  # (a direction, not a sense)
-    return math.atan2(-m[0], m[1]), (float(m[0]), float(m[1])), why
