@@ -95,7 +95,7 @@ def test_sim_ep2_still_requires_its_output(capsys):
 
 def test_object_names_are_spelled_one_way():
     """concave_cylinder, as EP2 labels it, wherever a command takes an object name."""
-    from tactile.ep2.surface_geometry import S_NAMES
+    from tactile.ep2.geometry import S_NAMES
 
     names = set()
     for _, parser in tree():

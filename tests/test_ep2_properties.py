@@ -31,7 +31,7 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from tactile.ep2 import analyze_patch, local_jet
-from tactile.ep2.patch_frame import unit_normals
+from tactile.ep2.geometry import unit_normals
 from tactile.errors import DataError, InputError
 from tactile.output.text import dumps
 from tactile_sim.ep2 import layouts

@@ -42,7 +42,7 @@ __all__ = [
 # the thesis's sensor noise a fingertip normal has ~6 deg at 5 N, so 10 deg keeps every frame
 # at the working force and drops those below ~3 N (load ramps).  A kept normal then stays
 # within 3.5 rms (35 deg; 1 frame in 2e5) of the truth, which with a sweep's own 34 deg of
-# normal spread stays inside EP2's 70 deg consistency limit (tactile.ep2.patch_frame).
+# normal spread stays inside EP2's 70 deg consistency limit (tactile.ep2.geometry).
 MAX_NORMAL_SD_DEG = 10.0
 
 

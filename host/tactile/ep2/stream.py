@@ -5,26 +5,35 @@
 one ``Outcome`` per patch, in input order, as soon as its chunk (and every chunk before
 it) is done.
 
-Patches go in chunks of ``CHUNK`` consecutive patches, each chunk fitted together by
-``analyze_patches`` (issue 13).  The chunks are the same whatever ``jobs`` is, so the output
-is too: with ``jobs > 1`` chunks go to that many worker processes, at most a few chunks per
+Patches go in chunks of ``CHUNK`` consecutive patches (fewer where their contacts pass
+``CHUNK_ROWS``), each chunk fitted by one ``analyze_patches`` call, which sorts it into
+stacks of like size.  The chunks are the same whatever ``jobs`` is, so the output is too:
+with ``jobs > 1`` chunks go to that many worker processes, at most a few chunks per
 worker in flight, so memory does not grow with the file.  With ``split``, a patch whose
 normals break (§6.2.5) is cut and analysed part by part (``analyze_sweep``); the others of
 its chunk are still fitted together.
+
+The unit of every number of a record (``in_unit``): ``analyze_patch`` works in the input's
+length unit; ``in_unit(record, unit, scale)`` gives the record with lengths multiplied by
+``scale`` (the file's unit -> ``unit``, ``tactile.units.display``), curvatures divided by
+it, C and C_mean shifted by -(2/pi) ln(scale) (C = (2/pi) ln R, thesis §4.8.2), and a
+``units`` field naming the unit of each number.
 """
 
+import functools
 from collections import deque
 from dataclasses import dataclass
-from itertools import islice
 
 import numpy as np
 
-from tactile.ep2 import patch_frame, patch_input
-from tactile.ep2.api import analyze_sweep, sweep_parts
-from tactile.ep2.batch import CHUNK, analyze_patches
+from tactile.ep2 import geometry, patch_input
+from tactile.ep2.api import analyze_patches, analyze_sweep, sweep_parts
 from tactile.errors import DataError, InputError
+from tactile.units import c_shift
 
 MAX_JOBS = 256
+CHUNK = 2048  # consecutive patches to a unit of work, fitted in stacks of like size
+CHUNK_ROWS = 2**16  # ... and at most this many contacts, however large the patches
 _IN_FLIGHT = 4  # chunks queued per worker: enough to keep it busy, little memory
 
 
@@ -54,7 +63,7 @@ def analyze_one(group, name, opts, split):
 
 def _outcome(name, n, results):
     """``Outcome`` from a list of results (split parts) or the exception that refused it."""
-    if isinstance(results, InputError):  # e.g. a split part EP2 cannot represent (``extent``)
+    if isinstance(results, InputError):  # e.g. a split part ``spread_problem`` refuses
         return Outcome(name, n, [], input_error=str(results))
     if isinstance(results, DataError):
         return Outcome(name, n, [], data_error=str(results))
@@ -80,7 +89,7 @@ def analyze_chunk(work, opts, split):
         for part in parts or [whole]:
             patches.append(part)
             owners.append(i)
-    results = analyze_patches(patches, chunk=max(1, len(patches)), **opts)
+    results = analyze_patches(patches, **opts)  # stacks of like size (``api.stacks``)
     found = {}
     for i, res in zip(owners, results, strict=True):
         found.setdefault(i, []).append(res)
@@ -102,7 +111,7 @@ def _parts(group, opts):
 def _breaks(groups, opts):
     """[bool] per ``Contacts`` group: whether ``analyze_sweep`` would cut it (its normals
     break, §6.2.5, or a zero normal makes it refuse, as ``analyze_one`` then says), for the
-    groups of one size at once: ``patch_frame.unit_normals`` and
+    groups of one size at once: ``geometry.unit_normals`` and
     ``patch_input.find_breaks`` on their stack."""
     angle = opts.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     out = [False] * len(groups)
@@ -115,7 +124,7 @@ def _breaks(groups, opts):
             else:
                 sizes.setdefault(len(nrm), []).append((i, nrm))
     for same in sizes.values():
-        N, ok = patch_frame.unit_rows(np.stack([nrm for _, nrm in same]))
+        N, ok = geometry.unit_rows(np.stack([nrm for _, nrm in same]))
         ok = np.all(ok, axis=-1)  # else ``unit_normals`` refuses: a zero normal
         N = N[ok]
         live = [i for (i, _), keep in zip(same, ok.tolist(), strict=True) if keep]
@@ -130,7 +139,7 @@ def _breaks(groups, opts):
 def _breaks_one(group, angle):
     """``_breaks`` of one group (normals of another shape than (n, 3))."""
     try:
-        nrm = patch_frame.unit_normals(np.asarray(group.normals, float))
+        nrm = geometry.unit_normals(np.asarray(group.normals, float))
         return bool(patch_input.find_breaks(nrm[None], [group.finger], angle)[0])
     except (DataError, InputError):
         return True  # ``analyze_one`` gives the refusal as ``analyze_sweep`` does
@@ -144,9 +153,17 @@ def _quiet_worker():
 
 
 def chunks(named):
-    """Lists of (group, name), ``CHUNK`` consecutive patches each (the last may be short)."""
-    named = iter(named)
-    while work := list(islice(named, CHUNK)):
+    """Lists of (group, name) of consecutive patches: ``CHUNK`` each, or fewer where their
+    contacts would pass ``CHUNK_ROWS`` (at least one patch a list)."""
+    work, rows = [], 0
+    for item in named:
+        n = len(item[0].points)
+        if work and (len(work) == CHUNK or rows + n > CHUNK_ROWS):
+            yield work
+            work, rows = [], 0
+        work.append(item)
+        rows += n
+    if work:
         yield work
 
 
@@ -184,3 +201,67 @@ def _parallel(work, opts, split, jobs):
         finally:
             for f in pending:
                 f.cancel()
+
+
+# the power of length of each numeric field (1: a length, -1: a curvature); "C" is the
+# curvedness, a log; None: no unit (S, confidence, counts), or one fixed unit (rad, deg)
+DIMENSIONS = {
+    "radius": 1,
+    "radius_interval": 1,
+    "noise_pos": 1,
+    "k1": -1,
+    "k2": -1,
+    "k1_interval": -1,
+    "k2_interval": -1,
+    "k1_mean": -1,
+    "k2_mean": -1,
+    "k1_std": -1,
+    "k2_std": -1,
+    "R_mean": -1,
+    "R_std": -1,
+    "C": "C",
+    "C_mean": "C",
+}
+FIXED = {"noise_normal": "rad", "direction1": "1 (unit vector)"}
+DIMENSIONLESS = ("S", "S_interval", "S_mean", "S_std", "confidence")
+
+
+def units_of(unit):
+    """{field: its unit} for lengths in ``unit``."""
+    return dict(_units_of(unit))
+
+
+@functools.lru_cache(maxsize=16)
+def _units_of(unit):
+    out = {}
+    for name, power in DIMENSIONS.items():
+        if power == "C":
+            out[name] = f"1 ((2/pi) ln R, R in 1/{unit})"
+        else:
+            out[name] = unit if power == 1 else f"1/{unit}"
+    out.update(FIXED)
+    out.update({name: "1" for name in DIMENSIONLESS})
+    out["discontinuities.angle_deg"] = "deg"
+    return out
+
+
+def in_unit(record, unit, scale=1.0):
+    """``record`` (a ``PatchResult.to_dict``) in ``unit``, ``scale`` lengths per file length,
+    with its ``units``.  A refusal (no ``shape``) has no number with a unit: as it is."""
+    if record.get("shape") is None:
+        return record
+    out = dict(record)
+    if scale != 1.0:
+        for name, power in DIMENSIONS.items():
+            if out.get(name) is not None:
+                out[name] = _scaled(out[name], power, scale)
+    out["units"] = units_of(unit)
+    return out
+
+
+def _scaled(value, power, scale):
+    if isinstance(value, list | tuple):
+        return [_scaled(v, power, scale) for v in value]
+    if power == "C":
+        return value + c_shift(scale)
+    return value * scale if power == 1 else value / scale
