@@ -149,7 +149,7 @@ def run(args):
     path = server.open()
     print(printable(path), flush=True)
     if commanded:
-        print(robot.address, flush=True)
+        print(printable(robot.address), flush=True)
     when = "now" if args.now else "when a host opens the port"
     if args.core == "rp2040":  # a Pico powers up with its USB cable
         when = "now, running while a host has the port open" if args.fast else "now"
