@@ -56,7 +56,6 @@ DEFERRED = {
     "host/tactile/payload/__init__.py": {
         "__getattr__: tactile.payload": LIVE_PAYLOAD,
         "following: tactile.payload.apply": LIVE_PAYLOAD,
-        "following: tactile.payload.orientation": LIVE_PAYLOAD,
         "following: tactile.payload.tool": LIVE_PAYLOAD,
     },
     "host/tactile/foxglove/live.py": {

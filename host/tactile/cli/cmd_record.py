@@ -34,8 +34,7 @@ from tactile.errors import BoardError, DataError, InputError
 from tactile.files.writing import hold
 from tactile.logs.tags import log_end, show_time
 from tactile.output.text import fields, printable
-from tactile.payload.apply import Following, OnBoard
-from tactile.payload.orientation import Orientations
+from tactile.payload.apply import Following, OnBoard, Orientations
 from tactile.payload.tool import read_tool
 from tactile.recording.session import Session
 

@@ -36,8 +36,8 @@ from tactile.localize.contact import Readings, contact_frames
 from tactile.localize.posed import posed_world_contacts
 from tactile.logs.read import log_columns, read_pose_log, read_probe_log
 from tactile.logs.tags import clock_of
+from tactile.payload.apply import read_log
 from tactile.payload.compensator import Compensator, words
-from tactile.payload.orientation import read_log
 from tactile.payload.tool import check_device, tool_doc
 from tactile.recording.layout import amend, read_meta
 from tactile.recording.timebase import recorded_times

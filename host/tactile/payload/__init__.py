@@ -8,12 +8,12 @@
   poses it needs; readings averaged per hold of a pose log; ``identify_run(RUN, LOG)``, what
   ``tactile payload identify`` does (import it from there: it reads recordings, and the
   recording loader uses this package);
-- ``orientation``: the sensor's orientation at any reading's time;
 - ``drift``: the bias taken on the host and tracked between contacts (``BiasTracker``);
 - ``compensator``: a stream of readings compensated and its contacts gated again on the host
   (``Compensator``), for record, derive, live, Foxglove and ``load_recording``;
 - ``apply``: the compensator where the readings are: a live stream (``Following``), what
   ``record --payload`` asks of the board (``OnBoard``), a recording (``load_recording``);
+  and the sensor's orientation at any reading's time, from a robot's log (``Orientations``);
 - here: ``following``, the ``Following`` that ``tactile live``'s ``--payload`` and
   ``--pose-log`` ask for.
 
@@ -49,9 +49,9 @@ def __getattr__(name):
     ``tactile live`` imports it for its options before any tool is given."""
     if name not in __all__:  # (a submodule not yet imported: the import system's question)
         raise AttributeError(f"module 'tactile.payload' has no attribute {name!r}")
-    from tactile.payload import compensator, drift, fit, orientation, tool
+    from tactile.payload import apply, compensator, drift, fit, tool
 
-    for module in (compensator, drift, fit, orientation, tool):
+    for module in (apply, compensator, drift, fit, tool):
         if name in module.__all__:
             return getattr(module, name)
     raise AttributeError(f"module 'tactile.payload' has no attribute {name!r}")
@@ -65,8 +65,7 @@ def following(payload, pose_log, samples=None):
         return None, None
     if not pose_log:
         raise InputError("--payload: needs --pose-log (the sensor's orientation at each reading)")
-    from tactile.payload.apply import Following
-    from tactile.payload.orientation import read_log
+    from tactile.payload.apply import Following, read_log
     from tactile.payload.tool import read_tool
 
     tools = [(path, read_tool(path)) for path in payload]

@@ -3,7 +3,7 @@ again on what is left.
 
 Per sensor carrying a tool, each reading (the sensor's SAMPLE frames when the board streams
 them, else its CONTACT frames: ``tactile.payload.fit.reading_rows``) gets the orientation
-of its time (``tactile.payload.orientation``), loses the tool's weight there and the bias
+of its time (``tactile.payload.apply``), loses the tool's weight there and the bias
 (``tactile.payload.drift.BiasTracker``: a tare on the host, then drift tracking), and goes
 through a contact gate of the board's own rules and settings (``tactile_fw.gate``: the
 enter and exit levels, the debounce, x-y or 3-D) on the host.

@@ -61,7 +61,7 @@ import numpy as np
 
 from tactile.errors import DataError, InputError
 from tactile.logs.read import GENERIC, SCARA, log_columns, read_pose_log
-from tactile.payload.orientation import ANY, Orientations
+from tactile.payload.apply import ANY, Orientations
 from tactile.payload.tool import GRAVITY, MAX_MASS_KG, Tool, gravity_in_sensor
 from tactile.recording.load import load_recording
 

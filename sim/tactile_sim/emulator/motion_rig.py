@@ -30,7 +30,9 @@ class RigMotion:
         rest = [0.0] if lead_in_s > 0 else []
         self.t = np.concatenate([rest, line["t"] + lead_in_s])
         wrench = np.hstack([line["force"], line["moment"]])
-        self.wrench = np.vstack([np.zeros((len(rest), 6)), wrench])
+        # column-major: np.interp takes each column as it is, where a strided one was
+        # copied whole at each call (a ch5 scene: 23k rows, 6 copies per board sample)
+        self.wrench = np.asfortranarray(np.vstack([np.zeros((len(rest), 6)), wrench]))
         self.onset = line["onset"] + lead_in_s
         self.release = line["release"] + lead_in_s
         self.touch = np.concatenate([np.full(len(rest), -1), line["touch"]])

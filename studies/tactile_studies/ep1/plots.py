@@ -10,14 +10,12 @@ imported when one is called.
 import numpy as np
 
 from tactile.errors import pyplot
-from tactile.files.writing import atomic_write
-from tactile.output.legends import place_legend
-from tactile.output.plots import image_format, log_ticks
+from tactile.output.plots import log_ticks
+from tactile_studies.figures import place_legend, save
 
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
 
 FLOOR = 1e-12  # % : smallest error drawn
-DPI = 110
 ERROR_LABEL = "relative curvature error (%)"
 LENGTH = "length unit of R1"
 FLOOR_NOTE = f"(errors truncated at 100 %; below {FLOOR:g} % drawn at {FLOOR:g} %)"
@@ -30,17 +28,6 @@ def _figure(n, width=3.6):
         1, n, figsize=(width * n + 1.6, 3.5), squeeze=False, sharey=True, layout="constrained"
     )
     return plt, fig, axes[0]
-
-
-def save(plt, fig, path):
-    """Write ``fig`` to ``path`` whole (its format the name's), close it: ``[path]``; the EP2
-    studies' figures are saved here too."""
-    try:
-        with atomic_write(path) as fh:
-            fig.savefig(fh, format=image_format(path), dpi=DPI)
-    finally:
-        plt.close(fig)
-    return [str(path)]
 
 
 def _percent(y):

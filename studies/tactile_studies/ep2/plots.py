@@ -11,8 +11,7 @@ when one is called.
 import numpy as np
 
 from tactile.errors import pyplot
-from tactile.output.legends import place_legend
-from tactile_studies.ep1.plots import save
+from tactile_studies.figures import place_legend, save
 
 __all__ = [
     "plot_cylinder_radius",
