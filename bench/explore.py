@@ -183,7 +183,7 @@ def table(split, seeds, plots):
         print(line, flush=True)
         rows.append(line)
         if plots:
-            plot(Path(plots) / f"explore_{split}_{name}.png", name, ex[0][4], obj, fx)
+            plot(Path(plots) / f"explore_{split}_{name}.png", name, ex[0][4], obj)
     return rows
 
 
@@ -191,7 +191,7 @@ def _num(x):
     return "-" if x is None else f"{x:.4f}"
 
 
-def plot(path, name, trace, obj, fixed):
+def plot(path, name, trace, obj):
     import matplotlib
 
     matplotlib.use("Agg")

@@ -249,6 +249,7 @@ def test_cli_budget_spent_exits_3_saying_what_is_unknown(cli, emulated, tmp_path
         (["--max-touches", "0"], "--max-touches: 0"),
         (["--robot", "nowhere"], "--robot"),
         (["--half-size", "-1"], "--half-size: -1"),
+        (["--noise-normal", "nan"], "--noise-normal: nan"),
     ],
 )
 def test_cli_bad_options_exit_2(cli, tmp_path, args, says):

@@ -72,6 +72,8 @@ OPTIONS = (
     ("--force", float, 3.0, "press force (N)"),
     ("--finger-radius", float, 0.012, "the spherical fingertip's radius (m)"),
     ("--finger-offset", float, 0.03, "its centre along the sensor's +x axis (m)"),
+    ("--noise-pos", float, None, "the contacts' position noise (m; default: estimated by EP2)"),
+    ("--noise-normal", float, None, "their normals' noise (rad; default: estimated by EP2)"),
 )
 
 
@@ -99,9 +101,9 @@ def check(args):
         raise InputError(f"--confidence: {args.confidence} is not a probability in (0, 1)")
     if not 1 <= args.max_touches <= 1000:
         raise InputError(f"--max-touches: {args.max_touches} is not a count in 1-1000")
-    for name in ("half_size", "standoff", "force", "finger_radius"):
-        v = getattr(args, name)
-        if not (math.isfinite(v) and v > 0):
+    for name in ("half_size", "standoff", "force", "finger_radius", "noise_pos", "noise_normal"):
+        v = getattr(args, name)  # (the noises may be left out: None)
+        if v is not None and not (math.isfinite(v) and v > 0):
             raise InputError(f"--{name.replace('_', '-')}: {v} is not a positive number")
     if not math.isfinite(args.finger_offset):
         raise InputError(f"--finger-offset: {args.finger_offset} is not a number")
@@ -161,7 +163,8 @@ class Run:
         a = self.args
         centre = t + a.finger_offset * pole + (a.finger_radius + a.standoff) * pole
         region = Region(tuple(centre), tuple(-pole), a.half_size, a.standoff)
-        self.explorer = Explorer(region, a.confidence, a.max_touches)
+        noise = {k: getattr(a, k) for k in ("noise_pos", "noise_normal") if getattr(a, k)}
+        self.explorer = Explorer(region, a.confidence, a.max_touches, options=noise)
         self.gate = board_settings.to_newtons(self.client.info.enter_threshold)
 
     def _loop(self):
@@ -286,6 +289,8 @@ class Run:
                 "finger_radius_m": a.finger_radius,
                 "finger_offset_m": a.finger_offset,
                 "localise": a.localise,
+                "noise_pos_m": a.noise_pos,
+                "noise_normal_rad": a.noise_normal,
             },  # fmt: skip
             "touches": ex.touches,
             "contacts": len(ex.points),
@@ -329,8 +334,7 @@ class Run:
             self._write()
 
     def _finish(self):
-        ex = self.explorer
-        fit = ex.fit
+        ex, fit = self.explorer, self.explorer.fit
         line = final_line(fit, ex.touches, self.ended)
         if self.args.json:
             row = fit.row(ex.touches)
