@@ -321,3 +321,17 @@ def test_cli_foxglove_gets_the_contacts_the_patch_and_the_next_touch(
     assert {kind for _, kind in published} == {"SceneUpdate"}
     topics = [t for t, _ in published]  # before each touch its plan, after it the scene
     assert topics == ["/tactile/next_touch", "/tactile/contacts", "/tactile/patch"] * 4
+
+
+def test_a_contact_ep2_leaves_out_does_not_withhold_the_label():
+    obj = make("sphere", radius=10.0, centre=(0.0, 0.0))
+    rng = np.random.default_rng(1)
+    ex = Explorer(Region((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 3.0, 1.5), options=dict(NOISE))
+    while ex.done() is None:
+        plan = ex.plan()
+        p, n = bench.touch(obj, plan, rng, 0.05, 0.03)
+        if ex.touches == 2:  # one normal 20 deg off: EP2 names it and leaves it out
+            n = n + [math.tan(math.radians(20.0)), 0.0, 0.0]
+        ex.add(p, n, plan)
+    assert ex.done() == "label" and ex.fit.label == "sphere"
+    assert any("left out" in w for w in ex.fit.result.warnings)

@@ -219,8 +219,8 @@ class Explorer:
         fit = fit_of(pts, nrm, self.confidence, **self.options)
         if fit.edge is not None and self.keep is None:  # (seen by the fit's check, not ``find``)
             self._split(fit.edge)
-            fit = fit_of(np.array(self.points)[self.keep], np.array(self.normals)[self.keep],
-                         self.confidence, **self.options)  # fmt: skip
+            pts, nrm = np.array(self.points)[self.keep], np.array(self.normals)[self.keep]
+            fit = fit_of(pts, nrm, self.confidence, **self.options)
         self._doubt(fit, pts, nrm)
         self.fits.append(fit)
         return fit
@@ -235,7 +235,8 @@ class Explorer:
         if not confident(fit, len(pts), self.confidence, self.min_touches):
             return
         _, fitted = on_fit(r, r.frame.to_patch(pts)[:, :2], STEP * r.scale)
-        off = np.degrees(np.arccos(np.clip(np.sum(fitted * nrm, axis=1), -1.0, 1.0)))
+        off = np.sort(np.degrees(np.arccos(np.clip(np.sum(fitted * nrm, 1), -1.0, 1.0))))
+        off = off[: len(off) - sum(" left out" in w for w in r.warnings)]  # (EP2's outliers)
         if off.max() > DOUBT_SD * math.degrees(r.noise_normal or 0.0):
             fit.doubt = (f"the fit misses a normal by {off.max():.1f} deg ({DOUBT_SD:g} x its"
                          " noise at most on a smooth patch): an edge near?")  # fmt: skip
