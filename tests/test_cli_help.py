@@ -7,10 +7,9 @@ import pytest
 from cli_tree import command_parser, tree
 
 from tactile.cli import main as cli_main
-from tactile.cli import registry
 
 
-@pytest.mark.parametrize("name", sorted(registry.commands()))
+@pytest.mark.parametrize("name", sorted(cli_main.commands()))
 def test_help_shows_every_default(name, capsys):
     with pytest.raises(SystemExit) as exit_:
         cli_main.main([name, "--help"])

@@ -137,7 +137,7 @@ def _close(got, want, outcome, group, split=False):
     patch alone: ``tests/tolerance.py``)."""
     from tactile.ep2.contacts_csv import Contacts
     from tactile.ep2.stream import analyze_one
-    from tactile.output.jsonout import dumps
+    from tactile.output.text import dumps
 
     _skeleton(got, want)
 
@@ -163,7 +163,7 @@ def _per_patch(groups, split=False):
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_batched_records_are_the_per_patch_records_in_file_order(mixed_csv, capsys, jobs):
-    from tactile.output.jsonout import dumps
+    from tactile.output.text import dumps
 
     code, out, err = _run(capsys, str(mixed_csv), "--json", "--jobs", jobs)
     assert code == 3 and "2 of 7 patch(es) not determined" in err
@@ -217,7 +217,7 @@ def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monke
     batch gives the per-patch records, split parts included."""
     from tactile.ep2 import stream
     from tactile.files import tabular
-    from tactile.output.jsonout import dumps
+    from tactile.output.text import dumps
 
     monkeypatch.setattr(stream, "CHUNK", 4)  # 14 patches: four chunks, the last short
     path = _many_patches(tmp_path, 14, split_some=split)

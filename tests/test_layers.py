@@ -175,7 +175,7 @@ def test_without_the_simulator_the_cli_runs_and_says_what_is_missing():
 # of what it prints.  Not the host's decoder, board settings or error tree: a bug the
 # emulator shared with the host it checks would hide (the vocabulary both need is
 # tactile_protocol's).
-EMULATOR_MAY_USE = ("tactile.logs", "tactile.robot", "tactile.files", "tactile.output.textout")
+EMULATOR_MAY_USE = ("tactile.logs", "tactile.robot", "tactile.files", "tactile.output.text")
 NEVER_IN_THE_SIMULATOR = ("tactile.board.stream_decoder", "tactile.board.client")
 
 

@@ -17,7 +17,7 @@ import serial
 
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import BoardTimeout, InputError
-from tactile.logs.pose import read_pose_log
+from tactile.logs.read import read_pose_log
 from tactile.robot import Pose, RobotClient, RobotError, parse_address
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.orientation import matrix

@@ -1,6 +1,6 @@
 """CONTACT frames placed in the world through a robot's pose log (§5.1.1, §5.1.2).
 
-The log itself (formats, clocks, reading) is ``tactile.logs.pose``; ``sensor_poses`` turns
+The log itself (formats, clocks, reading) is ``tactile.logs.read``; ``sensor_poses`` turns
 its windows into sensor poses (R, t).  ``posed_world_contacts`` takes the decoded CONTACT
 frames (time, sensor, wrench), finds the window of each frame's finger that covers it,
 localises the contact on the probe from force
@@ -25,9 +25,8 @@ import numpy as np
 
 from tactile.errors import InputError
 from tactile.localize.contact import NO_CONTACT
-from tactile.localize.kinematics import pose_from_quaternion, scara_pose
-from tactile.localize.pipeline import posed_contacts, scara_contacts
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.probes import sphere_contact
+from tactile.localize.world import pose_from_quaternion, posed_contacts, scara_contacts, scara_pose
 
 __all__ = [
     "PoseReport",

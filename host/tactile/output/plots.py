@@ -21,10 +21,9 @@ import numpy as np
 
 from tactile.ep2 import patch_input
 from tactile.ep2.geometry import unit_normals
-from tactile.errors import InputError
-from tactile.extras import pyplot
-from tactile.files.atomic import atomic_write
-from tactile.output.textout import printable
+from tactile.errors import InputError, pyplot
+from tactile.files.writing import atomic_write
+from tactile.output.text import printable
 
 __all__ = [
     "colour_limits",
@@ -59,7 +58,7 @@ def require_matplotlib():
 
 def plain_text(text):
     """``text`` from a file, as a label drawn as written: non-printable characters escaped
-    as on the terminal (``tactile.output.textout``), characters the font has no glyph for as
+    as on the terminal (``tactile.output.text``), characters the font has no glyph for as
     ``\\uXXXX`` (matplotlib would warn and draw a box), ``$`` not starting mathtext."""
     have = _glyphs()
     text = printable(str(text))

@@ -33,8 +33,8 @@ import sys
 
 from tactile.calib.ati import format_cal
 from tactile.errors import InputError
-from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.files.writing import write_bytes
+from tactile.output.text import printable
 from tactile.robot import parse_address
 from tactile_sim.emulator import load_scene, pty_link
 from tactile_sim.emulator.device import EmulatedBoard, link_board_id
@@ -149,7 +149,7 @@ def run(args):
     path = server.open()
     print(printable(path), flush=True)
     if commanded:
-        print(robot.address, flush=True)
+        print(printable(robot.address), flush=True)
     when = "now" if args.now else "when a host opens the port"
     if args.core == "rp2040":  # a Pico powers up with its USB cable
         when = "now, running while a host has the port open" if args.fast else "now"
@@ -203,7 +203,7 @@ def _write_log(motion, path, at_us):
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
         raise InputError(f"--pose-log: this scene's motion has no robot log ({path})")
-    write(path, at_us)  # tactile.files.atomic: not a file there, exit 2; a disk error, exit 5
+    write(path, at_us)  # tactile.files.writing: not a file there, exit 2; a disk error, exit 5
 
 
 def _write_cal(scene, path):

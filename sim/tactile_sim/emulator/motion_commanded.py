@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from tactile.logs.robot_log import write_log
+from tactile.logs import write_log
 from tactile.robot import RobotError
 from tactile_sim.emulator.orientation import Track, matrix, quaternion, turn
 from tactile_sim.ep2.fingertip_contact import first_contact, gap
@@ -238,7 +238,7 @@ class CommandedMotion:
         return list(self.holds)
 
     def write_pose_log(self, path, at_us=0):
-        """The robot's pose log of the holds so far (``tactile.logs.robot_log``), with the
+        """The robot's pose log of the holds so far (``tactile.logs``), with the
         fingertip and the sensor's noise; no end (the arm serves on)."""
         centre, radius, axis = self.probe()
         rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]

@@ -1,6 +1,21 @@
-"""Log lines as the host shows them: escaped, and a library's at a bounded rate.
+"""Text the host prints: safe for a terminal, and the same numbers as JSON.
 
-A library that logs through Python's ``logging`` (``foxglove-sdk``'s Rust core does, under
+Nothing from outside is trusted: a device's strings (``sensor_model``), a file's text, a
+path the user gave (a folder may be named ``"\\x1b[31m\\n"``).  One carrying ESC sequences
+or a newline would repaint the user's terminal or forge output lines.
+``printable`` escapes every non-printable character (``\\x1b``, ``\\n``, ``\\x7f``,
+``\\u2028``...) of a line; ``printable_lines`` does so line by line.  ``value`` applies the
+project's one rule for numbers as well: a non-finite float is ``null`` in text as in
+``--json`` (``clean``).  Every line the CLI prints goes through
+here (``tests/test_escaped_output.py`` reads the sources for it); JSON output is escaped
+by ``json`` itself.
+
+JSON output never contains NaN or Infinity: ``clean`` turns non-finite floats into
+``null`` and NumPy scalars and arrays into plain Python numbers and lists; ``dumps`` is what
+every ``--json`` flag prints.
+
+Log lines as the host shows them: escaped, and a library's at a bounded rate.  A library
+that logs through Python's ``logging`` (``foxglove-sdk``'s Rust core does, under
 ``foxglove.*``) with no handler of its own reaches stderr through ``logging``'s last
 resort: every warning, at any rate, even under ``-q``, and raw, so a line that echoes what
 a network client sent ("unknown op `\\x1b[31m`") writes a terminal escape.  ``adopt``
@@ -9,7 +24,7 @@ takes such a logger over:
 - its records go to a project logger (``tactile.…``) instead, shown where the project's
   own are (``tactile -v``; nowhere without it: the project logger holds a
   ``NullHandler``, so the last resort is never used);
-- their text is escaped (``tactile.output.textout.printable``);
+- their text is escaped (``printable``);
 - at most ``LINES`` of them per ``INTERVAL_S`` (``RateLimit``); the first line let through
   after some were held back is preceded by "... K lines suppressed", and ``Adopted.flush``
   says the same of any still untold (a server calls it as it stops).
@@ -17,11 +32,99 @@ takes such a logger over:
 ``Escaped`` is the formatter of the CLI's own log handler: each log line one line, escaped.
 """
 
+import json
 import logging
+import math
 import threading
 import time
 
-from tactile.output.textout import printable
+
+def printable(text):
+    """``text`` (a ``str``, or any value such as a path, as ``str``) with every non-printable
+    character written as a Python escape: one line, whatever it holds."""
+    if not isinstance(text, str):
+        text = str(text)
+    if text.isprintable():
+        return text
+    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in text)
+
+
+def printable_lines(lines):
+    """``lines`` (an iterable of one-line texts) joined by newlines, each one escaped: a
+    newline inside a line is shown as ``\\n``, not obeyed."""
+    return "\n".join(printable(line) for line in lines)
+
+
+def value(v):
+    """One value as text: strings escaped, non-finite floats ``null`` (as in JSON)."""
+    v = clean(v)
+    if v is None:
+        return "null"
+    if isinstance(v, str):
+        return printable(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(value(x) for x in v) + "]"
+    return str(v)
+
+
+def fields(d, skip=("type",)):
+    """``key=value`` pairs of a message dictionary, space separated."""
+    return " ".join(f"{k}={value(v)}" for k, v in d.items() if k not in skip)
+
+
+def clean(obj):
+    """Return ``obj`` with NumPy types converted and non-finite floats as None."""
+    if isinstance(obj, dict):
+        return {str(k): clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [clean(v) for v in obj]
+    if isinstance(obj, bool) or obj is None or isinstance(obj, (int, str)):
+        return obj
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, (bytes, bytearray)):
+        return obj.decode("ascii", "replace")
+    tolist = getattr(obj, "tolist", None)  # NumPy scalar or array
+    if tolist is not None:
+        return clean(tolist())
+    raise TypeError(f"cannot write {type(obj).__name__} as JSON")
+
+
+def dumps(obj):
+    """One compact JSON line; raises ValueError rather than emit NaN.
+
+    The same text as ``json.dumps(clean(obj))``, without copying ``obj`` first where
+    that cannot change it: when every dict key is a ``str``, ``json`` writes ``obj``
+    itself and calls ``clean`` only on what it cannot write (NumPy values, bytes); a
+    non-finite float makes it stop, and ``clean`` then writes it as null."""
+    if _str_keys(obj):
+        try:
+            return _ENCODE(obj)
+        except ValueError:  # a NaN or inf: ``clean``'s copy has null there
+            pass
+    return json.dumps(clean(obj), allow_nan=False, separators=(",", ":"))
+
+
+_ENCODE = json.JSONEncoder(allow_nan=False, separators=(",", ":"), default=clean).encode
+
+
+def _str_keys(obj):
+    """Whether every dict in ``obj`` (through dicts, lists and tuples) has only ``str`` keys,
+    which ``json`` writes as ``clean`` does (not so None, True, 1.0 or a NumPy key).  A
+    subclass of dict, list or tuple says no: ``clean`` takes it the careful way."""
+    kind = type(obj)
+    if kind is dict:
+        for k, v in obj.items():
+            if type(k) is not str or (type(v) not in _LEAVES and not _str_keys(v)):
+                return False
+        return True
+    if kind is list or kind is tuple:
+        return all(type(v) in _LEAVES or _str_keys(v) for v in obj)
+    return not isinstance(obj, dict | list | tuple)  # else ``json`` asks ``clean``
+
+
+_LEAVES = frozenset((str, int, float, bool, type(None)))
+
 
 LINES = 10  # a library's log lines shown per interval
 INTERVAL_S = 10.0

@@ -19,18 +19,33 @@ so the tolerance follows the matrix's own scale).  Scaling the rows first makes 
 independent of the units (N or lbf, N*m or N*mm) and of ``v``; real ATI matrices come out
 near 1 to 3 (docs/calibration.md).  Above 1e4, float32's relative rounding (2^-24) can
 already grow to 6e-4 of a reading.
+
+Loading a ``BoardMatrix`` onto a board and verifying it through INFO (PROTOCOL.md §4):
+SET_CAL carries the sensor, the id and the 36 float32 coefficients; the board stores them
+and ACKs (or NAKs, naming the field).  An ACK says the frame arrived; INFO then says what
+the sensor applies: its ``cal_id_N`` and ``cal_crc_N``, a CRC-16 of the coefficients as the
+board holds them.  Both must equal what was sent, or the load is reported as failed
+(``BoardError``, exit 4): a board that kept an older matrix under the same id fails too.
 """
 
 from collections import namedtuple
 
 import numpy as np
 
-from tactile.calib import units as U
+from tactile.calib import describe, force_factor, gauge_factor, torque_factor
 from tactile.calib.files import GAUGES, ROWS, check_id
-from tactile.errors import InputError
+from tactile.errors import BoardError, InputError
 from tactile_protocol.messages import cal_checksum
 
-__all__ = ["BoardMatrix", "MAX_CONDITION", "to_board", "condition"]
+__all__ = [
+    "BoardMatrix",
+    "MAX_CONDITION",
+    "to_board",
+    "condition",
+    "CalibrationNotApplied",
+    "install",
+    "check_sensor",
+]
 
 MAX_CONDITION = 1e4
 FLOAT32_TINY = float(np.finfo(np.float32).tiny)  # the smallest normal float32
@@ -60,21 +75,21 @@ def condition(matrix):
 
 def si_per_count(mf, volts_per_count=None):
     """The file's matrix in N and N*m per count (float64), or InputError."""
-    gauge_v = U.gauge_factor(mf.units.gauge)
+    gauge_v = gauge_factor(mf.units.gauge)
     if gauge_v is None and volts_per_count is not None:
         raise InputError(
             f"--volts-per-count: {mf.path}'s matrix is per ADC count already"
-            f" ({U.describe(mf.units)}); leave the option out"
+            f" ({describe(mf.units)}); leave the option out"
         )
     if gauge_v is not None and volts_per_count is None:
         raise InputError(
             f"--volts-per-count: needed: {mf.path}'s matrix takes gauge volts"
-            f" ({U.describe(mf.units)}); give the volts one ADC count stands for,"
+            f" ({describe(mf.units)}); give the volts one ADC count stands for,"
             " V_excitation / (128 x 2^23) times any amplifier gain (docs/calibration.md)"
         )
     if volts_per_count is not None and not (0 < volts_per_count < float("inf")):
         raise InputError("--volts-per-count: must be a positive, finite number of volts")
-    rows = [U.force_factor(mf.units.force)] * 3 + [U.torque_factor(mf.units.torque)] * 3
+    rows = [force_factor(mf.units.force)] * 3 + [torque_factor(mf.units.torque)] * 3
     per_gauge = 1.0 if gauge_v is None else gauge_v * volts_per_count
     with np.errstate(over="ignore", under="ignore"):  # as_float32 names what float32 refuses
         return np.asarray(mf.matrix, dtype=float) * np.asarray(rows)[:, None] * per_gauge
@@ -135,3 +150,45 @@ def table(coeffs):
         unit = "N/count" if r < 3 else "N*m/count"
         lines.append(f"{ROWS[r]:<6}  " + "".join(f"{v:>13.6g}" for v in row) + f"  {unit}")
     return lines
+
+
+class CalibrationNotApplied(BoardError):
+    """The board ACKed SET_CAL but INFO does not report the matrix that was sent."""
+
+
+def check_sensor(sensor, n_sensors):
+    """``sensor`` (an int, or None when not given) checked against the board's sensor count.
+
+    With several sensors the user must say which one: each transducer has its own matrix.
+    """
+    plural = f"{n_sensors} sensor{'s' * (n_sensors != 1)}"
+    if sensor is None:
+        if n_sensors == 1:
+            return 0
+        raise InputError(
+            f"--sensor: needed: the board has {plural} (0..{n_sensors - 1}); say which"
+            " transducer this matrix belongs to"
+        )
+    if not 0 <= sensor < n_sensors:
+        raise InputError(f"--sensor: {sensor}, but the board has {plural} (0..{n_sensors - 1})")
+    return sensor
+
+
+def install(client, board_matrix, sensor=None, timeout=2.0):
+    """SET_CAL ``board_matrix`` onto ``sensor`` of ``client``'s board; return the INFO after.
+
+    ``sensor`` None means the only one (InputError if the board has several).
+    """
+    before = client.get_info()
+    sensor = check_sensor(sensor, before.n_sensors)
+    client.set_calibration(sensor, board_matrix.cal_id, board_matrix.coeffs, timeout=timeout)
+    after = client.get_info()
+    got = (getattr(after, f"cal_id_{sensor}"), getattr(after, f"cal_crc_{sensor}"))
+    want = (board_matrix.cal_id, board_matrix.crc)
+    if got != want:
+        raise CalibrationNotApplied(
+            f"{client.name}: sensor {sensor} reports calibration id {got[0]} (checksum"
+            f" 0x{got[1]:04x}) after SET_CAL was acknowledged; sent id {want[0]} (checksum"
+            f" 0x{want[1]:04x}): the board does not apply the matrix sent"
+        )
+    return sensor, after

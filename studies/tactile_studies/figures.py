@@ -1,12 +1,21 @@
-"""Legends that hide no data: in the plot's emptiest corner when it has one, else in a row
+"""What every study figure shares: legends that hide no data, and saving whole.
+
+Legends that hide no data: in the plot's emptiest corner when it has one, else in a row
 just above the axes (the thesis's study figures are often full from edge to edge).
 
 ``place_legend(ax, *handles_labels, **kw)`` is ``ax.legend`` with that rule; ``covers_data``
-is the rule (a point of a line or scatter of ``ax`` inside the legend's box)."""
+is the rule (a point of a line or scatter of ``ax`` inside the legend's box).
+
+``save(plt, fig, path)`` writes a figure whole (``tactile.files.writing.atomic_write``), its
+format the name's, at ``DPI``, and closes it."""
 
 import numpy as np
 
+from tactile.files.writing import atomic_write
+from tactile.output.plots import image_format
+
 STYLE = dict(fontsize=8)
+DPI = 110
 
 
 def place_legend(ax, *args, **kw):
@@ -34,3 +43,13 @@ def covers_data(ax, box):
         if ((x > box.x0) & (x < box.x1) & (y > box.y0) & (y < box.y1)).any():
             return True
     return False
+
+
+def save(plt, fig, path):
+    """Write ``fig`` to ``path`` whole (its format the name's), close it: ``[path]``."""
+    try:
+        with atomic_write(path) as fh:
+            fig.savefig(fh, format=image_format(path), dpi=DPI)
+    finally:
+        plt.close(fig)
+    return [str(path)]

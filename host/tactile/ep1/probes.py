@@ -5,22 +5,39 @@ fingertip lies where the force's line of action meets it (``localize.sphere_cont
 with friction).  Per probe, the wrench is averaged over the CONTACT frames read while the
 robot holds still at the probe's start and at its end; the two contact points, mapped back
 to the fingertip parameters of eq. 20, give dp = (du, dv), and the robot's commanded rotation
-gives dtheta: the rows of the probes CSV (``probes_csv``), with eq. 29's signs.
+gives dtheta: the rows of the probes CSV (below), with eq. 29's signs.
 
-The probe log (its format, clocks and reader: ``tactile.logs.probe``) gives, per probe, a
+The probe log (its format, clocks and reader: ``tactile.logs.read``) gives, per probe, a
 time in the hold at its start and at its end, the commanded rotation and the fingertip.
 
 Frames: the fingertip frame has the sensor's axes, its centre at ``centre_m`` in the sensor
 frame and its pole (u = v = 0 of eq. 20) along the sensor's +x.
+
+**The EP1 probes CSV contract.**
+
+A ``# units: rad`` line (a file without it is read as before), a header row; required
+columns ``dtheta_x,dtheta_y,du,dv``: the net rotation of the finger about the x and y axes
+of the contact frame (rad) and the change of the contact point in the fingertip parameters
+of eq. 20 (rad), with the signs of eq. 29: M1 dp = (K1 + K2~)^-1 [-dtheta_y,
+dtheta_x]^T.  Other columns are ignored; ``#`` lines are comments.
 """
 
 import numpy as np
 
+from tactile import units
 from tactile.errors import InputError
+from tactile.files.tabular import read_csv
 from tactile.localize.contact import STATUS
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.probes import sphere_contact
 
-__all__ = ["fingertip_uv", "probes_from_frames", "probe_report"]
+__all__ = [
+    "fingertip_uv",
+    "probes_from_frames",
+    "probe_report",
+    "COLUMNS",
+    "read_probes",
+    "format_probes",
+]
 
 
 def fingertip_uv(point, radius):
@@ -95,7 +112,7 @@ def _derive(log, t_us, wrench, threshold, average, half_width_us):
 
 
 def probes_from_frames(log, t_us, wrench, threshold=0.0, average=None, half_width_us=None):
-    """Probes CSV rows from recorded CONTACT frames and a ``ProbeLog`` (``tactile.logs.probe``).
+    """Probes CSV rows from recorded CONTACT frames and a ``ProbeLog`` (``tactile.logs.read``).
 
     ``t_us`` (n,) frame timestamps, ``wrench`` (n, 6) in N and N*m (sensor frame).  Per probe
     end, the frames within the hold window (``half_width_us``, default the log's) around the
@@ -113,3 +130,21 @@ def probe_report(log, t_us, wrench, threshold=0.0, average=None, half_width_us=N
     """One line per probe: 'probe N (line L): ok' or why it is not usable, and frames used."""
     _, _, status, count = _derive(log, t_us, wrench, threshold, average, half_width_us)
     return [f"{s}; frames {a}+{b}" for s, (a, b) in zip(status, count, strict=True)]
+
+
+COLUMNS = ("dtheta_x", "dtheta_y", "du", "dv")
+
+
+def read_probes(path):
+    """Return (dtheta (m, 2), dp (m, 2)) arrays; errors are InputError naming file:line:column."""
+    units.check_stated(path, {units.PROBES}, "a probes CSV holds angles in rad")
+    table = read_csv(path, COLUMNS)
+    data = table.array(*COLUMNS)
+    return data[:, :2], data[:, 2:]
+
+
+def format_probes(rows):
+    """CSV text for an (m, 4) array of (dtheta_x, dtheta_y, du, dv) rows (repr precision)."""
+    lines = [units.line(units.PROBES).rstrip("\n"), ",".join(COLUMNS)]
+    lines += [",".join(repr(float(x)) for x in row) for row in rows]
+    return "\n".join(lines) + "\n"

@@ -1,12 +1,22 @@
-"""``--foxglove`` and its options, shared by ``tactile live`` and ``tactile record``: a
-Foxglove WebSocket server of the board's frames (``tactile.foxglove.live``, the
-``foxglove`` extra) beside what the command does.  Its lines go to stderr."""
+"""The options several commands share: ``--port`` and ``--foxglove``.
 
+``--foxglove`` and its options, shared by ``tactile live`` and ``tactile record``: a
+Foxglove WebSocket server of the board's frames (``tactile.foxglove.live``, the
+``foxglove`` extra) beside what the command does.  Its lines go to stderr.
+
+What the board commands (info, config, tare, calibrate, record, live, flash) share:
+``--port`` and connecting.
+"""
+
+import os
 import sys
 
+from tactile.board import serial_port
+from tactile.board.client import BoardClient
+from tactile.commands import ENV_PORT
 from tactile.errors import InputError
 from tactile.foxglove.live import LiveServer, require_foxglove
-from tactile.output.textout import printable
+from tactile.output.text import printable
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
@@ -14,7 +24,7 @@ DEFAULT_RATE_HZ = 100.0  # tactile.foxglove.live.DEFAULT_RATE_HZ
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
 
-def add_arguments(parser):
+def add_foxglove_arguments(parser):
     group = parser.add_argument_group("Foxglove (needs the 'foxglove' extra)")
     group.add_argument(
         "--foxglove",
@@ -45,7 +55,7 @@ def add_arguments(parser):
     )
 
 
-def check(args):
+def check_foxglove(args):
     """Refuse bad ``--foxglove*`` values and a missing extra, before any board work."""
     if not args.foxglove:
         return
@@ -57,12 +67,12 @@ def check(args):
     require_foxglove()
 
 
-def start(args, device=None, pose_log=None):
+def start_foxglove(args, device=None, pose_log=None):
     """The ``LiveServer`` that ``args`` ask for (None without ``--foxglove``); says where.
     ``pose_log``: a robot's ``PoseLog``, to serve the contacts, transforms and patch too."""
     if not args.foxglove:
         return None
-    check(args)
+    check_foxglove(args)
 
     per_contact = getattr(args, "per_contact", None)
     server = LiveServer(
@@ -98,7 +108,7 @@ def _count(n, what, plural="s"):
     return f"{n:,} {what}{plural * (n != 1)}"
 
 
-def stop(server, quiet=False):
+def stop_foxglove(server, quiet=False):
     """Stop ``server`` (if any); print one line of what it published and dropped."""
     if server is None:
         return
@@ -128,3 +138,39 @@ def stop(server, quiet=False):
         if c["failed"]:
             line += f"; {c['failed']:,} failed ({c['error']})"
         print(printable(line), file=sys.stderr, flush=True)
+
+
+PORT_HELP = "serial device or URL (sim://SCENE for the in-process emulator)"
+
+
+def add_port_argument(
+    parser, wait=2.0, wait_help="seconds to wait for the board's HELLO", port_help=PORT_HELP
+):
+    parser.add_argument(
+        "-p",
+        "--port",
+        default=os.environ.get(ENV_PORT) or None,
+        help=f"{port_help}; env {ENV_PORT}",
+    )
+    parser.add_argument("--wait", type=float, default=wait, help=wait_help)
+
+
+def port_of(args):
+    """``args.port``, or an InputError saying none was given."""
+    if not args.port:
+        raise InputError(
+            f"--port: no port given (and {ENV_PORT} unset); 'tactile ports' lists them"
+        )
+    return args.port
+
+
+def connect(args):
+    """Open ``args.port`` and wait for HELLO; returns a BoardClient (the caller closes it)."""
+    port = serial_port.open_port(port_of(args))  # (looked up here: tests fake ports)
+    client = BoardClient(port, args.port)
+    try:
+        client.handshake(args.wait)
+    except BaseException:
+        client.close()
+        raise
+    return client

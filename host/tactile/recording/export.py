@@ -1,4 +1,6 @@
-"""A recording as Parquet tables, for pandas, polars, DuckDB and Arrow users.
+"""A recording exported: as Parquet tables, and where an export may write.
+
+**Parquet**: a recording as tables, for pandas, polars, DuckDB and Arrow users.
 
 ``RUN.parquet`` holds the frames, one row per SAMPLE or CONTACT frame in file order, with
 the columns of ``tactile.load_recording`` (``COLUMNS``): board time, host time, sensor,
@@ -9,16 +11,34 @@ and the recording's ``meta.json``.  A host time the recording does not determine
 never a NaN.
 
 ``pyarrow`` is the ``parquet`` extra, imported only here.
+
+**Where ``tactile export`` may write**, checked before any work is done.
+
+- Each output is a new file in an existing folder or a regular file
+  (``tactile.files.writing.check_target``): never a directory, a device (``/dev/null``
+  included), a FIFO or a socket (exit 2).
+- Never a file of the run being exported.  Paths are compared once symlinks are resolved,
+  so a link to capture.bin is capture.bin.  Inside the run folder an export may name a new
+  file, or an earlier export of its own format (a name ending ``.mcap`` or ``.parquet``),
+  but never the recording's own files (``RUN_FILES``, even before they exist) nor any other
+  file already there (exit 2).
+- An export into the run folder holds the run's lock (``tactile.files.writing``) while
+  it reads and writes, so it is refused (exit 5) while a ``record`` writes there, and a
+  ``record`` is refused while it writes.
 """
 
 import json
+import os
 import pathlib
 
 import numpy as np
 
 from tactile import __version__
-from tactile.extras import need
-from tactile.files.atomic import atomic_write
+from tactile.errors import InputError, need
+from tactile.files.writing import atomic_write, check_target
+from tactile.recording.layout import CAPTURE, DEVICE, FRAMES, META
+
+__all__ = ["RUN_FILES", "check_outputs"]
 
 # column, RecordingData attribute (index into a 2-D one), unit
 COLUMNS = (
@@ -99,7 +119,7 @@ def _describe(what, rec, why):
 
 def write_parquet(rec, path):
     """Write ``rec`` to ``path`` (frames) and, with contacts, ``NAME.contacts.parquet``
-    beside it, each replaced whole (``tactile.files.atomic``).  Returns a summary."""
+    beside it, each replaced whole (``tactile.files.writing``).  Returns a summary."""
     _, pq = require_pyarrow()
     path = pathlib.Path(path)
     out = {"path": str(path), "frames": len(rec), "contacts": None, "contacts_path": None}
@@ -118,3 +138,31 @@ def contacts_path(path):
     """Where ``write_parquet`` puts the contacts of a run written to ``path``."""
     path = pathlib.Path(path)
     return path.with_name(path.name.removesuffix(".parquet") + ".contacts.parquet")
+
+
+RUN_FILES = (CAPTURE, FRAMES, DEVICE, META, "contacts.csv", "probes.csv")
+
+
+def _inside(folder, real):
+    return os.path.commonpath([folder, real]) == folder
+
+
+def check_outputs(run_dir, outs, suffix):
+    """Check the outputs ``outs`` of an export of ``run_dir`` whose files end in
+    ``suffix`` (``.mcap``); True when one lies inside the run (the export then locks it);
+    ``InputError`` (exit 2) naming the first output refused."""
+    run = os.path.realpath(run_dir)
+    own = {os.path.join(run, n) for n in RUN_FILES}
+    own |= {os.path.realpath(p) for p in own}
+    inside = False
+    for out in outs:
+        real = check_target(out)
+        if not _inside(run, real):
+            continue
+        inside = True
+        if real in own or (os.path.lexists(real) and not real.endswith(suffix)):
+            raise InputError(
+                f"{out}: a file of the run being exported ({run_dir}); export never writes"
+                " over a recording's files (choose another -o)"
+            )
+    return inside
