@@ -127,9 +127,6 @@ class RowNames:
     def __getitem__(self, k):
         return f"{self.word} {self.numbers[k]}"
 
-    def __len__(self):
-        return len(self.numbers)
-
 
 def check_order(method, order):
     if method != "spline" and order not in (None, JET_ORDER):
@@ -298,8 +295,9 @@ AXES = "xyz"
 
 
 def box(points):
-    """(middle (3,), half sides (3,)) of the points' bounding box, without overflow."""
-    lo, hi = points.min(axis=0), points.max(axis=0)
+    """(middle (..., 3), half sides (..., 3)) of the points' bounding box (of each patch of a
+    stack (..., n, 3)), without overflow."""
+    lo, hi = points.min(axis=-2), points.max(axis=-2)
     return 0.5 * lo + 0.5 * hi, 0.5 * hi - 0.5 * lo
 
 
