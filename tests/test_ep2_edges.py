@@ -4,7 +4,7 @@ normal tilt estimated and named (``tactile.ep2.edges``, ``tactile.ep2.tilt``).""
 import numpy as np
 import pytest
 
-from tactile.ep2 import analyze_patch, analyze_patches
+from tactile.ep2 import analyze_patch, analyze_patches, edges
 from tactile.ep2.edges import EdgeError
 from tactile.errors import DataError
 from tactile_studies.ep2 import edge_cases
@@ -76,7 +76,7 @@ def test_two_lines_along_a_tight_cylinder_are_not_an_edge():
 
 
 def test_a_constant_tilt_is_named_and_the_patch_answered():
-    data = edge_cases.make("bench", "tilt", 1)
+    data = edge_cases.make("tune", "tilt", 1)
     res = analyze_patch(data["points"], data["normals"], finger=data["finger"])
     (w,) = [w for w in res.warnings if w.startswith("normals tilted")]
     deg = float(w.split()[2])
@@ -97,7 +97,7 @@ def test_no_tilt_is_named_on_an_untilted_sphere():
 
 
 def test_edge_cases_are_seeded_and_split():
-    a, b = edge_cases.make("bench", "ridge", 4), edge_cases.make("bench", "ridge", 4)
+    a, b = edge_cases.make("tune", "ridge", 4), edge_cases.make("tune", "ridge", 4)
     assert np.array_equal(a["points"], b["points"])
     h = edge_cases.make("holdout", "ridge", 4)
     assert not np.allclose(a["points"][:3], h["points"][:3])
@@ -105,11 +105,41 @@ def test_edge_cases_are_seeded_and_split():
 
 
 def test_a_batch_names_the_tilt_and_the_edge_as_one_patch_alone():
-    tilted = edge_cases.make("bench", "tilt", 1)
-    crease = edge_cases.make("bench", "ridge", 0)
+    tilted = edge_cases.make("tune", "tilt", 1)
+    crease = edge_cases.make("tune", "ridge", 0)
     alone = analyze_patch(tilted["points"], tilted["normals"], finger=tilted["finger"])
     batch = analyze_patches(
         [{k: d[k] for k in ("points", "normals", "finger")} for d in (tilted, crease)]
     )
     assert batch[0].warnings == alone.warnings and batch[0].k1 == pytest.approx(alone.k1)
     assert isinstance(batch[1], EdgeError) and batch[1].edge.kind == "ridge"
+
+
+# tune cases a smooth quadratic field of normals fits as well as the step (three oblique
+# sweep lines, a 3 x 3 grid with one line on a face): found by each face's flat normals
+@pytest.mark.parametrize("kind,index", [("ridge", 1245), ("ridge", 408), ("valley", 375),
+                                        ("ridge", 857)])  # fmt: skip
+def test_a_crease_with_flat_faces_is_named_where_a_smooth_field_fits_its_normals(kind, index):
+    data = edge_cases.make("tune", kind, index)
+    kw = {"noise_normal": data["noise_normal"]} if data["stated"] else {}
+    with pytest.raises(EdgeError) as info:
+        analyze_patch(data["points"], data["normals"], finger=data["finger"], **kw)
+    edge, truth = info.value.edge, data["truth"]
+    assert edge.kind == kind
+    lo, hi = edge.dihedral_interval
+    assert lo - 1 <= truth["dihedral_deg"] <= hi + 1
+    assert abs(edge.direction @ truth["direction"][0]) > np.cos(np.radians(2))
+
+
+def test_two_faces_of_scattered_normals_are_no_edge():
+    """Normals that scatter within each side (a smooth patch with two gross outliers on
+    one side of the cut) do not make flat faces."""
+    rng = np.random.default_rng(11)
+    xy = rng.uniform(-0.5, 0.5, (20, 2))
+    pts = np.column_stack([xy, 0.1 * xy[:, 0] ** 2])
+    nrm = np.column_stack([-0.2 * xy[:, 0], np.zeros(20), np.ones(20)])
+    nrm[:2] = [[0.9, 0.3, 0.3], [0.8, -0.4, 0.4]]
+    order = np.argsort(nrm[:, 0])
+    sides = (order[:17], order[17:])
+    assert not edges.flat_faces(pts, nrm / np.linalg.norm(nrm, axis=1, keepdims=True), sides,
+                                edges._basis(np.array([0.0, 0.0, 1.0])))  # fmt: skip

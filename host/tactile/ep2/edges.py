@@ -7,12 +7,14 @@ normals that jump.  ``find`` compares, along the direction in which the normals 
 - a step: two constant normals, the contacts cut in two by their normals along ``a``;
 - a smooth field: a quadratic in the patch coordinates (any 2-jet surface, and more).
 
-Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``), each side
+Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``) and each side
 holds at least ``MIN_SIDE`` contacts spread across the edge (over ``MIN_DEPTH`` of the
-patch: two lines along a tight cylinder look like two faces), the normals turn at least
+patch: two lines along a tight cylinder look like two faces), or where each side's normals
+are flat (``flat_faces``: they neither scatter nor turn within the side as they turn between
+the sides; a smooth field fits a few lines across a crease too), the normals turn at least
 ``MIN_TURN_DEG`` (by over ``MIN_Z`` standard errors) and at least ``MIN_APART`` of the
-contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a plane
-through its contacts' centroid with its mean normal; the edge is the planes' intersection
+contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a
+plane through its contacts' centroid with its mean normal; the edge is the planes' intersection
 (the point nearest the contacts' middle, its direction), the dihedral angle between the
 faces is 180 deg less the normals' turn, with a 95 % interval from the normals' scatter
 about each face's mean (Student t).  A ridge's faces fall away from the edge, a valley's
@@ -42,6 +44,11 @@ MIN_APART = 0.8  # share of contacts on their face's side of the edge
 MIN_DEPTH = 0.05  # each face's contacts span this share of the patch across the edge
 HALF_FLOOR_DEG = 1e-6  # noise-free faces: the interval holds the round-off
 MAX_LEFT_OUT = 2  # the normal screen's most (docs/ep2.md)
+FLAT_SHARE = 0.25  # a face's own turn, carried to the other face, explains under this share
+FLAT_Z = 2.0
+TIGHT = 0.1  # a face's normals scatter by under this share of the step (rms)
+MIN_SPREAD = 0.05  # rms, of the patch: a side thinner than this across is one line
+MIN_ACROSS = 0.02  # rms, of the patch: a line running across the edge by less sees nothing
 
 
 @dataclass
@@ -142,12 +149,15 @@ def find(points, normals, noise_normal=None, strict=True):
     T = _basis(_unit(total) if np.linalg.norm(total) > 1e-9 else nrm[0])
     a = np.linalg.eigh(np.cov(nrm.T))[1][:, -1]  # the normals vary most along a
     order, k, rss_step = _best_cut(nrm @ a, nrm)
-    if k is None or strict and rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
+    if k is None:
         return None
     sides = (np.sort(order[:k]), np.sort(order[k:]))
     x = pts @ a
-    if strict and min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
-        return None  # a face seen along one line: as much a strongly bent curve
+    if strict and not flat_faces(pts, nrm, sides, T, noise_normal):
+        if rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
+            return None
+        if min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
+            return None  # a face seen along one line: as much a strongly bent curve
     n1, n2 = (_unit(nrm[s].mean(axis=0)) for s in sides)
     turn = float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
     if not MIN_TURN_DEG <= turn <= MAX_TURN_DEG:
@@ -168,6 +178,61 @@ def find(points, normals, noise_normal=None, strict=True):
         np.mean(np.concatenate([a0 >= -eps, a1 <= eps])),
     )
     return edge if apart >= MIN_APART else None  # else the faces interleave: no edge
+
+
+def flat_faces(pts, nrm, sides, T, noise_normal=None):
+    """Whether each side's normals stay constant: every side's normals scatter about their
+    mean by under ``TIGHT`` of the step between the sides' means (rms), and on every side
+    seen across the edge (at least one), the normals' gradient along each direction the
+    side spans (in the tangent plane ``T`` (3, 2)), with ``FLAT_Z`` standard errors, carried
+    across the edge from one side's middle to the other's, explains under ``FLAT_SHARE`` of
+    the step.  Two planar faces; a bent surface's normals turn within each side as they do
+    between them.  A side spans a direction where its rms spread along it is over
+    ``MIN_SPREAD`` of the patch (a line's noise is no width); a side along one line sees
+    across the edge only as far as the line runs across it (its gradient is divided by the
+    cosine)."""
+    xy = pts @ T
+    means = [nrm[s].mean(axis=0) for s in sides]
+    step = float(np.linalg.norm(means[1] - means[0]))
+    along = T.T @ np.cross(*means)  # the edge, in the tangent plane
+    if max(_rms(nrm[s] - m) for s, m in zip(sides, means)) > TIGHT * step or not any(along):
+        return False  # a side's normals scatter: outliers, not a face
+    across = np.array([-along[1], along[0]]) / np.linalg.norm(along)
+    mids = [xy[s].mean(axis=0) for s in sides]
+    span = np.ptp(xy, axis=0).max()
+    dist = abs(float((mids[1] - mids[0]) @ across))
+    if dist < MIN_DEPTH * span:
+        return False
+    fits = [_gradient(xy[s] - mid, nrm[s] - m, across, (MIN_SPREAD * span) ** 2)
+            for s, mid, m in zip(sides, mids, means)]  # fmt: skip
+    s2 = sum(f[0] for f in fits) / max(2 * (len(nrm) - 6), 1)  # (two components carry noise)
+    if noise_normal is not None:
+        s2 = max(s2, noise_normal**2)
+    limit = FLAT_SHARE * step / dist
+    told = [(g, FLAT_Z * np.sqrt(s2 / w)) for _, g, w in fits if g is not None]
+    told = [np.max(g + z) for g, z in told if np.max(z) < limit]  # sides that can tell
+    return bool(told) and max(told) <= limit
+
+
+def _rms(m):
+    return float(np.sqrt(np.mean(np.sum(m**2, axis=1))))
+
+
+def _gradient(u, m, across, wide):
+    """(rss, |gradient| across the edge per spanned direction, its sum of squares) of one
+    side's normals m (k, 3) over its coordinates u (k, 2) about their means; (rss, None,
+    None) where the side is not seen across the edge (its rms spread across it under
+    ``MIN_ACROSS`` of the patch, ``wide`` being ``MIN_SPREAD``'s square), or has fewer
+    than 4 contacts."""
+    w, V = np.linalg.eigh(u.T @ u)
+    spans = w > len(u) * wide
+    cos = 1.0 if spans[0] else abs(float(V[:, 1] @ across))
+    seen = w[1] * cos**2 > len(u) * (MIN_ACROSS / MIN_SPREAD) ** 2 * wide
+    if len(u) < 4 or not spans[1] or not seen:
+        return float(np.sum(m**2)), None, None  # (not seen across the edge)
+    c = u @ V[:, spans]
+    g, *_ = np.linalg.lstsq(c, m, rcond=None)  # (spans, 3): the normals' gradient
+    return float(np.sum((m - c @ g) ** 2)), np.linalg.norm(g, axis=1) / cos, w[spans] * cos**2
 
 
 def _edge(pts, sides, n1, n2, turn, half):
