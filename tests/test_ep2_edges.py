@@ -143,3 +143,14 @@ def test_two_faces_of_scattered_normals_are_no_edge():
     sides = (order[:17], order[17:])
     assert not edges.flat_faces(pts, nrm / np.linalg.norm(nrm, axis=1, keepdims=True), sides,
                                 edges._basis(np.array([0.0, 0.0, 1.0])))  # fmt: skip
+
+
+@pytest.mark.parametrize("index", [137, 148])
+def test_a_tilt_on_a_strongly_curved_patch_is_named_with_the_noise_stated(index):
+    """A pit or ellipsoid of |k| L 0.6-0.7 with its small noise stated: the quadratic's own
+    misfit counts as noise, and the tilt is named within 1 deg."""
+    data = edge_cases.make("tune", "tilt", index)
+    res = analyze_patch(data["points"], data["normals"], finger=data["finger"],
+                        noise_pos=data["noise_pos"], noise_normal=data["noise_normal"])  # fmt: skip
+    (w,) = [w for w in res.warnings if w.startswith("normals tilted")]
+    assert abs(float(w.split()[2]) - data["truth"]["tilt_deg"]) < 1.0

@@ -160,11 +160,11 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     Sx = np.stack([zero, one, zero, x, y, zero, one, zero], axis=-1)
     Sy = np.stack([zero, zero, one, zero, x, y, zero, one], axis=-1)
     sp, ok = _residual(H[..., :6], z, n - 6)
-    sp = np.where(np.isnan(noise_pos), sp, noise_pos / Ls)
-    sure &= ok | ~np.isnan(noise_pos)
+    sp = np.fmax(sp, noise_pos / Ls)  # (NaN where not stated: the residual alone)
+    sure &= ok
     r, ok = _residual(H[..., :3], np.stack([sx, sy], axis=-1), n - 3)
-    sn = np.where(np.isnan(noise_normal), np.hypot(r[:, 0], r[:, 1]) / np.sqrt(2), noise_normal)
-    sure &= ok | ~np.isnan(noise_normal)
+    sn = np.fmax(np.hypot(r[:, 0], r[:, 1]) / np.sqrt(2), noise_normal)
+    sure &= ok
     sp, sn = np.maximum(sp, tilt.NOISE_FLOOR), np.maximum(sn, tilt.NOISE_FLOOR)
     A = np.concatenate([H / sp[:, None, None], Sx / sn[:, None, None], Sy / sn[:, None, None]], 1)
     b = np.concatenate([z / sp[:, None], sx / sn[:, None], sy / sn[:, None]], axis=1)
