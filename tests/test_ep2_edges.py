@@ -1,6 +1,8 @@
 """EP2 on real objects: creases refused naming the edge, a bad patch named as one, a constant
 normal tilt estimated and named (``tactile.ep2.edges``, ``tactile.ep2.tilt``)."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -154,3 +156,29 @@ def test_a_tilt_on_a_strongly_curved_patch_is_named_with_the_noise_stated(index)
                         noise_pos=data["noise_pos"], noise_normal=data["noise_normal"])  # fmt: skip
     (w,) = [w for w in res.warnings if w.startswith("normals tilted")]
     assert abs(float(w.split()[2]) - data["truth"]["tilt_deg"]) < 1.0
+
+
+def test_a_plane_joined_to_a_cylinder_is_uncertain_and_the_jump_placed():
+    """A tune join (a 3 x 4 grid, low noise) the 2-jet called cylinder with a k1 interval
+    of about 0.56-0.61 of the truth's 1/R: the hinge in its normals is found and named."""
+    data = edge_cases.make("tune", "join", 23)
+    res = analyze_patch(data["points"], data["normals"], finger=data["finger"],
+                        noise_pos=data["noise_pos"], noise_normal=data["noise_normal"])  # fmt: skip
+    assert res.shape == "uncertain"
+    (w,) = [w for w in res.warnings if w.startswith("a curvature jump at (")]
+    point, along = (np.array(t.split(", "), float) for t in re.findall(r"\(([-0-9., e]+)\)", w))
+    local = (point / data["unit"] - data["shift"]) @ data["rot"]
+    assert abs(local[0]) < 0.05  # the join is the line u = 0 along the local y
+    assert abs((along @ data["rot"])[1]) > np.cos(np.radians(5))
+
+
+def test_a_smooth_cylinder_and_a_cubic_field_have_no_jump():
+    rng = np.random.default_rng(4)
+    xy = rng.uniform(-0.5, 0.5, (30, 2))
+    for z, grad in (
+        (-(xy[:, 0] ** 2) / 4, np.column_stack([-xy[:, 0] / 2, 0 * xy[:, 0]])),
+        (0.2 * xy[:, 0] ** 3, np.column_stack([0.6 * xy[:, 0] ** 2, 0 * xy[:, 0]])),
+    ):
+        nrm = np.column_stack([-grad, np.ones(30)]) + 0.002 * rng.standard_normal((30, 3))
+        pts = np.column_stack([xy, z]) + 0.001 * rng.standard_normal((30, 3))
+        assert edges.find_jump(pts, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)) is None
