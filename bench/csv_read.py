@@ -17,7 +17,7 @@ from timing import best_of
 
 from tactile.ep2.contacts_csv import REQUIRED, ContactsFile
 from tactile.files.tabular import read_csv
-from tactile.recording.frames import FRAME_COLUMNS, read_frames
+from tactile.recording.layout import FRAME_COLUMNS, read_frames
 
 
 def write_frames(path, n):

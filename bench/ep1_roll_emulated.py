@@ -6,7 +6,7 @@ The shipped scene ``ep1_roll`` (fingertip R1 = 1 cm on a wrist sensor 5 cm behin
 ellipsoid with principal radii 2 cm and 4.5 cm, eight probes of 0.5 rad, 5 N, friction load
 0.2, the thesis's ch. 5 sensor noise) runs through ``sim://`` (real firmware, ADC models,
 host decoder); the host turns the CONTACT frames and the robot's probe log into probes
-(``tactile.ep1.from_ft``) and estimates the curvature (``tactile.ep1.estimator``).
+(``tactile.ep1.probes``) and estimates the curvature (``tactile.ep1.estimator``).
 The "eq. 29 floor" is the error of the estimate from the simulator's exact probes (eq. 29
 takes the curvature as constant over the roll).  Rows: the noiseless chain, and the noisy
 chain over several seeds with the wrench averaged over all frames of each hold, the 10
@@ -25,8 +25,8 @@ import serial
 
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.ep1.estimator import estimate
-from tactile.ep1.from_ft import probes_from_frames
-from tactile.logs.probe import read_probe_log
+from tactile.ep1.probes import probes_from_frames
+from tactile.logs.read import read_probe_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR
 from tactile_sim.urlhandler import register

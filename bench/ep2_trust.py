@@ -54,7 +54,7 @@ from tactile.errors import DataError  # noqa: E402
 from tactile_studies.ep2 import cases as casegen  # noqa: E402
 from tactile_studies.ep2 import peers  # noqa: E402
 
-BANDS = {  # surface_geometry.S_REGIONS: sphere > 0.75 > cylinder > 0.25 > saddle > -0.25 > ...
+BANDS = {  # geometry.S_REGIONS: sphere > 0.75 > cylinder > 0.25 > saddle > -0.25 > ...
     "sphere": (0.75, 1.0),
     "cylinder": (0.25, 0.75),
     "saddle": (-0.25, 0.25),

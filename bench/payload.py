@@ -41,10 +41,10 @@ from scipy.spatial.transform import Rotation
 from tactile.cli.main import main as tactile
 from tactile.commands.derive import derive
 from tactile.errors import DataError
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import read_probe_log
 from tactile.payload import Tool, write_tool
 from tactile.payload import weight as tool_weight
-from tactile.payload.from_run import identify_run
+from tactile.payload.fit import identify_run
 
 PARTS = ("identify", "turn", "ep1", "ep2")
 DRIFT = np.r_[np.array([0.6, -0.48, 0.64]) * 0.02 / 60, 0, 0, 0]  # 0.02 N/min

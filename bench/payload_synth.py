@@ -21,8 +21,8 @@ import json
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from tactile import logs
 from tactile.board.stream_decoder import decode_bytes
-from tactile.logs import robot_log
 from tactile.recording.files import Recording
 from tactile_fw import gate as fw_gate
 from tactile_protocol import constants as C
@@ -72,7 +72,7 @@ class Poses:
             (round(a * 1e6), round(b * 1e6), finger, 0.0, 0.0, 0.0, *map(float, (w, x, y, z)))
             for a, b, (x, y, z, w) in zip(self.t0, self.t1, q)
         ]
-        robot_log.write_log(path, "pose", rows, end_us=round(self.duration_s * 1e6))
+        logs.write_log(path, "pose", rows, end_us=round(self.duration_s * 1e6))
 
 
 def weight(R, mass, com, g=G):

@@ -76,7 +76,7 @@ def probe_dev_full(tmp, name):
 
 
 def probe_meta_dev_full(tmp):
-    """meta.json is replaced whole (tactile.files.atomic): a device there is refused; its
+    """meta.json is replaced whole (tactile.files.writing): a device there is refused; its
     temporary has a name nobody can link beforehand."""
     out = tmp / "full-meta.json"
     out.mkdir()

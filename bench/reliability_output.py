@@ -2,10 +2,10 @@
 
 A Foxglove client that sends hundreds of ops named ``ESC[31m`` to ``record --foxglove``
 (run as a process of its own, so that stderr is a real one): nothing of the SDK's under
-``-q``, and with ``-v`` its lines escaped and rate-limited (``tactile.output.logs``).  A
+``-q``, and with ``-v`` its lines escaped and rate-limited (``tactile.output.text``).  A
 folder named with ``ESC[31m`` and a newline through the commands that print the files they
 wrote, and an unknown option holding an escape: each line escaped
-(``tactile.output.textout.printable``).  ``bench/reliability.py`` prints the table;
+(``tactile.output.text.printable``).  ``bench/reliability.py`` prints the table;
 ``tests/test_reliability.py`` requires every probe to hold.
 """
 
@@ -79,7 +79,7 @@ def _record_foxglove(tmp, *flags):
 
 
 def _logs(tmp):
-    from tactile.output.logs import INTERVAL_S, LINES
+    from tactile.output.text import INTERVAL_S, LINES
 
     code, err, _ = _record_foxglove(tmp, "-q")
     others = [line for line in err.splitlines() if not line.startswith("foxglove: ")]

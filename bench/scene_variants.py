@@ -118,9 +118,10 @@ VARIANTS = (
     _v("model too long", P, {"sensor.model": "x" * 40}, "[sensor] model", "1 to 16"),
     # [motion]
     _v("no [motion]", P, {"motion": DROP}, "[motion]", "required, with kind"),
-    _v("no kind", P, {"motion.kind": DROP}, "[motion] kind", "must be one of poses, press"),
+    _v("no kind", P, {"motion.kind": DROP}, "[motion] kind",
+       "must be one of commanded, poses, press"),
     _v('kind = "teleport"', P, {"motion.kind": "teleport"}, "[motion] kind",
-       "must be one of poses, press, rig, roll, sweep, got 'teleport'"),
+       "must be one of commanded, poses, press, rig, roll, sweep, got 'teleport'"),
     _v("[motion] = a number", P, {"motion": 3}, "[motion]", "must be a table"),
     _v("no keyframes", P, {"motion.keyframes": DROP}, "[motion] keyframes", "required"),
     _v("a short keyframe", P, {"motion.keyframes": [[0, 1]]}, "[motion] keyframes[0]",

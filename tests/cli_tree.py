@@ -3,12 +3,11 @@
 import argparse
 
 from tactile.cli import main as cli_main
-from tactile.cli import registry
 
 
 def command_parser(name):
     """``tactile NAME``'s parser, built as ``tactile`` builds it."""
-    module, command = registry.load(name)
+    module, command = cli_main.load(name)
     return cli_main._command_parser(name, module, command.help)
 
 
@@ -23,5 +22,5 @@ def walk(parser, path=()):
 
 def tree():
     """Every (command path, parser) of the whole CLI."""
-    for name in sorted(registry.commands()):
+    for name in sorted(cli_main.commands()):
         yield from walk(command_parser(name), (name,))

@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.figure  # noqa: E402
 from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
 
-from tactile.output.legends import covers_data  # noqa: E402
+from tactile_studies.figures import covers_data  # noqa: E402
 
 # A unit, in the last parenthesised group of a label: '(cm)', '(1e3 cm)', '(%)', '(rad,
 # 1 sigma)', '(dimensionless)', '(length unit of R1)', '(1/cm)'.

@@ -2,7 +2,7 @@
 the chosen files of one directory share ``free`` bytes; the write that crosses it lands
 the part that fits, as the kernel's short write does, and then raises
 ``OSError(ENOSPC)``.  ``names`` are shell patterns (``TEMP % "meta.json"`` is any
-temporary ``tactile.files.atomic`` writes meta.json through).  As on a real disk, writing
+temporary ``tactile.files.writing`` writes meta.json through).  As on a real disk, writing
 over a file's own bytes costs nothing (``in_place=False``: it does).  Reads, and files
 elsewhere, are untouched."""
 
@@ -14,7 +14,7 @@ import io
 import os
 import pathlib
 
-TEMP = ".%s.*.tmp"  # the temporaries of tactile.files.atomic
+TEMP = ".%s.*.tmp"  # the temporaries of tactile.files.writing
 
 
 class FullDisk:

@@ -1,11 +1,11 @@
-"""``tactile.board.probe.break_in``: MicroPython's raw REPL reached, or one line on what the
+"""``tactile.board.handover.break_in``: MicroPython's raw REPL reached, or one line on what the
 port holds instead, within its bounds whatever the port does (fake ports, fake clock)."""
 
 import pytest
 from flash_fakes import BANNER, BoardPort, FakeClock
 
-from tactile.board import probe as board_probe
-from tactile.board.probe import BREAK, FIRMWARE_S, RAW, RESEND_S, WINDOW_S, NoRepl
+from tactile.board import handover
+from tactile.board.handover import BREAK, FIRMWARE_S, RAW, RESEND_S, WINDOW_S, NoRepl
 from tactile.errors import PortLost
 
 NAME = "/dev/ttyACM0"
@@ -16,7 +16,7 @@ def _probe(kind, **kw):
     port = BoardPort(kind, clock, **kw)
     start = clock()
     try:
-        board_probe.break_in(port, NAME, clock=clock)
+        handover.break_in(port, NAME, clock=clock)
         return port, clock() - start, None
     except NoRepl as exc:
         return port, clock() - start, exc
@@ -27,7 +27,7 @@ def test_a_board_at_its_repl_is_broken_into_the_way_mpremote_does_it():
     assert err is None and took < 1.0
     (t0, first), (t1, second) = port.writes[:2]
     assert (first, second) == (b"\x00\r\x03", b"\r\x01") == (BREAK, RAW)
-    assert t1 - t0 >= board_probe.PAUSE_S  # the pause mpremote makes for a traceback
+    assert t1 - t0 >= handover.PAUSE_S  # the pause mpremote makes for a traceback
 
 
 def test_the_firmware_exits_to_the_repl_at_cr_ctrl_c_cr_even_while_it_streams():
@@ -49,7 +49,7 @@ def test_the_firmware_with_no_repl_behind_it_is_named_with_its_version(kind):
         f"found the tactile firmware speaking its protocol on {NAME} (firmware 1.2.3, no "
         "MicroPython REPL behind it)"
     )
-    assert FIRMWARE_S <= took < FIRMWARE_S + board_probe.INFO_S + 0.5  # not the whole window
+    assert FIRMWARE_S <= took < FIRMWARE_S + handover.INFO_S + 0.5  # not the whole window
     assert err.exit_code == 4
 
 
@@ -71,14 +71,14 @@ def test_bytes_that_are_no_repl_are_shown_escaped_in_one_line():
 
 def test_a_port_that_dies_is_port_lost_in_one_line():
     with pytest.raises(PortLost, match="port lost while writing: Input/output error"):
-        board_probe.break_in(BoardPort("dies"), NAME, clock=FakeClock())
+        handover.break_in(BoardPort("dies"), NAME, clock=FakeClock())
 
 
 def test_the_banner_is_found_across_reads_and_after_megabytes():
-    heard = board_probe._Heard()
+    heard = handover._Heard()
     for _ in range(1000):
         heard(b"\x55" * 1000)
     for i in range(0, len(BANNER), 3):
         heard(BANNER[i : i + 3])
     assert heard.banner and heard.count == 1_000_000 + len(BANNER)
-    assert len(heard.tail) <= len(BANNER) and len(heard.first) == board_probe.SHOWN_BYTES
+    assert len(heard.tail) <= len(BANNER) and len(heard.first) == handover.SHOWN_BYTES

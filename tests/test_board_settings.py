@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tactile.cli.cmd_config import problem
+from tactile.cli.cmd_board import problem
 from tactile.cli.main import main
 from tactile_fw import settings as fw
 from tactile_protocol import settings as bs

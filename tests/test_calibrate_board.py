@@ -17,7 +17,7 @@ from lying_device import LyingPort, lying_ports
 
 from tactile.board.client import BoardClient, CommandRefused
 from tactile.board.serial_port import open_port
-from tactile.calib import convert, files, install
+from tactile.calib import board_matrix, files
 from tactile_fw import calibration
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
@@ -137,7 +137,7 @@ def test_calibrate_then_info_shows_it_then_readings_follow_the_matrix(cli, tmp_p
 
 
 def _checksum_of(path):
-    return convert.to_board(files.read(str(path)), cal_id=77).crc
+    return board_matrix.to_board(files.read(str(path)), cal_id=77).crc
 
 
 def _one_micronewton_csv(tmp_path):
@@ -155,11 +155,11 @@ def test_a_board_with_two_sensors_needs_sensor_and_loads_only_that_one(cli, tmp_
     assert err.count("\n") == 1
     code, _, err = cli("calibrate", "--port", url, good, "--sensor", 2)
     assert code == 2 and "--sensor: 2, but the board has 2 sensors (0..1)" in err
-    bm = convert.to_board(files.read(str(good)))
+    bm = board_matrix.to_board(files.read(str(good)))
     client = BoardClient(open_port(url), url)
     try:
         client.handshake(2.0)
-        sensor, info = install.install(client, bm, sensor=1)
+        sensor, info = board_matrix.install(client, bm, sensor=1)
     finally:
         client.close()
     assert sensor == 1
@@ -184,7 +184,7 @@ def test_a_board_that_refuses_or_ignores_set_cal_exits_4(cli, tmp_path):
     try:
         client.handshake(2.0)
         with pytest.raises(CommandRefused, match="board refused SET_CAL: storage error") as exc:
-            install.install(client, convert.to_board(files.read(str(good))))
+            board_matrix.install(client, board_matrix.to_board(files.read(str(good))))
     finally:
         client.close()
     assert exc.value.exit_code == 4

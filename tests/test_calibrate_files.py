@@ -13,8 +13,16 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from tactile.calib import convert, files
-from tactile.calib import units as U
+from tactile.calib import (
+    SI,
+    Units,
+    board_matrix,
+    canonical_torque,
+    files,
+    force_factor,
+    parse,
+    torque_factor,
+)
 from tactile.errors import InputError
 
 DATA = pathlib.Path(__file__).parent / "data"
@@ -50,7 +58,7 @@ def _csv_text(matrix, head=""):
 
 def _refused(path, match, **kw):
     with pytest.raises(InputError, match=match) as info:
-        convert.to_board(files.read(path, kw.pop("index", None)), **kw)
+        board_matrix.to_board(files.read(path, kw.pop("index", None)), **kw)
     assert "\n" not in str(info.value)
     return str(info.value)
 
@@ -60,12 +68,12 @@ def _refused(path, match, **kw):
 
 @pytest.mark.parametrize("name, si", NIST_FORCE.items())
 def test_force_units_agree_with_nist(name, si):
-    assert U.force_factor(name) == pytest.approx(si, rel=1e-6)
+    assert force_factor(name) == pytest.approx(si, rel=1e-6)
 
 
 @pytest.mark.parametrize("name, si", NIST_TORQUE.items())
 def test_torque_units_agree_with_nist(name, si):
-    assert U.torque_factor(name) == pytest.approx(si, rel=1e-6)
+    assert torque_factor(name) == pytest.approx(si, rel=1e-6)
 
 
 @pytest.mark.parametrize(
@@ -82,12 +90,12 @@ def test_torque_units_agree_with_nist(name, si):
     ],
 )
 def test_torque_spellings_of_ati_and_others(text, canon):
-    assert U.canonical_torque(text) == canon
+    assert canonical_torque(text) == canon
 
 
 def test_units_line_grammar():
-    assert U.parse("lbf, lbf-in per V") == U.Units("lbf", "lbf-in", "V")
-    assert U.parse(" N , N-mm ") == U.Units("N", "N-mm", "count")
+    assert parse("lbf, lbf-in per V") == Units("lbf", "lbf-in", "V")
+    assert parse(" N , N-mm ") == Units("N", "N-mm", "count")
     bad = [
         ("N", "FORCE, TORQUE"),
         ("stone, N-m", "unknown force unit 'stone'"),
@@ -96,7 +104,7 @@ def test_units_line_grammar():
     ]
     for spec, why in bad:
         with pytest.raises(ValueError, match=why):
-            U.parse(spec)
+            parse(spec)
 
 
 # --- ATI .cal -------------------------------------------------------------------------------
@@ -109,14 +117,14 @@ def test_ati_sample_gives_the_user_axis_rows_and_units():
     assert (
         cal.find("Axis").get("values").split()[0] != cal.find("UserAxis").get("values").split()[0]
     )
-    assert mf.units == U.Units("lbf", "lbf-in", "V")
+    assert mf.units == Units("lbf", "lbf-in", "V")
     assert (mf.cal_id, mf.id_from) == (9999, "Serial FT9999")
     assert "US-6-1" in mf.label and mf.kind == "ATI"
 
 
 def test_ati_to_si_per_count_by_an_independent_route():
     """C[r][j] = UserAxis[r][j] x (NIST factor of the row's unit) x volts per count."""
-    bm = convert.to_board(files.read(str(SAMPLE)), volts_per_count=VPC)
+    bm = board_matrix.to_board(files.read(str(SAMPLE)), volts_per_count=VPC)
     rows, _ = _etree_user_axes(SAMPLE)
     expect = np.array(rows) * np.array([4.448222] * 3 + [1.129848e-1] * 3)[:, None] * VPC
     got = np.array(bm.coeffs).reshape(6, 6)
@@ -131,7 +139,7 @@ def test_the_same_matrix_as_cal_csv_and_json_is_the_same_on_the_board(tmp_path):
     doc = {"id": 9999, "matrix": rows, "units": "lbf, lbf-in per V"}
     json_path = _write(tmp_path, "m.json", json.dumps(doc))
     got = {
-        p: convert.to_board(files.read(p), volts_per_count=VPC, cal_id=9999)
+        p: board_matrix.to_board(files.read(p), volts_per_count=VPC, cal_id=9999)
         for p in (str(SAMPLE), csv_path, json_path)
     }
     assert len({bm.coeffs for bm in got.values()}) == 1
@@ -139,7 +147,7 @@ def test_the_same_matrix_as_cal_csv_and_json_is_the_same_on_the_board(tmp_path):
     # ... and the result written back in SI per count is the same matrix again (no factors)
     si = np.array(got[csv_path].coeffs).reshape(6, 6)
     back = _write(tmp_path, "si.csv", _csv_text(si, "# units: N, N-m per count\n# id: 9999\n"))
-    again = convert.to_board(files.read(back))
+    again = board_matrix.to_board(files.read(back))
     assert again.coeffs == got[csv_path].coeffs and again.cal_id == 9999
 
 
@@ -217,7 +225,7 @@ def test_ati_with_two_calibrations_needs_index(tmp_path):
 def test_ati_serial_without_digits_needs_an_id(tmp_path):
     path = _write(tmp_path, "FT.cal", _sample_text().replace('Serial="FT9999"', 'Serial="FT"'))
     _refused(path, r"--id: needed: .* carries no calibration id", volts_per_count=VPC)
-    assert convert.to_board(files.read(path), VPC, cal_id=5).cal_id == 5
+    assert board_matrix.to_board(files.read(path), VPC, cal_id=5).cal_id == 5
 
 
 def test_gain_multiplier_is_told(tmp_path):
@@ -243,7 +251,7 @@ def test_csv_variants_read_the_same(tmp_path):
     ]
     got = [files.read(_write(tmp_path, f"v{i}.csv", t)) for i, t in enumerate(variants)]
     assert all(mf.matrix == GOOD and mf.cal_id == 7 for mf in got)
-    assert all(mf.units == U.SI for mf in got)
+    assert all(mf.units == SI for mf in got)
 
 
 @pytest.mark.parametrize(
@@ -314,8 +322,8 @@ def test_json_refusals(tmp_path, text, match):
 
 def test_json_reads_like_csv(tmp_path):
     mf = files.read(_write(tmp_path, "m.json", _doc(units="kN, kN-m per mV")))
-    assert mf.matrix == GOOD and mf.cal_id == 3 and mf.units == U.Units("kN", "kN-m", "mV")
-    bm = convert.to_board(mf, volts_per_count=1e-9)
+    assert mf.matrix == GOOD and mf.cal_id == 3 and mf.units == Units("kN", "kN-m", "mV")
+    bm = board_matrix.to_board(mf, volts_per_count=1e-9)
     expect = np.array(GOOD) * 1e3 * 1e-3 * 1e-9  # kN -> N, per mV -> per V, x V per count
     assert np.array(bm.coeffs).reshape(6, 6) == pytest.approx(expect, rel=1e-7)
 
@@ -327,12 +335,12 @@ def test_condition_number_is_svd_of_the_row_scaled_matrix():
     rng = np.random.default_rng(3)
     for _ in range(20):
         a = rng.normal(size=(6, 6)) * rng.uniform(1e-9, 1e3, (6, 1))
-        kappa, rank = convert.condition(a)
+        kappa, rank = board_matrix.condition(a)
         scaled = a / np.linalg.norm(a, axis=1, keepdims=True)
         assert kappa == pytest.approx(np.linalg.cond(scaled), rel=1e-9) and rank == 6
     # independent of the rows' units: N vs lbf, N*m vs N*mm
     units = np.array([4.45] * 3 + [1e-3] * 3)[:, None]
-    assert convert.condition(a * units)[0] == pytest.approx(kappa, rel=1e-9)
+    assert board_matrix.condition(a * units)[0] == pytest.approx(kappa, rel=1e-9)
 
 
 def _matrix_with_condition(kappa):
@@ -351,7 +359,7 @@ def test_singular_and_ill_conditioned_matrices_are_refused(tmp_path):
     zero[3] = [0.0] * 6
     _refused(_write(tmp_path, "zero.csv", _csv_text(zero)), r"singular \(rank 5 of 6\)", cal_id=1)
     bad = _matrix_with_condition(1e6)
-    kappa = convert.condition(bad)[0]
+    kappa = board_matrix.condition(bad)[0]
     _refused(
         _write(tmp_path, "ill.csv", _csv_text(bad)),
         re.escape(f"ill-conditioned: condition number {kappa:.3g} (rows scaled to unit length)")
@@ -359,7 +367,7 @@ def test_singular_and_ill_conditioned_matrices_are_refused(tmp_path):
         cal_id=1,
     )
     ok = _matrix_with_condition(5e3)  # under the bound: accepted
-    assert convert.to_board(files.read(_write(tmp_path, "ok.csv", _csv_text(ok))), cal_id=1)
+    assert board_matrix.to_board(files.read(_write(tmp_path, "ok.csv", _csv_text(ok))), cal_id=1)
 
 
 def test_a_coefficient_float32_cannot_hold_is_refused(tmp_path):
@@ -414,7 +422,7 @@ def test_the_emulators_cal_file_holds_the_calibration_its_board_holds(tmp_path):
 
     sensor = load_scene("ch5_convex").sensor
     path = _write(tmp_path, "FT9999.cal", format_cal(per_volt_matrix(sensor), "FT9999"))
-    si = convert.si_per_count(files.read(path), VOLTS_PER_COUNT)
+    si = board_matrix.si_per_count(files.read(path), VOLTS_PER_COUNT)
     board = np.linalg.inv(sensitivity_matrix(sensor["force_range_N"], sensor["torque_range_Nm"]))
     assert np.allclose(si, board, rtol=1e-12, atol=0)
 

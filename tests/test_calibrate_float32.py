@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 import pytest
 
-from tactile.calib import convert, files
+from tactile.calib import board_matrix, files
 from tactile.errors import InputError
 
 GOOD = [[1e-6 * (1 + (r == c)) + 1e-8 * r * c for c in range(6)] for r in range(6)]
@@ -26,7 +26,7 @@ def _csv_text(matrix):
 
 def _refused(path, match, **kw):
     with pytest.raises(InputError, match=match) as info:
-        convert.to_board(files.read(path), **kw)
+        board_matrix.to_board(files.read(path), **kw)
     assert "\n" not in str(info.value)
     return str(info.value)
 
@@ -54,7 +54,7 @@ def test_a_matrix_beyond_float32_is_named_so_without_a_numpy_warning(tmp_path, c
 @pytest.mark.parametrize("scale", [1e-30, 1e30, 1.0])
 def test_any_scale_float32_holds_is_judged_by_its_shape_alone(tmp_path, scale):
     path = _write(tmp_path, "m.json", json.dumps({"id": 1, "matrix": (IDENTITY * scale).tolist()}))
-    bm = convert.to_board(files.read(path))
+    bm = board_matrix.to_board(files.read(path))
     assert bm.condition == pytest.approx(1.0)
 
 

@@ -20,14 +20,14 @@ def _bash(script):
     )
 
 
-def _complete(words):
-    """COMPREPLY of the loaded completion for the command line ``words`` (last completed)."""
-    script = (
-        f"source <({TACTILE} completion bash) || exit 9\n"
+def _complete(script, words):
+    """COMPREPLY of the completion ``script`` (a file: what ``tactile completion bash``
+    printed) loaded in bash for the command line ``words`` (last completed)."""
+    r = _bash(
+        f"source {script} || exit 9\n"
         f"COMP_WORDS=({words}); COMP_CWORD=$((${{#COMP_WORDS[@]}} - 1))\n"
         '_shtab_tactile; printf "%s\\n" "${COMPREPLY[@]}"'
     )
-    r = _bash(script)
     assert r.returncode == 0, r.stderr
     return set(r.stdout.split())
 
@@ -38,14 +38,19 @@ def test_bash_script_registers_the_completion():
     assert r.stdout.strip().endswith("-F _shtab_tactile tactile")
 
 
-def test_bash_completes_commands_options_and_choices():
-    assert _complete("tactile pl") == {"plot"}
-    assert {"completion", "record", "study"} <= _complete("tactile ''")
-    options = _complete("tactile plot -")
+def test_bash_completes_commands_options_and_choices(tmp_path):
+    # the script printed once, as the line above sources it, then asked once per command line
+    printed = _bash(f"{TACTILE} completion bash")
+    assert printed.returncode == 0, printed.stderr
+    script = tmp_path / "tactile.bash"
+    script.write_text(printed.stdout)
+    assert _complete(script, "tactile pl") == {"plot"}
+    assert {"completion", "record", "study"} <= _complete(script, "tactile ''")
+    options = _complete(script, "tactile plot -")
     assert {"-o", "--out", "--order", "--verbose"} <= options
     assert "--outdir" not in options  # the old spelling works but is not offered
-    assert _complete("tactile sim ep1 --object c") == {"cylinder", "concave_cylinder"}
-    assert _complete("tactile study ep2-t") == {"ep2-tables"}
+    assert _complete(script, "tactile sim ep1 --object c") == {"cylinder", "concave_cylinder"}
+    assert _complete(script, "tactile study ep2-t") == {"ep2-tables"}
 
 
 def test_zsh_script(cli):

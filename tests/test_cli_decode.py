@@ -58,8 +58,7 @@ def test_missing_file_is_one_line_exit_2(tmp_path, cli):
 
 
 def test_unknown_command_and_help(capsys):
-    from tactile.cli.main import main
-    from tactile.cli.registry import names
+    from tactile.cli.main import main, names
 
     with pytest.raises(SystemExit) as exc:
         main(["frobnicate"])
@@ -86,7 +85,7 @@ def test_decode_imports_nothing_heavy():
 
     code = (
         "import sys; from tactile.cli.main import main; "
-        "import tactile.cli.cmd_decode, "
+        "import tactile.cli.cmd_board, "
         "tactile.board.stream_decoder; print(sorted(m for m in ('numpy', 'scipy', 'matplotlib') "
         "if m in sys.modules))"
     )
@@ -98,7 +97,7 @@ def test_group_dispatch_skips_a_missing_module():
     import argparse
     from importlib.metadata import EntryPoint
 
-    from tactile.commands.groups import add_group
+    from tactile.commands import add_group
 
     group = "tactile.commands.sim"
     found = [EntryPoint(n, m, group) for n, m in (("ep0", "tactile_sim.commands.no_such_module"),
@@ -116,8 +115,7 @@ ISSUE_7_COMMANDS = (
 
 @pytest.mark.parametrize("name", ISSUE_7_COMMANDS + ["demo", "sim"])
 def test_every_subcommand_exists_and_has_help(capsys, name):
-    from tactile.cli.main import main
-    from tactile.cli.registry import commands
+    from tactile.cli.main import commands, main
 
     assert name in commands()
     with pytest.raises(SystemExit) as exc:

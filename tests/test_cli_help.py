@@ -7,10 +7,9 @@ import pytest
 from cli_tree import command_parser, tree
 
 from tactile.cli import main as cli_main
-from tactile.cli import registry
 
 
-@pytest.mark.parametrize("name", sorted(registry.commands()))
+@pytest.mark.parametrize("name", sorted(cli_main.commands()))
 def test_help_shows_every_default(name, capsys):
     with pytest.raises(SystemExit) as exit_:
         cli_main.main([name, "--help"])
@@ -96,7 +95,7 @@ def test_sim_ep2_still_requires_its_output(capsys):
 
 def test_object_names_are_spelled_one_way():
     """concave_cylinder, as EP2 labels it, wherever a command takes an object name."""
-    from tactile.ep2.surface_geometry import S_NAMES
+    from tactile.ep2.geometry import S_NAMES
 
     names = set()
     for _, parser in tree():

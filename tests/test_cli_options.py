@@ -6,8 +6,7 @@ import json
 
 import pytest
 
-from tactile.cli.main import main
-from tactile.cli.registry import commands
+from tactile.cli.main import commands, main
 
 
 def run(capsys, *args):

@@ -9,7 +9,6 @@ import pytest
 from cli_tree import command_parser, tree
 
 from tactile.cli import main as cli_main
-from tactile.cli import registry
 
 # Every command that opens a board's port.
 BOARD = {"info", "config", "tare", "calibrate", "record", "live", "flash"}
@@ -132,7 +131,7 @@ def test_sim_ep1_paraboloid_coefficient_is_coef(capsys):
 
 
 def test_decode_says_what_it_prints(tmp_path, capsys):
-    assert "text or --json" in registry.OWN["decode"].help
+    assert "text or --json" in cli_main.OWN["decode"].help
     capture = tmp_path / "c.bin"
     capture.write_bytes(b"\x00garbage\x00")
     assert cli_main.main(["decode", str(capture)]) == 0

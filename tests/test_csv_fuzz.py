@@ -17,13 +17,12 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from tactile.commands.derive import check_log
-from tactile.ep1.probes_csv import read_probes
+from tactile.ep1.probes import read_probes
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.errors import DataError, InputError
 from tactile.files import tabular
 from tactile.localize.posed import posed_world_contacts
-from tactile.logs.pose import read_pose_log
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import read_pose_log, read_probe_log
 
 pytestmark = pytest.mark.filterwarnings("error")
 

@@ -1,13 +1,13 @@
 """From recorded CONTACT frames and a pose log to contacts.csv (``tactile.commands.derive``),
-with the reading rule of ``tactile.localize.readings``."""
+with the reading rule of ``tactile.localize.contact``."""
 
 import numpy as np
 import pytest
 
-from tactile.board.messages import Contact
+from tactile.board.stream_decoder import Contact
 from tactile.commands import derive
 from tactile.errors import InputError
-from tactile.localize.readings import contact_frames
+from tactile.localize.contact import contact_frames
 
 
 def _c(ts, phase, cid, fx=1_000_000, sensor=0):

@@ -21,7 +21,7 @@ from lying_device import CODES, FIELDS, GOOD_INFO, LyingPort, frame, info_values
 
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.cli.main import main
-from tactile.output.textout import printable
+from tactile.output.text import printable
 from tactile_protocol import constants as C
 from tactile_protocol.limits import violation
 
@@ -100,8 +100,8 @@ def test_decode_non_finite_calibration_is_refused_alike_in_text_and_json(tmp_pat
 
 
 def test_text_output_writes_non_finite_numbers_as_null_like_json():
-    from tactile.cli.cmd_decode import _text
-    from tactile.output.jsonout import dumps
+    from tactile.cli.cmd_board import _text
+    from tactile.output.text import dumps
 
     d = {"type": "X", "a": math.nan, "b": -math.inf, "c": 1.5, "s": "ok\x1b"}
     assert _text(d) == r"X        a=null b=null c=1.5 s=ok\x1b"

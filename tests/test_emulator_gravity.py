@@ -18,11 +18,11 @@ import serial
 from rotations import rx, ry, rz
 from scene_golden import GOLDEN, digests
 
+from tactile import logs
 from tactile.board.client import BoardClient
 from tactile.ep1.estimator import estimate
-from tactile.ep1.from_ft import probes_from_frames
-from tactile.logs import robot_log
-from tactile.logs.probe import read_probe_log
+from tactile.ep1.probes import probes_from_frames
+from tactile.logs.read import read_probe_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator import SceneError, load_scene
 from tactile_sim.emulator.ft_model import FULL_SCALE_CODE
@@ -125,7 +125,7 @@ def test_scenes_without_the_new_keys_give_the_same_bytes():
     orientation columns (stripped here)."""
     golden = json.loads(GOLDEN.read_text())
     for name, want in golden.items():
-        got = digests(name, strip=robot_log.ATTITUDE if name == "ep1_roll" else ())
+        got = digests(name, strip=logs.ATTITUDE if name == "ep1_roll" else ())
         assert got == want, name
 
 

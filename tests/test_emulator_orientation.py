@@ -11,12 +11,11 @@ import pytest
 from rotations import angle, rx, ry, rz
 from scene_golden import strip_columns
 
+from tactile import logs
 from tactile.files.tabular import read_csv
-from tactile.localize.kinematics import pose_from_quaternion, scara_pose
 from tactile.localize.posed import sensor_poses
-from tactile.logs import robot_log
-from tactile.logs.pose import read_pose_log
-from tactile.logs.probe import read_probe_log
+from tactile.localize.world import pose_from_quaternion, scara_pose
+from tactile.logs.read import read_pose_log, read_probe_log
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.orientation import Track, turn
@@ -52,7 +51,7 @@ def test_the_ep1_probe_log_states_each_holds_orientation(tmp_path):
     motion = build_motion(load_scene("ep1_roll_weighted"))
     path = tmp_path / "probes_log.csv"
     motion.write_probe_log(path)
-    table = read_csv(path, robot_log.ATTITUDE)
+    table = read_csv(path, logs.ATTITUDE)
     q0 = table.array("qw", "qx", "qy", "qz")
     q1 = table.array("qw_end", "qx_end", "qy_end", "qz_end")
     np.testing.assert_allclose(np.linalg.norm(q0, axis=1), 1.0, atol=1e-12)
@@ -70,7 +69,7 @@ def test_the_ep1_probe_log_states_each_holds_orientation(tmp_path):
     log = read_probe_log(path)
     assert len(log.probe) == 8 and log.dtheta.shape == (8, 2)
     old = tmp_path / "old_log.csv"
-    old.write_text(strip_columns(path.read_text(), robot_log.ATTITUDE))
+    old.write_text(strip_columns(path.read_text(), logs.ATTITUDE))
     np.testing.assert_array_equal(read_probe_log(old).dtheta, log.dtheta)
 
 

@@ -14,7 +14,7 @@ from contextlib import contextmanager
 import pytest
 import serial
 
-from tactile.logs.pose import read_pose_log
+from tactile.logs.read import read_pose_log
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
 from tactile_sim.emulator.pty_server import PtyServer

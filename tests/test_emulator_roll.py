@@ -18,10 +18,10 @@ import serial
 
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.ep1.estimator import estimate
-from tactile.ep1.from_ft import fingertip_uv, probe_report, probes_from_frames
+from tactile.ep1.probes import fingertip_uv, probe_report, probes_from_frames
 from tactile.errors import InputError
-from tactile.localize.sphere import sphere_contact
-from tactile.logs.probe import read_probe_log
+from tactile.localize.probes import sphere_contact
+from tactile.logs.read import read_probe_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator import SceneError, load_scene
 from tactile_sim.emulator.device import build_motion
@@ -321,7 +321,7 @@ def test_a_noiseless_roll_scene_draws_no_random_numbers(tmp_path):
 def test_the_probes_csv_is_ready_for_tactile_ep1_estimate(quiet, tmp_path, cli):
     import json
 
-    from tactile.ep1.probes_csv import format_probes
+    from tactile.ep1.probes import format_probes
 
     emu, _, t, w, _ = quiet
     log = _log(emu, tmp_path)

@@ -1,7 +1,7 @@
 """EP2 sweep scenes through the emulator: CONTACT frames + the pose log -> world contacts -> EP2.
 
 The scenes stream CONTACT frames of three fingertip sensors (no TARE: bias 0).  The host
-places each frame in the world through the robot's pose log (``tactile.logs.pose``)
+places each frame in the world through the robot's pose log (``tactile.logs.read``)
 and the contacts go to ``analyze_patch``.  The checks against the truth go by other routes:
 the simulator's own stations (``tactile_sim.ep2.sweep``), the closed-form sphere, and a
 finite-difference propagation of the sensor noise.
@@ -22,8 +22,8 @@ from tactile.localize.posed import (
     posed_world_contacts,
     sensor_poses,
 )
-from tactile.localize.sphere import sphere_contact
-from tactile.logs.pose import read_pose_log
+from tactile.localize.probes import sphere_contact
+from tactile.logs.read import read_pose_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator.scene import SCENE_DIR, SceneError, load_scene
 from tactile_sim.urlhandler import register

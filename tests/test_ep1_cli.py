@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tactile.cli.main import main
-from tactile.ep1.probes_csv import format_probes, read_probes
+from tactile.ep1.probes import format_probes, read_probes
 from tactile.errors import InputError
 from tactile_sim.ep1.probes import measure, sphere_plus_probes
 

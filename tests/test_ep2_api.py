@@ -8,7 +8,7 @@ import pytest
 from tactile.ep2 import analyze_patch, analyze_sweep
 from tactile.ep2.edges import EdgeError
 from tactile.errors import DataError, InputError
-from tactile.output.jsonout import dumps
+from tactile.output.text import dumps
 from tactile_sim.ep2 import make, sweep
 
 EXPECTED = {
@@ -218,7 +218,7 @@ def test_options_by_dataclass_are_the_options_by_name():
     """``analyze_patch``'s options split into ``JetOptions`` (both methods) and
     ``SplineOptions`` (the spline's own); by name, as the docs write them, they are the same."""
     from tactile.ep2 import JetOptions, SplineOptions
-    from tactile.output.jsonout import dumps
+    from tactile.output.text import dumps
     from tactile_sim.ep2 import make, sweep
 
     d = sweep(make("cylinder", 6.0), noise_pos=0.01, noise_normal=0.01, seed=2)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from conftest import load_bench
 
-from tactile.ep2.patch_frame import frame_from_contacts
+from tactile.ep2.geometry import frame_from_contacts
 from tactile_sim.ep2 import layouts
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import sweep

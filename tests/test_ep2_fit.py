@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-from tactile.ep2 import bspline_patch as bp
+from tactile.ep2 import spline as bp
 from tactile.errors import DataError
 
 
@@ -42,7 +42,7 @@ def _scatter(n=36, seed=0):
 def test_biquadratic_recovers_a_surface_in_its_span_exactly(solver):
     x, y = _scatter()
     z, zx, zy = _poly_surface(x, y)
-    fit = bp.fit(x, y, z, zx, zy, 1.0, 1.0, 1.0, degree=(2, 2), solver=solver)
+    fit = bp.fit_patch(x, y, z, zx, zy, 1.0, 1.0, 1.0, degree=(2, 2), solver=solver)
     gx, gy = np.meshgrid(np.linspace(0.2, 3.8, 5), np.linspace(0.2, 3.8, 5))
     d = fit.derivatives(gx.ravel(), gy.ravel())
     z2, zx2, zy2 = _poly_surface(gx.ravel(), gy.ravel())
@@ -58,7 +58,7 @@ def test_biquadratic_recovers_a_surface_in_its_span_exactly(solver):
 def test_derivative_rows_match_finite_differences_of_fitted_surface():
     x, y = _scatter(seed=1)
     z = np.sin(x) * np.cos(0.5 * y)
-    fit = bp.fit(
+    fit = bp.fit_patch(
         x,
         y,
         z,
@@ -89,8 +89,8 @@ def test_slopes_alone_add_rank_across_three_fingers():
     y = np.tile(np.linspace(0, 4, 6), 3)
     z, zx, zy = _poly_surface(x, y)
     with pytest.raises(DataError, match="too few points"):
-        bp.fit(x, y, z, zx, zy, 1.0, 0.0, 0.0, degree=(3, 2))
-    fit = bp.fit(x, y, z, zx, zy, 1.0, 1.0, 1.0, degree=(3, 2))
+        bp.fit_patch(x, y, z, zx, zy, 1.0, 0.0, 0.0, degree=(3, 2))
+    fit = bp.fit_patch(x, y, z, zx, zy, 1.0, 1.0, 1.0, degree=(3, 2))
     assert fit.rank == 12
 
 
@@ -99,21 +99,21 @@ def test_single_finger_line_is_refused_with_reason():
     x = 0.5 * y  # one straight line in the plane
     z = np.zeros_like(x)
     with pytest.raises(DataError, match="one line"):
-        bp.fit(x, y, z, z, z, 1.0, 1.0, 1.0)
+        bp.fit_patch(x, y, z, z, z, 1.0, 1.0, 1.0)
 
 
 def test_too_few_points_for_the_order():
     x, y = _scatter(n=3, seed=2)
     z = np.zeros(3)
     with pytest.raises(DataError, match="too few points for degree 4x4"):
-        bp.fit(x, y, z, z, z, 1.0, 1.0, 1.0, degree=(4, 4))
+        bp.fit_patch(x, y, z, z, z, 1.0, 1.0, 1.0, degree=(4, 4))
 
 
 def test_covariance_factor_matches_inverse_of_weighted_normal_matrix():
     x, y = _scatter(seed=3)
     z, zx, zy = _poly_surface(x, y)
     for solver in ("svd", "qr", "gelsy"):
-        fit = bp.fit(x, y, z, zx, zy, 2.0, 0.5, 0.5, degree=(2, 2), solver=solver)
+        fit = bp.fit_patch(x, y, z, zx, zy, 2.0, 0.5, 0.5, degree=(2, 2), solver=solver)
         a0, a1, a2 = bp.design(x, y, fit.domain, fit.degree, fit.tx, fit.ty)
         A = np.vstack([2.0 * a0, 0.5 * a1, 0.5 * a2])
         cov = np.linalg.inv(A.T @ A)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tactile.ep2.surface_geometry import (
+from tactile.ep2.geometry import (
     curvatures,
     curvedness_c,
     curvedness_r,
@@ -161,3 +161,15 @@ def test_hk_tables_and_s_regions():
     assert t1 == ["convex", "concave", "saddle_ridge", "saddle_valley"]
     regions = s_region_map(np.array([1.0, 0.5, 0.0, -0.5, -1.0])).tolist()
     assert regions == ["sphere", "cylinder", "saddle", "concave_cylinder", "concave_sphere"]
+
+
+@pytest.mark.parametrize("table", [1, 2])
+def test_one_pair_gets_the_label_its_array_gets(table):
+    """A patch's one (K, H) pair (a 0-d array) is labelled as the same pair in an array,
+    zero bands, NaN and both tables included."""
+    values = [-2.0, -1e-9, 0.0, 1e-9, 2.0, np.nan]
+    K, H = (np.array(v).ravel() for v in np.meshgrid(values, values))
+    want = hk_labels(K, H, 1e-9, 2e-9, table=table).tolist()
+    got = [hk_labels(np.array(k), np.array(h), 1e-9, 2e-9, table=table) for k, h in zip(K, H)]
+    assert all(g.shape == () for g in got)
+    assert [str(g[()]) for g in got] == want

@@ -1,11 +1,11 @@
-"""The default fit's jet terms (``jet_terms``) against a route they share nothing with:
+"""The default fit's jet terms (``tactile.ep2.geometry``) against a route they share nothing with:
 derivative rows against finite differences of the value rows, and the coefficients are the
 partial derivatives at the centre (the x^i y^j / (i! j!) normalisation)."""
 
 import numpy as np
 import pytest
 
-from tactile.ep2.jet_terms import design, exponents, rows, size
+from tactile.ep2.geometry import design, exponents, rows, size
 
 
 @pytest.mark.parametrize("order", [2, 3, 5])

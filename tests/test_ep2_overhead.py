@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tactile.ep2 import centre_result
-from tactile.ep2.surface_geometry import S_EDGES, S_NAMES
+from tactile.ep2.geometry import S_EDGES, S_NAMES
 
 
 def _vote_with_arrays(s_est, s_sd, p_flat):
@@ -39,9 +39,9 @@ def test_vote_is_its_array_form(seed):
 
 
 def test_duplicate_rows_found_as_by_whole_rows():
-    """``batch._has_duplicates`` (whole rows compared only where two x are equal) says what
+    """``api._has_duplicates`` (whole rows compared only where two x are equal) says what
     comparing every row says: exact repeats, equal x alone, -0.0 and 0.0, NaN."""
-    from tactile.ep2.batch import _has_duplicates, _repeats
+    from tactile.ep2.api import _has_duplicates, _repeats
 
     rng = np.random.default_rng(5)
     P, N = rng.normal(size=(300, 9, 3)), rng.normal(size=(300, 9, 3))

@@ -6,7 +6,7 @@ spacing, nearly coincident included, the sweep turned, 5-20 stops, repeated read
 exact duplicate rows), noise 0-0.03, units 1e-3..1e3 and a tilted world frame:
 
 - ``analyze_patch`` raises ``DataError``/``InputError`` or returns a result whose every
-  number (``to_dict()``, through ``tactile.output.jsonout.dumps``) is finite;
+  number (``to_dict()``, through ``tactile.output.text.dumps``) is finite;
 - a confident label (>= 0.95, not ``uncertain``) never contradicts the truth at the patch
   centre beyond its interval (the bench's rule, ``bench/ep2_trust.py:wrong_label``);
 - a single line of contacts (spread across it exactly 0) is always refused;
@@ -31,9 +31,9 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from tactile.ep2 import analyze_patch, local_jet
-from tactile.ep2.patch_frame import unit_normals
+from tactile.ep2.geometry import unit_normals
 from tactile.errors import DataError, InputError
-from tactile.output.jsonout import dumps
+from tactile.output.text import dumps
 from tactile_sim.ep2 import layouts
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import _tilt_normals, sweep

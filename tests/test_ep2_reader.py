@@ -23,7 +23,7 @@ def whole_table(path):
     """The reader before issue 13, kept as the reference: the whole table at once
     (``tabular.read_csv``, its line-by-line parser only), grouped by ``group_rows``, then
     the zero-normal and extent checks."""
-    from tactile.ep2 import extent
+    from tactile.ep2 import patch_input
 
     with mock.patch.object(tabular.CsvBlocks, "_fast", lambda self, first, run: None):
         table = tabular.read_csv(path, REQUIRED, optional_text=("finger", "patch"))
@@ -43,11 +43,11 @@ def whole_table(path):
         for n, r in zip(names, rows)
     ]  # fmt: skip
     for g in out:
-        problem = extent.spread_problem(g.points)
+        problem = patch_input.spread_problem(g.points)
         if problem is not None:
             row, axis, why = problem
             name = "" if g.patch is None else f"patch {csv_dialect.show(g.patch)}: "
-            raise InputError(f"{where(path, g.lines[row], extent.AXES[axis])}: {name}{why}")
+            raise InputError(f"{where(path, g.lines[row], patch_input.AXES[axis])}: {name}{why}")
     return out
 
 
@@ -340,8 +340,8 @@ def test_one_pass_checks_the_whole_file_before_any_patch(tmp_path):
 )
 def test_a_spread_extent_refuses_needs_an_odd_coordinate(scale, steps, axis):
     """The first pass keeps no box per patch: only a patch with a coordinate beyond
-    ``ODD_COORDINATE`` can have a spread ``extent`` refuses, so only those are looked at."""
-    from tactile.ep2 import extent
+    ``ODD_COORDINATE`` can have a spread ``spread_problem`` refuses, so only those are looked at."""
+    from tactile.ep2 import patch_input
 
     lo, hi = contacts_csv.ODD_COORDINATE
     pts = np.zeros((len(steps), 3))
@@ -350,6 +350,6 @@ def test_a_spread_extent_refuses_needs_an_odd_coordinate(scale, steps, axis):
     pts = pts[np.isfinite(pts).all(axis=1)]
     a = np.abs(pts)
     odd = ((a > hi) | ((a < lo) & (a > 0))).any()
-    if extent.spread_problem(pts) is not None:
+    if patch_input.spread_problem(pts) is not None:
         event("refused")
         assert odd

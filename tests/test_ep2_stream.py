@@ -136,8 +136,8 @@ def _close(got, want, outcome, group, split=False):
     their sensitivity to the patch's data (a batched fit sums in another order than one
     patch alone: ``tests/tolerance.py``)."""
     from tactile.ep2.contacts_csv import Contacts
-    from tactile.ep2.many import analyze_one
-    from tactile.output.jsonout import dumps
+    from tactile.ep2.stream import analyze_one
+    from tactile.output.text import dumps
 
     _skeleton(got, want)
 
@@ -156,14 +156,14 @@ OPTS = dict(method="jet", order=None, segments=1, weighting="auto", grid=8, nois
 def _per_patch(groups, split=False):
     """The records of ``analyze_sweep`` patch by patch (the CLI before issue 13's batch)."""
     from tactile.cli.cmd_ep2 import patch_id
-    from tactile.ep2.many import analyze_one
+    from tactile.ep2.stream import analyze_one
 
     return [analyze_one(g, patch_id(g.patch), OPTS, split) for g in groups]
 
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_batched_records_are_the_per_patch_records_in_file_order(mixed_csv, capsys, jobs):
-    from tactile.output.jsonout import dumps
+    from tactile.output.text import dumps
 
     code, out, err = _run(capsys, str(mixed_csv), "--json", "--jobs", jobs)
     assert code == 3 and "2 of 7 patch(es) not determined" in err
@@ -215,11 +215,11 @@ def test_chunks_jobs_and_block_sizes_give_the_same_bytes(tmp_path, capsys, monke
     """Several chunks of a scattered file: --jobs 1 and 2, blocks of 1 KiB and of the
     default, and the non-streaming run (the whole list first) print the same bytes; the
     batch gives the per-patch records, split parts included."""
-    from tactile.ep2 import many
+    from tactile.ep2 import stream
     from tactile.files import tabular
-    from tactile.output.jsonout import dumps
+    from tactile.output.text import dumps
 
-    monkeypatch.setattr(many, "CHUNK", 4)  # 14 patches: four chunks, the last short
+    monkeypatch.setattr(stream, "CHUNK", 4)  # 14 patches: four chunks, the last short
     path = _many_patches(tmp_path, 14, split_some=split)
     flags = ["--json", *(["--split"] if split else [])]
     one = _run(capsys, str(path), *flags)
@@ -352,14 +352,40 @@ def test_small_chunks_and_blocks_print_the_bytes_of_the_whole_file_at_once(
 ):
     """A few hundred patches of 9 to 36 contacts: read in 2 KiB blocks and fitted 7 patches
     at a time (--jobs 1 and 2), the output is that of every patch in one chunk."""
-    from tactile.ep2 import many
+    from tactile.ep2 import stream
     from tactile.files import tabular
 
     path = str(_sizes_csv(tmp_path, 300))
-    monkeypatch.setattr(many, "CHUNK", 10**6)  # the whole file in one chunk
+    monkeypatch.setattr(stream, "CHUNK", 10**6)  # the whole file in one chunk
     whole = _run(capsys, path, "--json")
     assert whole[0] in (0, 3) and len(whole[1].splitlines()) == 300
-    monkeypatch.setattr(many, "CHUNK", 7)
+    monkeypatch.setattr(stream, "CHUNK", 7)
     monkeypatch.setattr(tabular, "BLOCK_BYTES", 2048)
     assert _run(capsys, path, "--json") == whole
     assert _run(capsys, path, "--json", "--jobs", "2") == whole
+
+
+@pytest.mark.parametrize(
+    ("sizes", "chunk", "rows", "want"),
+    [
+        ([10] * 7, 3, 1000, [3, 3, 1]),  # the count cuts
+        ([10] * 7, 100, 25, [2, 2, 2, 1]),  # the contacts cut
+        ([5, 40, 5, 5], 100, 30, [1, 1, 2]),  # a patch over the budget goes alone
+        ([], 4, 100, []),
+    ],
+)
+def test_chunks_hold_at_most_chunk_patches_and_chunk_rows_contacts(
+    monkeypatch, sizes, chunk, rows, want
+):
+    """Work units are cut by count and by contacts, so memory in flight follows the rows
+    however large the patches; every patch goes in one, in order."""
+    from types import SimpleNamespace
+
+    from tactile.ep2 import stream
+
+    monkeypatch.setattr(stream, "CHUNK", chunk)
+    monkeypatch.setattr(stream, "CHUNK_ROWS", rows)
+    named = [(SimpleNamespace(points=np.zeros((n, 3))), str(i)) for i, n in enumerate(sizes)]
+    got = list(stream.chunks(named))
+    assert [len(w) for w in got] == want
+    assert [name for w in got for _, name in w] == [str(i) for i in range(len(sizes))]

@@ -24,7 +24,7 @@ from conftest import load_bench
 
 from tactile.ep2 import analyze_patch
 from tactile.errors import DataError
-from tactile.output.jsonout import dumps
+from tactile.output.text import dumps
 from tactile_sim.ep2 import make, sweep
 from tactile_sim.ep2.sweep import write_csv
 from tactile_studies.ep2 import cases, peers, truth
@@ -562,7 +562,7 @@ def _emulated_contacts(tmp_path, seed, noiseless=False):
     from sweep_record import record_sweep
 
     from tactile.localize.posed import posed_world_contacts
-    from tactile.logs.pose import read_pose_log
+    from tactile.logs.read import read_pose_log
     from tactile_sim.emulator.scene import SCENE_DIR
 
     text = (SCENE_DIR / "ep2_sweep_sphere.toml").read_text(encoding="utf-8")

@@ -5,13 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from tactile.ep2 import (
-    analyze_patch,
-    bspline_patch,
-    spline_analysis,
-    uncertainty,
-)
-from tactile.ep2.surface_geometry import shape_entries, shape_index
+from tactile.ep2 import analyze_patch, centre_result, spline
+from tactile.ep2.geometry import shape_entries, shape_index
 from tactile_sim.ep2 import make, sweep
 
 
@@ -38,15 +33,15 @@ def test_crit_table_is_the_rice_quantile_envelope():
         return brentq(f, 1e-6, 50)
 
     for i, lam in enumerate(np.arange(0, 1.01, 0.1)):
-        assert uncertainty._CRIT[i] == pytest.approx(max(q(lam), 3.8415), abs=2e-3)
-    assert np.all(np.diff(uncertainty._CRIT) <= 0)
+        assert centre_result._CRIT[i] == pytest.approx(max(q(lam), 3.8415), abs=2e-3)
+    assert np.all(np.diff(centre_result._CRIT) <= 0)
 
 
 def test_critical_values_span_chi2_1_to_chi2_2():
-    assert uncertainty.critical_value(0.0) == pytest.approx(uncertainty.CHI2_2_95, abs=1e-3)
-    assert uncertainty.critical_value(50.0) == pytest.approx(uncertainty.CHI2_1_95)
-    assert uncertainty.critical_value_k(0.0) == pytest.approx(uncertainty.CHI2_2_95, abs=2e-3)
-    assert uncertainty.critical_value_k(50.0) == pytest.approx(uncertainty.CHI2_1_95)
+    assert centre_result.critical_value(0.0) == pytest.approx(centre_result.CHI2_2_95, abs=1e-3)
+    assert centre_result.critical_value(50.0) == pytest.approx(centre_result.CHI2_1_95)
+    assert centre_result.critical_value_k(0.0) == pytest.approx(centre_result.CHI2_2_95, abs=2e-3)
+    assert centre_result.critical_value_k(50.0) == pytest.approx(centre_result.CHI2_1_95)
 
 
 # ---- tensor, Jacobian, debiasing, intervals ---------------------------------------------
@@ -55,18 +50,16 @@ def test_critical_values_span_chi2_1_to_chi2_2():
 def test_tensor_jacobian_matches_finite_differences():
     x, y = _scatter(seed=1)
     z = -0.3 * x * x + 0.1 * x * y - 0.2 * y * y + 0.05 * x * x * y
-    fit = bspline_patch.fit(x, y, z, -0.6 * x, -0.4 * y, 1.0, 1.0, 1.0)
-    xs, ys = spline_analysis._grid_lines(np.column_stack([x, y]), 6)
+    fit = spline.fit_patch(x, y, z, -0.6 * x, -0.4 * y, 1.0, 1.0, 1.0)
+    xs, ys = spline._grid_lines(np.column_stack([x, y]), 6)
     rows = fit.grid_rows(xs, ys, first=1)
-    t, G = uncertainty.tensor_and_jacobian(np.split(rows @ fit.coef, 5), rows)
-    assert np.allclose(t, spline_analysis._tensor(rows, fit.coef))
+    t, G = centre_result.tensor_and_jacobian(np.split(rows @ fit.coef, 5), rows)
+    assert np.allclose(t, spline._tensor(rows, fit.coef))
     h = 1e-6
     for j in range(fit.coef.size):
         dc = np.zeros(fit.coef.size)
         dc[j] = h
-        fd = spline_analysis._tensor(rows, fit.coef + dc) - spline_analysis._tensor(
-            rows, fit.coef - dc
-        )
+        fd = spline._tensor(rows, fit.coef + dc) - spline._tensor(rows, fit.coef - dc)
         fd /= 2 * h
         assert np.allclose(G[:, j], fd, atol=1e-6)
 
@@ -77,7 +70,7 @@ def test_debiased_anisotropy_is_unbiased_in_h_squared():
     t_true = np.array([0.5, 0.1, 0.2])
     v2 = (0.5 * (t_true[0] - t_true[2])) ** 2 + t_true[1] ** 2
     draws = rng.multivariate_normal(t_true, cov, 20000)
-    h2 = np.array([uncertainty.anisotropy(t, cov)[1] ** 2 for t in draws])
+    h2 = np.array([centre_result.anisotropy(t, cov)[1] ** 2 for t in draws])
     plug = np.array([(0.5 * (t[0] - t[2])) ** 2 + t[1] ** 2 for t in draws])
     se = np.std(h2) / np.sqrt(h2.size)
     assert np.mean(plug) - v2 == pytest.approx(0.25 * (4e-3 + 2e-3) + 1e-3, abs=4 * se)
@@ -87,8 +80,8 @@ def test_debiased_anisotropy_is_unbiased_in_h_squared():
 def test_k1_interval_is_the_delta_method_far_from_umbilics():
     t = np.array([0.4, 0.05, 0.02])
     cov = 1e-6 * np.array([[2.0, 0.3, 0.1], [0.3, 1.0, 0.0], [0.1, 0.0, 1.5]])
-    m, h, lam = uncertainty.anisotropy(t, cov)
-    iv = uncertainty.intervals(t, cov, m, h, lam)
+    m, h, lam = centre_result.anisotropy(t, cov)
+    iv = centre_result.ellipsoid_intervals(t, cov, m, h, lam)
     d = np.array([0.5 * (t[0] - t[2]), t[1]]) / np.hypot(0.5 * (t[0] - t[2]), t[1])
     grad = np.array([0.5 + 0.5 * d[0], d[1], 0.5 - 0.5 * d[0]])  # d(m + h)/d(a, b, c)
     half = 1.96 * np.sqrt(grad @ cov @ grad)
@@ -114,8 +107,8 @@ def test_interval_coverage_on_gaussian_tensors(t_true, key, truth):
     hits = 0
     n = 600
     for t in rng.multivariate_normal(t_true, cov, n):
-        m, h, lam = uncertainty.anisotropy(t, cov)
-        lo, hi = uncertainty.intervals(t, cov, m, h, lam)[key]
+        m, h, lam = centre_result.anisotropy(t, cov)
+        lo, hi = centre_result.ellipsoid_intervals(t, cov, m, h, lam)[key]
         hits += lo <= truth <= hi
     assert 0.92 <= hits / n <= 0.995  # k at the umbilic vertex is conservative (~0.99)
 
@@ -125,13 +118,11 @@ def test_interval_coverage_on_gaussian_tensors(t_true, key, truth):
 
 @pytest.mark.parametrize("degree, segments", [((2, 2), (1, 1)), ((3, 2), (1, 1)), ((2, 2), (2, 2))])
 def test_jet_span_reproduces_the_monomials(degree, segments):
-    tx = bspline_patch.knots(degree[0], segments[0])
-    ty = bspline_patch.knots(degree[1], segments[1])
-    Q = spline_analysis.jet_span(*degree, tx, ty)
+    tx = spline.knots(degree[0], segments[0])
+    ty = spline.knots(degree[1], segments[1])
+    Q = spline.jet_span(*degree, tx, ty)
     u, v = _scatter(seed=7)
-    rows = bspline_patch.rowwise_kron(
-        bspline_patch.basis(u, degree[0], tx), bspline_patch.basis(v, degree[1], ty)
-    )
+    rows = spline.rowwise_kron(spline.basis(u, degree[0], tx), spline.basis(v, degree[1], ty))
     mono = np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v])
     assert np.allclose(rows @ Q, mono, atol=1e-12)
 
@@ -140,8 +131,8 @@ def _fit(z, zx, zy, x, y, seed=None, noise=0.0):
     if seed is not None:
         rng = np.random.default_rng(seed)
         z, zx, zy = (a + noise * rng.standard_normal(a.size) for a in (z, zx, zy))
-    domain, rows = bspline_patch.prepare(x, y)
-    f = bspline_patch.fit(x, y, z, zx, zy, 1.0, 1.0, 1.0, domain=domain, rows=rows)
+    domain, rows = spline.prepare(x, y)
+    f = spline.fit_patch(x, y, z, zx, zy, 1.0, 1.0, 1.0, domain=domain, rows=rows)
     return f, rows, (z, zx, zy)
 
 
@@ -152,14 +143,14 @@ def test_shrinkage_keeps_clean_excess_and_drops_pure_noise():
     zx, zy = -0.4 * x + 2 * x * y * y, 2 * x * x * y
     f, rows, data = _fit(z, zx, zy, x, y, seed=1, noise=1e-4)
     s2 = f.chi2 / f.dof
-    g, w, d2 = spline_analysis.shrink_to_jet(f, *data, s2, rows)
+    g, w, d2 = spline.shrink_to_jet(f, *data, s2, rows)
     assert w > 0.999 and d2 > 1e3
     # a quadric plus noise: most trials shrink the excess strongly
     zq, zqx, zqy = -0.2 * x * x + 0.1 * y * y, -0.4 * x, 0.2 * y
     ws = []
     for seed in range(20):
         f, rows, data = _fit(zq, zqx, zqy, x, y, seed=seed, noise=1e-2)
-        ws.append(spline_analysis.shrink_to_jet(f, *data, f.chi2 / f.dof, rows)[1])
+        ws.append(spline.shrink_to_jet(f, *data, f.chi2 / f.dof, rows)[1])
     assert np.median(ws) < 0.3
 
 
@@ -167,9 +158,9 @@ def test_shrunk_covariance_and_data_map_are_the_linear_maps():
     x, y = _scatter(seed=4)
     z = -0.3 * x * x + 0.2 * x * x * y
     f, rows, data = _fit(z, -0.6 * x + 0.4 * x * y, 0.2 * x * x, x, y, seed=3, noise=0.02)
-    g, w, _ = spline_analysis.shrink_to_jet(f, *data, f.chi2 / f.dof, rows)
+    g, w, _ = spline.shrink_to_jet(f, *data, f.chi2 / f.dof, rows)
     assert 0.0 < w < 1.0
-    Q = spline_analysis.jet_span(2, 2, f.tx, f.ty)
+    Q = spline.jet_span(2, 2, f.tx, f.ty)
     R = np.linalg.inv(f.cov_factor)
     P = Q @ np.linalg.pinv(R @ Q) @ R  # projection onto the jet span (precision metric)
     S = (1 - w) * P + w * np.eye(9)
@@ -189,8 +180,8 @@ def test_leverage_is_the_hat_diagonal_and_grid_rows_match_rows():
     z = -0.3 * x * x
     w = (2.0, 0.5, 0.7)
     for solver in ("svd", "qr", "gelsy"):
-        f = bspline_patch.fit(x, y, z, -0.6 * x, 0 * y, *w, solver=solver)
-        a0, a1, a2 = bspline_patch.design(x, y, f.domain, f.degree, f.tx, f.ty)
+        f = spline.fit_patch(x, y, z, -0.6 * x, 0 * y, *w, solver=solver)
+        a0, a1, a2 = spline.design(x, y, f.domain, f.degree, f.tx, f.ty)
         A = np.vstack([w[0] * a0, w[1] * a1, w[2] * a2])
         hat = A @ np.linalg.solve(A.T @ A, A.T)
         assert np.allclose(f.leverage, np.diag(hat), atol=1e-10)
@@ -225,7 +216,7 @@ def test_constant_curvature_data_is_a_sphere_to_fourth_order():
     k = 0.25
     rng = np.random.default_rng(0)
     xy = rng.uniform(-0.3, 0.3, (30, 2))
-    z, zx, zy = uncertainty.constant_curvature_data(xy, np.zeros(2), (k, 0.0, k))
+    z, zx, zy = centre_result.constant_curvature_data(xy, np.zeros(2), (k, 0.0, k))
     r2 = np.sum(xy**2, axis=1)
     cap = -r2 / (np.sqrt(1 / k**2 - r2) + 1 / k)  # exact sphere of radius 1/k
     assert np.max(np.abs(z - cap)) < 2 * k**5 * np.max(r2) ** 3  # O(r^6) remainder
@@ -238,7 +229,7 @@ def test_model_bias_predicts_the_fit_bias_on_clean_circles(monkeypatch):
     """Noise-free cylinder R 8 and sphere R 10, the thesis's spline: the refit bias of the
     mean curvature matches the actual error at the patch centre within 25 % (there the
     biquadratic overestimates the curvature; over the whole grid it underestimates)."""
-    orig = uncertainty.model_bias
+    orig = centre_result.model_bias
     seen = {}
 
     def spy(fit, xy, centre, tensor, grid_tensor):
@@ -246,7 +237,7 @@ def test_model_bias_predicts_the_fit_bias_on_clean_circles(monkeypatch):
         seen["t"] = tensor
         return seen["b"]
 
-    monkeypatch.setattr(uncertainty, "model_bias", spy)
+    monkeypatch.setattr(centre_result, "model_bias", spy)
     for kind, radius in (("cylinder", 8.0), ("sphere", 10.0)):
         d = sweep(make(kind, radius, 25.0))
         res = analyze_patch(d["points"], d["normals"], method="spline")
@@ -312,7 +303,7 @@ def test_split_normal_vote_respects_a_one_sided_interval():
     assert centre_result.split_normal_cdf(10.0, 0.4, 0.1, 0.3) == pytest.approx(1.0)
     # the case that gave a confident "sphere" for a barely curved cylinder (R 200, noise
     # 0.02, seed 1182): debiased S = 1 with its 95 % interval (0.536, 1)
-    root = math.sqrt(uncertainty.CHI2_2_95)
+    root = math.sqrt(centre_result.CHI2_2_95)
     label, conf, _ = centre_result.vote(1.0, ((1.0 - 0.536) / root, 0.0))
     assert label == "uncertain" and conf < 0.9
     d = sweep(make("cylinder", 200.0, 25.0), noise_pos=0.02, noise_normal=0.02, seed=1182)

@@ -5,7 +5,7 @@ files in their success lines (``record``'s summary, ``export``'s "wrote ...", ``
 PNGs, ``sim``'s "wrote ...", the studies' files) and their errors: no raw control
 character reaches stdout or stderr, and the name is shown escaped.  Then the sources:
 every ``print`` and stream ``write`` of ``tactile.cli`` passes its text through
-``tactile.output.textout`` (a literal needs nothing), so a new line cannot forget it.
+``tactile.output.text`` (a literal needs nothing), so a new line cannot forget it.
 """
 
 import ast

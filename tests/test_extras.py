@@ -1,11 +1,11 @@
-"""Optional extras (``tactile.extras``): a command that needs one that is missing says in one
+"""Optional extras (``tactile.errors``): a command that needs one that is missing says in one
 line which extra and how to install it (exit 2), and keeps what it already wrote."""
 
 import sys
 
 import pytest
 
-from tactile import extras
+from tactile import errors as extras
 from tactile.errors import MissingExtra
 
 PLOT_HINT = "Plotting needs the 'plot' extra: pip install 'tactile-shape[plot]'"

@@ -1,5 +1,5 @@
 """Strings from files reach the terminal escaped, as a device's strings do
-(``tactile.output.textout.printable``), and plot labels are drawn without matplotlib warnings:
+(``tactile.output.text.printable``), and plot labels are drawn without matplotlib warnings:
 patch ids, finger labels, a calibration file's serial, and any error quoting them."""
 
 import math

@@ -1,4 +1,4 @@
-"""``tactile.files.atomic`` and ``tactile.files.folder_lock``: a whole file is replaced or
+"""``tactile.files.writing`` and ``tactile.files.writing``: a whole file is replaced or
 left as it was, only over a regular file, and a folder has one writer."""
 
 import errno
@@ -12,8 +12,8 @@ import pytest
 from full_disk import TEMP, full_disk
 
 from tactile.errors import HostFileError, InputError
-from tactile.files import folder_lock
-from tactile.files.atomic import PathRefused, WriteError, atomic_write, write_bytes
+from tactile.files import writing
+from tactile.files.writing import PathRefused, WriteError, atomic_write, write_bytes
 
 
 def _device(path):
@@ -124,20 +124,20 @@ def test_a_folder_another_holds_is_refused_and_left_alone(tmp_path):
     run.mkdir()
     fd = _flock(run)
     try:
-        with pytest.raises(folder_lock.Busy) as exc:
-            folder_lock.hold(run, create=True)
+        with pytest.raises(writing.Busy) as exc:
+            writing.hold(run, create=True)
         assert exc.value.exit_code == 5 and str(exc.value).startswith(f"{run}: another tactile")
     finally:
         os.close(fd)
-    with folder_lock.hold(run):  # free again
+    with writing.hold(run):  # free again
         pass
     assert run.is_dir() and _entries(run) == []  # not made by the lock: kept
 
 
 def test_a_process_holds_its_folder_again_and_the_last_release_frees_it(tmp_path):
     run = tmp_path / "run"
-    outer = folder_lock.hold(run, create=True)
-    inner = folder_lock.hold(run, create=True)
+    outer = writing.hold(run, create=True)
+    inner = writing.hold(run, create=True)
     inner.release()
     inner.release()  # a second release of one hold changes nothing
     with pytest.raises(BlockingIOError):
@@ -149,7 +149,7 @@ def test_a_process_holds_its_folder_again_and_the_last_release_frees_it(tmp_path
 
 
 def test_the_folders_a_lock_made_go_when_they_are_left_empty(tmp_path):
-    with folder_lock.hold(tmp_path / "a" / "b" / "run", create=True):
+    with writing.hold(tmp_path / "a" / "b" / "run", create=True):
         assert (tmp_path / "a" / "b" / "run").is_dir()
     assert _entries(tmp_path) == []
 
@@ -158,13 +158,13 @@ def test_another_process_is_refused_while_this_one_holds_the_folder(tmp_path):
     run = tmp_path / "run"
     code = (
         "import sys\n"
-        "from tactile.files import folder_lock\n"
+        "from tactile.files import writing\n"
         "try:\n"
-        f"    folder_lock.hold({str(run)!r}, create=True)\n"
-        "except folder_lock.Busy as exc:\n"
+        f"    writing.hold({str(run)!r}, create=True)\n"
+        "except writing.Busy as exc:\n"
         "    sys.exit(exc.exit_code)\n"
     )
-    with folder_lock.hold(run, create=True):
+    with writing.hold(run, create=True):
         held = subprocess.run([sys.executable, "-c", code], timeout=60)
     free = subprocess.run([sys.executable, "-c", code], timeout=60)
     assert (held.returncode, free.returncode) == (5, 0)
@@ -179,11 +179,11 @@ def test_where_a_folder_takes_no_flock_a_lock_file_inside_it_does(tmp_path, monk
             raise OSError(errno.EBADF, os.strerror(errno.EBADF))
         return real(fd, op)
 
-    monkeypatch.setattr(folder_lock.fcntl, "flock", flock)
+    monkeypatch.setattr(writing.fcntl, "flock", flock)
     run = tmp_path / "run"
-    with folder_lock.hold(run, create=True):
-        assert _entries(run) == [folder_lock.LOCK_FILE]
-        fd = os.open(run / folder_lock.LOCK_FILE, os.O_RDONLY)
+    with writing.hold(run, create=True):
+        assert _entries(run) == [writing.LOCK_FILE]
+        fd = os.open(run / writing.LOCK_FILE, os.O_RDONLY)
         with pytest.raises(BlockingIOError):  # another writer's lock on it is refused
             real(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         os.close(fd)

@@ -1,4 +1,4 @@
-"""``tactile.board.firmware_answer``: after the reset, the port again and the firmware's HELLO or
+"""``tactile.board.handover``: after the reset, the port again and the firmware's HELLO or
 INFO within the bound, asking only when asking is safe; one line when nothing answers
 (fake ports and clock)."""
 
@@ -7,8 +7,8 @@ import serial
 from flash_fakes import FakeClock
 from lying_device import GOOD_INFO, frame
 
-from tactile.board import firmware_answer
-from tactile.board.firmware_answer import ASK_GONE_S, ASK_STAYED_S, answer
+from tactile.board import handover
+from tactile.board.handover import ASK_GONE_S, ASK_STAYED_S, answer
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import BoardTimeout, PortError
 from tactile_protocol import constants as C
@@ -130,7 +130,7 @@ def test_silence_is_said_and_the_bound_kept():
 
 def test_what_answered_in_one_line():
     (info,) = StreamDecoder().feed(frame(C.MSG_HELLO, GOOD_INFO))
-    assert firmware_answer.describe(info) == (
+    assert handover.describe(info) == (
         f"tactile firmware 1.2.3 (protocol {C.PROTOCOL_VERSION}), 1 sensor FT6, 1000 Hz"
         " (ceiling 1730 Hz)"
     )

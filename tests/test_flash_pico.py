@@ -14,8 +14,7 @@ from board_target import BoardTarget
 from pico_target import serve
 
 from tactile import load_recording
-from tactile.board import flashing, raw_repl
-from tactile.board import probe as board_probe
+from tactile.board import flashing, handover, raw_repl
 from tactile.board.client import BoardClient
 from tactile_protocol import constants as C
 
@@ -40,8 +39,8 @@ def _plant(path, files):
     would have left them."""
     session = raw_repl.Session(path)
     try:
-        session.serial.timeout = board_probe.READ_TIMEOUT_S
-        board_probe.break_in(session.serial, path)
+        session.serial.timeout = handover.READ_TIMEOUT_S
+        handover.break_in(session.serial, path)
         session.serial.timeout = raw_repl.READ_TIMEOUT_S
         session.enter(10.0)
         session.exec(flashing.MKDIRS.format(dirs=["/lib", "/lib/tactile_fw"]), 10.0, "mkdir")

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import tactile
-from tactile.board.messages import Contact, Sample
+from tactile.board.stream_decoder import Contact, Sample
 from tactile_protocol import constants as C
 
 pytest.importorskip("foxglove")

@@ -51,14 +51,11 @@ DEFERRED = {
         "make_board: tactile_fw.frontend": BOARD_RAM,
     },
     "host/tactile/__init__.py": {
-        "__getattr__: tactile.payload.recorded": LIGHT_PACKAGE,
+        "__getattr__: tactile.payload.apply": LIGHT_PACKAGE,
     },
     "host/tactile/payload/__init__.py": {
         "__getattr__: tactile.payload": LIVE_PAYLOAD,
-    },
-    "host/tactile/payload/live_args.py": {
-        "following: tactile.payload.live": LIVE_PAYLOAD,
-        "following: tactile.payload.orientation": LIVE_PAYLOAD,
+        "following: tactile.payload.apply": LIVE_PAYLOAD,
         "following: tactile.payload.tool": LIVE_PAYLOAD,
     },
     "host/tactile/foxglove/live.py": {
@@ -114,7 +111,7 @@ def test_at_most_30_remain():
 
 
 def test_the_cli_defers_no_import():
-    """The CLI's commands are imported only when they run (tactile.cli.registry), so they
+    """The CLI's commands are imported only when they run (tactile.cli.main), so they
     import their library at module level; the families of a group command are the one
     exception."""
     cli = [k for k in LISTED if k.startswith(("host/tactile/cli/", "host/tactile/commands/"))]

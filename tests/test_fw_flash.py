@@ -9,9 +9,8 @@ import pytest
 from flash_fakes import FakeSession
 from lying_device import GOOD_INFO, frame
 
-from tactile.board import firmware_answer, flashing, mpy_files, raw_repl
-from tactile.board import probe as board_probe
-from tactile.board.mpy_files import Abi
+from tactile.board import flashing, handover, raw_repl
+from tactile.board.raw_repl import Abi
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import BoardError, MissingExtra, PortError
 from tactile_protocol import constants as C
@@ -36,14 +35,14 @@ def board(tmp_path, monkeypatch):
         made[-1].root.mkdir(exist_ok=True)
         return made[-1]
 
-    probe = board_probe.break_in
+    probe = handover.break_in
     monkeypatch.setattr(flashing, "board_files", lambda: list(SOURCES))
     monkeypatch.setattr(raw_repl, "Session", lambda port: made[-1])
     monkeypatch.setattr(flashing, "_check_port", lambda port: None)
     monkeypatch.setattr(
-        board_probe, "break_in", lambda p, name, window_s: probe(p, name, window_s, p.clock)
+        handover, "break_in", lambda p, name, window_s: probe(p, name, window_s, p.clock)
     )
-    monkeypatch.setattr(firmware_answer, "answer", lambda port, wait_s, what: hello)
+    monkeypatch.setattr(handover, "answer", lambda port, wait_s, what: hello)
     return make
 
 
@@ -120,7 +119,7 @@ def test_mpy_required_where_it_does_not_fit_is_one_line_before_anything_is_touch
 
 
 def test_without_mpy_cross_sources_go_or_mpy_is_refused(board, monkeypatch):
-    monkeypatch.setattr(mpy_files, "have_mpy_cross", lambda: False)
+    monkeypatch.setattr(raw_repl, "have_mpy_cross", lambda: False)
     notes = []
     board()
     assert flashing.flash(PORT, note=notes.append).mpy is None

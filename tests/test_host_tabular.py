@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from tactile.errors import InputError
 from tactile.files import csv_dialect, tabular
 from tactile.files.tabular import read_csv
-from tactile.output.jsonout import clean, dumps
+from tactile.output.text import clean, dumps
 
 REQ = ("x", "y", "z")
 

@@ -169,11 +169,13 @@ def test_without_the_simulator_the_cli_runs_and_says_what_is_missing():
     assert first == "1" and "  ports " in help_ and "  emulate " not in help_
 
 
-# What the emulator may take from the host library: the robot-log format, the bounded file
-# reader and atomic writer, and the escaping of what it prints.  Not the host's decoder,
-# board settings or error tree: a bug the emulator shared with the host it checks would hide
-# (the vocabulary both need is tactile_protocol's).
-EMULATOR_MAY_USE = ("tactile.logs", "tactile.files", "tactile.output.textout")
+# What the emulator may take from the host library: the robot-log format, the robot interface
+# its arm implements with that interface's line format (tests/test_robot.py checks the wire
+# as raw lines on both sides), the bounded file reader and atomic writer, and the escaping
+# of what it prints.  Not the host's decoder, board settings or error tree: a bug the
+# emulator shared with the host it checks would hide (the vocabulary both need is
+# tactile_protocol's).
+EMULATOR_MAY_USE = ("tactile.logs", "tactile.robot", "tactile.files", "tactile.output.text")
 NEVER_IN_THE_SIMULATOR = ("tactile.board.stream_decoder", "tactile.board.client")
 
 

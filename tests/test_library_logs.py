@@ -1,5 +1,5 @@
 """A library's log lines (``foxglove-sdk``'s) go through the project's logging: shown only
-with ``-v``, at most ``LINES`` per ``INTERVAL_S``, escaped (``tactile.output.logs``).
+with ``-v``, at most ``LINES`` per ``INTERVAL_S``, escaped (``tactile.output.text``).
 
 Unit tests on an injected clock; then the real thing: ``tactile record --foxglove`` in a
 process of its own (so that ``logging``'s last resort writes to a real stderr, as for a
@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from tactile.output.logs import INTERVAL_S, LINES, Escaped, RateLimit, adopt
+from tactile.output.text import INTERVAL_S, LINES, Escaped, RateLimit, adopt
 
 
 class Clock:

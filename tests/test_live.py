@@ -2,8 +2,8 @@
 
 import pytest
 
-from tactile.board.live_view import LiveState
-from tactile.board.messages import Contact, Sample
+from tactile.board.stream_decoder import Contact, Sample
+from tactile.cli.cmd_live import LiveState
 from tactile_protocol import constants as C
 
 

@@ -6,8 +6,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tactile.localize import STATUS, sphere_contact, sphere_contact_frictionless
-from tactile.localize.contact import MISS, NEAR_MISS, NO_CONTACT, OFF_PROBE, OK
-from tactile.localize.line import entry_root, line_of_action
+from tactile.localize.contact import (
+    MISS,
+    NEAR_MISS,
+    NO_CONTACT,
+    OFF_PROBE,
+    OK,
+    entry_root,
+    line_of_action,
+)
 
 
 def _unit(v):

@@ -10,7 +10,7 @@ from conftest import load_bench
 from tactile.cli.main import main
 from tactile.errors import DataError, InputError
 from tactile.payload import read_tool
-from tactile.payload.from_run import identify_run
+from tactile.payload.fit import identify_run
 
 synth = load_bench("payload_synth")
 TRUTH = {"mass": 0.03, "com": [0.02, 0.0, 0.001]}

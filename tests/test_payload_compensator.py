@@ -6,7 +6,7 @@ from conftest import load_bench
 
 from tactile.board.stream_decoder import decode_bytes
 from tactile.payload import Compensator, Orientations, Tool
-from tactile.payload.orientation import ANY
+from tactile.payload.apply import ANY
 from tactile_protocol import constants as C
 
 synth = load_bench("payload_synth")

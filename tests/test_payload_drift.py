@@ -7,8 +7,8 @@ from conftest import load_bench
 from scipy.spatial.transform import Rotation
 
 from tactile.payload import BiasTracker, Compensator, Orientations, Tool
+from tactile.payload.apply import ANY
 from tactile.payload.drift import MAX_RATE_N_S, TAU_S
-from tactile.payload.orientation import ANY
 
 synth = load_bench("payload_synth")
 RATE = 500

@@ -6,9 +6,9 @@ import pytest
 from conftest import load_bench
 
 from tactile.commands.derive import derive
-from tactile.ep1.probes_csv import read_probes
+from tactile.ep1.probes import read_probes
 from tactile.errors import InputError
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import read_probe_log
 from tactile.payload import Tool
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene

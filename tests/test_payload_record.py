@@ -11,8 +11,7 @@ from tactile.board.stream_decoder import decode_bytes
 from tactile.cli.main import main
 from tactile.commands.derive import derive
 from tactile.payload import Orientations, Tool, read_tool, write_tool
-from tactile.payload.live import Following
-from tactile.payload.orientation import ANY, read_log
+from tactile.payload.apply import ANY, Following, read_log
 from tactile_protocol import constants as C
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene

@@ -23,8 +23,8 @@ recording the walkthrough made:
 
 Every other line must exit 0 without a traceback, a NaN or a ``warning:``; ``record`` must
 end on its own with nothing lost, and ``ep2 analyze`` and the Python example must name the
-scene's shape.  The walkthrough runs twice in a row on one emulator (its second ``record``
-and a second pass through it all: the emulator plays its scene again for each host), and
+scene's shape.  The walkthrough runs twice in a row on one emulator (its second ``record``,
+then a user going through it again: the emulator plays its scene again for each host), and
 docs/cli.md's example of ``flash``'s line is what the emulated Pico printed.  The install
 line names an extra that brings every other user extra, and the README and docs/cli.md list
 them all; what the walkthrough writes is ignored by git at a clone's root; every figure's
@@ -136,10 +136,18 @@ def test_the_walkthroughs_outputs_are_ignored_at_the_root_of_a_clone():
 def test_every_block_runs_as_written_twice_in_a_row_on_one_emulator(tmp_path):
     """The walkthrough as written (two runs of the robot, run1 and run2), then again on the
     same emulator, in the same folder once its runs are cleared, as a user who goes through
-    it a second time: the board flashed again, its calibration now 9999."""
+    it a second time: the board flashed again, its calibration now 9999, configured,
+    calibrated and TAREd again, and the robot's run recorded and analysed on it.  The second
+    pass ends there: after that TARE the board is as the first pass left it at its own, so
+    the lines after the first ``analyze`` (plot, export, live, run2) would meet what they met
+    then."""
     blocks = _blocks()
-    ran = _run_blocks(blocks[1:], tmp_path, passes=2)
-    assert ran == 2 * (len(blocks) - 1) and ran >= 6  # every block but the two make commands
+    first, again = _run_blocks(blocks[1:], tmp_path, passes=2, again_until=" analyze ")
+    # every line of every block but the two make commands (terminal 1 and PORT= set up)
+    lines = [ln for b in blocks[1:] for ln in _commands(b) if not _sets_up(ln)]
+    assert first == lines and len(first) >= 12
+    assert again == lines[: next(i for i, ln in enumerate(lines) if " analyze " in ln) + 1]
+    assert any(" flash " in ln for ln in again) and any(" record " in ln for ln in again)
     # the Python example, on the recording the walkthrough made (run1)
     (python,) = _python_blocks()
     roots = [str(ROOT / d) for d in SOURCES]
@@ -163,47 +171,56 @@ def test_the_cli_reference_sweep_runs_as_written(tmp_path):
     blocks = [b.strip().splitlines() for b in re.findall(r"```sh\n(.*?)```", text, re.S)]
     sweeps = [b for b in blocks if "emulate ep2_sweep_sphere" in b[0]]
     assert len(sweeps) == 1 and any("sim://ep2_sweep_sphere" in ln for ln in sweeps[0])
-    assert _run_blocks(sweeps, tmp_path) == 1
+    (ran,) = _run_blocks(sweeps, tmp_path)
+    assert ran == [ln for ln in _commands(sweeps[0]) if not _sets_up(ln)] and ran
 
 
-def _run_blocks(blocks, cwd, passes=1):
+def _run_blocks(blocks, cwd, passes=1, again_until=None):
     """Run ``blocks`` in order in ``cwd``, as one terminal session, ``passes`` times with the
     same emulator (terminal 1 is started once; a later pass first removes the folders the
-    first wrote with -o, as ``record`` refuses to overwrite a run); how many blocks ran."""
+    first wrote with -o, as ``record`` refuses to overwrite a run, and ends after the first
+    line holding ``again_until``); the lines run, per pass (terminal 1 and PORT= set up)."""
     os.symlink(Path(sys.executable).absolute().parents[1], cwd / ".venv")
     roots = [str(ROOT / d) for d in SOURCES]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     env["XDG_STATE_HOME"] = str(cwd / "state")  # a new emulated Pico's flash for this run
-    emulators, pty, ran, scene, flashed = [], None, 0, None, []
+    emulators, pty, ran, scene, flashed = [], None, [], None, []
     try:
         for n in range(passes):
-            for block in blocks:
-                for line in _commands(block):
-                    if "# terminal 1" in line:
-                        if n == 0:
-                            scene = re.search(r" emulate (\S+)", line).group(1)
-                            emulators.append(_background(line, cwd, env))
-                            pty = emulators[-1].stdout.readline().strip()
-                            assert pty.startswith("/dev/"), emulators[-1].stderr.read()
-                        continue
-                    assign = ASSIGN.match(line)
-                    if assign:
-                        assert assign.group(1) == "PORT" and pty, line  # the one definition changed
-                        env["PORT"] = pty
-                        continue
-                    if n and " record " in line:
-                        shutil.rmtree(cwd / re.search(r" -o (\S+)", line).group(1), True)
-                    line = line.replace("--port /dev/pts/N", f"--port {pty}")
-                    out = _run(line, cwd, env, scene, calibrated=n > 0)
-                    if " flash " in line:
-                        flashed.append(out)
-                ran += 1
+            ran.append([])
+            for line in (ln for block in blocks for ln in _commands(block)):
+                if "# terminal 1" in line:
+                    if n == 0:
+                        scene = re.search(r" emulate (\S+)", line).group(1)
+                        emulators.append(_background(line, cwd, env))
+                        pty = emulators[-1].stdout.readline().strip()
+                        assert pty.startswith("/dev/"), emulators[-1].stderr.read()
+                    continue
+                assign = ASSIGN.match(line)
+                if assign:
+                    assert assign.group(1) == "PORT" and pty, line  # the one definition changed
+                    env["PORT"] = pty
+                    continue
+                if n and " record " in line:
+                    shutil.rmtree(cwd / re.search(r" -o (\S+)", line).group(1), True)
+                ran[-1].append(line)
+                line = line.replace("--port /dev/pts/N", f"--port {pty}")
+                out = _run(line, cwd, env, scene, calibrated=n > 0)
+                if " flash " in line:
+                    flashed.append(out)
+                if n and again_until and again_until in line:
+                    break
     finally:  # the shell and the emulator it started: no emulator outlives its test
         for emulator in emulators:
             os.killpg(emulator.pid, signal.SIGTERM)
             emulator.wait(10)
     _check_flash_example(flashed)
     return ran
+
+
+def _sets_up(line):
+    """Terminal 1's emulator or the PORT definition: what the runner sets up, not runs."""
+    return "# terminal 1" in line or bool(ASSIGN.match(line))
 
 
 def _background(line, cwd, env):

@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from tactile.logs.pose import read_pose_log
+from tactile.logs.read import read_pose_log
 from tactile.recording.session import Session
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import build_motion

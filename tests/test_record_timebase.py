@@ -18,8 +18,8 @@ from drift_port import DriftingPort
 
 from tactile.commands.derive import derive
 from tactile.localize.posed import window_index
-from tactile.logs.clock import CLOCKS, log_end
-from tactile.logs.pose import read_pose_log
+from tactile.logs.read import read_pose_log
+from tactile.logs.tags import CLOCKS, log_end
 from tactile.recording.session import Session
 from tactile_sim.emulator import load_scene
 

@@ -268,7 +268,7 @@ def test_import_tactile_stays_light_and_the_loader_needs_no_mcap():
         "True",
         "True",
         "False",
-        "tactile.payload.recorded",
+        "tactile.payload.apply",
     ]  # (payload= there)
     with pytest.raises(AttributeError, match="no attribute 'nonesuch'"):
         tactile.nonesuch  # noqa: B018

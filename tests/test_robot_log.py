@@ -1,16 +1,14 @@
 """One module owns the robot logs' format (issue 15): every simulator robot writes through
-``tactile.logs.robot_log`` and each log reads back through the host's reader bit for bit."""
+``tactile.logs`` and each log reads back through the host's reader bit for bit."""
 
 import numpy as np
 import pytest
 
-from tactile import units
+from tactile import logs, units
 from tactile.files.tabular import read_csv
-from tactile.localize.kinematics import pose_from_quaternion
 from tactile.localize.posed import sensor_poses
-from tactile.logs import robot_log
-from tactile.logs.pose import read_pose_log
-from tactile.logs.probe import read_probe_log
+from tactile.localize.world import pose_from_quaternion
+from tactile.logs.read import read_pose_log, read_probe_log
 from tactile_sim.emulator.device import build_motion
 from tactile_sim.emulator.scene import load_scene
 
@@ -42,7 +40,7 @@ def test_the_rigs_scara_log_reads_back_bit_for_bit(tmp_path, scene):
     _exact(log.finger, [r[2] for r in rows])
     _exact(log.joints, [r[3:] for r in rows])
     assert log.lengths == tuple(motion.lengths) and log.end_us == _end_us(motion)
-    assert path.read_text().startswith(units.line(robot_log.UNITS["scara"]))
+    assert path.read_text().startswith(units.line(logs.UNITS["scara"]))
 
 
 @pytest.mark.parametrize("scene", ["ep2_sweep_sphere", "ep2_sweep_saddle", "ep2_sweep_wrist"])
@@ -80,7 +78,7 @@ def test_the_roll_probe_log_reads_back_bit_for_bit(tmp_path):
     _exact(log.t_start_us, [r[1] for r in rows])
     _exact(log.t_end_us, [r[2] for r in rows])
     _exact(log.dtheta, [r[3:5] for r in rows])
-    attitude = read_csv(path, robot_log.ATTITUDE).array(*robot_log.ATTITUDE)
+    attitude = read_csv(path, logs.ATTITUDE).array(*logs.ATTITUDE)
     _exact(attitude, [r[5:] for r in rows])  # each hold's orientation, as written
     assert log.radius_m == motion.geometry["radius_m"]
     _exact(log.centre_m, motion.geometry["centre_m"])
@@ -93,11 +91,11 @@ def test_a_log_in_a_host_clock_reads_back_in_that_clock(tmp_path, clock):
     rows = [(1_765_000_000.25, 1_765_000_000.5, 0, 0.1, -0.2, 0.3, 0.0, 1.0, 0.0, 0.0)]
     rows.append((1_765_000_001.0, 1_765_000_001.125, 1, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0))
     path = tmp_path / "poses.csv"
-    robot_log.write_log(
+    logs.write_log(
         path, "pose", rows, clock, probe=(0.01, (0.02, 0.0, 0.0)), end_us=1_765_000_002_000_000
     )
     header = path.read_text().splitlines()[3]
-    assert header.split(",")[:2] == list(robot_log.CLOCKS[clock][:2])
+    assert header.split(",")[:2] == list(logs.CLOCKS[clock][:2])
     log = read_pose_log(path)
     assert log.clock == clock and log.end_us == 1_765_000_002_000_000
     _exact(log.t_start, [1_765_000_000_250_000, 1_765_000_001_000_000])
@@ -106,21 +104,21 @@ def test_a_log_in_a_host_clock_reads_back_in_that_clock(tmp_path, clock):
 
 
 def test_every_kinds_units_line_is_what_the_readers_accept():
-    for kind, spec in robot_log.UNITS.items():
+    for kind, spec in logs.UNITS.items():
         words = {w.strip() for w in spec.split(",")}
         assert words <= units.LOG_WORDS, (kind, words)
-        assert set(robot_log.columns(kind)) >= set(robot_log.CLOCKS["board"][:2])
+        assert set(logs.columns(kind)) >= set(logs.CLOCKS["board"][:2])
 
 
 def _second_copies(sim_dir):
     text = "\n".join(p.read_text() for p in sim_dir.rglob("*.py"))
     found = [
         c
-        for kind in robot_log.KINDS
-        for c in (",".join(robot_log.COLUMNS[kind][:3]), '", "'.join(robot_log.COLUMNS[kind][:3]))
+        for kind in logs.KINDS
+        for c in (",".join(logs.COLUMNS[kind][:3]), '", "'.join(logs.COLUMNS[kind][:3]))
         if c in text
     ]
-    return found + [name for name in robot_log.TAGS if f'"{robot_log.tag(name)} ' in text]
+    return found + [name for name in logs.TAGS if f'"{logs.tag(name)} ' in text]
 
 
 def test_the_simulator_writes_no_log_of_its_own():

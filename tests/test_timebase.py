@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from tactile.board.messages import Hello, Invalid, Sample
+from tactile.board.stream_decoder import Hello, Invalid, Sample
 from tactile.errors import DataError
 from tactile.recording.timebase import (
     WRAP,

@@ -49,7 +49,7 @@ def _scene_logs(tmp_path):
 
 
 def test_every_csv_writer_starts_with_its_units_line(tmp_path):
-    from tactile.ep1.probes_csv import format_probes
+    from tactile.ep1.probes import format_probes
     from tactile.localize import format_contacts
     from tactile.recording.files import Recording
     from tactile_sim.ep2 import make, sweep, write_csv
@@ -81,11 +81,10 @@ def test_every_csv_writer_starts_with_its_units_line(tmp_path):
 
 def test_written_files_read_back_through_their_readers(tmp_path):
     """The units line is part of each contract: the project's readers accept their own files."""
-    from tactile.ep1.probes_csv import format_probes, read_probes
+    from tactile.ep1.probes import format_probes, read_probes
     from tactile.ep2.contacts_csv import read_contacts
     from tactile.localize import format_contacts
-    from tactile.logs.pose import read_pose_log
-    from tactile.logs.probe import read_probe_log
+    from tactile.logs.read import read_pose_log, read_probe_log
 
     pts = np.array([[0.0, 0.0, 0.0], [0.01, 0.02, 0.03]])
     (tmp_path / "c.csv").write_text(format_contacts(pts, [[0, 0, 1]] * 2))
@@ -154,8 +153,8 @@ def test_a_file_without_the_line_is_read_as_before_and_cannot_be_converted(tmp_p
 
 
 def test_probes_and_frames_refuse_a_unit_they_do_not_hold(tmp_path):
-    from tactile.ep1.probes_csv import read_probes
-    from tactile.recording.frames import read_frames
+    from tactile.ep1.probes import read_probes
+    from tactile.recording.layout import read_frames
 
     probes = tmp_path / "probes.csv"
     probes.write_text("# units: deg\ndtheta_x,dtheta_y,du,dv\n1,2,3,4\n")
@@ -168,7 +167,7 @@ def test_probes_and_frames_refuse_a_unit_they_do_not_hold(tmp_path):
 
 
 def test_a_pose_log_in_other_units_is_refused(tmp_path):
-    from tactile.logs.pose import read_pose_log
+    from tactile.logs.read import read_pose_log
 
     log = _scene_logs(tmp_path)["ch5_convex"]
     log.write_text(log.read_text().replace("# units: us, rad, m", "# units: us, deg, cm"))
@@ -289,7 +288,7 @@ def test_c_shift_is_the_log_of_the_scale():
 
 
 def test_length_vocabulary_is_shared_with_calibration_units():
-    from tactile.calib import units as calib_units
+    import tactile.calib as calib_units
 
     assert calib_units.LENGTH_M is units.LENGTH_M
     assert calib_units.torque_factor("N-mm") == pytest.approx(1e-3)

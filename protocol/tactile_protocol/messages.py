@@ -135,11 +135,6 @@ def _build_index():
 BY_TYPE, BY_NAME = _build_index()
 
 
-def body_size(mtype):
-    """Header + payload size in bytes (the CRC excluded)."""
-    return BY_TYPE[mtype][3]
-
-
 def _check(name, field, code, value):
     if code.endswith("s"):
         if not isinstance(value, (bytes, bytearray)) or len(value) > int(code[:-1]):

@@ -41,8 +41,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tactile.errors import InputError
-from tactile.files.atomic import atomic_write
-from tactile.output.textout import printable
+from tactile.files.writing import atomic_write
+from tactile.output.text import printable
 from tactile_sim.emulator.ft_model import sensitivity_matrix
 
 __all__ = ["DRIFTS", "FAMILIES", "N_CASES", "OBJECTS", "Case", "Sealed", "cases", "scene_toml",

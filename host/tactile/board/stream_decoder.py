@@ -20,12 +20,25 @@ A frame of another protocol version is counted (``version_mismatch``, ``last_ver
 not delivered: a board speaking it cannot be talked to.  ``StreamDecoder(older=True)``, for
 reading recordings, delivers frames of the older versions too (``INFO_FIELDS_SINCE``: each
 only appended fields to HELLO and INFO), with the fields their HELLO/INFO lacks as None.
+
+**Host-side message objects**, generated from the protocol's one table (``SPECS``).
+
+Each message type is a named tuple ``(seq, timestamp_us, *fields)`` with
+class attributes ``type_code`` and ``type_name``.  ``to_dict`` gives the
+JSON form used by ``tactile decode``: text fields (``sensor_model``) as text, the binary
+``board_id`` as hex digits (None in a HELLO/INFO of a version without it).  Units:
+PROTOCOL.md §4.
+
+``Invalid`` stands in for a frame whose framing and layout are good but whose
+content breaks the protocol's limits (``tactile_protocol.limits``): it names the
+message type it claimed to be and the field that is wrong, and carries none of
+the values, so nothing downstream can act on a lie.
 """
 
 import struct
 from binascii import crc_hqx
+from collections import namedtuple
 
-from tactile.board.messages import CLASSES, INVALID, Invalid
 from tactile_protocol.constants import (
     CRC_SIZE,
     HEADER_SIZE,
@@ -37,7 +50,48 @@ from tactile_protocol.constants import (
 )
 from tactile_protocol.constants import PROTOCOL_VERSION as VERSION
 from tactile_protocol.limits import RULES, SENSOR, violation
-from tactile_protocol.messages import BY_TYPE, INFO_FIELDS_SINCE, field_codes
+from tactile_protocol.messages import BY_TYPE, INFO_FIELDS_SINCE, SPECS, field_codes
+
+BINARY = ("board_id",)  # bytes fields that are not text
+
+
+def board_id_text(board_id):
+    """A HELLO/INFO ``board_id`` in words: 16 hex digits, or "none" (a version without it)."""
+    return "none" if board_id is None else bytes(board_id).hex()
+
+
+def _to_dict(self):
+    out = {"type": self.type_name}
+    for name, value in zip(self._fields, self):
+        if isinstance(value, bytes):
+            binary = name in BINARY
+            value = value.hex() if binary else value.rstrip(b"\0").decode("ascii", "replace")
+        out[name] = value
+    return out
+
+
+def _make(mtype, name, fields):
+    cls = namedtuple(name.title().replace("_", ""), ("seq", "timestamp_us") + tuple(fields))
+    cls.type_code = mtype
+    cls.type_name = name
+    cls.to_dict = _to_dict
+    return cls
+
+
+CLASSES = {mtype: _make(mtype, name, fields) for mtype, name, _, fields in SPECS}
+BY_NAME = {cls.type_name: cls for cls in CLASSES.values()}
+
+Hello = BY_NAME["HELLO"]
+Info = BY_NAME["INFO"]
+Sample = BY_NAME["SAMPLE"]
+Contact = BY_NAME["CONTACT"]
+Status = BY_NAME["STATUS"]
+Ack = BY_NAME["ACK"]
+Nak = BY_NAME["NAK"]
+
+INVALID = 0  # not a wire type: the type code of ``Invalid``
+Invalid = _make(INVALID, "INVALID", ("message", "error"))
+
 
 try:  # the C extension of the ``cobs`` package
     from cobs.cobs import DecodeError as _CobsError

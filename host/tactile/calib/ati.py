@@ -29,8 +29,7 @@ import math
 import re
 from xml.parsers import expat
 
-from tactile.calib import MAX_ID, MatrixFile
-from tactile.calib import units as U
+from tactile.calib import MAX_ID, MatrixFile, Units, canonical_force, canonical_torque, describe
 from tactile.errors import InputError, where
 from tactile.files.csv_dialect import DECIMAL
 
@@ -106,9 +105,9 @@ def parse(path, data, index=None):
     if gages != "6":
         raise InputError(f"{root.at(path, 'NumGages')}: {gages!r}; the board reads 6 gauges")
     cal = _pick(path, root, index)
-    spec = U.Units(
-        _unit(path, cal, "ForceUnits", U.canonical_force),
-        _unit(path, cal, "TorqueUnits", U.canonical_torque),
+    spec = Units(
+        _unit(path, cal, "ForceUnits", canonical_force),
+        _unit(path, cal, "TorqueUnits", canonical_torque),
         "V",
     )
     rows = _user_axes(path, cal)
@@ -117,7 +116,7 @@ def parse(path, data, index=None):
     serial = root.attrs.get("Serial", "").strip()
     cal_id, id_from = _serial_id(serial)
     part, date = cal.attrs.get("PartNumber", "?"), cal.attrs.get("CalDate", "?")
-    label = f"ATI calibration {part} of {serial or '?'} ({date}), {U.describe(spec)}"
+    label = f"ATI calibration {part} of {serial or '?'} ({date}), {describe(spec)}"
     notes = []
     gain = cal.attrs.get("GainMultiplier", "1").strip()
     if _float(gain) != 1.0:

@@ -17,8 +17,7 @@ other keys.
 import json
 import math
 
-from tactile.calib import MAX_ID, MatrixFile, ati
-from tactile.calib import units as U
+from tactile.calib import MAX_ID, SI, MatrixFile, ati, describe, parse
 from tactile.errors import InputError, where
 from tactile.files import bounded, csv_dialect
 from tactile.files.csv_dialect import DECIMAL, number, show
@@ -69,7 +68,7 @@ def _cell_place(path, line, r, j):
 
 
 def _csv(path):
-    spec, cal_id, id_from = U.SI, None, None
+    spec, cal_id, id_from = SI, None, None
     for line, text in csv_dialect.comment_lines(path, MAX_BYTES):
         key, sep, value = text.lstrip("#").partition(":")
         key = key.strip().lower()
@@ -86,7 +85,7 @@ def _csv(path):
             id_from = f"line {line}"
         else:
             try:
-                spec = U.parse(value)
+                spec = parse(value)
             except ValueError as exc:
                 raise InputError(f"{where(path, line)}: units: {exc}") from None
     matrix, places = [], []
@@ -116,7 +115,7 @@ def _csv(path):
             f"{path}: {len(matrix)} row{'s' * (len(matrix) != 1)} of numbers, need 6"
             f" ({' '.join(ROWS)}, one per line)"
         )
-    label = f"CSV matrix, {U.describe(spec)}"
+    label = f"CSV matrix, {describe(spec)}"
     return MatrixFile(path, "CSV", matrix, spec, cal_id, id_from, label, [], places)
 
 
@@ -138,32 +137,37 @@ def _json(path, data):
         )
     if "matrix" not in doc:
         raise InputError(f"{path}: field 'matrix': missing (6 lists of 6 numbers)")
-    spec = U.SI
+    spec = SI
     if "units" in doc:
         if not isinstance(doc["units"], str):
             raise InputError(f"{path}: field 'units': must be text like 'N, N-m per count'")
         try:
-            spec = U.parse(doc["units"])
+            spec = parse(doc["units"])
         except ValueError as exc:
             raise InputError(f"{path}: field 'units': {exc}") from None
     cal_id = check_id(doc["id"], f"{path}: field 'id'") if "id" in doc else None
     matrix = _json_matrix(path, doc["matrix"])
     places = [f"{path}: field matrix[{r}] ({ROWS[r]})" for r in range(6)]
-    label = f"JSON matrix, {U.describe(spec)}"
+    label = f"JSON matrix, {describe(spec)}"
     id_from = "field 'id'" if cal_id is not None else None
     return MatrixFile(path, "JSON", matrix, spec, cal_id, id_from, label, [], places)
 
 
+def _six(field, v, what, need):
+    """``v`` when it is a list of six, else InputError naming ``field``: how many ``what`` it
+    holds (or its type), and ``need``."""
+    if not isinstance(v, list) or len(v) != 6:
+        n = _count(v, what) if isinstance(v, list) else type(v).__name__
+        raise InputError(f"{field}: {n}, need {need}")
+    return v
+
+
 def _json_matrix(path, m):
-    if not isinstance(m, list) or len(m) != 6:
-        n = _count(m, "row") if isinstance(m, list) else type(m).__name__
-        raise InputError(f"{path}: field 'matrix': {n}, need a list of 6 rows ({' '.join(ROWS)})")
+    _six(f"{path}: field 'matrix'", m, "row", f"a list of 6 rows ({' '.join(ROWS)})")
     out = []
     for r, row in enumerate(m):
         field = f"{path}: field matrix[{r}] ({ROWS[r]})"
-        if not isinstance(row, list) or len(row) != 6:
-            n = _count(row, "value") if isinstance(row, list) else type(row).__name__
-            raise InputError(f"{field}: {n}, need a list of 6 numbers (gauges {' '.join(GAUGES)})")
+        _six(field, row, "value", f"a list of 6 numbers (gauges {' '.join(GAUGES)})")
         values = []
         for j, v in enumerate(row):
             place = f"{path}: field matrix[{r}][{j}] ({ROWS[r]}, {GAUGES[j]})"

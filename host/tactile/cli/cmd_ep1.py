@@ -3,9 +3,9 @@
 import math
 
 from tactile import units
-from tactile.commands.ep1_estimate import add_sensor_arguments, check_sensor_arguments, print_result
+from tactile.commands import add_sensor_arguments, check_sensor_arguments, print_result
 from tactile.ep1.estimator import EXIT_OK, estimate
-from tactile.ep1.probes_csv import read_probes
+from tactile.ep1.probes import read_probes
 from tactile.errors import DataError, InputError
 
 

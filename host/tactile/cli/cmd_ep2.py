@@ -5,14 +5,12 @@ import sys
 
 from tactile import units
 from tactile.cli import cmd_ep2_map
-from tactile.commands.words import add_quiet, contacts_of
+from tactile.commands import add_quiet, contacts_of
 from tactile.ep2 import contacts_csv
-from tactile.ep2.many import MAX_JOBS, outcomes
-from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
-from tactile.ep2.record_units import in_unit
+from tactile.ep2.geometry import MAX_NORMAL_ANGLE_DEG
+from tactile.ep2.stream import MAX_JOBS, in_unit, outcomes
 from tactile.errors import DataError, InputError
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable_lines
+from tactile.output.text import dumps, printable_lines
 
 METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")

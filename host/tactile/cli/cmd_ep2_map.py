@@ -13,8 +13,7 @@ from tactile import units
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.ep2.region_map import EDGE_ANGLE_DEG, NEIGHBOURS, map_contacts
 from tactile.errors import InputError
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable
+from tactile.output.text import dumps, printable
 
 
 def add_arguments(subs):

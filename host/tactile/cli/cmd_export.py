@@ -2,16 +2,16 @@
 
 ``mcap``: ROS 2 messages (``tactile.foxglove.export_mcap``) for Foxglove and ROS 2 tools; it needs
 the ``export`` extra.  ``parquet``: the frames (and contacts) as tables with units
-(``tactile.recording.export_parquet``) for pandas and Arrow; it needs the ``parquet`` extra.
+(``tactile.recording.export``) for pandas and Arrow; it needs the ``parquet`` extra.
 Without
 its extra the command prints the install line and exits 2.  The one-line summary names the
 file(s), what they hold and the clock of the stamps.  A run cut short (killed, a full disk)
 is read with what capture.bin holds (``tactile.recording.recover``); one ``note:`` line on
 stderr says what was rebuilt.
 
-``-o`` is checked before any work (``tactile.recording.export_target``): a new file or a
+``-o`` is checked before any work (``tactile.recording.export``): a new file or a
 regular file, never a directory, a device or a FIFO, never a file of the run; the file is
-replaced whole (``tactile.files.atomic``), a full disk is exit 5, and an export into the
+replaced whole (``tactile.files.writing``), a full disk is exit 5, and an export into the
 run folder holds the run's lock while it works.
 """
 
@@ -20,12 +20,11 @@ import pathlib
 import sys
 
 from tactile.errors import InputError
-from tactile.files.folder_lock import hold
+from tactile.files.writing import hold
 from tactile.foxglove import export_mcap
-from tactile.logs.pose import read_pose_log
-from tactile.output.textout import printable
-from tactile.recording import export_parquet
-from tactile.recording.export_target import check_outputs
+from tactile.logs.read import read_pose_log
+from tactile.output.text import printable
+from tactile.recording import export
 from tactile.recording.load import load_recording
 
 FORMATS = ("mcap", "parquet")
@@ -56,7 +55,7 @@ def add_arguments(parser):
 
 def run(args):
     if args.format == "parquet":
-        require, write = export_parquet.require_pyarrow, export_parquet.write_parquet
+        require, write = export.require_pyarrow, export.write_parquet
     else:
         require, write = export_mcap.require_mcap, export_mcap.write_mcap
     require()  # the install hint before any work
@@ -70,8 +69,8 @@ def run(args):
         if args.format != "mcap":
             raise InputError("--pose-log is for --format mcap (the sensors' transforms)")
         pose_log = read_pose_log(args.pose_log)
-    outs = [out] if args.format == "mcap" else [out, export_parquet.contacts_path(out)]
-    inside = check_outputs(run_dir, outs, f".{args.format}")
+    outs = [out] if args.format == "mcap" else [out, export.contacts_path(out)]
+    inside = export.check_outputs(run_dir, outs, f".{args.format}")
     with hold(run_dir) if inside else contextlib.nullcontext():  # one writer in a run
         summary = _export(run_dir, out, pose_log, write)
     said = line(summary) if args.format == "mcap" else parquet_line(summary)

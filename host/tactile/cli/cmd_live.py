@@ -5,23 +5,35 @@ started if the board was stopped; on exit both are undone (the board's CONFIG as
 stopped board stopped again); ``--as-is`` leaves the board as it is.  Every line
 fits 80 columns.  A ``sim://`` port runs as fast as the host reads unless its URL asks
 for ``?realtime=1``: live says so once, on stderr.  ``--foxglove`` serves the same frames to
-Foxglove (``tactile.cli.foxglove_args``).  ``--payload TOOL --pose-log LOG`` shows (and
+Foxglove (``tactile.cli.options``).  ``--payload TOOL --pose-log LOG`` shows (and
 serves) the wrench with the tool's weight and the bias removed and the host's contact state
-(``tactile.payload.live``); the robot's log says the sensor's orientation as it runs.
+(``tactile.payload.apply``); the robot's log says the sensor's orientation as it runs.
+
+**The state behind the view**: latest force/torque and contact state per sensor.
+
+``LiveState.update(messages)`` folds frames in; ``render()`` gives two text lines per
+sensor, each within 80 columns for any value the wire can carry (int32 uN, uN*m).  Pure
+bookkeeping: ``run`` reads the port and draws.
 """
 
+import math
 import sys
 import time
 
 from tactile.board.client import info_dict
-from tactile.board.live_view import WIDTH, LiveState
-from tactile.cli import foxglove_args
-from tactile.cli.board_args import add_port_argument, connect
+from tactile.cli.options import (
+    add_foxglove_arguments,
+    add_port_argument,
+    check_foxglove,
+    connect,
+    start_foxglove,
+    stop_foxglove,
+)
 from tactile.errors import PortLost
-from tactile.output.textout import printable
-from tactile.payload import live_args
+from tactile.output.text import printable
+from tactile.payload import following as payload_following
 from tactile_protocol import constants as C
-from tactile_protocol.settings import STREAMS, to_newtons
+from tactile_protocol.settings import STREAMS, to_newtons, wrench_si
 
 REFRESH_S = 0.1
 
@@ -39,13 +51,13 @@ def add_arguments(parser):
         metavar="TOOL",
         help="a sensor's tool file: its weight and the bias removed; needs --pose-log",
     )
-    foxglove_args.add_arguments(parser)
+    add_foxglove_arguments(parser)
 
 
 def run(args):
-    foxglove_args.check(args)
+    check_foxglove(args)
     samples = None if args.as_is else True  # (live switches the SAMPLE stream on)
-    following, log = live_args.following(args.payload, args.pose_log, samples)  # before the board
+    following, log = payload_following(args.payload, args.pose_log, samples)  # before the board
     client = connect(args)
     if following is not None:
         try:
@@ -65,7 +77,7 @@ def run(args):
     try:
         restore = None if args.as_is else _samples_on(client)
         posed = log if getattr(log, "kind", None) in ("pose", "scara") else None
-        live = foxglove_args.start(args, _device(client), pose_log=posed)
+        live = start_foxglove(args, _device(client), pose_log=posed)
         _view(client, args.duration, live, following)
     except PortLost:
         restore = None  # a dead port cannot be told anything: the error alone, once
@@ -76,7 +88,7 @@ def run(args):
                 _restore(client, *restore)
         finally:
             client.close()
-            foxglove_args.stop(live)
+            stop_foxglove(live)
     return 0
 
 
@@ -147,3 +159,57 @@ def _draw(state, client, elapsed, tty, drawn):
     sys.stdout.write("".join(line + end for line in lines))  # escaped: each line above
     sys.stdout.flush()
     return len(lines)
+
+
+class SensorView:
+    __slots__ = ("wrench", "in_contact", "contacts", "saturated", "readings")
+
+    def __init__(self):
+        self.wrench = (0.0,) * 6
+        self.in_contact = False
+        self.contacts = 0
+        self.saturated = 0
+        self.readings = 0
+
+
+class LiveState:
+    def __init__(self):
+        self.sensors = {}
+        self.status = None
+
+    def update(self, messages):
+        for m in messages:
+            if m.type_code in (C.MSG_SAMPLE, C.MSG_CONTACT):
+                v = self.sensors.setdefault(m.sensor, SensorView())
+                v.readings += 1
+                v.wrench = wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
+                v.saturated = m.flags & C.FLAG_SAT_MASK
+                if m.type_code == C.MSG_SAMPLE:
+                    v.in_contact = bool(m.flags & C.FLAG_IN_CONTACT)
+                else:
+                    v.in_contact = m.phase != C.PHASE_END
+                    v.contacts += m.phase == C.PHASE_BEGIN
+            elif m.type_code == C.MSG_STATUS:
+                self.status = m
+
+    def render(self):
+        """Two lines per sensor: |F| (N), contact state, count and saturation; then F (N)
+        and M (N*m).  Every line fits 80 columns (``WIDTH``)."""
+        lines = []
+        for i in sorted(self.sensors):
+            v = self.sensors[i]
+            fx, fy, fz, tx, ty, tz = v.wrench
+            state = "CONTACT" if v.in_contact else "free   "
+            sat = f"  SATURATED 0x{v.saturated:02x}" if v.saturated else ""
+            norm = math.sqrt(fx * fx + fy * fy + fz * fz)
+            lines.append(f"sensor {i}  |F| {norm:9.3f} N  {state}  contacts {v.contacts}{sat}")
+            lines.append(
+                f"  F [{fx:+9.3f} {fy:+9.3f} {fz:+9.3f}] N  M [{tx:+10.4f} {ty:+10.4f}"
+                f" {tz:+10.4f}] N*m"
+            )
+        if not lines:
+            lines.append("waiting for SAMPLE or CONTACT frames...")
+        return lines
+
+
+WIDTH = 80

@@ -13,14 +13,14 @@ import re
 import numpy as np
 
 from tactile import units
-from tactile.commands.words import add_out, contacts_of
+from tactile.commands import add_out, contacts_of
 from tactile.ep2 import analyze_patch
 from tactile.ep2.contacts_csv import read_contacts
 from tactile.ep2.region_map import map_contacts
 from tactile.errors import DataError, InputError
 from tactile.output import plots, region_plot
-from tactile.output.textout import printable
-from tactile.recording.meta import read_meta
+from tactile.output.text import printable
+from tactile.recording.layout import read_meta
 
 WHAT = ("contacts", "patch", "maps", "map")
 DEFAULT_WHAT = WHAT[:3]  # the region map takes the whole file as one object: asked for

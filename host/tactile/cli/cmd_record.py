@@ -7,8 +7,8 @@ points for EP2 (DIR/contacts.csv) or the rolling probes for EP1
 With a pose log it stops on its own once the log's end has passed (its ``# end:`` line,
 or half a second after its last entry), and says so while it waits.  The summary names the
 board -> host time base (``tactile.recording.timebase``); ``warning:`` lines go to stderr.
-``--foxglove`` serves the frames to Foxglove while recording (``tactile.cli.foxglove_args``).
-The run folder's lock (``tactile.files.folder_lock``) is held from before anything is
+``--foxglove`` serves the frames to Foxglove while recording (``tactile.cli.options``).
+The run folder's lock (``tactile.files.writing``) is held from before anything is
 written until the command ends: a second ``record`` or an ``export`` into it is refused
 (exit 5).  A run that fails before the board sent a byte leaves nothing behind: a folder it
 made is removed, one that was there is left as it was.
@@ -19,17 +19,22 @@ import sys
 import time
 
 from tactile.board.client import info_dict
-from tactile.cli import foxglove_args
-from tactile.cli.board_args import add_port_argument, connect
+from tactile.cli.options import (
+    add_foxglove_arguments,
+    add_port_argument,
+    check_foxglove,
+    connect,
+    new_pose_log,
+    start_foxglove,
+    stop_foxglove,
+)
+from tactile.commands import add_quiet
 from tactile.commands.derive import check_log, derive
-from tactile.commands.words import add_quiet
 from tactile.errors import BoardError, DataError, InputError
-from tactile.files.folder_lock import hold
-from tactile.logs.clock import log_end, show_time
-from tactile.output.textout import fields, printable
-from tactile.payload.live import Following
-from tactile.payload.on_board import OnBoard
-from tactile.payload.orientation import Orientations
+from tactile.files.writing import hold
+from tactile.logs.tags import log_end, show_time
+from tactile.output.text import fields, printable
+from tactile.payload.apply import Following, OnBoard, Orientations
 from tactile.payload.tool import read_tool
 from tactile.recording.session import Session
 
@@ -63,7 +68,7 @@ def add_arguments(parser):
         " are removed and contacts gated on the host; needs --pose-log; once per sensor",
     )
     add_quiet(parser)
-    foxglove_args.add_arguments(parser)
+    add_foxglove_arguments(parser)
 
 
 def payload_of(args, log):
@@ -91,7 +96,7 @@ def _run(args):
         raise InputError(f"--duration: {args.duration} is not a positive number of seconds")
     if args.contacts is not None and args.contacts <= 0:
         raise InputError(f"--contacts: {args.contacts} is not a positive count")
-    foxglove_args.check(args)
+    check_foxglove(args)
     if not args.port:
         connect(args)  # raises the 'no port given' message
     until = posed = log = following = None
@@ -99,7 +104,7 @@ def _run(args):
         log, posed, _ = _read_log(args.pose_log)
     tools, orient = payload_of(args, log)
     # a port in use is refused before anything is written
-    live = foxglove_args.start(args, pose_log=posed)
+    live = start_foxglove(args, pose_log=posed)
     follow = None if live is None else live.follow
     if live is not None and tools:
         following = Following(tools, orient, log.clock)
@@ -122,7 +127,7 @@ def _run(args):
             payload=OnBoard(tools) if tools else None,
         )
     except BaseException:
-        foxglove_args.stop(live, quiet=True)
+        stop_foxglove(live, quiet=True)
         raise
     progress = None if args.quiet else Progress(args.duration, args.contacts)
     if progress:
@@ -135,7 +140,7 @@ def _run(args):
     finally:
         if progress:
             progress.close(session)
-        foxglove_args.stop(live)
+        stop_foxglove(live)
     print(printable(summary(meta, args.out)))  # the folder is the user's
     print(printable(time_summary(meta.get("time_base"))))
     _log_not_over(meta, args.pose_log, args.out)
@@ -158,7 +163,7 @@ def _log_again(args, live, following=None):
     """The pose log as it is now the board has answered (and the Foxglove scene and the
     payload's orientations with it); says where the run stops."""
     log, posed, until = _read_log(args.pose_log)
-    foxglove_args.new_pose_log(live, posed)
+    new_pose_log(live, posed)
     if following is not None:
         following.orient = Orientations.of_log(log)
     if not args.quiet:

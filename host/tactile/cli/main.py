@@ -1,24 +1,36 @@
 """``tactile`` entry point: parse, run the chosen command, turn its errors into one line.
 
-The commands are those ``tactile.cli.registry`` finds (the CLI's own and those other packages
-register); only the chosen command's module is imported.  A command module defines
-``add_arguments(parser)`` and ``run(args) -> int``; it only parses, calls and prints, and the
-work lives in the library.
+The commands ``tactile`` has: its own (``OWN``), and those other installed packages register
+in the entry-point group ``tactile.commands`` (the simulator's ``emulate`` and ``sim``, the
+studies' ``demo`` and ``study``), found as python-can finds its interfaces.  Each is a
+``Command``: its module (and its ``Verb`` there, for a module that holds several commands),
+imported only when it runs, and the line ``tactile --help`` shows.  The entry points are
+read only when a name is not one of ``OWN``, for ``--help``, and for a port URL whose scheme
+a package serves (group ``tactile.ports``), so the CLI itself never imports the simulator or
+the studies (``tactile.commands``).
+
+A command module defines ``add_arguments(parser)`` and ``run(args) -> int`` (a ``Verb``
+holds the two); it only parses, calls and prints, and the work lives in the library.
+
+``tactile completion bash|zsh|tcsh`` is here too: the shell completion script, made by
+``shtab`` from the whole tree of parsers.  Commands, subcommands, options and choices
+complete; file arguments complete as files.  Load it in bash with ``source <(tactile
+completion bash)`` (docs/cli.md).
 """
 
 import argparse
 import difflib
+import importlib
 import logging
 import os
 import re
 import sys
+from importlib.metadata import entry_points
 
 from tactile import __version__
-from tactile.cli import registry
-from tactile.commands.words import ENV_PORT
-from tactile.errors import TactileError
-from tactile.output.logs import Escaped
-from tactile.output.textout import printable
+from tactile.commands import COMMANDS, ENV_PORT, PORTS, Command, Verb, absent
+from tactile.errors import InputError, TactileError
+from tactile.output.text import Escaped, printable
 
 
 class Parser(argparse.ArgumentParser):
@@ -63,7 +75,7 @@ def did_you_mean(parser, message):
 def _top_parser(names, listed=None):
     """``tactile``'s own parser: ``--version``, and ``COMMAND`` one of ``names`` (None: no
     positional); ``listed`` (name -> Command) are the commands its help lists."""
-    listed = registry.commands() if listed is None else listed
+    listed = commands() if listed is None else listed
     width = max(map(len, listed), default=0)
     lines = [f"  {name:<{width}}  {command.help}" for name, command in listed.items()]
     parser = Parser(
@@ -129,12 +141,12 @@ def _subparsers(parser):
 def full_parser():
     """The whole tree in one parser (every command a subparser), for shell completion:
     ``main`` itself builds only the parser of the command it runs."""
-    listed = registry.commands()
+    listed = commands()
     top = _top_parser(None, listed)
     subs = top.add_subparsers(dest="command", metavar="COMMAND")
     for name in listed:
         try:
-            module, command = registry.load(name)
+            module, command = load(name)
         except TactileError:
             continue  # not in this build
         help_ = command.help
@@ -146,7 +158,7 @@ def full_parser():
 def _logging(verbose):
     """-v: what the tool does (INFO), -vv: every frame and command (DEBUG), on stderr, for
     this call only: returns the undo (``main`` may run many times in one process).  Each
-    line escaped; the libraries the project adopts log here too (``tactile.output.logs``)."""
+    line escaped; the libraries the project adopts log here too (``tactile.output.text``)."""
     logger = logging.getLogger("tactile")
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(Escaped("tactile %(name)s: %(message)s"))
@@ -165,22 +177,22 @@ def _command_named(argv):
     """The command ``argv`` names (its parser refuses another), or None when ``argv`` asks
     for ``tactile``'s own help or version (printed here)."""
     if not argv or argv[0].startswith("-"):
-        _top_parser(registry.names()).parse_args(argv or ["--help"])
+        _top_parser(names()).parse_args(argv or ["--help"])
         return None
     name = argv[0]
-    if name not in registry.OWN:
-        _top_parser(registry.names(), {}).parse_args(argv[:1])  # refuses an unknown name
+    if name not in OWN:
+        _top_parser(names(), {}).parse_args(argv[:1])  # refuses an unknown name
     return name
 
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
-    registry.serve_ports([*argv, os.environ.get(ENV_PORT, "")])
+    serve_ports([*argv, os.environ.get(ENV_PORT, "")])
     name = _command_named(argv)
     if name is None:
         return 0
     try:
-        module, command = registry.load(name)
+        module, command = load(name)
         args = _command_parser(name, module, command.help).parse_args(argv[1:])
         undo = _logging(args.verbose) if args.verbose else None
         try:
@@ -196,6 +208,122 @@ def main(argv=None):
         return 130
     except BrokenPipeError:
         return 0
+
+
+# The CLI's own commands, in the order ``tactile --help`` lists them.
+OWN = {
+    "ports": Command("tactile.cli.cmd_board:PORTS", "list serial ports"),
+    "info": Command("tactile.cli.cmd_board:INFO", "show a board's INFO"),
+    "config": Command("tactile.cli.cmd_board:CONFIG", "set sample rate, contact gate and streams"),
+    "tare": Command("tactile.cli.cmd_board:TARE", "bias the F/T sensor"),
+    "calibrate": Command(
+        "tactile.cli.cmd_calibrate:CALIBRATE", "load a 6x6 calibration matrix onto a sensor"
+    ),
+    "record": Command(
+        "tactile.cli.cmd_record", "record a stream: raw capture, contacts CSV, metadata"
+    ),
+    "live": Command("tactile.cli.cmd_live", "terminal view of force/torque and contact state"),
+    "decode": Command(
+        "tactile.cli.cmd_board:DECODE",
+        "decode a raw byte capture: one message per line (text or --json)",
+    ),
+    "export": Command(
+        "tactile.cli.cmd_export", "write a recording as MCAP (ROS 2) or Parquet for other tools"
+    ),
+    "flash": Command("tactile.cli.cmd_board:FLASH", "copy the firmware onto a MicroPython board"),
+    "ep1": Command("tactile.cli.cmd_ep1", "EP1: curvature at a point from rolling probes (ch. 3)"),
+    "ep2": Command("tactile.cli.cmd_ep2", "EP2: patch fit and shape classification (ch. 4)"),
+    "payload": Command(
+        "tactile.cli.cmd_calibrate:PAYLOAD",
+        "identify the tool's weight (mass, centre of mass, biases)",
+    ),
+    "plot": Command("tactile.cli.cmd_plot", "draw contacts, fitted patches and S/C maps as PNG"),
+    "completion": Command("tactile.cli.main:COMPLETION", "print a bash/zsh/tcsh completion script"),
+}
+
+
+def _plugins():
+    """name -> entry point of each command another package registers (not one of ``OWN``)."""
+    return {e.name: e for e in entry_points(group=COMMANDS) if e.name not in OWN}
+
+
+def names():
+    """Every command's name: the CLI's own, then the registered ones."""
+    return [*OWN, *_plugins()]
+
+
+def commands():
+    """name -> ``Command`` of every command that is installed, in ``names`` order."""
+    found = dict(OWN)
+    for name, entry in _plugins().items():
+        try:
+            found[name] = entry.load()
+        except ModuleNotFoundError as exc:
+            if not absent(exc, entry.module):
+                raise
+    return found
+
+
+def find(name):
+    """The ``Command`` called ``name``."""
+    return OWN[name] if name in OWN else _plugins()[name].load()
+
+
+def load(name):
+    """The module (or ``Verb``) of command ``name``, and its ``Command``; a TactileError (one
+    line) when a module it needs is not installed (a package left out of this build)."""
+    try:
+        command = find(name)
+        path, _, verb = command.module.partition(":")
+        module = importlib.import_module(path)
+        return (getattr(module, verb) if verb else module), command
+    except ModuleNotFoundError as exc:
+        raise TactileError(
+            f"'{name}' is not available in this build: module {exc.name} is not installed"
+        ) from None
+
+
+def serve_ports(words):
+    """Register the pyserial handler of each URL scheme a package serves (group
+    ``tactile.ports``) that one of ``words`` (the arguments, ``$TACTILE_PORT``) names."""
+    if not any("://" in word for word in words):
+        return
+    for entry in entry_points(group=PORTS):
+        if any(f"{entry.name}://" in word for word in words):
+            entry.load()()
+
+
+SHELLS = ("bash", "zsh", "tcsh")
+# Arguments that name a file or a directory: the shell completes paths for them.
+PATHS = {"out", "file", "source", "capture", "run", "scene", "pose_log", "link"}
+
+
+def add_completion_arguments(parser):
+    parser.add_argument("shell", choices=SHELLS, help="the shell to complete in")
+
+
+def _mark_paths(parser, shtab):
+    for action in parser._actions:
+        if action.dest in PATHS:
+            action.complete = shtab.FILE
+        if isinstance(action.choices, dict):  # subcommands
+            for sub in action.choices.values():
+                _mark_paths(sub, shtab)
+
+
+def run_completion(args):
+    try:
+        import shtab
+    except ImportError:  # a dependency since issue 15: an environment from before it
+        raise InputError("shell completion needs shtab: pip install 'shtab>=1.7'") from None
+
+    parser = full_parser()
+    _mark_paths(parser, shtab)
+    print(shtab.complete(parser, shell=args.shell), end="")  # escaped: our own parser's words
+    return 0
+
+
+COMPLETION = Verb(add_completion_arguments, run_completion)
 
 
 if __name__ == "__main__":

@@ -8,13 +8,13 @@ log's header says what it is:
   the ch. 5 SCARA with its wheel probe (eqs. 60-62) -> ``contacts.csv`` (m; tables 5-7 are in
   cm);
 - ``t_start_us,t_end_us,finger,px,py,pz,qw,qx,qy,qz``: a spherical fingertip's sensor pose
-  per window -> ``contacts.csv`` (m); both read by ``tactile.logs.pose``;
+  per window -> ``contacts.csv`` (m); both read by ``tactile.logs.read``;
 - ``probe,t_start_us,t_end_us,dtheta_x,dtheta_y``: EP1 rolling probes (read by
-  ``tactile.logs.probe``, turned into probes by ``tactile.ep1.from_ft``) -> ``probes.csv``.
+  ``tactile.logs.read``, turned into probes by ``tactile.ep1.probes``) -> ``probes.csv``.
 
 The CONTACT frames come from ``capture.bin`` (the recording's source of truth); which of them
-are readings is ``tactile.localize.readings``'s rule.  A log stamped in a host clock (UTC or
-monotonic, ``tactile.logs.clock``) is joined through the time base in ``meta.json``: each
+are readings is ``tactile.localize.contact``'s rule.  A log stamped in a host clock (UTC or
+monotonic, ``tactile.logs.tags``) is joined through the time base in ``meta.json``: each
 frame's board stamp becomes that clock's time (``tactile.recording.timebase.recorded_times``).
 
 When fewer than half the readings are localised, a ``warning:`` line says so and counts
@@ -27,21 +27,19 @@ import pathlib
 import numpy as np
 
 from tactile.board.stream_decoder import decode_bytes
-from tactile.ep1.from_ft import probe_report, probes_from_frames
-from tactile.ep1.probes_csv import format_probes
+from tactile.ep1.probes import format_probes, probe_report, probes_from_frames
 from tactile.errors import DataError, InputError
 from tactile.files import bounded
-from tactile.files.atomic import write_bytes
+from tactile.files.writing import write_bytes
 from tactile.localize import format_contacts
+from tactile.localize.contact import Readings, contact_frames
 from tactile.localize.posed import posed_world_contacts
-from tactile.localize.readings import Readings, contact_frames
-from tactile.logs.clock import clock_of
-from tactile.logs.pose import log_columns, read_pose_log
-from tactile.logs.probe import read_probe_log
+from tactile.logs.read import log_columns, read_pose_log, read_probe_log
+from tactile.logs.tags import clock_of
+from tactile.payload.apply import read_log
 from tactile.payload.compensator import Compensator, words
-from tactile.payload.orientation import read_log
 from tactile.payload.tool import check_device, tool_doc
-from tactile.recording.meta import amend, read_meta
+from tactile.recording.layout import amend, read_meta
 from tactile.recording.timebase import recorded_times
 
 __all__ = ["check_log", "derive"]

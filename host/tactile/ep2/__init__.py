@@ -10,8 +10,7 @@ API::
 See docs/ep2.md for the math, conventions and benchmarks.
 """
 
-from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep
-from tactile.ep2.batch import analyze_patches
+from tactile.ep2.api import PatchResult, analyze_patch, analyze_patches, analyze_sweep
 from tactile.ep2.patch_input import JetOptions, SplineOptions
 
 __all__ = [

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import extent, patch_input
+from tactile.ep2 import patch_input
 from tactile.errors import InputError, where
 from tactile.files import tabular
 from tactile.files.csv_dialect import show
@@ -30,7 +30,7 @@ MAX_ROWS = 200_000_000
 MAX_PATCHES = 2_000_000  # ~250 bytes a patch are kept between the passes
 MAX_ID_CHARS = 64 * 2**20  # the distinct patch ids, all together
 MAX_OPEN_ROWS = tabular.MAX_ROWS  # rows of the patches under way at any line
-# |coordinate| outside these (0 aside) is needed for a spread outside extent's range:
+# |coordinate| outside these (0 aside) is needed for a spread ``spread_problem`` refuses:
 # above 1e300 a side reaches 5e299, under 1e-300 two floats differ by that only below 9e-285
 ODD_COORDINATE = (1e-280, 1e299)
 
@@ -85,17 +85,17 @@ class ContactsFile:
         return CsvBlocks(self.path, REQUIRED, ("finger", "patch"), **self.limits)
 
     def _check_extent(self):
-        """Refuse a patch whose coordinates EP2 cannot represent (``extent``), at the row
+        """Refuse a patch whose coordinates EP2 cannot represent (``spread_problem``), at the row
         that sets its spread; the first such patch in file order.  Only a patch with a
         coordinate near the ends of the float range can have one: those are read again."""
         odd = self._scan.odd
         for code, g in enumerate(self if odd else ()):
-            problem = extent.spread_problem(g.points) if code in odd else None
+            problem = patch_input.spread_problem(g.points) if code in odd else None
             if problem is not None:
                 row, axis, why = problem
                 name = "" if g.patch is None else f"patch {show(g.patch)}: "
                 raise InputError(
-                    f"{where(self.path, g.lines[row], extent.AXES[axis])}: {name}{why}"
+                    f"{where(self.path, g.lines[row], patch_input.AXES[axis])}: {name}{why}"
                 )
             if code == max(odd):
                 return
@@ -103,7 +103,7 @@ class ContactsFile:
 
 class _Scan:
     """The first pass: per patch (code = order of first appearance) its row count, first
-    and last line; the patches with a coordinate where ``extent`` may refuse them; the
+    and last line; the patches with a coordinate where ``spread_problem`` may refuse them; the
     first zero-length normal."""
 
     def __init__(self, path):

@@ -26,7 +26,7 @@ In one's head (thesis §4.5-4.6 made local; §5.1.2's frame):
    noise, and the order above the top, sized as a sphere or cylinder of the measured
    curvature would size it (a circle's z6 = 5 z4^2 / z2).
 
-``fit`` returns a ``jet_estimate.JetStack`` (items 5-6 are ``jet_estimate``'s);
+``fit`` returns a ``jet_answers.JetStack`` (items 5-6 are ``jet_answers``');
 ``jet_answers`` turns it into results and refusals.  Each pass of the fit is a ``JetFit``.
 """
 
@@ -35,8 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import jet_estimate
-from tactile.ep2.jet_terms import design, mv, pick, size, unit, vm
+from tactile.ep2 import jet_answers
+from tactile.ep2.geometry import design, mv, pick, size, unit, vm
 
 TOP_ORDER = 4
 TOP_REDUNDANCY = 1.2  # an order is fitted where the rows are this many times its terms
@@ -138,7 +138,7 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
             break
         live = np.array(again)
         f.put(live, _fit_once(P[live], N[live], keep[live], noise[live], top_cap, limit))
-    return jet_estimate.answer(f, keep, reason, warnings, np.isfinite(noise))
+    return jet_answers.answer(f, keep, reason, warnings, np.isfinite(noise))
 
 
 def _per_patch(v, B):
@@ -151,7 +151,7 @@ def _per_patch(v, B):
 # --- 1. screening and the frame -------------------------------------------------------------
 def _frame(P, N, keep):
     """(origin (B, 3), axes (B, 3, 3), L (B,), centre (B, 2), spread (B,): L, 0 for one point)
-    as ``patch_frame`` builds it, from the contacts kept."""
+    as ``geometry.frame_from_contacts`` builds it, from the contacts kept."""
     w = keep.astype(float)
     z = unit(vm(w, N))
     ref = np.where((np.abs(z[:, :1]) < 0.9), [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
@@ -189,8 +189,9 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
         wp = 1.0 / (s[:, :1] * np.sqrt(1.0 + g2))
         ws = 1.0 / (s[:, 1:] * (1.0 + g2))
         w = np.concatenate([wp, ws, ws], -1) * kk
-        f = _qr_fits(A, b, w, top_cap, n_kept)
-        if rnd == 1 or stated.all():
+        last = rnd == 1 or stated.all()
+        f = _qr_fits(A, b, w, top_cap, n_kept, last)
+        if last:
             break
         sig = _reml(f, s, stated, keep)
     f.origin, f.axes, f.L, f.centre, f.xy, f.g2 = origin, axes, L, centre, np.stack([x, y], -1), g2
@@ -199,18 +200,22 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
     return f
 
 
-def _qr_fits(A, b, w, top_cap, n_kept):
+def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
     """One QR of the weighted jet (columns by degree) and what it says of every order: the
-    residuals and leverages of order o are those of Q's first size(o) columns."""
-    Aw, bw = A * w[..., None], b * w
+    residuals and leverages of order o are those of Q's first size(o) columns.  Without
+    ``solve`` (a pass that only sizes the noise) R is not inverted nor the order above the
+    top weighted."""
     p_top = size(top_cap)
-    short = p_top - Aw.shape[1]  # fewer rows than the top jet's terms: zero rows, so R is square
+    short = p_top - A.shape[1]  # fewer rows than the top jet's terms: zero rows, so R is square
     if short > 0:
-        Aw = np.concatenate([Aw, np.zeros((len(Aw), short, Aw.shape[2]))], 1)
-        bw, w = (np.concatenate([v, np.zeros((len(v), short))], 1) for v in (bw, w))
-    cn = np.sqrt(np.sum(Aw[..., :p_top] ** 2, axis=1))
+        A = np.concatenate([A, np.zeros((len(A), short, A.shape[2]))], 1)
+        b, w = (np.concatenate([v, np.zeros((len(v), short))], 1) for v in (b, w))
+    bw = b * w
+    Aw = A * w[..., None] if solve else None  # (with the order above the top: its bias)
+    X = Aw[..., :p_top] if solve else A[..., :p_top] * w[..., None]
+    cn = np.sqrt(np.einsum("bij,bij->bj", X, X))
     cn = np.where(cn > 0, cn, 1.0)
-    Q, R = np.linalg.qr(Aw[..., :p_top] / cn[:, None, :])
+    Q, R = np.linalg.qr(X / cn[:, None, :])
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     top = np.full(len(A), 2)
     quiet = np.full(len(A), 2)
@@ -221,14 +226,14 @@ def _qr_fits(A, b, w, top_cap, n_kept):
         fits = (NOISE_REDUNDANCY * size(o) <= 3 * n_kept) & det
         quiet = np.where(fits & (quiet == o - 1), o, quiet)
     qb = vm(bw, Q)
-    resid, hat, r, h = {}, {}, bw, np.zeros(bw.shape)
+    resid, hat = {}, {}
     for o in range(2, top_cap + 1):
-        cols = slice(size(o - 1) if o > 2 else 0, size(o))
-        r = r - mv(Q[..., cols], qb[:, cols])
-        h = h + np.sum(Q[..., cols] ** 2, -1)
-        resid[o], hat[o] = r, h
+        Qo = Q[..., : size(o)]
+        resid[o] = bw - mv(Qo, qb[:, : size(o)])
+        hat[o] = np.einsum("bij,bij->bi", Qo, Qo)
     ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
-    return JetFit(Q, _upper_inverse(R, d), cn, qb, top, quiet, ok2, Aw, w, resid, hat)
+    Rinv = _upper_inverse(R, d) if solve else None
+    return JetFit(Q, Rinv, cn, qb, top, quiet, ok2, Aw, w, resid, hat)
 
 
 def _upper_inverse(R, d):

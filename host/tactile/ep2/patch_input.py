@@ -3,13 +3,24 @@ duplicates dropped, the contacts centred; shared by ``analyze_patch`` and ``anal
 
 Malformed input raises ``InputError`` naming the contact (or CSV line) and column, or
 the keyword and its CLI option.
+
+The coordinates EP2 represents.  Both fits work in a frame scaled by the patch size L, so
+the fit does not care about the length unit; the way in and out does: a centroid of
+coordinates near 1e308 overflows, and so does a curvature of 1/L for L = 1e-310, or a
+Gaussian curvature 1/L^2 beyond L ~ 1e+-154.  So the contacts' spread (the largest side of
+their bounding box) must lie in [``MIN_SPREAD``, ``MAX_SPREAD``], which keeps every
+reported length and curvature a finite float; outside it ``spread_problem`` says why,
+naming the row that sets the spread (exit 2).  A spread of exactly 0 is left to the fit,
+which refuses it (exit 3).  ``centred`` moves the middle of their box to the origin
+before anything is summed.  Normals need no range: ``geometry.unit_normals`` normalises
+any finite non-zero vector.
 """
 
 from dataclasses import asdict, dataclass, fields, replace
 
 import numpy as np
 
-from tactile.ep2 import extent, patch_frame
+from tactile.ep2 import geometry
 from tactile.errors import InputError
 
 METHODS = ("jet", "spline")
@@ -30,7 +41,7 @@ class JetOptions:
 
     noise_pos: float | None = None
     noise_normal: float | None = None
-    max_normal_angle: float = patch_frame.MAX_NORMAL_ANGLE_DEG
+    max_normal_angle: float = geometry.MAX_NORMAL_ANGLE_DEG
     break_angle: float = BREAK_ANGLE_DEG
     grid: int = 8
     intervals: bool = True
@@ -90,7 +101,7 @@ def prepare(points, normals, finger, lines, kw):
     )  # fmt: skip
     rows = np.arange(len(pts))
     pts, nrm, finger, lines, rows, dropped = _drop_duplicates(pts, nrm, finger, lines, rows)
-    pts, middle = extent.centred(pts)  # the frame's origin moves back in ``api.from_fields``
+    pts, middle = centred(pts)  # the frame's origin moves back in ``api.from_fields``
     (breaks,) = find_breaks(nrm[None], [finger], kw["break_angle"])
     check_order(method, order)
     opts = options(kw, lines)
@@ -102,8 +113,22 @@ def row_names(lines, rows=None):
     """How messages name the fitted contacts: their CSV lines, their row numbers in the input
     (where duplicates were dropped) or None (as numbered)."""
     if lines is not None:
-        return [f"line {n}" for n in lines]
-    return None if rows is None else [f"contact {int(n)}" for n in rows]
+        return RowNames("line", lines)
+    return None if rows is None else RowNames("contact", [int(n) for n in rows])
+
+
+class RowNames:
+    """Fitted contact k's name, ``names[k]``, made only when a message asks for it (most
+    patches name none)."""
+
+    def __init__(self, word, numbers):
+        self.word, self.numbers = word, numbers
+
+    def __getitem__(self, k):
+        return f"{self.word} {self.numbers[k]}"
+
+    def __len__(self):
+        return len(self.numbers)
 
 
 def check_order(method, order):
@@ -134,12 +159,12 @@ def validate(points, normals, method, weighting, lines=None):
         raise InputError(too_many_rows(len(pts)))
     if not (np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm))):
         raise InputError("points and normals must be finite numbers")
-    problem = extent.spread_problem(pts)
+    problem = spread_problem(pts)
     if problem is not None:
         row, axis, why = problem
         at = f"contact {row}" if lines is None else f"line {lines[row]}"
-        raise InputError(f"{at}: column '{extent.AXES[axis]}': {why}")
-    return pts, patch_frame.unit_normals(nrm)
+        raise InputError(f"{at}: column '{AXES[axis]}': {why}")
+    return pts, geometry.unit_normals(nrm)
 
 
 def too_many_rows(n):
@@ -157,7 +182,7 @@ def check_options(pts, noise_pos, noise_normal, grid, segments, max_angle, break
         option = "--" + name.replace("_", "-")
         return InputError(f"{name} ({option}): must be {rule}, got {value!r}")
 
-    top = MAX_NOISE_SPREADS * 2.0 * float(extent.box(pts)[1].max())
+    top = MAX_NOISE_SPREADS * 2.0 * float(box(pts)[1].max())
     if noise_pos is not None and not 0.0 <= noise_pos <= top:
         rule = f"a number >= 0 and at most {MAX_NOISE_SPREADS:g} contact spreads ({top:.3g})"
         raise refuse("noise_pos", rule, noise_pos)
@@ -244,3 +269,53 @@ def split_parts(n_rows, finger, breaks):
         for r in rows_cut:
             part[rows[rows >= r]] += 1
     return [np.flatnonzero(part == k) for k in range(part.max() + 1) if np.any(part == k)]
+
+
+MIN_SPREAD = 1e-300
+MAX_SPREAD = 1e300
+AXES = "xyz"
+
+
+def box(points):
+    """(middle (3,), half sides (3,)) of the points' bounding box, without overflow."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    return 0.5 * lo + 0.5 * hi, 0.5 * hi - 0.5 * lo
+
+
+def spread_problem(points):
+    """None, or (row, axis index, message) when the spread is outside the range EP2 holds.
+
+    ``row`` is the contact that sets the spread along ``axis`` (the one farthest from the
+    median there), so a single wild coordinate is named.
+    """
+    pts = np.asarray(points, float)
+    if not len(pts):
+        return None
+    _, half = box(pts)
+    axis = int(np.argmax(half))
+    h = float(half[axis])
+    if h == 0.0 or MIN_SPREAD <= 2.0 * h <= MAX_SPREAD:
+        return None
+    col = pts[:, axis]
+    med = float(np.median(col))
+    row = int(np.argmax(np.abs(0.5 * col - 0.5 * med)))
+    span = f"{2.0 * h:.3g}" if h < 8.9e307 else "more than 1.8e+308"
+    if 2.0 * h > MAX_SPREAD:
+        why = (
+            f"the contacts spread over {span} along {AXES[axis]}, beyond the {MAX_SPREAD:g}"
+            f" EP2 can represent ({AXES[axis]} = {col[row]:.6g} here): check that value, or"
+            " use a larger length unit"
+        )
+    else:
+        why = (
+            f"the contacts spread over only {span}, under the {MIN_SPREAD:g} EP2 can"
+            " represent: use a smaller length unit"
+        )
+    return row, axis, why
+
+
+def centred(points):
+    """(points - middle of their box, middle): nothing downstream sums raw coordinates."""
+    pts = np.asarray(points, float)
+    middle, _ = box(pts)
+    return pts - middle, middle

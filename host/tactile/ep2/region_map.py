@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2 import edges, patch_frame
-from tactile.ep2.batch import analyze_patches
+from tactile.ep2 import edges, geometry
+from tactile.ep2.api import analyze_patches
 from tactile.errors import DataError, InputError
 
 NEIGHBOURS = 12
@@ -132,7 +132,7 @@ def map_contacts(points, normals, finger=None, *, neighbours_k=NEIGHBOURS,
     pts = np.asarray(points, float)
     if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) < min_region:
         raise InputError(f"a map needs (n, 3) points, n >= {min_region}; got {pts.shape}")
-    nrm = patch_frame.unit_normals(np.asarray(normals, float))
+    nrm = geometry.unit_normals(np.asarray(normals, float))
     nb = neighbours(pts, neighbours_k)
     links = np.column_stack([np.repeat(np.arange(len(pts)), nb.shape[1]), nb.ravel()])
     crease = np.sum(nrm[links[:, 0]] * nrm[links[:, 1]], axis=1) < np.cos(np.radians(edge_angle))

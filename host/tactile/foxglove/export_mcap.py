@@ -22,7 +22,7 @@ written through the same declarations (``tactile.foxglove.topics``) into an ``Mc
   ``tactile`` says which, and why, with the units, topics and source.
 
 foxglove-sdk is the ``export`` extra, imported only here (``require_mcap``); its log lines
-go where the live server's go (``tactile.foxglove.sinks.sdk``).
+go where the live server's go (``tactile.foxglove.topics.sdk``).
 """
 
 import json
@@ -31,16 +31,17 @@ import pathlib
 import numpy as np
 
 from tactile import __version__
-from tactile.files.atomic import atomic_write
+from tactile.files.writing import atomic_write
 from tactile.foxglove import scene
-from tactile.foxglove.live_contacts import entered
-from tactile.foxglove.sinks import McapSink, sdk
+from tactile.foxglove.live_scene import entered
 from tactile.foxglove.topics import (
     CONTACTS_TOPIC,
     PATCH_TOPIC,
     TF_TOPIC,
+    McapSink,
     Topics,
     contact_topic,
+    sdk,
     sensor_frame,
     wrench_topic,
 )
@@ -69,7 +70,7 @@ def stamps_ns(rec):
 
 def write_mcap(rec, path, pose_log=None):
     """Write ``rec`` (a ``RecordingData``) to the MCAP file ``path``, replacing it whole
-    (``tactile.files.atomic``); ``pose_log`` (a ``PoseLog``) adds the sensors'
+    (``tactile.files.writing``); ``pose_log`` (a ``PoseLog``) adds the sensors'
     transforms.  Returns a summary dict (topics and message counts, the stamps' clock and
     why, the patch's record)."""
     fox = require_mcap()

@@ -1,6 +1,6 @@
 """A Foxglove WebSocket server of a board's frames, as ``tactile live`` and ``record`` run.
 
-``LiveServer`` starts a ``WebSocketSink`` (``tactile.foxglove.sinks``: foxglove-sdk's server,
+``LiveServer`` starts a ``WebSocketSink`` (``tactile.foxglove.topics``: foxglove-sdk's server,
 the ``foxglove`` extra, imported only here, only when asked) on a context of its own and
 logs the topics of ``tactile.foxglove.topics``, the same as the MCAP export: per sensor the
 wrench (ROS 2 WrenchStamped, CDR) and the contact state.
@@ -15,8 +15,8 @@ With a robot's ``pose_log`` (a ``PoseLog``) the 3D scene is published too: conta
 transforms and the EP2 patch (``tactile.foxglove.live_scene``, off this loop as well).
 
 The SDK's own log lines (a client's bad message, a connection) go to the ``tactile.foxglove``
-logger, escaped and at most ``tactile.output.logs.LINES`` per ``INTERVAL_S``
-(``tactile.foxglove.sinks.sdk``): shown with ``tactile -v``, never raw, never without it.
+logger, escaped and at most ``tactile.output.text.LINES`` per ``INTERVAL_S``
+(``tactile.foxglove.topics.sdk``): shown with ``tactile -v``, never raw, never without it.
 
 Start-up: ``tactile live`` imports this module whether or not it serves, so what needs
 NumPy (the scene, the arrivals' fit) is imported when first used.
@@ -30,8 +30,7 @@ board -> host fit as it stands), else this server's own fit of the arrivals
 import time
 
 from tactile.board.client import info_dict
-from tactile.foxglove.sinks import WebSocketSink, Worker, sdk
-from tactile.foxglove.topics import Topics
+from tactile.foxglove.topics import Topics, WebSocketSink, Worker, sdk
 from tactile_protocol import constants as C
 from tactile_protocol.settings import wrench_si
 

@@ -19,8 +19,7 @@ logged on the SDK's typed channels (``Topics.scene``): the same protobuf schema 
 import numpy as np
 
 from tactile.ep2.api import analyze_sweep
-from tactile.errors import DataError, InputError
-from tactile.extras import need
+from tactile.errors import DataError, InputError, need
 from tactile.foxglove.topics import WORLD_FRAME, sensor_frame
 
 ARROW_M = 0.01  # drawn length of a contact normal (m)

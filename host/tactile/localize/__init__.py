@@ -3,24 +3,29 @@
 Conventions (docs/localize.md): wrenches are the load ON THE PROBE (ATI's convention) in the
 sensor frame, moments about the sensor origin; returned normals are the OBJECT's outward
 normals (from the object toward the probe), as the EP2 contacts CSV expects.  The robot's
-pose log is read by ``tactile.logs.pose``; which CONTACT frames are readings is
+pose log is read by ``tactile.logs.read``; which CONTACT frames are readings is
 ``readings``.
 """
 
-from tactile.localize.contact import STATUS, Contact
-from tactile.localize.contacts_csv import format_contacts
-from tactile.localize.kinematics import (
+from tactile.localize.contact import STATUS, Contact, Readings, contact_frames
+from tactile.localize.posed import posed_world_contacts, sensor_poses
+from tactile.localize.probes import (
+    rim_contact,
+    sphere_contact,
+    sphere_contact_frictionless,
+    wheel_contact,
+    wheel_theta,
+)
+from tactile.localize.world import (
     eq62,
+    format_contacts,
     pose_from_matrix,
     pose_from_quaternion,
+    posed_contacts,
+    scara_contacts,
     scara_pose,
     to_world,
 )
-from tactile.localize.pipeline import posed_contacts, scara_contacts
-from tactile.localize.posed import posed_world_contacts, sensor_poses
-from tactile.localize.readings import Readings, contact_frames
-from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
-from tactile.localize.wheel import rim_contact, wheel_contact, wheel_theta
 
 __all__ = [
     "Contact",

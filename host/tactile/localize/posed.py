@@ -1,6 +1,6 @@
 """CONTACT frames placed in the world through a robot's pose log (§5.1.1, §5.1.2).
 
-The log itself (formats, clocks, reading) is ``tactile.logs.pose``; ``sensor_poses`` turns
+The log itself (formats, clocks, reading) is ``tactile.logs.read``; ``sensor_poses`` turns
 its windows into sensor poses (R, t).  ``posed_world_contacts`` takes the decoded CONTACT
 frames (time, sensor, wrench), finds the window of each frame's finger that covers it,
 localises the contact on the probe from force
@@ -25,9 +25,8 @@ import numpy as np
 
 from tactile.errors import InputError
 from tactile.localize.contact import NO_CONTACT
-from tactile.localize.kinematics import pose_from_quaternion, scara_pose
-from tactile.localize.pipeline import posed_contacts, scara_contacts
-from tactile.localize.sphere import sphere_contact
+from tactile.localize.probes import sphere_contact
+from tactile.localize.world import pose_from_quaternion, posed_contacts, scara_contacts, scara_pose
 
 __all__ = [
     "PoseReport",
@@ -43,7 +42,7 @@ __all__ = [
 # the thesis's sensor noise a fingertip normal has ~6 deg at 5 N, so 10 deg keeps every frame
 # at the working force and drops those below ~3 N (load ramps).  A kept normal then stays
 # within 3.5 rms (35 deg; 1 frame in 2e5) of the truth, which with a sweep's own 34 deg of
-# normal spread stays inside EP2's 70 deg consistency limit (tactile.ep2.patch_frame).
+# normal spread stays inside EP2's 70 deg consistency limit (tactile.ep2.geometry).
 MAX_NORMAL_SD_DEG = 10.0
 
 

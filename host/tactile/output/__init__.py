@@ -1,3 +1,3 @@
-"""What the host shows: ``textout`` (terminal text, device and file strings escaped),
-``jsonout`` (JSON with null for what is not known, never NaN), ``plots`` (figures with
-units on every axis)."""
+"""What the host shows: ``text`` (terminal text, device and file strings escaped; JSON with
+null for what is not known, never NaN; log lines escaped, a library's rate-limited),
+``plots`` (figures with units on every axis)."""

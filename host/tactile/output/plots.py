@@ -19,12 +19,11 @@ import os
 
 import numpy as np
 
-from tactile.ep2 import extent
-from tactile.ep2.patch_frame import unit_normals
-from tactile.errors import InputError
-from tactile.extras import pyplot
-from tactile.files.atomic import atomic_write
-from tactile.output.textout import printable
+from tactile.ep2 import patch_input
+from tactile.ep2.geometry import unit_normals
+from tactile.errors import InputError, pyplot
+from tactile.files.writing import atomic_write
+from tactile.output.text import printable
 
 __all__ = [
     "colour_limits",
@@ -59,7 +58,7 @@ def require_matplotlib():
 
 def plain_text(text):
     """``text`` from a file, as a label drawn as written: non-printable characters escaped
-    as on the terminal (``tactile.output.textout``), characters the font has no glyph for as
+    as on the terminal (``tactile.output.text``), characters the font has no glyph for as
     ``\\uXXXX`` (matplotlib would warn and draw a box), ``$`` not starting mathtext."""
     have = _glyphs()
     text = printable(str(text))
@@ -88,7 +87,7 @@ def _contacts(points, normals):
     ok = np.all(np.isfinite(pts)) and np.all(np.isfinite(nrm))
     if not (ok and np.all(np.max(np.abs(nrm), axis=1) > 0)):
         raise InputError("points and normals must be finite, normals of non-zero length")
-    problem = extent.spread_problem(pts)
+    problem = patch_input.spread_problem(pts)
     if problem is not None:
         raise InputError(f"contact {problem[0]}: {problem[2]}")
     return pts, unit_normals(nrm)
@@ -96,7 +95,7 @@ def _contacts(points, normals):
 
 def _span(points):
     """Largest side of the points' box (at least 1e-300), without overflow."""
-    return float(max(2.0 * extent.box(points)[1].max(), extent.MIN_SPREAD))
+    return float(max(2.0 * patch_input.box(points)[1].max(), patch_input.MIN_SPREAD))
 
 
 class _View:
@@ -108,7 +107,7 @@ class _View:
     def __init__(self, points, span):
         self.e = int(np.floor(np.log10(span)))
         self.unit = 1.0 if SMALLEST <= span <= LARGEST else 10.0**self.e
-        middle = extent.box(np.asarray(points, float))[0]
+        middle = patch_input.box(np.asarray(points, float))[0]
         self.origin = np.where(np.abs(middle) > FAR * span, middle, 0.0)
 
     def __call__(self, p):

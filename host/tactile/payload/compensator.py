@@ -2,8 +2,8 @@
 again on what is left.
 
 Per sensor carrying a tool, each reading (the sensor's SAMPLE frames when the board streams
-them, else its CONTACT frames: ``tactile.payload.holds.reading_rows``) gets the orientation
-of its time (``tactile.payload.orientation``), loses the tool's weight there and the bias
+them, else its CONTACT frames: ``tactile.payload.fit.reading_rows``) gets the orientation
+of its time (``tactile.payload.apply``), loses the tool's weight there and the bias
 (``tactile.payload.drift.BiasTracker``: a tare on the host, then drift tracking), and goes
 through a contact gate of the board's own rules and settings (``tactile_fw.gate``: the
 enter and exit levels, the debounce, x-y or 3-D) on the host.
@@ -29,10 +29,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.board.messages import Contact, Sample
+from tactile.board.stream_decoder import Contact, Sample
 from tactile.errors import InputError
 from tactile.payload.drift import BLOCK_S, BiasTracker
-from tactile.payload.tool_weight import weight
+from tactile.payload.tool import weight
 from tactile_fw import gate as fw_gate
 from tactile_protocol import constants as C
 from tactile_protocol import settings as board_settings

@@ -30,15 +30,54 @@ indistinguishable from a bias.  With s1 >= s2 the singular values of that spread
 
 ``identify`` raises ``DataError`` (exit 3), one line saying what is missing, when s1 or s2 is
 below ``MIN_SPREAD``, or when the mass found is not above its own noise.
+
+**A sensor's readings averaged within each hold** of a pose log, for ``identify``.
+
+Each window of the log is a hold: the robot keeps the unloaded finger still at one pose.
+Its edges are trimmed (``trim``, a fraction of the window at each end: the arm settling,
+a log's stamps a little off), and the readings left are averaged.  A hold with fewer than
+``min_readings`` readings left is dropped, and said so.
+
+A board streaming both SAMPLE and CONTACT frames sends each reading in contact twice; the
+readings of a sensor are its SAMPLE frames when it has any, else its CONTACT frames
+(``reading_rows``).
+
+**``identify_run(RUN, LOG)``**: a tool identified from a recording of the unloaded finger held
+at the poses of a robot's pose log (``tactile payload identify``).
+
+The recording is read with ``tactile.load_recording``; each reading's time is taken in the
+log's clock (the board's stamps, or the host times of the recording's time base); the
+sensor's readings are averaged within each hold (``tactile.payload.fit``) and the tool is
+fitted to the means (``tactile.payload.fit.identify``).  The tool belongs to the sensor the
+log's windows name and to the calibration id that sensor reported in the recording's INFO.
+
+A log without orientations (no ``qw,qx,qy,qz``: a probe log, or any other CSV) is bad input
+(``InputError``, exit 2); poses that do not determine the fit are ``DataError`` (exit 3).
 """
+
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.errors import DataError
-from tactile.payload.tool import GRAVITY, MAX_MASS_KG, Tool
-from tactile.payload.tool_weight import gravity_in_sensor
+from tactile.errors import DataError, InputError
+from tactile.logs.read import GENERIC, SCARA, log_columns, read_pose_log
+from tactile.payload.apply import ANY, Orientations
+from tactile.payload.tool import GRAVITY, MAX_MASS_KG, Tool, gravity_in_sensor
+from tactile.recording.load import load_recording
 
-__all__ = ["MIN_POSES", "MIN_SPREAD", "identify", "spread"]
+__all__ = [
+    "MIN_POSES",
+    "MIN_SPREAD",
+    "identify",
+    "spread",
+    "MIN_READINGS",
+    "TRIM",
+    "Holds",
+    "hold_means",
+    "reading_rows",
+    "identify_run",
+    "pose_log_with_orientations",
+]
 
 MIN_POSES = 3  # the torque block has 6 unknowns: 3 poses leave 3 degrees of freedom
 # rms spread of the unit gravity directions below which they are taken as one (s1) or as on
@@ -160,3 +199,135 @@ def identify(R_list, F_mean, T_mean, g=GRAVITY, sensor=0, cal_id=0, identified_f
         poses=n,
         identified_from=identified_from,
     )
+
+
+TRIM = 0.2  # of each window, at each end
+MIN_READINGS = 5
+
+
+@dataclass
+class Holds:
+    """Per kept hold: ``R`` (k, 3, 3), mean force ``F`` (k, 3) N and torque ``T`` (k, 3) N*m,
+    ``count`` (k,) readings averaged, ``sd`` (k, 6) their standard deviations, ``lines`` the
+    log's line of each; ``dropped`` [(line, why)] of the holds left out."""
+
+    R: np.ndarray
+    F: np.ndarray
+    T: np.ndarray
+    count: np.ndarray
+    sd: np.ndarray
+    lines: list
+    dropped: list = field(default_factory=list)
+
+    def __len__(self):
+        return len(self.count)
+
+
+def reading_rows(sensor, is_sample, s):
+    """Indices of sensor ``s``'s readings among frames of ``sensor`` (n,) and ``is_sample``
+    (n,) bool (SAMPLE, else CONTACT): its SAMPLE frames if it has any, else its CONTACT ones."""
+    mine = np.asarray(sensor) == s
+    samples = mine & np.asarray(is_sample, dtype=bool)
+    return np.flatnonzero(samples if samples.any() else mine)
+
+
+def hold_means(t_us, wrench, t_start, t_end, R, lines, trim=TRIM, min_readings=MIN_READINGS):
+    """``Holds`` of readings at ``t_us`` (n,) with ``wrench`` (n, 6) (one sensor's, in the
+    log's clock) over windows ``t_start``, ``t_end`` (k,) held at ``R`` (k, 3, 3)."""
+    if not 0 <= trim < 0.5:
+        raise ValueError(f"trim: {trim!r} is not a fraction of a window in [0, 0.5)")
+    t = np.asarray(t_us, dtype=np.int64)
+    W = np.asarray(wrench, dtype=float).reshape(-1, 6)
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    keep, means, sds, counts, dropped = [], [], [], [], []
+    for i, (a, b) in enumerate(zip(np.asarray(t_start), np.asarray(t_end))):
+        cut = trim * (b - a)
+        lo = np.searchsorted(ts, a + cut, side="left")
+        hi = np.searchsorted(ts, b - cut, side="right")
+        rows = order[lo:hi]
+        if len(rows) < min_readings:
+            dropped.append(
+                (lines[i], f"{len(rows)} readings in the hold (fewer than {min_readings})")
+            )
+            continue
+        keep.append(i)
+        means.append(W[rows].mean(axis=0))
+        sds.append(W[rows].std(axis=0))
+        counts.append(len(rows))
+    mean = np.array(means).reshape(-1, 6)
+    return Holds(
+        R=np.asarray(R, dtype=float)[keep].reshape(-1, 3, 3),
+        F=mean[:, :3],
+        T=mean[:, 3:],
+        count=np.array(counts, dtype=int),
+        sd=np.array(sds).reshape(-1, 6),
+        lines=[lines[i] for i in keep],
+        dropped=dropped,
+    )
+
+
+def pose_log_with_orientations(path):
+    """The ``PoseLog`` at ``path`` if it gives the sensor's orientation (a generic pose log's
+    quaternions, or a SCARA log's joints), else InputError saying so."""
+    names = set(log_columns(path))
+    if not ({"qw", "qx", "qy", "qz"} <= names or set(SCARA[3:]) <= names):
+        raise InputError(
+            f"{path}: the log has no orientations: the sensor's pose at each hold is needed,"
+            f" columns {','.join(GENERIC)}"
+        )
+    return read_pose_log(path)
+
+
+def _sensor_of(orient, sensor, log_path):
+    """The sensor to identify: ``sensor`` if given (and in the log), else the log's only one."""
+    found = orient.sensors()
+    if sensor is not None:
+        if not orient.covers(sensor):
+            raise InputError(f"{log_path}: no window of sensor {sensor} (the log has {found})")
+        return int(sensor)
+    if found == [ANY]:
+        return 0
+    if len(found) != 1:
+        raise InputError(f"{log_path}: windows of sensors {found}: choose one (--sensor)")
+    return found[0]
+
+
+def _cal_id(rec, sensor):
+    device = rec.meta.get("device")
+    ids = device.get("cal_ids") if isinstance(device, dict) else None
+    if not isinstance(ids, list) or sensor >= len(ids) or not isinstance(ids[sensor], int):
+        raise InputError(
+            f"{rec.path}: meta.json has no calibration id of sensor {sensor} (no device INFO),"
+            " so the tool cannot say which calibration it was measured with"
+        )
+    return ids[sensor]
+
+
+def identify_run(run, pose_log, sensor=None, g=GRAVITY, trim=TRIM):
+    """(``Tool``, ``Holds``): the tool identified from recording ``run`` (a ``tactile
+    record`` folder) held at the poses of ``pose_log`` (module docstring)."""
+    log = pose_log_with_orientations(pose_log)
+    orient = Orientations.from_pose_log(log)
+    s = _sensor_of(orient, sensor, pose_log)
+    rec = load_recording(run)
+    t_us, known = rec.times_in(log.clock)
+    rows = reading_rows(rec.sensor, ~rec.is_contact, s)
+    rows = rows[known[rows]]
+    t0, t1, R = orient.held_windows(s)
+    lines = [log.lines[i] for i in _window_rows(log, s)]
+    holds = hold_means(t_us[rows], rec.wrench[rows], t0, t1, R, lines, trim)
+    if len(holds) == 0:
+        raise DataError(
+            f"{run}: no readings of sensor {s} inside the pose log's holds (a log of another"
+            " run? a board streaming only contacts: tactile config --streams samples,contacts)"
+        )
+    source = f"{run} at the poses of {pose_log}"
+    tool = identify(holds.R, holds.F, holds.T, g, s, _cal_id(rec, s), source)
+    return tool, holds
+
+
+def _window_rows(log, sensor):
+    """The log's rows of ``sensor``'s windows in time order (``Orientations`` order)."""
+    rows = np.arange(len(log)) if log.kind == "scara" else np.flatnonzero(log.finger == sensor)
+    return rows[np.argsort(log.t_start[rows], kind="stable")]

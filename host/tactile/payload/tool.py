@@ -1,7 +1,7 @@
 """A tool (what hangs between the sensor and the contact) as the payload model sees it, and
 its file, ``tool.json``.
 
-The model (``tactile.payload.tool_weight``): in the sensor frame, at orientation R of the sensor
+The model (``weight`` below): in the sensor frame, at orientation R of the sensor
 in the world, the sensor reads the tool's weight and a bias,
 
     F = m R^T g + b_F                     (N)
@@ -18,8 +18,18 @@ tool.json is one JSON object with exactly those keys (each key names its unit), 
 pose log).  ``read_tool`` refuses anything else: an unknown or missing key, a value that is
 not a finite number in range, a vector of the wrong length; one line naming the file and
 the field (``InputError``, exit 2).  ``write_tool`` replaces the file whole
-(``tactile.files.atomic``).  ``check_device`` refuses a tool for another sensor or another
+(``tactile.files.writing``).  ``check_device`` refuses a tool for another sensor or another
 calibration than the board's (``InputError``).
+
+**The tool's weight** in the sensor frame, and a wrench with it removed.
+
+``weight(R, tool)`` is the wrench the tool's weight puts on the sensor at orientation R (the
+sensor frame's axes in the world's, (..., 3, 3)): F_w = m R^T g, T_w = c x F_w
+(``Tool`` above).  ``compensate(wrench, R, tool, bias)`` is the wrench less that
+weight and less the bias: what the contact alone applies.  ``tare_bias(reading, R, tool)``
+is the bias a reading taken out of contact at orientation R gives: the reading less the
+tool's weight there (not the whole reading, which is what a TARE on the board takes, and
+which holds at that one orientation only).
 """
 
 import json
@@ -29,10 +39,22 @@ import numpy as np
 
 from tactile.errors import InputError
 from tactile.files import bounded
-from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.files.writing import write_bytes
+from tactile.output.text import printable
 
-__all__ = ["FORMAT", "GRAVITY", "Tool", "check_device", "read_tool", "tool_doc", "write_tool"]
+__all__ = [
+    "FORMAT",
+    "GRAVITY",
+    "Tool",
+    "check_device",
+    "read_tool",
+    "tool_doc",
+    "write_tool",
+    "compensate",
+    "gravity_in_sensor",
+    "tare_bias",
+    "weight",
+]
 
 FORMAT = 1  # "tactile_tool": the version of tool.json's layout
 GRAVITY = (0.0, 0.0, -9.81)  # m/s^2 in the robot's world frame, z up
@@ -213,3 +235,31 @@ def check_device(tool, device, where_from):
             f" {tool.sensor}, but that sensor reports id {got}: identify the tool again"
             " (tactile payload identify) with this calibration"
         )
+
+
+def gravity_in_sensor(R, g):
+    """R^T g (..., 3): the world's gravity ``g`` (3,) in the sensor frame, m/s^2."""
+    R = np.asarray(R, dtype=float)
+    return np.einsum("...ji,j->...i", R, np.asarray(g, dtype=float))
+
+
+def weight(R, tool):
+    """(..., 6): the force (N) and torque (N*m, about the sensor's origin) the tool's weight
+    applies at orientations ``R`` (..., 3, 3)."""
+    F = tool.mass_kg * gravity_in_sensor(R, tool.gravity_m_s2)
+    T = np.cross(np.broadcast_to(tool.com_m, F.shape), F)
+    return np.concatenate([F, T], axis=-1)
+
+
+def compensate(wrench, R, tool, bias=None):
+    """``wrench`` (..., 6) in N and N*m less the tool's weight at ``R`` (..., 3, 3) and less
+    ``bias`` (6,) or (..., 6) (default: the tool's identified biases)."""
+    b = tool.bias if bias is None else np.asarray(bias, dtype=float)
+    return np.asarray(wrench, dtype=float) - weight(R, tool) - b
+
+
+def tare_bias(reading, R, tool):
+    """The bias (6,) of ``reading`` (6,) (N, N*m; a mean taken out of contact, or (n, 6)
+    readings, averaged) at orientation ``R`` (3, 3): the reading less the tool's weight."""
+    r = np.asarray(reading, dtype=float).reshape(-1, 6).mean(axis=0)
+    return r - weight(np.asarray(R, dtype=float).reshape(3, 3), tool)

@@ -2,14 +2,14 @@
 the loader and the tabular export.
 
 - ``session``: ``tactile record``'s loop (reconnects, PINGs, stop conditions), with
-  ``board_identity`` (the same board after a reconnection), ``run_clock`` (the run's own time,
-  the host's stalls), ``run_stats`` (its counts) and ``log_end`` (a pose log's end);
-- ``frames``: frames.csv's row, the run's file names, whole lines, the reader;
+  ``run_state``: the same board after a reconnection, the run's own time and the host's
+  stalls, its counts, and a pose log's end;
+- ``layout``: frames.csv's row, the run's file names, whole lines, the reader; meta.json;
 - ``files``: capture.bin, frames.csv, device.jsonl and meta.json as they are written;
-- ``meta``, ``recover``, ``load``: meta.json, runs cut short, ``load_recording``;
+- ``recover``, ``load``: runs cut short, ``load_recording``;
 - ``timebase``, ``timefit``: board time to host time (a robot log in a host clock is joined
   to the frames through it);
-- ``export_parquet``, ``export_target``: the Parquet export, and where an export may write.
+- ``export``: the Parquet export, and where an export may write.
 
 Beside it, not in it: the robot's logs (``tactile.logs``), contacts and probes derived from
 a run (``tactile.commands.derive``), and Foxglove, live and as MCAP (``tactile.foxglove``).

@@ -12,10 +12,10 @@ Files (``tactile record -o DIR``):
   when the recording ends (``rewrite_host``).
 - ``device.jsonl``: the other frames (HELLO, INFO, STATUS, NAK) as JSON lines.
 - ``meta.json``: device INFO, configuration, calibration ids, counters, gaps;
-  replaced whole (``tactile.files.atomic``) every second and at the end.
+  replaced whole (``tactile.files.writing``) every second and at the end.
 
 One writer per directory: a ``Recording`` takes the directory's lock
-(``tactile.files.folder_lock``) before it reads or writes anything in it, making the
+(``tactile.files.writing``) before it reads or writes anything in it, making the
 directory first if need be, and gives it back at ``close``; another process's recording or
 export there is refused (``Busy``, exit 5) having touched nothing.  A session that received
 nothing (no port, no board) is undone by ``discard``: the files it made are removed, the
@@ -31,10 +31,10 @@ A directory that already holds a capture is refused unless ``append`` is set; th
 new bytes follow the old ones and nothing recorded is ever lost: a run cut short has its
 torn last row cut and frames.csv completed from capture.bin first
 (``tactile.recording.recover``), and meta.json keeps one entry per session with totals
-over them (``tactile.recording.meta``).
+over them (``tactile.recording.layout``).
 
 frames.csv's row, the file names, the whole-line helpers and the reader are
-``tactile.recording.frames``, below this module and ``recover``.
+``tactile.recording.layout``, below this module and ``recover``.
 """
 
 import contextlib
@@ -48,9 +48,9 @@ import numpy as np
 
 from tactile import units
 from tactile.errors import InputError
-from tactile.files import atomic, folder_lock
-from tactile.output.jsonout import clean, dumps
-from tactile.recording.frames import (
+from tactile.files import writing
+from tactile.output.text import clean, dumps
+from tactile.recording.layout import (
     CAPTURE,
     DEVICE,
     FRAME_COLUMNS,
@@ -58,11 +58,13 @@ from tactile.recording.frames import (
     META,
     WRITE_ENDS,
     WriteFailed,
+    count_rows,
     cut_torn,
+    document,
     frame_row,
+    previous_sessions,
     put,
 )
-from tactile.recording.meta import count_rows, document, previous_sessions
 from tactile.recording.recover import complete_frames
 from tactile_protocol import constants as C
 
@@ -85,7 +87,7 @@ class Recording:
 
     def __init__(self, outdir, append=False):
         self.dir = pathlib.Path(outdir)
-        self._lock = folder_lock.hold(self.dir, create=True)  # before anything is read
+        self._lock = writing.hold(self.dir, create=True)  # before anything is read
         try:
             self._start(outdir, append)
         except BaseException:
@@ -111,7 +113,7 @@ class Recording:
             self.previous = previous_sessions(
                 self.dir / META, self.capture_offset, self.rows_offset
             )
-        atomic.check_target(self.dir / META)  # replaced whole: a regular file or none
+        writing.check_target(self.dir / META)  # replaced whole: a regular file or none
         self._before = {n: _before(self.dir / n) for n in (CAPTURE, FRAMES, DEVICE)}
         self._open_files(outdir)
         self.frames_offset = (self.dir / FRAMES).stat().st_size  # where this session's rows go
@@ -162,7 +164,7 @@ class Recording:
         path = self.dir / FRAMES
         self._frames.close()
         try:
-            with open(path, "rb") as src, atomic.atomic_write(path) as dst:
+            with open(path, "rb") as src, writing.atomic_write(path) as dst:
                 _copy_bytes(src, dst, self.frames_offset)
                 row = 0
                 while lines := list(itertools.islice(src, REWRITE_ROWS)):
@@ -180,7 +182,7 @@ class Recording:
         path = self.dir / META
         doc = clean(document(self.previous + [session]))
         try:
-            atomic.write_bytes(path, (json.dumps(doc, indent=2, allow_nan=False) + "\n").encode())
+            writing.write_bytes(path, (json.dumps(doc, indent=2, allow_nan=False) + "\n").encode())
         except OSError as exc:  # (atomic's WriteError and PathRefused are OSErrors)
             compact = (json.dumps(doc, separators=(",", ":"), allow_nan=False) + "\n").encode()
             if exc.errno not in WRITE_ENDS or not _overwrite(path, compact):

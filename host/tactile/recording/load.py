@@ -2,11 +2,11 @@
 
 It reads what the recorder wrote, through the modules that own each file:
 
-- ``frames.csv`` (``tactile.recording.frames.read_frames``): one row per SAMPLE or CONTACT frame,
+- ``frames.csv`` (``tactile.recording.layout.read_frames``): one row per SAMPLE or CONTACT frame,
   forces in N, torques in N*m, the board's stamp in us and, from a recorder that maps the
   board's clock to the host's, the host time of each row (``host_monotonic_s``,
   ``host_utc_s``);
-- ``meta.json`` (``tactile.recording.meta``): the sessions and, from such a recorder, the
+- ``meta.json`` (``tactile.recording.layout``): the sessions and, from such a recorder, the
   mapping itself (``time_base``: one line per run of the board's clock);
 - ``contacts.csv`` when there is one (the EP2 contacts CSV, ``tactile.ep2.contacts_csv``):
   world points, converted to metres by its ``# units:`` line, and unit normals.
@@ -43,9 +43,8 @@ from tactile import units
 from tactile.ep2.contacts_csv import REQUIRED
 from tactile.errors import InputError
 from tactile.files.tabular import read_csv
-from tactile.logs.pose import log_columns
-from tactile.recording.frames import META
-from tactile.recording.meta import sessions_of
+from tactile.logs.read import log_columns
+from tactile.recording.layout import META, sessions_of
 from tactile.recording.recover import frames_of, meta_of
 from tactile_protocol import constants as C
 
@@ -142,7 +141,7 @@ class RecordingData:
 
 def load_recording(path):
     """Read the ``tactile record`` directory ``path`` into a ``RecordingData``
-    (``tactile.load_recording`` adds ``payload=``: ``tactile.payload.recorded``).
+    (``tactile.load_recording`` adds ``payload=``: ``tactile.payload.apply``).
 
     Raises ``tactile.errors.InputError`` (a ``ValueError``) naming the file, line and column
     of anything malformed."""

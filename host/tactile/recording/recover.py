@@ -30,20 +30,23 @@ from tactile import units
 from tactile.board.stream_decoder import StreamDecoder
 from tactile.errors import InputError
 from tactile.files.tabular import Table
-from tactile.recording.frames import (
+from tactile.recording.layout import (
     CAPTURE,
     DEVICE,
     FRAME_COLUMNS,
     FRAMES,
+    MAX_META_BYTES,
     META,
     WRITE_ENDS,
+    count_rows,
     cut_torn,
     frame_row,
     put,
     read_frames,
+    read_meta,
+    sessions_of,
     whole_end,
 )
-from tactile.recording.meta import MAX_META_BYTES, count_rows, read_meta, sessions_of
 from tactile_protocol import constants as C
 from tactile_protocol.settings import wrench_si
 

@@ -5,7 +5,7 @@ already, then appends everything it reads.  When the port vanishes (cable pulled
 reset) it records a gap, says so (``on_notice``), waits for the port to come back
 (``reconnect_s``) and carries on with the same decoder, so frames lost in the gap are
 counted from the sequence numbers, but only with the same board: the board id of the run's
-first HELLO (``tactile.recording.board_identity``); another board ends the run
+first HELLO (``tactile.recording.run_state``); another board ends the run
 (``OtherBoard``, exit 4, ``ended`` "other board"), none of its bytes in the files.  A board
 that rebooted (a new boot id) is counted in ``reboots``, not as lost frames, and TAREd
 again.  Ctrl-C ends the recording normally.  Port and clock are injectable for tests.
@@ -29,7 +29,7 @@ A board silent for half a second is PINGed: its ACK's stamp is a point of the fi
 One that answers nothing for ``SILENT_S`` of the host's running time while the port holds
 nothing (a firmware hung after its HELLO) ends the run: a ``BoardError`` (exit 4),
 ``ended`` "board silent", everything received kept.  Silence is never judged across the
-host's own stall (``tactile.recording.run_clock``: Ctrl-Z, a paused VM, a slow disk): the
+host's own stall (``tactile.recording.run_state``: Ctrl-Z, a paused VM, a slow disk): the
 loop first reads what waits on the port, notes the stall in ``pauses``, and starts the
 silence window again.  Times in meta.json are ``RunClock``'s: they never go back.
 ``until`` = (clock, us, how): stop once the pose log's end has passed (``LogEnd``); or a
@@ -44,12 +44,17 @@ from tactile import __version__
 from tactile.board.client import BoardClient
 from tactile.board.serial_port import open_port
 from tactile.errors import BoardError, HostFileError, PortError, PortLost
-from tactile.recording.board_identity import BoardIdentity, Held, OtherBoard
 from tactile.recording.files import Recording, WriteFailed
-from tactile.recording.log_end import LogEnd
-from tactile.recording.meta import session_entry
-from tactile.recording.run_clock import RunClock, stall_words
-from tactile.recording.run_stats import Stats
+from tactile.recording.layout import session_entry
+from tactile.recording.run_state import (
+    BoardIdentity,
+    Held,
+    LogEnd,
+    OtherBoard,
+    RunClock,
+    Stats,
+    stall_words,
+)
 from tactile.recording.timebase import RecordingClock
 from tactile_protocol import constants as C
 
@@ -86,7 +91,7 @@ class Session:
         payload=None,
     ):
         self.port_name = port_name
-        self.payload = payload  # a tactile.payload.on_board.OnBoard: record --payload
+        self.payload = payload  # a tactile.payload.apply.OnBoard: record --payload
         self.duration_s = duration_s
         self.contacts = contacts
         self.want_tare = tare
@@ -429,7 +434,7 @@ class Session:
 
     # -- metadata -------------------------------------------------------------------
     def meta(self):
-        """This session's entry in meta.json (``tactile.recording.meta`` adds the totals)."""
+        """This session's entry in meta.json (``tactile.recording.layout`` adds the totals)."""
         return session_entry(self)
 
     def _write_meta(self):

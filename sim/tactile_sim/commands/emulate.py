@@ -26,18 +26,21 @@ is the same board, rebooted; without, drawn at random, so that two emulators dif
 ``--board-id HEX`` names it.  An emulated Pico's is its flash chip's (one per ``--flash``).
 """
 
+import contextlib
 import pathlib
 import signal
 import sys
 
 from tactile.calib.ati import format_cal
 from tactile.errors import InputError
-from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.files.writing import write_bytes
+from tactile.output.text import printable
+from tactile.robot import parse_address
 from tactile_sim.emulator import load_scene, pty_link
 from tactile_sim.emulator.device import EmulatedBoard, link_board_id
 from tactile_sim.emulator.ft_model import per_volt_matrix
 from tactile_sim.emulator.link_faults import LinkFaults
+from tactile_sim.emulator.robot_server import EmulatedArm, RobotServer, board_waiter
 from tactile_sim.emulator.servers import server_for
 
 
@@ -93,6 +96,12 @@ def add_arguments(parser):
         help="the board's id in HELLO, 16 hex digits (default: one per --link, else random)",
     )
     parser.add_argument(
+        "--robot",
+        metavar="HOST:PORT",
+        help="serve the emulated arm of a commanded scene on this TCP address (port 0: any "
+        "free port; its address is printed) in the line protocol of docs/robot.md",
+    )
+    parser.add_argument(
         "--now",
         action="store_true",
         help="start the scene at once (default: when a host first opens the port)",
@@ -102,13 +111,22 @@ def add_arguments(parser):
 def run(args):
     if args.link:
         pty_link.check(args.link)  # before the scene is built: refuse a file at once
+    robot = parse_address(args.robot) if args.robot is not None else None
     scene = load_scene(args.scene)
+    commanded = _check_robot(scene, robot, args.core)
     link = scene.link or {}
     disconnects = () if args.no_faults else link.get("disconnect", ())
     if args.core in ("qemu", "rp2040") and disconnects:
         raise InputError(f"{scene.path}: [link] disconnect: not served with --core {args.core} "
                          "(the chip owns its port); use --no-faults or another core")  # fmt: skip
     board = EmulatedBoard(scene, core=args.core, board_id=_board_id(args))
+    if commanded:  # the arm runs on the board's clock from the start, whatever hosts do
+        args.now = args.once = True
+
+        def clock():
+            return board.t_us
+
+        arm = EmulatedArm(board.motion, clock, board_waiter(clock), args.pose_log)
     faults = None if args.no_faults else LinkFaults.from_scene(scene.link)
     if args.flash and args.core != "rp2040":
         raise InputError("--flash: only with --core rp2040 (the emulated Pico's flash file)")
@@ -126,17 +144,38 @@ def run(args):
         log(0)
     if args.cal_file:
         _write_cal(scene, args.cal_file)
+    if commanded:
+        robot = RobotServer(arm, *robot)  # (listening before its address is printed)
     path = server.open()
     print(printable(path), flush=True)
+    if commanded:
+        print(printable(robot.address), flush=True)
     when = "now" if args.now else "when a host opens the port"
     if args.core == "rp2040":  # a Pico powers up with its USB cable
         when = "now, running while a host has the port open" if args.fast else "now"
     again = "" if args.once else ", again for each new host"
     print(printable(f"emulating scene '{scene.name}' ({scene.path}) on the {board.core} core, "
                     f"starting {when}{again}; Ctrl-C to stop"), file=sys.stderr)  # fmt: skip
-    with server:  # serves until its duration, the board's end or Ctrl-C; then closes
-        server.wait()
+    with contextlib.ExitStack() as stack:
+        if commanded:
+            stack.enter_context(robot)
+        with server:  # serves until its duration, the board's end or Ctrl-C; then closes
+            server.wait()
     return 0
+
+
+def _check_robot(scene, robot, core):
+    """Whether the scene is commanded; ``--robot`` is for such a scene and it needs one."""
+    kind = scene.motion["kind"]
+    if robot is not None and kind != "commanded":
+        raise InputError(f"--robot: only with a scene of [motion] kind = \"commanded\" "
+                         f"({scene.path} has kind = \"{kind}\")")  # fmt: skip
+    if robot is None and kind == "commanded":
+        raise InputError(f"{scene.path}: a commanded scene moves only when told: add "
+                         "--robot 127.0.0.1:PORT (0: any free port)")  # fmt: skip
+    if robot is not None and core in ("qemu", "rp2040"):
+        raise InputError(f"--robot: served beside the python or c core, not --core {core}")
+    return robot is not None
 
 
 def _board_id(args):
@@ -164,7 +203,7 @@ def _write_log(motion, path, at_us):
     write = getattr(motion, "write_pose_log", None) or getattr(motion, "write_probe_log", None)
     if write is None:
         raise InputError(f"--pose-log: this scene's motion has no robot log ({path})")
-    write(path, at_us)  # tactile.files.atomic: not a file there, exit 2; a disk error, exit 5
+    write(path, at_us)  # tactile.files.writing: not a file there, exit 2; a disk error, exit 5
 
 
 def _write_cal(scene, path):

@@ -1,15 +1,15 @@
 """``tactile sim ep2``: simulate a three-finger EP2 sweep into a contacts CSV.
 
-A family of ``tactile sim`` (``tactile.commands.groups``): the simulator's NumPy models load
+A family of ``tactile sim`` (``tactile.commands``): the simulator's NumPy models load
 when it runs, not when ``tactile sim``'s parser is built."""
 
 import io
 
 from tactile import units
-from tactile.commands.words import add_out
+from tactile.commands import add_out
 from tactile.errors import InputError
-from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.files.writing import write_bytes
+from tactile.output.text import printable
 
 KINDS = ("plane", "cylinder", "concave_cylinder", "sphere", "pit", "saddle", "quadric")
 MAP_OBJECTS = ("box_corner", "capped_cylinder", "rounded_edge", "saddle_map")  # ep2 map's

@@ -11,7 +11,7 @@ sensor (``orientation.rpy_matrix``).  Hold i lasts from i (hold + move) to that 
 whole microseconds, so the pose log's windows and the load agree; the scene ends with the last
 hold.
 
-The robot's log (``write_pose_log``): the sensor-pose format of ``tactile.logs.robot_log``,
+The robot's log (``write_pose_log``): the sensor-pose format of ``tactile.logs``,
 one window per hold and sensor (``finger`` = the board's sensor index), each sensor at the
 world's origin, turned; ``# sensor:`` states the sensor's noise and ``# end:`` the last hold's
 end, where ``tactile record`` stops.
@@ -22,7 +22,7 @@ Keys (types, ranges and defaults in ``scene_schema.MOTION["poses"]``): ``orienta
 
 import numpy as np
 
-from tactile.logs.robot_log import write_log
+from tactile.logs import write_log
 from tactile_sim.emulator.orientation import Track, quaternion, rpy_matrix, turn
 
 
@@ -64,7 +64,7 @@ class PosesMotion:
         ]
 
     def write_pose_log(self, path, at_us=0):
-        """The robot's pose log (``tactile.logs.robot_log``): the holds, the sensor's
+        """The robot's pose log (``tactile.logs``): the holds, the sensor's
         noise and the scene's end; ``at_us``: the board's clock at the scene's start."""
         end_us = at_us + int(self.windows_us[-1, 1])
         rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]

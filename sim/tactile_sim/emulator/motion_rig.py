@@ -14,7 +14,7 @@ Keys: ``object`` (plane, convex, concave), ``passes``, ``points``,
 
 import numpy as np
 
-from tactile.logs.robot_log import write_log
+from tactile.logs import write_log
 from tactile_sim.rig.geometry import FREDDY
 from tactile_sim.rig.objects import ch5_object
 from tactile_sim.rig.schedule import probe_schedule
@@ -30,7 +30,9 @@ class RigMotion:
         rest = [0.0] if lead_in_s > 0 else []
         self.t = np.concatenate([rest, line["t"] + lead_in_s])
         wrench = np.hstack([line["force"], line["moment"]])
-        self.wrench = np.vstack([np.zeros((len(rest), 6)), wrench])
+        # column-major: np.interp takes each column as it is, where a strided one was
+        # copied whole at each call (a ch5 scene: 23k rows, 6 copies per board sample)
+        self.wrench = np.asfortranarray(np.vstack([np.zeros((len(rest), 6)), wrench]))
         self.onset = line["onset"] + lead_in_s
         self.release = line["release"] + lead_in_s
         self.touch = np.concatenate([np.full(len(rest), -1), line["touch"]])
@@ -66,7 +68,7 @@ class RigMotion:
     def write_pose_log(self, path, at_us=0):
         """The robot controller's log: joints per touch, the rig's lengths (m) and the scene's
         end (board us, where ``tactile record`` stops) in comments
-        (``tactile.logs.robot_log``); ``at_us``: the board's clock at the scene's start."""
+        (``tactile.logs``); ``at_us``: the board's clock at the scene's start."""
         end_us = at_us + round(self.duration_s * 1e6)
         rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]
         write_log(path, "scara", rows, rig=self.lengths, end_us=end_us)

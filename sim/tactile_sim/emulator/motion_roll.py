@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from tactile.logs.robot_log import ATTITUDE, write_log
+from tactile.logs import ATTITUDE, write_log
 from tactile_sim.emulator.orientation import Track, quaternion
 from tactile_sim.ep1 import rolling
 from tactile_sim.ep1.probes import measure, simulate_probes
@@ -97,7 +97,7 @@ class RollMotion:
         return int(0.5 * HOLD_FRACTION * 1e6 * float(np.min(np.diff(self.holds, axis=1))))
 
     def write_probe_log(self, path, at_us=0):
-        """The robot's probe log (``tactile.logs.robot_log``; ``tactile.logs.probe`` reads it):
+        """The robot's probe log (``tactile.logs``; ``tactile.logs.read`` reads it):
         the fingertip, the readable half width of a hold and the scene's end in comments;
         ``at_us``: the board's clock at the scene's start."""
         g = self.geometry

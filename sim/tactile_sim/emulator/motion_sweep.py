@@ -45,7 +45,7 @@ Keys (SI units; types, ranges and defaults in ``scene_schema.MOTION["sweep"]``):
 
 import numpy as np
 
-from tactile.logs.robot_log import write_log
+from tactile.logs import write_log
 from tactile_sim.emulator.orientation import Track, quaternion, shortest_turn, turn
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import sweep
@@ -226,11 +226,11 @@ class SweepMotion:
         return rows
 
     def write_pose_log(self, path, at_us=0):
-        """The robot's pose log (``tactile.logs.pose`` reads it), with the
+        """The robot's pose log (``tactile.logs.read`` reads it), with the
         fingertip (``# probe:``), the F/T sensor's noise (``# sensor:``, its datasheet
         accuracy, §5.1.3), by which the host drops frames whose normal is noise, and the
         scene's end (``# end:``), where ``tactile record`` stops
-        (``tactile.logs.robot_log``); ``at_us``: the board's clock at the scene's start."""
+        (``tactile.logs``); ``at_us``: the board's clock at the scene's start."""
         centre, radius, axis = self.probe()
         end_us = at_us + round(self.duration_s * 1e6)
         rows = [(t0 + at_us, t1 + at_us, *rest) for t0, t1, *rest in self.poses()]

@@ -30,7 +30,7 @@ import subprocess
 import sys
 import time
 
-from tactile.output.textout import printable
+from tactile.output.text import printable
 from tactile_protocol.errors import BoardError, InputError, MissingExtra
 from tactile_sim.emulator.cache import cache_dir
 

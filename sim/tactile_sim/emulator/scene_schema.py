@@ -153,6 +153,18 @@ KEYS = tuple(Key(*row) for row in (
     ("motion.sweep", "rest_s", Num(0.0, 3600.0), 1.0, "s", "unloaded before and after (the host TAREs in it)"),
     ("motion.sweep", "roll_deg", ListOf(DEG, 1, C.MAX_SENSORS), [0.0, 30.0, -30.0], "deg", "finger k turned about its pole; one per finger"),
     ("motion.sweep", "wrist", OneOf(("fixed", "normal")), "fixed", "", "fixed: the hand keeps its orientation; normal: it turns each finger's pole along the surface normal, as a 6-axis arm"),
+    ("motion.commanded", "object", OneOf("tactile_sim.ep2.objects:KINDS"), "sphere", "", "EP2 object, its apex at the origin"),
+    ("motion.commanded", "radius_m", Num(0.0, 10.0, True), 0.05, "m", "the object's radius"),
+    ("motion.commanded", "rotation_deg", DEG, 0.0, "deg", "the object turned about its normal"),
+    ("motion.commanded", "tilt_deg", DEG, 0.0, "deg", "the object turned about world x"),
+    ("motion.commanded", "finger_radius_m", LENGTH, 0.012, "m", "spherical fingertip"),
+    ("motion.commanded", "sensor_offset_m", Num(0.0, 1.0), 0.03, "m", "fingertip centre along the sensor's +x, from its origin"),
+    ("motion.commanded", "stiffness_N_m", Num(1.0, 1e9), 20000.0, "N/m", "penalty spring of the contact: a press of f N goes f / stiffness into the object"),
+    ("motion.commanded", "speed_mps", Num(1e-4, 10.0), 0.05, "m/s", "moves and approaches"),
+    ("motion.commanded", "hold_s", Num(0.0, 60.0, True), 0.2, "s", "the hold a touch answers after (the press stays until the next command)"),
+    ("motion.commanded", "home_m", XYZ((Num(-1.0, 1.0),) * 3), [0.0, 0.0, 0.03], "m", "fingertip centre at the start, world frame, pole down"),
+    ("motion.commanded", "workspace_min_m", XYZ((Num(-1.0, 1.0),) * 3), [-0.03, -0.03, -0.03], "m", "the fingertip centre's reach, lower corner, world frame"),
+    ("motion.commanded", "workspace_max_m", XYZ((Num(-1.0, 1.0),) * 3), [0.03, 0.03, 0.06], "m", "... upper corner; each > workspace_min_m's"),
     ("motion.poses", "orientations_deg", ListOf(RPY, 1, 1000), REQUIRED, "deg", "the hand's orientations, each the turn roll about world x, then pitch about y, then yaw about z"),
     ("motion.poses", "hold_s", Num(0.0, 3600.0, True), 1.0, "s", "each orientation held, the fingers unloaded"),
     ("motion.poses", "move_s", Num(0.0, 3600.0), 0.5, "s", "turning from one orientation to the next (shortest arc)"),
@@ -194,6 +206,11 @@ def broken_rules(d):
         period = m["length_m"] / (m["samples"] - 1) / m["speed_mps"]
         if not m["settle_s"] < period:
             yield "[motion] settle_s", f"must be shorter than the time per station ({period:g} s)"
+    if m["kind"] == "commanded":
+        for axis, lo, hi in zip("xyz", m["workspace_min_m"], m["workspace_max_m"]):
+            if not lo < hi:
+                yield "[motion] workspace_max_m", f"{axis} must be > workspace_min_m's ({lo:g})"
+                break
     for k, fault in enumerate(d["sensor_fault"]):
         if fault["sensor"] >= sensors:
             yield f"[[sensor_fault]] #{k + 1} sensor", f"must be < [board] sensors ({sensors})"

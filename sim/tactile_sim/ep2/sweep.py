@@ -10,7 +10,7 @@ axis so the data arrive in a robot frame that is not the patch frame.
 
 import numpy as np
 
-from tactile.files.atomic import atomic_write
+from tactile.files.writing import atomic_write
 
 
 def sweep(

@@ -10,7 +10,7 @@ time and for the probe of fig. 37, in metres (docs/localize.md):
     shaft_radius = 0.004       the shaft hides the rim for |theta| > pi - asin(0.004/0.015)
 
 Forward kinematics here compose planar homogeneous transforms link by link (a route
-independent of the closed form in ``tactile.localize.kinematics``, so tests can compare
+independent of the closed form in ``tactile.localize.world``, so tests can compare
 them).  Inverse kinematics place the wheel centre: ``ik`` for a chosen shaft heading (free
 wrist), ``ik_fixed_wrist`` for a given q3 (Freddy's fixed wrist, §5.1.3).
 """

@@ -30,9 +30,6 @@ class Plane:
         d = (np.asarray(p, float) - np.asarray(self.point, float)) @ n
         return d, np.broadcast_to(n, np.shape(p)).copy()
 
-    def curvature(self):
-        return 0.0
-
 
 @dataclass(frozen=True)
 class VerticalCylinder:
@@ -53,10 +50,6 @@ class VerticalCylinder:
             return self.radius - rho, -radial3
         return rho - self.radius, radial3
 
-    def curvature(self):
-        """Signed normal curvature across the axis: + convex, - concave (issue 3 convention)."""
-        return (-1.0 if self.concave else 1.0) / self.radius
-
 
 @dataclass(frozen=True)
 class Sphere:
@@ -67,9 +60,6 @@ class Sphere:
         rel = np.asarray(p, dtype=float) - np.asarray(self.centre, float)
         rho = np.linalg.norm(rel, axis=-1)
         return rho - self.radius, rel / np.where(rho > 0.0, rho, 1.0)[..., None]
-
-    def curvature(self):
-        return 1.0 / self.radius
 
 
 CH5_OBJECTS = ("plane", "convex", "concave")

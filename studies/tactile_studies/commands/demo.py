@@ -12,8 +12,8 @@ readings and frames lost.
 
 import pathlib
 
-from tactile.commands.words import renamed
-from tactile.output.textout import printable
+from tactile.commands import renamed
+from tactile.output.text import printable
 from tactile_studies import replica
 
 # The surfaces by the one name EP2 labels them with -> the ch. 5 scene's rig object.

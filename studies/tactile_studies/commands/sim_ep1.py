@@ -1,20 +1,21 @@
 """``tactile sim ep1``: simulate EP1's rolling probes on an object, estimate, compare.
 
-A family of ``tactile sim`` (``tactile.commands.groups``), from the studies: it runs the
+A family of ``tactile sim`` (``tactile.commands``), from the studies: it runs the
 host's estimator on the simulator's probes (``tactile_studies.ep1.experiment``), which load
 NumPy and SciPy when it runs, not when ``tactile sim``'s parser is built."""
 
 import math
 
-from tactile.commands.ep1_estimate import (
+from tactile.commands import (
+    add_out,
     add_sensor_arguments,
     check_sensor_arguments,
     print_result,
+    renamed,
 )
-from tactile.commands.words import add_out, renamed
 from tactile.errors import DataError, InputError
-from tactile.files.atomic import write_bytes
-from tactile.output.textout import printable
+from tactile.files.writing import write_bytes
+from tactile.output.text import printable
 
 OBJECTS = (
     "plane",
@@ -86,7 +87,7 @@ def run(args):
             raise InputError(f"object parameter {name}: must be a non-zero number, got {value}")
     import numpy as np
 
-    from tactile.ep1 import estimator, probes_csv  # NumPy and SciPy: a family module (above)
+    from tactile.ep1 import estimator, probes  # NumPy and SciPy: a family module (above)
     from tactile_sim.ep1.surfaces import make
     from tactile_studies.ep1.experiment import run_ep1
 
@@ -97,7 +98,7 @@ def run(args):
     (lo_u, hi_u), (lo_v, hi_v) = obj.chart
     if not (lo_u < args.at[0] < hi_u and lo_v < args.at[1] < hi_v):
         raise InputError(f"--at: {tuple(args.at)} is outside the object's chart {obj.chart}")
-    rows, est, truth, probes = run_ep1(
+    rows, est, truth, rolled = run_ep1(
         obj,
         args.finger_radius,
         args.dtheta,
@@ -108,11 +109,11 @@ def run(args):
         seed=args.seed,
     )
     if args.out:
-        write_bytes(args.out, probes_csv.format_probes(rows))  # a disk error: exit 5
+        write_bytes(args.out, probes.format_probes(rows))  # a disk error: exit 5
     out = est.as_dict()
     out["truth"] = {k: np.asarray(v).tolist() for k, v in truth.items()}
     out["relative_error"] = {k: _rel(out[k], truth[k]) for k in ("kx", "ky", "k1", "k2")}
-    stopped = sorted({s for s in probes.status if s != "done"})
+    stopped = sorted({s for s in rolled.status if s != "done"})
     out["roll_status"] = stopped or ["done"]
     print_result(out, args.json)
     if not args.json:

@@ -3,7 +3,7 @@
 Its families register in the entry-point group ``tactile.commands.study``: ``ep1`` (ch. 3)
 and ``ep2`` (§4.9, tables 5-7)."""
 
-from tactile.commands.groups import add_group, families, run_group
+from tactile.commands import add_group, families, run_group
 
 
 def add_arguments(parser):

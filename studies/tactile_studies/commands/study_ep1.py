@@ -2,15 +2,14 @@
 
 Each writes NAME.csv and NAME.png (fig. 20: NAME_SENSOR.png, one per sensor model) into
 --out, and prints the path of every file it wrote.  A family of ``tactile study``
-(``tactile.commands.groups``): the studies load when one runs.
+(``tactile.commands``): the studies load when one runs.
 """
 
 import os
 
-from tactile.commands.words import add_out, add_quiet
+from tactile.commands import add_out, add_quiet
 from tactile.errors import InputError
-from tactile.output.jsonout import dumps
-from tactile.output.textout import printable
+from tactile.output.text import dumps, printable
 
 
 def _common(parser):
@@ -64,22 +63,21 @@ def _finish(args, name, rows, studies, plot, **plot_kw):
     return 0
 
 
-@_ep1
-def run_noise(args, progress, studies, plots):
-    rows = studies.study_noise(args.finger_radius, args.trials, args.seed, progress=progress)
-    return _finish(args, "ep1-noise", rows, studies, plots.plot_noise)
+def _monte_carlo(kind):
+    """The run of study ``ep1-KIND``: ``study_KIND`` over ``--trials``, then ``plot_KIND``."""
+
+    @_ep1
+    def run(args, progress, studies, plots):
+        study = getattr(studies, f"study_{kind}")
+        rows = study(args.finger_radius, args.trials, args.seed, progress=progress)
+        return _finish(args, f"ep1-{kind}", rows, studies, getattr(plots, f"plot_{kind}"))
+
+    return run
 
 
-@_ep1
-def run_paraboloid(args, progress, studies, plots):
-    rows = studies.study_paraboloid(args.finger_radius, args.trials, args.seed, progress=progress)
-    return _finish(args, "ep1-paraboloid", rows, studies, plots.plot_paraboloid)
-
-
-@_ep1
-def run_resolution(args, progress, studies, plots):
-    rows = studies.study_resolution(args.finger_radius, args.trials, args.seed, progress=progress)
-    return _finish(args, "ep1-resolution", rows, studies, plots.plot_resolution)
+run_noise = _monte_carlo("noise")
+run_paraboloid = _monte_carlo("paraboloid")
+run_resolution = _monte_carlo("resolution")
 
 
 @_ep1

@@ -1,12 +1,12 @@
 """``tactile study ep2-*``: replicas of figs. 30-34 and tables 5-7 as CSV + PNG.
 
 Each prints the path of every file it wrote (``tactile_studies.ep2.studies.run``).  A family
-of ``tactile study`` (``tactile.commands.groups``): the studies load when one runs.
+of ``tactile study`` (``tactile.commands``): the studies load when one runs.
 """
 
-from tactile.commands.words import add_out
+from tactile.commands import add_out
 from tactile.errors import InputError
-from tactile.output.textout import printable, printable_lines
+from tactile.output.text import printable, printable_lines
 
 
 def _add(parser):

@@ -9,7 +9,7 @@ dv from that wrench localised by the host's ``tactile.localize.sphere_contact``.
 
 import numpy as np
 
-from tactile.localize.sphere import sphere_contact, sphere_contact_frictionless
+from tactile.localize.probes import sphere_contact, sphere_contact_frictionless
 from tactile_sim.rig.fingertip import fingertip_uv, fingertip_wrench
 from tactile_sim.rig.sensor import SIGMA_F, SIGMA_M, add_noise
 

@@ -9,15 +9,13 @@ imported when one is called.
 
 import numpy as np
 
-from tactile.extras import pyplot
-from tactile.files.atomic import atomic_write
-from tactile.output.legends import place_legend
-from tactile.output.plots import image_format, log_ticks
+from tactile.errors import pyplot
+from tactile.output.plots import log_ticks
+from tactile_studies.figures import place_legend, save
 
 __all__ = ["plot_noise", "plot_paraboloid", "plot_resolution", "plot_arclength", "plot_optimal"]
 
 FLOOR = 1e-12  # % : smallest error drawn
-DPI = 110
 ERROR_LABEL = "relative curvature error (%)"
 LENGTH = "length unit of R1"
 FLOOR_NOTE = f"(errors truncated at 100 %; below {FLOOR:g} % drawn at {FLOOR:g} %)"
@@ -30,15 +28,6 @@ def _figure(n, width=3.6):
         1, n, figsize=(width * n + 1.6, 3.5), squeeze=False, sharey=True, layout="constrained"
     )
     return plt, fig, axes[0]
-
-
-def _save(plt, fig, path):
-    try:
-        with atomic_write(path) as fh:
-            fig.savefig(fh, format=image_format(path), dpi=DPI)
-    finally:
-        plt.close(fig)
-    return [str(path)]
 
 
 def _percent(y):
@@ -90,7 +79,7 @@ def plot_noise(rows, path):
         lambda v: f"{v:g}",
         "Thesis fig. 16: EP1 on spheres, exact contact sensor, noise in \u0394\u03b8",
     )
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 def plot_paraboloid(rows, path):
@@ -108,7 +97,7 @@ def plot_paraboloid(rows, path):
         "Thesis fig. 18: EP1 on paraboloids at (u, v) = (1.0, 0.1), error along u",
         extra=lambda ax: _radius_axis(ax, rows),
     )
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 def _radius_axis(ax, rows):
@@ -138,7 +127,7 @@ def plot_resolution(rows, path):
             f"Thesis fig. 20: EP1 on spheres, no angle noise, '{sensor}' contact-sensor model",
             extra=_quarter_line,
         )
-        written += _save(plt, fig, f"{stem}_{sensor}.png")
+        written += save(plt, fig, f"{stem}_{sensor}.png")
     return written
 
 
@@ -163,7 +152,7 @@ def plot_arclength(rows, path):
     fig.suptitle(
         "Thesis fig. 21: \u0394s for \u0394\u03b8 = 90\u00b0 (\u03c0/2 rad) on spheres", fontsize=10
     )
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 def plot_optimal(rows, path, setup=""):
@@ -191,4 +180,4 @@ def plot_optimal(rows, path, setup=""):
     place_legend(ax)
     title = "Beyond the thesis: EP1 with \u0394\u03b8 chosen per estimate"
     fig.suptitle(title + (f"\n{setup}" if setup else ""), fontsize=10)
-    return _save(plt, fig, path)
+    return save(plt, fig, path)

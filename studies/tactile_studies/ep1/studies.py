@@ -13,7 +13,7 @@ import csv
 import numpy as np
 
 from tactile.ep1.estimator import estimate_batch
-from tactile.files.atomic import atomic_write
+from tactile.files.writing import atomic_write
 from tactile_sim.ep1.probes import measure, simulate_probes, sphere_plus_probes, tile
 from tactile_sim.ep1.rolling import roll
 from tactile_sim.ep1.surfaces import fingertip, local, paraboloid, sphere

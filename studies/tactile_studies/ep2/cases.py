@@ -23,7 +23,7 @@ general quadrics (k1 != -k2, both signs); 27 or 36 contacts; noise 0-0.03, the
 same sigma on each position coordinate (base unit) and per tangent axis of each
 normal (rad), as ``tactile_sim.ep2.sweep``.  Curvatures follow
 ``tactile_sim.ep2.objects``: positive where convex toward the finger.  Cases whose noise-free
-normals stray more than ``tactile.ep2.patch_frame.MAX_NORMAL_ANGLE_DEG`` from their mean are
+normals stray more than ``tactile.ep2.geometry.MAX_NORMAL_ANGLE_DEG`` from their mean are
 kept but flagged ``steep`` (the library's default refuses them); cases the sweep cannot reach
 (off the sphere, normals beyond ``MAX_ANGLE_DEG``) are shrunk or skipped.
 """
@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from tactile.ep2.patch_frame import MAX_NORMAL_ANGLE_DEG
+from tactile.ep2.geometry import MAX_NORMAL_ANGLE_DEG
 from tactile_sim.ep2 import layouts
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import _tilt_normals

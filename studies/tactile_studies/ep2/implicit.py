@@ -17,7 +17,7 @@ on the tangent plane over |grad F|, W = T^T Hess(F) T / |grad F| (T an orthonorm
 basis), whose eigenvalues are k1 >= k2, positive where the surface is convex toward the
 finger (a sphere touched from outside has +1/R; §2.2's sign as in ``tactile.ep2``).  With
 them S = (2/pi) atan2(k1 + k2, k1 - k2) (§2.4).  Nothing here uses
-``tactile.ep2.surface_geometry`` or a height-field parametrisation: it checks them.
+``tactile.ep2.geometry`` or a height-field parametrisation: it checks them.
 """
 
 from dataclasses import dataclass

@@ -2,7 +2,7 @@
 
 Per patch, in the mean-normal patch frame (z = normalised mean unit normal, x = world x
 projected on the tangent plane, or world y where x is nearly normal, origin the centroid:
-the rule of ``tactile.ep2.patch_frame``, §5.1.2), lengths divided by L (the larger side
+the rule of ``tactile.ep2.geometry``, §5.1.2), lengths divided by L (the larger side
 of the contacts' box) and centred on the box's middle, fit
 
     z = c + g . x + x^T A x / 2
@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2.patch_frame import PatchFrame
+from tactile.ep2.geometry import PatchFrame
 from tactile.errors import DataError
 
 FLOOR = 1e-6  # stated sigmas below this (of L, rad) are taken as this: a weight needs one

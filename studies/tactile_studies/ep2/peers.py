@@ -2,21 +2,21 @@
 
 ``jet``: quadric (2-jet) least squares z = c + g.x + x^T A x / 2 about the patch centre,
 curvature at the centre; ``with_normals`` adds the slope rows weighted 1/sigma as in the
-main fit.  It works in the patch frame of ``tactile.ep2.patch_frame`` and takes its
-curvature from ``surface_geometry``, so only the surface estimate differs.
+main fit.  It works in the patch frame of ``tactile.ep2.geometry`` and takes its
+curvature from ``tactile.ep2.geometry``, so only the surface estimate differs.
 """
 
 import numpy as np
 
-from tactile.ep2 import patch_frame
-from tactile.ep2.surface_geometry import curvatures
+from tactile.ep2 import geometry
+from tactile.ep2.geometry import curvatures
 
 
 def _framed(points, normals):
-    nrm = patch_frame.unit_normals(normals)
-    frame = patch_frame.frame_from_contacts(points, nrm)
+    nrm = geometry.unit_normals(normals)
+    frame = geometry.frame_from_contacts(points, nrm)
     p = frame.to_patch(points)
-    sx, sy = patch_frame.slopes(frame.to_patch_dirs(nrm), 89.0)
+    sx, sy = geometry.slopes(frame.to_patch_dirs(nrm), 89.0)
     return p, sx, sy
 
 

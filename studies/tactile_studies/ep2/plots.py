@@ -10,10 +10,8 @@ when one is called.
 
 import numpy as np
 
-from tactile.extras import pyplot
-from tactile.files.atomic import atomic_write
-from tactile.output.legends import place_legend
-from tactile.output.plots import image_format
+from tactile.errors import pyplot
+from tactile_studies.figures import place_legend, save
 
 __all__ = [
     "plot_cylinder_radius",
@@ -23,7 +21,6 @@ __all__ = [
     "plot_tables",
 ]
 
-DPI = 110
 WEIGHTINGS = ("tangent", "position", "auto")
 ORDER_NAME = {2: "biquadratic", 3: "bicubic", 4: "biquartic"}
 S_LABEL = "S: grid mean \u00b1 STD (dimensionless)"
@@ -43,15 +40,6 @@ def _figure(n, width=3.6, height=3.4, sharey=True, ratios=None):
         gridspec_kw=None if ratios is None else {"width_ratios": ratios},
     )
     return plt, fig, axes[0]
-
-
-def _save(plt, fig, path):
-    try:
-        with atomic_write(path) as fh:
-            fig.savefig(fh, format=image_format(path), dpi=DPI)
-    finally:
-        plt.close(fig)
-    return str(path)
 
 
 def _value(row, key):
@@ -103,7 +91,7 @@ def plot_cylinders(rows, path):
         " grid; bars: \u00b1 STD)",
         fontsize=10,
     )
-    return _save(plt, fig, path)
+    return save(plt, fig, path)[0]
 
 
 def _weighting_label(w, row):
@@ -134,7 +122,7 @@ def plot_rotation(rows, path):
     ax.grid(True, alpha=0.3)
     place_legend(ax, title=f"cylinder radius ({LENGTH}), fit", title_fontsize=8)
     fig.suptitle("Thesis fig. 32: RMS error in S against cylinder rotation", fontsize=10)
-    return _save(plt, fig, path)
+    return save(plt, fig, path)[0]
 
 
 def _radius_figure(rows, path, true_s, what, title):
@@ -156,7 +144,7 @@ def _radius_figure(rows, path, true_s, what, title):
     axes[-1].set_xlabel(f"{what} radius ({LENGTH}; the patch spans 4 x 4)")
     place_legend(axes[0])
     fig.suptitle(f"{title}\n(points: mean of S over the grid; bars: \u00b1 STD)", fontsize=10)
-    return _save(plt, fig, path)
+    return save(plt, fig, path)[0]
 
 
 def plot_cylinder_radius(rows, path):
@@ -203,7 +191,7 @@ def plot_tables(rows, path):
         "Thesis tables 5-7: the ch. 5 experiment in simulation beside the thesis's robot",
         fontsize=10,
     )
-    return _save(plt, fig, path)
+    return save(plt, fig, path)[0]
 
 
 def _surface_title(row):

@@ -17,7 +17,7 @@ import numpy as np
 
 from tactile.ep2 import analyze_patch
 from tactile.errors import DataError
-from tactile.files.atomic import atomic_write
+from tactile.files.writing import atomic_write
 from tactile_sim.ep2.objects import make
 from tactile_sim.ep2.sweep import sweep
 from tactile_studies.ep2 import plots

@@ -1,6 +1,6 @@
 """True curvature of a sim height field AT THE PATCH CENTRE (the EP2 estimand).
 
-The patch frame is the library's (``tactile.ep2.patch_frame.frame_from_contacts``:
+The patch frame is the library's (``tactile.ep2.geometry.frame_from_contacts``:
 origin at the centroid, z = mean unit normal); the patch centre is the middle of
 the contacts' bounding box in patch-frame x, y.  The true surface point is where
 the patch-frame z line through that centre meets the surface (1-D Newton root).
@@ -13,14 +13,14 @@ first and second fundamental forms (§2.2): with p, q = h_x, h_y and W^2 = 1 + p
 
 signed positive where the surface is convex toward +z, the finger's side (a cap
 z = -(x^2 + y^2)/(2R) has k1 = k2 = +1/R).  This route shares nothing with
-``tactile.ep2.surface_geometry`` (Cholesky of I) on purpose: it checks it.  It does share
+``tactile.ep2.geometry`` (Cholesky of I) on purpose: it checks it.  It does share
 the estimator's patch frame, which defines where the estimand is: so it is a study
 (application layer), not part of the simulator.
 """
 
 import numpy as np
 
-from tactile.ep2.patch_frame import frame_from_contacts
+from tactile.ep2.geometry import frame_from_contacts
 
 
 def hessian(obj, x, y):
