@@ -329,6 +329,20 @@ def order_fit(f, o):
     return coef, Rinv / cn[:, :, None], f.resid[o]
 
 
+# Student's t 97.5 % quantile for 1-10 degrees of freedom (Cornish-Fisher beyond)
+_T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228)
+
+
+def student_factor(dof):
+    """(t_dof(97.5 %) / z(97.5 %))^2 per patch: the variance widening that holds 95 % where
+    the noise is estimated from ``dof`` spare rows (a few contacts leave few), at most 16."""
+    dof = np.maximum(np.asarray(dof, float), 1.0)
+    z = 1.959964
+    cf = z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
+    t = np.where(dof <= 10, np.take(_T975, np.minimum(dof, 10).astype(int) - 1), cf)
+    return np.minimum((t / z) ** 2, 16.0)
+
+
 def answer(f, keep, reason, warnings, stated):
     """The ``JetStack`` of the final fit (the module docstring)."""
     B, top = len(keep), f.top
@@ -344,7 +358,7 @@ def answer(f, keep, reason, warnings, stated):
     dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
     s2 = np.sum(rt * rt, -1) / np.maximum(dof, 1)
     s2 = np.maximum(np.where(dof > 0, s2, 1.0), 1.0)  # (never below the weights' noise)
-    s2 = s2[:, None, None]
+    s2 = (s2 * np.where(stated.all(-1), 1.0, student_factor(dof)))[:, None, None]
     C2, Ch, Ct = cov[2] * s2, pick(cov, hi) * s2, pick(cov, top) * s2
     t2, th, tt = theta[2], pick(theta, hi), pick(theta, top)
     d = th - t2
