@@ -358,7 +358,7 @@ def answer(f, keep, reason, warnings, stated):
     dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
     s2 = np.sum(rt * rt, -1) / np.maximum(dof, 1)
     s2 = np.maximum(np.where(dof > 0, s2, 1.0), 1.0)  # (never below the weights' noise)
-    s2 = (s2 * np.where(stated.all(-1), 1.0, student_factor(dof)))[:, None, None]
+    s2 = s2[:, None, None]
     C2, Ch, Ct = cov[2] * s2, pick(cov, hi) * s2, pick(cov, top) * s2
     t2, th, tt = theta[2], pick(theta, hi), pick(theta, top)
     d = th - t2
@@ -397,7 +397,9 @@ def answer(f, keep, reason, warnings, stated):
         )
     for b in np.flatnonzero(~f.ok2):
         reason[b] = reason[b] or "the contacts do not determine a quadric (2-jet) through them"
-    cov_t = J @ C_mse @ np.swapaxes(J, -1, -2)
+    # the intervals (not the answer): Student's t where the noise is estimated
+    widen = np.where(stated.all(-1), 1.0, student_factor(dof))[:, None, None]
+    cov_t = J @ C_mse @ np.swapaxes(J, -1, -2) * widen
     cov_noise = J @ C_noise @ np.swapaxes(J, -1, -2)
     cov_quadric = J @ C2 @ np.swapaxes(J, -1, -2)
     sig = f.sig * np.stack([f.L, np.ones(B)], -1)
