@@ -11,7 +11,7 @@ from cli_tree import command_parser, tree
 from tactile.cli import main as cli_main
 
 # Every command that opens a board's port.
-BOARD = {"info", "config", "tare", "calibrate", "record", "live", "flash"}
+BOARD = {"info", "config", "tare", "calibrate", "record", "live", "flash", "explore"}
 
 
 def _leaves():
@@ -72,7 +72,8 @@ def test_a_missing_port_is_one_line_naming_both(name, tmp_path, monkeypatch, cap
     (tmp_path / "m.json").write_text(
         json.dumps({"id": 1, "matrix": [[float(i == j) for j in range(6)] for i in range(6)]})
     )
-    argv = {"calibrate": ["m.json"], "record": ["-o", "run"]}.get(name, [])
+    argv = {"calibrate": ["m.json"], "record": ["-o", "run"],
+            "explore": ["--robot", "127.0.0.1:9", "-o", "run"]}.get(name, [])  # fmt: skip
     assert cli_main.main([name, *argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err, err
@@ -84,7 +85,9 @@ def test_a_port_that_is_not_there_is_one_wording_across_commands(name, tmp_path,
     (tmp_path / "m.json").write_text(
         json.dumps({"id": 1, "matrix": [[float(i == j) for j in range(6)] for i in range(6)]})
     )
-    argv = {"calibrate": [tmp_path / "m.json"], "record": ["-o", tmp_path / "run"]}.get(name, [])
+    run = ["-o", tmp_path / "run"]
+    argv = {"calibrate": [tmp_path / "m.json"], "record": run,
+            "explore": ["--robot", "127.0.0.1:9", *run]}.get(name, [])  # fmt: skip
     assert cli_main.main([name, "--port", "/dev/ttyNOPE0", *map(str, argv)]) == 4
     assert capsys.readouterr().err == (
         f"tactile {name}: error: /dev/ttyNOPE0: no such port (is the board plugged in?"

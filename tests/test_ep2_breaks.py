@@ -97,3 +97,27 @@ def test_many_equals_the_loop_at_scale():
     want = [find_breaks(stack[b], fingers[b]) for b in range(2000)]
     assert find_breaks_many(stack, fingers) == want
     assert 0 < sum(map(bool, want)) < 2000
+
+
+@pytest.mark.parametrize("kind", ["int", "float", "float_nan"])
+def test_number_arrays_of_one_dtype_give_the_reference(kind):
+    """Every patch's labels a NumPy array of one numeric dtype (the labels are then their
+    own sort keys): the reference's rows, labels (value and type) and order; -0.0 is 0.0,
+    2**60 stays itself, and a NaN label (equal to nothing) is numbered one by one."""
+    rng = np.random.default_rng(17)
+    n = 24
+    pool = {
+        "int": np.array([5, -3, 0, 2**60, 2**60 + 1]),
+        "float": np.array([2.5, -0.0, 0.0, 1e300, -7.0]),
+        "float_nan": np.array([2.5, np.nan, 0.0, 1e300, -7.0]),
+    }[kind]
+    stack = np.stack([_normals(rng, n) for _ in range(200)])
+    fingers = [pool[rng.integers(0, len(pool), n)] for _ in range(200)]
+    for angle in (5.0, 30.0):
+        want = [find_breaks(stack[b], fingers[b], angle) for b in range(200)]
+        got = find_breaks_many(stack, fingers, angle)
+        assert got == want
+        assert [[tuple(map(type, t)) for t in p] for p in got] == [
+            [tuple(map(type, t)) for t in p] for p in want
+        ]
+        assert any(want)

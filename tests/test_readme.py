@@ -52,7 +52,7 @@ README = ROOT / "README.md"
 DEMO_BEGIN = "<!-- bench/readme_demo.py writes from here"
 DEMO_END = "<!-- bench/readme_demo.py writes up to here -->"
 MAKE = ["make demo", "make test"]
-SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere"}
+SHAPE = {"ch5_convex": "cylinder", "ep2_sweep_sphere": "sphere", "explore_cylinder": "cylinder"}
 ASSIGN = re.compile(r"^([A-Z_][A-Z0-9_]*)=(\S+)\s*(#.*)?$")
 SOURCES = ("protocol", "firmware", "tools", "host", "sim", "studies")  # import roots
 
@@ -102,7 +102,7 @@ def test_the_install_extra_brings_every_user_extra():
     assert users and set(extras[named]) == users  # no more, no less
     assert set(extras[named]) <= set(extras["test"])  # and make test installs them
     # the README's list of them and docs/cli.md's name every one (foxglove was left out)
-    listed = re.search(r"brings every extra: (.*?)\. The import", " ".join(text.split()))[1]
+    listed = re.search(r"brings every extra: (.*?)\.\s", " ".join(text.split()))[1]
     cli = " ".join((ROOT / "docs" / "cli.md").read_text(encoding="utf-8").split())
     cli = re.search(r"Dependencies: .*?; extras (.*?)\. Nothing", cli)[1]
     for extra in set(extras) - {"test", named}:
@@ -120,7 +120,7 @@ def test_the_walkthroughs_outputs_are_ignored_at_the_root_of_a_clone():
     for line in [ln for b in _blocks() for ln in b] + "".join(sweep).splitlines():
         for path in re.findall(r"(?:-o|--pose-log|--cal-file) (\S+)", line.split(" #")[0]):
             written.add(path.split("/")[0])
-    assert {"poses.csv", "FT9999.cal", "run1", "run2", "sweep.csv"} <= written
+    assert {"poses.csv", "FT9999.cal", "run1", "run2", "run3", "sweep.csv"} <= written
 
     def ignored(path):  # (a file, or a folder's file: /run1/ names a folder)
         return any(
@@ -184,7 +184,7 @@ def _run_blocks(blocks, cwd, passes=1, again_until=None):
     roots = [str(ROOT / d) for d in SOURCES]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(roots))  # this tree, from any cwd
     env["XDG_STATE_HOME"] = str(cwd / "state")  # a new emulated Pico's flash for this run
-    emulators, pty, ran, scene, flashed = [], None, [], None, []
+    emulators, pty, ran, scene, flashed, arm, arm_pty = [], None, [], None, [], None, None
     try:
         for n in range(passes):
             ran.append([])
@@ -196,6 +196,14 @@ def _run_blocks(blocks, cwd, passes=1, again_until=None):
                         pty = emulators[-1].stdout.readline().strip()
                         assert pty.startswith("/dev/"), emulators[-1].stderr.read()
                     continue
+                if "# terminal 2" in line:  # the commanded arm's board: its own pty
+                    if n == 0:
+                        arm = re.search(r" emulate (\S+)", line).group(1)
+                        emulators.append(_background(line, cwd, env))
+                        arm_pty = emulators[-1].stdout.readline().strip()
+                        assert arm_pty.startswith("/dev/"), emulators[-1].stderr.read()
+                        assert emulators[-1].stdout.readline().strip() in line  # its address
+                    continue
                 assign = ASSIGN.match(line)
                 if assign:
                     assert assign.group(1) == "PORT" and pty, line  # the one definition changed
@@ -205,7 +213,11 @@ def _run_blocks(blocks, cwd, passes=1, again_until=None):
                     shutil.rmtree(cwd / re.search(r" -o (\S+)", line).group(1), True)
                 ran[-1].append(line)
                 line = line.replace("--port /dev/pts/N", f"--port {pty}")
-                out = _run(line, cwd, env, scene, calibrated=n > 0)
+                if "--port /dev/pts/M" in line:
+                    line = line.replace("--port /dev/pts/M", f"--port {arm_pty}")
+                    out = _run(line, cwd, env, arm)
+                else:
+                    out = _run(line, cwd, env, scene, calibrated=n > 0)
                 if " flash " in line:
                     flashed.append(out)
                 if n and again_until and again_until in line:
@@ -219,8 +231,8 @@ def _run_blocks(blocks, cwd, passes=1, again_until=None):
 
 
 def _sets_up(line):
-    """Terminal 1's emulator or the PORT definition: what the runner sets up, not runs."""
-    return "# terminal 1" in line or bool(ASSIGN.match(line))
+    """Terminal 1's or 2's emulator or the PORT definition: what the runner sets up."""
+    return "# terminal 1" in line or "# terminal 2" in line or bool(ASSIGN.match(line))
 
 
 def _background(line, cwd, env):
@@ -253,6 +265,9 @@ def _run(line, cwd, env, scene, calibrated=False):
         assert "lost 0 frames" in r.stdout, r.stdout
     if " analyze " in line:
         assert f" {SHAPE[scene]} " in r.stdout, r.stdout
+    if " explore " in line:  # the label on one line, confident (exit 0 above)
+        assert r.stdout.startswith(f"{SHAPE[scene]} (confidence "), r.stdout
+        assert ", confident) after " in r.stdout, r.stdout
     if " plot " in line:
         out = Path(cwd, re.search(r" -o (\S+)", line).group(1))
         assert len(list(out.glob("*.png"))) == 3, r.stdout

@@ -237,6 +237,9 @@ OWN = {
         "tactile.cli.cmd_calibrate:PAYLOAD",
         "identify the tool's weight (mass, centre of mass, biases)",
     ),
+    "explore": Command(
+        "tactile.cli.cmd_explore", "touch where the patch is least known until its label is sure"
+    ),
     "plot": Command("tactile.cli.cmd_plot", "draw contacts, fitted patches and S/C maps as PNG"),
     "completion": Command("tactile.cli.main:COMPLETION", "print a bash/zsh/tcsh completion script"),
 }

@@ -1,4 +1,5 @@
-"""EP1 curvature estimator (§3.2.3, eqs. 29-33; principal curvatures after §6.2.1, eq. 64).
+"""EP1 curvature estimator (§3.2.3, eqs. 29-33; principal curvatures after §6.2.1, eq. 64), and
+``next_roll``: the direction the next roll tells most from (closed-loop EP1, docs/explore.md).
 
 Each probe i gives, from eq. 29 with the fingertip metric of eq. 20,
 
@@ -31,7 +32,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Estimate", "estimate", "estimate_batch", "euler_principal", "STATUSES", "EXIT_OK"]
+__all__ = ["Estimate", "estimate", "estimate_batch", "euler_principal", "next_roll", "STATUSES",
+           "EXIT_OK"]  # fmt: skip
 
 STATUSES = ("ok", "flat", "near_singular", "below_resolution", "inconsistent", "underdetermined")
 EXIT_OK = ("ok", "flat")
@@ -312,3 +314,53 @@ def euler_principal(angles, kn):
     H, c, s = np.linalg.lstsq(A, kn, rcond=None)[0]
     D = np.hypot(c, s)
     return float(H + D), float(H - D), float(0.5 * np.arctan2(s, c))
+
+
+# --- The next roll (closed-loop EP1, §6.2.1): where the probes so far know least.
+
+
+def next_roll(dtheta, dp, finger_radius, u0=0.0):
+    """The next EP1 roll: (phi, motion, why).  ``phi`` the commanded rotation axis's angle in
+    the probe's contact frame (``tactile_sim.ep1.probes``' convention), ``motion`` the unit
+    (x, y) the contact moves along (= (-sin phi, cos phi)).
+
+    With fewer than two independent directions: x, then the direction across those rolled.
+    Otherwise along a principal direction of the current estimate (eqs. 29-33; §6.2.1: two
+    directions give eq. 64's principal curvatures): the one whose roll leaves the least total
+    variance of the two principal curvatures, the design's A-optimal choice.  Probe i's rows
+    of eq. 33 give S = (K1 + K2~)^-1 the covariance s^2 (A^T A)^-1; a principal value
+    s_w = w^T S w the variance g^T C g, g = (w_x^2, 2 w_x w_y, w_y^2); kappa = 1/s - 1/R1 that
+    over s^4.  A roll along w adds eq. 33's rows for a = |a| w, measuring S w.
+    """
+    th = np.asarray(dtheta, float).reshape(-1, 2)
+    p = np.asarray(dp, float).reshape(-1, 2)
+    a = np.column_stack([-th[:, 1], th[:, 0]])  # each probe's motion direction x angle
+    if len(a) == 0:
+        return _roll(np.array([1.0, 0.0]), "seed: along x")
+    norms = np.linalg.norm(a, axis=1)
+    dirs = a[norms > 0] / norms[norms > 0, None]
+    if len(dirs) < 2 or np.linalg.svd(dirs, compute_uv=False)[-1] < 1e-3:
+        base = dirs[0] if len(dirs) else np.array([0.0, 1.0])
+        return _roll(np.array([-base[1], base[0]]), "seed: across the directions rolled")
+    A = _eq33_rows(a)
+    b = np.concatenate([finger_radius * p[:, 0], finger_radius * math.cos(u0) * p[:, 1]])
+    k, *_ = np.linalg.lstsq(A, b, rcond=None)
+    s, vec = np.linalg.eigh(np.array([[k[0], k[1]], [k[1], k[2]]]))
+    g = np.stack([vec[0] ** 2, 2 * vec[0] * vec[1], vec[1] ** 2]) / np.maximum(s**2, 1e-300)
+    rolls = (np.vstack([A, _eq33_rows(np.mean(norms) * vec[:, j][None])]) for j in (0, 1))
+    total = [np.einsum("ij,ik,kj->", g, np.linalg.pinv(m.T @ m), g) for m in rolls]
+    best = int(np.argmin(total))  # (the total variance of kappa_1, kappa_2 after each roll)
+    kappa = 1.0 / s[best] - 1.0 / finger_radius if s[best] != 0 else math.inf
+    return _roll(vec[:, best], f"along the principal direction that tells most (curvature"
+                 f" {kappa:.3g})")  # fmt: skip
+
+
+def _eq33_rows(a):
+    """Eq. 33's two rows per probe, a = (-dtheta_y, dtheta_x) (k, 2), in (k1, k2, k3)."""
+    return np.concatenate([np.pad(a, ((0, 0), (0, 1))), np.pad(a, ((0, 0), (1, 0)))])
+
+
+def _roll(motion, why):
+    m = np.asarray(motion, float) / np.linalg.norm(motion)
+    m = -m if m[0] < 0 or (m[0] == 0 and m[1] < 0) else m  # (a direction, not a sense)
+    return math.atan2(-m[0], m[1]), (float(m[0]), float(m[1])), why

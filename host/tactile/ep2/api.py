@@ -478,8 +478,8 @@ def _prepare_group(group, unpacked, kws):
     P = np.stack([pts for _, pts, _ in group])
     N = np.stack([nrm for _, _, nrm in group])
     good = np.all(np.isfinite(P), axis=(1, 2)) & np.all(np.isfinite(N), axis=(1, 2))
-    lo, hi = P.min(axis=1), P.max(axis=1)  # ``patch_input.box``
-    h = (0.5 * hi - 0.5 * lo).max(axis=-1)
+    middle, half = patch_input.box(P)
+    h = half.max(axis=-1)
     good &= (h == 0.0) | ((patch_input.MIN_SPREAD <= 2.0 * h) & (2.0 * h <= patch_input.MAX_SPREAD))
     noise = np.array([np.nan if kw["noise_pos"] is None else kw["noise_pos"] for kw in kws])
     top = patch_input.MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
@@ -487,8 +487,7 @@ def _prepare_group(group, unpacked, kws):
     N, ok = geometry.unit_rows(N)
     good &= np.all(ok, axis=-1)
     good &= ~_has_duplicates(P, N)
-    middle = 0.5 * lo + 0.5 * hi  # ``patch_input.centred``
-    P = P - middle[:, None, :]
+    P = P - middle[:, None, :]  # ``patch_input.centred``
     out = [None] * len(group)
     live = np.flatnonzero(good)
     fingers = [unpacked[group[b][0]][2] for b in live.tolist()]

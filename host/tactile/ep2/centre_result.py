@@ -121,13 +121,6 @@ def _summary_one(i, m, h, iv, flat, scale, c):
     return out
 
 
-def grid_statistics(channels, scale, plane):
-    """The thesis's grid statistics (§4.8.2) of one patch's grid channels (each (N^2,)):
-    ``statistics`` for a stack of one."""
-    stats = statistics([np.asarray(c)[None] for c in channels], np.array([scale]))
-    return at(stats, 0, scale, plane)
-
-
 def maps(channels, gx, gy, scale, plane, hk_eps):
     """Grid maps in input units: k1, k2, H, K, HK labels; S, S regions, C unless a plane.
 
@@ -161,9 +154,8 @@ def hk_eps(k1_int, k2_int, k1, k2):
 #
 # Per patch: the fitted surface's (z_x, z_y, z_xx, z_xy, z_yy) on an N x N grid over the contacts'
 # box (final frame, / L), then mean and sd of k1, k2, R, S and C over the grid points where the
-# surface is finite (a steep fit can overflow far from the centre).
-# ``centre_result.grid_statistics`` is the one-patch form the spline path uses; both give the same
-# numbers (tested).
+# surface is finite (a steep fit can overflow far from the centre).  The spline's one patch is
+# a stack of one.
 
 
 DERIVS = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
@@ -198,7 +190,7 @@ def statistics(ch, scale):
 
 
 def at(stats, i, scale, plane):
-    """Patch ``i``'s grid statistics (dict of ``KEYS``, as ``centre_result.grid_statistics``):
+    """Patch ``i``'s grid statistics (dict of ``KEYS``):
     lengths / ``scale``; S and C null for a plane or where no grid point is finite."""
     if not stats["any"][i]:
         return dict.fromkeys(KEYS)
@@ -316,7 +308,6 @@ def vote(s_est, s_sd, p_flat=0.0):
 Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
 CHI2_2_95 = 5.991464547107979
-CHI2_3_95 = 7.814727903251178
 # 95 % quantile of (Rice(l) - l)^2 (unit sigma) for l = 0, 0.1, ..., 1.0, made
 # non-increasing; chi^2_1 beyond (tests recompute it with scipy.stats.rice).
 _CRIT = np.array([5.991, 5.541, 5.162, 4.847, 4.588, 4.375, 4.201, 4.059, 3.942, 3.845, CHI2_1_95])

@@ -159,13 +159,6 @@ def curvedness_c(r):
     return TWO_OVER_PI * np.log(r)
 
 
-def hk_sign(K, H, eps_k=0.0, eps_h=0.0):
-    """Signs of (K, H) with zero bands |K| <= eps_k, |H| <= eps_h."""
-    sk = np.where(K > eps_k, 1, np.where(K < -eps_k, -1, 0))
-    sh = np.where(H > eps_h, 1, np.where(H < -eps_h, -1, 0))
-    return sk, sh
-
-
 def hk_labels(K, H, eps_k=0.0, eps_h=0.0, table=2):
     """HK primitive names (table 1 or 2) for arrays of K and H (0-d for one pair).
 
@@ -177,9 +170,9 @@ def hk_labels(K, H, eps_k=0.0, eps_h=0.0, table=2):
         k, h, ek, eh = float(K), float(H), float(eps_k), float(eps_h)
         code = 3 * ((k > ek) - (k < -ek)) + (h > eh) - (h < -eh) + 4
         return np.array(names[code], dtype=object)
-    sk, sh = hk_sign(K, H, eps_k, eps_h)
-    code = 3 * sk + sh + 4  # (sign K, sign H) -> 0..8
-    return names[code]
+    sk = (K > eps_k).astype(int) - (K < -eps_k)  # signs with zero bands |K| <= eps_k ...
+    sh = (H > eps_h).astype(int) - (H < -eps_h)  # ... and |H| <= eps_h
+    return names[3 * sk + sh + 4]
 
 
 _HK_NAMES = tuple(

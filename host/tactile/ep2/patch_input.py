@@ -127,9 +127,6 @@ class RowNames:
     def __getitem__(self, k):
         return f"{self.word} {self.numbers[k]}"
 
-    def __len__(self):
-        return len(self.numbers)
-
 
 def check_order(method, order):
     if method != "spline" and order not in (None, JET_ORDER):
@@ -138,10 +135,14 @@ def check_order(method, order):
 
 def options(kw, lines):
     """The options the methods read, from ``analyze_patch``'s keywords and a patch's lines."""
-    keys = "segments weighting noise_pos noise_normal grid align solver max_normal_angle shrink"
     out = {"order": 2 if kw["order"] is None else kw["order"]}
-    out.update({k: kw[k] for k in keys.split()}, intervals=kw["intervals"], lines=lines)
+    out.update({k: kw[k] for k in _METHOD_KEYS}, intervals=kw["intervals"], lines=lines)
     return out
+
+
+_METHOD_KEYS = tuple(
+    "segments weighting noise_pos noise_normal grid align solver max_normal_angle shrink".split()
+)
 
 
 def validate(points, normals, method, weighting, lines=None):
@@ -226,14 +227,16 @@ def find_breaks(normals, fingers, max_angle_deg=BREAK_ANGLE_DEG):
     as Python values do (NaN equals nothing, -0.0 equals 0.0) and come back as given
     (``np.asarray(labels).tolist()``); a label list shorter than n labels its first rows."""
     B, n = normals.shape[:2]
-    codes = np.empty((B, n), np.int64)
-    values = []
-    for b, f in enumerate(fingers):
-        given = [] if f is None else np.asarray(f).tolist()[:n]
-        seen = {}
-        codes[b, : len(given)] = [seen.setdefault(v, len(seen)) for v in given]
-        codes[b, len(given) :] = -1 - np.arange(n - len(given))  # unlabelled: no pair
-        values.append(given)
+    codes, values = _label_codes(fingers, n), None
+    if codes is None:
+        codes = np.empty((B, n), np.int64)
+        values = []
+        for b, f in enumerate(fingers):
+            given = [] if f is None else np.asarray(f).tolist()[:n]
+            seen = {}
+            codes[b, : len(given)] = [seen.setdefault(v, len(seen)) for v in given]
+            codes[b, len(given) :] = -1 - np.arange(n - len(given))  # unlabelled: no pair
+            values.append(given)
     # a stable sort puts each label's rows together in sweep order: a pair of neighbours
     # with equal codes is a consecutive pair of one finger
     order = np.argsort(codes, axis=1, kind="stable")
@@ -253,8 +256,23 @@ def find_breaks(normals, fingers, max_angle_deg=BREAK_ANGLE_DEG):
     row, first = order[g, k + 1], order[g, start[g, k]]
     for h in np.lexsort((row, first, g)).tolist():
         p = int(g[h])
-        out[p].append((int(row[h]), values[p][first[h]], float(angle[hit[h]])))
+        label = values[p][first[h]] if values is not None else fingers[p][first[h]].item()
+        out[p].append((int(row[h]), label, float(angle[hit[h]])))
     return out
+
+
+def _label_codes(fingers, n):
+    """(B, n) sort keys of the labels where every patch's are a NumPy array of n numbers of
+    one dtype, none NaN: the labels themselves, which sort and compare as Python compares
+    them (-0.0 equals 0.0); else None (``find_breaks`` numbers the labels one by one)."""
+    if not fingers or not all(
+        type(f) is np.ndarray and f.shape == (n,) and f.dtype == fingers[0].dtype for f in fingers
+    ):
+        return None
+    codes = np.stack(fingers)
+    if codes.dtype.kind not in "iuf" or (codes.dtype.kind == "f" and np.isnan(codes).any()):
+        return None
+    return codes
 
 
 def split_parts(n_rows, finger, breaks):
@@ -277,8 +295,9 @@ AXES = "xyz"
 
 
 def box(points):
-    """(middle (3,), half sides (3,)) of the points' bounding box, without overflow."""
-    lo, hi = points.min(axis=0), points.max(axis=0)
+    """(middle (..., 3), half sides (..., 3)) of the points' bounding box (of each patch of a
+    stack (..., n, 3)), without overflow."""
+    lo, hi = points.min(axis=-2), points.max(axis=-2)
     return 0.5 * lo + 0.5 * hi, 0.5 * hi - 0.5 * lo
 
 

@@ -66,11 +66,13 @@ CDR_LE = b"\x00\x01\x00\x00"  # the encapsulation header: plain CDR, little-endi
 CONTACTS_TOPIC = "/tactile/contacts"  # foxglove.SceneUpdate: arrows, m
 PATCH_TOPIC = "/tactile/patch"  # foxglove.SceneUpdate: mesh and text, m
 TF_TOPIC = "/tactile/tf"  # foxglove.FrameTransform: world -> tactile_sensorN, m
+NEXT_TOUCH_TOPIC = "/tactile/next_touch"  # foxglove.SceneUpdate: tactile explore's next, m
 SCENE_TOPICS = (CONTACTS_TOPIC, PATCH_TOPIC, TF_TOPIC)
 SCENE_SCHEMAS = {
     CONTACTS_TOPIC: "SceneUpdate",
     PATCH_TOPIC: "SceneUpdate",
     TF_TOPIC: "FrameTransform",
+    NEXT_TOUCH_TOPIC: "SceneUpdate",
 }
 WORLD_FRAME = "world"
 
