@@ -1,7 +1,10 @@
 """``tactile explore``'s planner against the thesis's fixed 3 x 6 plan, in process.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/explore.py [--split tune|holdout]
-     [--seeds 20] [--plots DIR (out/explore)] [--ep1]
+     [--seeds 20] [--plots DIR (out/explore)] [--ep1] [--flat 0.03] [--s-width W]
+
+``--flat`` (1/cm) is the plane's flatness (``Explorer.flat``), ``--s-width`` the second
+operating point's stop (``Explorer.s_width``: fewer touches against a lower RMS S).
 
 Objects: the EP2 families (``tactile_sim.ep2.objects``: sphere, cylinder, concave cylinder,
 pit, saddle, plane) in the tables 5-7 setup of docs/ep2.md (lengths in cm: a 5 x 6 cm patch,
@@ -51,6 +54,7 @@ SPLITS = {
         "pit": ("pit", 15.0, 0.0, None, 0.05, 0.03),
         "saddle": ("quadric", 10.0, 20.0, (0.1, -0.1), 0.05, 0.03),
         "plane": ("plane", 10.0, 0.0, None, 0.05, 0.03),
+        "band_edge": ("quadric", 10.0, 40.0, (0.1, 0.0414), 0.05, 0.03),  # S 0.75 at the centre
     },
     "holdout": {
         "sphere_r8": ("sphere", 8.0, 0.0, None, 0.03, 0.02),

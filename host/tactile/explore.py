@@ -33,13 +33,12 @@ __all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "s
 
 MIN_TOUCHES = edges.MIN_POINTS  # a label waits until an edge could be seen (8)
 SEED = (90.0, 210.0, 330.0, 30.0, 150.0, 270.0)  # seed angles on the circle (deg)
-SEED_RADIUS = 0.7  # of the region's half-size
+SEED_RADIUS = 0.85  # of the region's half-size (a wider footprint pins the quadratic terms)
 GRID = 13  # candidates per side of the principal-direction grid (and of the space filling)
 MIN_GAP = 0.15  # of the half-size: no candidate this close to a contact
 STEP = 1e-4  # of the half-size: the finite difference of the fitted surface's slope
-Z95, EPS = 1.959964, 1e-12  # the two-sided 95 % normal quantile; a band edge's tolerance
+Z95, Z99, EPS = 1.959964, 2.575829, 1e-12  # two-sided 95 and 99 % normal quantiles; a tolerance
 S_BANDS = {name: (lo, hi) for lo, hi, name in S_REGIONS}
-S_NAMES = tuple(S_BANDS)
 DOUBT_SD = 3.5  # a normal this many sds off the fit withholds the label (``Explorer._doubt``)
 
 
@@ -103,7 +102,8 @@ class Fit:
 def fit_of(points, normals, confidence=0.95, flat=None, **options):
     """``Fit`` of the contacts (k, 3) (``analyze_patch`` with ``options``): EP2's label, or the
     top S band once its share of the vote reaches ``confidence`` (EP2's own asks 0.999), else
-    ``uncertain``; a curved label is withheld while its S interval crosses its band's edge.
+    ``uncertain``; a curved label is withheld while its S interval, widened from 95 to 99 %
+    (z 2.576 / 1.960 each side, within [-1, 1]), crosses its band's edge.
     With ``flat`` (1/length) a plane is ``plane_confidence``'s, else EP2's flatness p-value."""
     pts, nrm = np.asarray(points, float), np.asarray(normals, float)
     if len(pts) < 3:
@@ -122,7 +122,7 @@ def fit_of(points, normals, confidence=0.95, flat=None, **options):
         top = max(res.votes, key=res.votes.get)
         conf = float(res.votes[top])
         label = top if conf >= confidence else "uncertain"
-    if label in S_BANDS and not _inside(res.S_interval, S_BANDS[label]):
+    if label in S_BANDS and not _inside(res.S, res.S_interval, S_BANDS[label]):
         return Fit(result=res, label="uncertain", confidence=conf, doubt=(
             f"the S interval crosses an edge of {label}'s band {S_BANDS[label]}"))  # fmt: skip
     return Fit(result=res, label=label, confidence=conf)
@@ -135,8 +135,9 @@ def plane_confidence(res, flat):
     ivs = (res.k1_interval, res.k2_interval)
     if any(iv is None or None in iv for iv in ivs):
         return None
-    sds = [(0.5 * (lo + hi), max(0.5 * (hi - lo) / Z95, 1e-300)) for lo, hi in ivs]
-    return max(0.0, min(_phi((flat - m) / sd) - _phi((-flat - m) / sd) for m, sd in sds))
+    sds = [(0.5 * (lo + hi), max(0.5 * (hi - lo) / Z95 * math.sqrt(2.0), 1e-300)) for lo, hi in ivs]
+    return max(0.0, min(0.5 * (math.erf((flat - m) / sd) - math.erf((-flat - m) / sd))
+                        for m, sd in sds))  # fmt: skip
 
 
 def confident(fit, n, confidence=0.95, min_touches=MIN_TOUCHES, s_width=None):
@@ -168,8 +169,10 @@ def unknown(fit, n):
             f" {shares}")  # fmt: skip
 
 
-def _inside(iv, band):
-    return iv is not None and None not in iv and band[0] - EPS <= iv[0] <= iv[1] <= band[1] + EPS
+def _inside(s, iv, band):
+    lo, hi = (max(-1.0, s - Z99 / Z95 * (s - iv[0])), min(1.0, s + Z99 / Z95 * (iv[1] - s))
+              ) if iv and None not in iv else (-2.0, 2.0)  # fmt: skip
+    return band[0] - EPS <= lo <= hi <= band[1] + EPS
 
 
 def seed_points(region, k):
@@ -386,10 +389,6 @@ def scores(res, pts, nrm, cands, options):
         elif not use_s:
             score[i] = max(_width(r.k1_interval), _width(r.k2_interval))
     return score, ("S interval width" if use_s else "widest k interval (1/unit)")
-
-
-def _phi(x):
-    return 0.5 * math.erfc(-x / math.sqrt(2.0))
 
 
 def _width(iv):
