@@ -267,6 +267,7 @@ def test_cli_explores_the_emulated_sphere(cli, emulated, tmp_path):
     assert contacts[0] == "# units: m" and len(contacts) == 2 + result["contacts"]
     meta = json.loads((out / "meta.json").read_text())
     assert meta["robot"] == robot and meta["label"] == "sphere" and meta["unknown"] is None
+    assert meta["options"]["flat_per_m"] == 3.0 and meta["options"]["s_width"] is None
     code, stdout, stderr = cli("ep2", "analyze", out / "contacts.csv")  # the same contract
     assert code == 0 and "sphere" in stdout
 
