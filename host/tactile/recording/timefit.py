@@ -31,6 +31,7 @@ __all__ = ["BinMinima", "ClockFit", "fit", "TAU", "BIN_S", "MAX_BINS"]
 TAU = 0.05  # quantile of the bin minima the line passes
 BIN_S = 0.1  # board seconds per bin at first
 MAX_BINS = 2048  # beyond this, bins pair up (a fit of 2048 points takes ~50 ms)
+EDGE = 1e-9  # bin widths: how near a bin's edge a frame counts as on it
 
 
 class BinMinima:
@@ -55,7 +56,9 @@ class BinMinima:
     def add(self, b, h):
         if self.origin is None:
             self.origin = b
-        k = int((b - self.origin) // self.width)
+        # a frame on a bin's edge (a stream at the bin rate) goes to the bin it opens,
+        # whichever frame set the origin: round-off in b - origin must not pair two frames
+        k = int(np.floor((b - self.origin) / self.width + EDGE))
         lag = h - b
         cell = self.bins.get(k)
         if cell is None:
