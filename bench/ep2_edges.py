@@ -3,7 +3,7 @@
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_edges.py --split holdout [--per-kind 200]
      [--kinds ridge,valley,join,drift,tilt,small]
 
-``--split bench`` is for tuning; ``--split holdout`` is FOR FINAL EVALUATION ONLY.  Every
+``--split tune`` is for tuning; ``--split holdout`` is FOR FINAL EVALUATION ONLY.  Every
 patch goes through ``tactile.ep2.analyze_patch`` (with its finger labels, and its noise where
 the case states it).  Figures (docs/ep2.md, "Edges, joins, drift, tilt"):
 
@@ -116,7 +116,7 @@ def table(head, rows):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", default="bench", choices=sorted(edge_cases.SPLITS))
+    ap.add_argument("--split", default="tune", choices=sorted(edge_cases.SPLITS))
     ap.add_argument("--per-kind", type=positive_int, default=200)
     ap.add_argument("--kinds", default=",".join(edge_cases.KINDS))
     args = ap.parse_args(argv)

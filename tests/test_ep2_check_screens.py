@@ -7,6 +7,7 @@ import numpy as np
 from tactile.ep2 import check_screens, edges, patch_input, tilt
 from tactile.errors import DataError
 from tactile_sim.ep2 import make
+from tactile_studies.ep2 import edge_cases
 
 GRID = np.linspace(0.0, 4.0, 6)
 XY = np.column_stack([np.repeat(GRID, 6), np.tile(GRID, 6)])
@@ -83,3 +84,12 @@ def test_smooth_patches_are_cleared_of_both_checks():
     patches = [p for p in _patches() if p[2] == "smooth"]
     _, edge_ok, tilt_ok = _screened(patches)
     assert edge_ok.mean() >= 0.9 and tilt_ok.mean() >= 0.9
+
+
+def test_creases_named_by_flat_faces_alone_are_not_cleared():
+    """Sweeps over a crease whose normals a smooth field fits as well as the step: the
+    screen leaves them to ``edges.check``, which names the edge."""
+    for kind, index in (("ridge", 1245), ("valley", 375)):
+        case = edge_cases.make("tune", kind, index)
+        (prep,), edge_ok, _ = _screened([(case["points"], case["normals"], "crease")])
+        assert not edge_ok[0] and _trips_edges(prep)

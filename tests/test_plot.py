@@ -342,3 +342,74 @@ def test_contacts_and_patch_draw_the_given_normals_and_the_net(tmp_path, mocker)
         res.frame.to_patch_dirs(nrm) * plots.NORMAL_LENGTH * np.ptp(call.args[1:4], axis=1).max(),
         atol=1e-12,
     )
+
+
+def test_region_map_draws_each_region_in_its_s_colour_and_each_edge(tmp_path, mocker):
+    from matplotlib.colors import to_rgba
+    from mpl_toolkits.mplot3d import Axes3D
+
+    from tactile.ep2.region_map import map_contacts
+    from tactile.output import plots, region_plot
+    from tactile_sim.ep2 import map_objects
+
+    d = map_objects.make("capped_cylinder", 0.002, 0.002, seed=1)
+    found = map_contacts(d["points"], d["normals"], noise_pos=0.002, noise_normal=0.002)
+    assert sorted(r.shape for r in found.regions) == ["cylinder", "sphere"]
+    scatter = mocker.spy(Axes3D, "scatter")
+    line = mocker.spy(Axes3D, "plot")
+    labels = mocker.spy(Axes3D, "set")
+    path = region_plot.plot_region_map(d["points"], found, tmp_path / "map.png", unit="cm")
+    assert_real_png(path)
+    cmap = __import__("matplotlib").colormaps[plots.S_CMAP]
+    drawn = {c.kwargs["label"].split(":")[0]: c for c in scatter.call_args_list}
+    for r in found.regions:
+        call = drawn[f"region {r.id}"]
+        np.testing.assert_allclose(np.column_stack(call.args[1:4]), d["points"][r.contacts])
+        assert to_rgba(call.kwargs["color"]) == pytest.approx(cmap((r.S + 1) / 2))
+    (edge,) = found.edges
+    (call,) = line.call_args_list
+    ends = np.column_stack(call.args[1:4])
+    off = ends - edge.point
+    along = off @ np.asarray(edge.direction)
+    np.testing.assert_allclose(off, np.outer(along, edge.direction), atol=1e-9)  # on its line
+    assert np.ptp(along) > 1.0 and call.kwargs["linestyle"] == "--"  # a curvature jump
+    assert call.kwargs["label"] == "edge 0-1: curvature jump"
+    (axes,) = [c.kwargs for c in labels.call_args_list if "xlabel" in c.kwargs]
+    assert [axes[k] for k in ("xlabel", "ylabel", "zlabel")] == ["x (cm)", "y (cm)", "z (cm)"]
+
+
+def test_region_map_draws_a_plane_grey_and_a_crease_with_its_dihedral(tmp_path, mocker):
+    from matplotlib.colors import to_rgba
+    from mpl_toolkits.mplot3d import Axes3D
+
+    from tactile.ep2.region_map import map_contacts
+    from tactile.output import region_plot
+    from tactile_sim.ep2 import map_objects
+
+    d = map_objects.make("box_corner", 0.002, 0.002, seed=1)
+    found = map_contacts(d["points"], d["normals"])
+    scatter = mocker.spy(Axes3D, "scatter")
+    line = mocker.spy(Axes3D, "plot")
+    region_plot.plot_region_map(d["points"], found, tmp_path / "box.png")
+    colours = [to_rgba(c.kwargs["color"]) for c in scatter.call_args_list]
+    assert colours == [to_rgba(region_plot.PLANE_GREY)] * 3
+    names = sorted(c.kwargs["label"] for c in line.call_args_list)
+    assert len(names) == 3 and all("ridge" in n and n.endswith(" deg") for n in names)
+    assert all(c.kwargs["linestyle"] == "-" for c in line.call_args_list)
+
+
+def test_cli_plots_the_region_map_of_the_whole_file(tmp_path, cli):
+    from tactile_sim.ep2 import map_objects
+
+    d = map_objects.make("box_corner", 0.002, 0.002, seed=2)
+    csv = tmp_path / "box.csv"
+    csv.write_text(
+        "# units: cm\nx,y,z,nx,ny,nz\n"
+        + "\n".join(
+            ",".join(f"{v:.9g}" for v in (*p, *n)) for p, n in zip(d["points"], d["normals"])
+        )
+    )
+    code, stdout, stderr = cli("plot", csv, "--what", "map", "--units", "mm")
+    assert (code, stderr) == (0, "")
+    assert stdout.split() == [str(tmp_path / "box_map.png")]
+    assert_real_png(tmp_path / "box_map.png")

@@ -1,4 +1,5 @@
-"""``tactile plot CONTACTS.csv|DIR``: PNGs of the contacts, the fitted patch and the S/C maps.
+"""``tactile plot CONTACTS.csv|DIR``: PNGs of the contacts, the fitted patch and the S/C maps,
+and (``--what map``) the region map of all the file's contacts as one object.
 
 Axis labels carry a length unit: ``--units U`` converts to U from the CSV's ``# units:``
 line; a CSV without the line is drawn as it is, labelled U (or "input unit").  The
@@ -9,16 +10,20 @@ one finger in passes), so its legend says "pass".
 import pathlib
 import re
 
+import numpy as np
+
 from tactile import units
 from tactile.commands import add_out, contacts_of
 from tactile.ep2 import analyze_patch
 from tactile.ep2.contacts_csv import read_contacts
+from tactile.ep2.region_map import map_contacts
 from tactile.errors import DataError, InputError
-from tactile.output import plots
+from tactile.output import plots, region_plot
 from tactile.output.text import printable
 from tactile.recording.layout import read_meta
 
-WHAT = ("contacts", "patch", "maps")
+WHAT = ("contacts", "patch", "maps", "map")
+DEFAULT_WHAT = WHAT[:3]  # the region map takes the whole file as one object: asked for
 METHODS = ("jet", "spline")
 WEIGHTINGS = ("auto", "tangent", "position")
 
@@ -51,8 +56,9 @@ def add_arguments(parser):
     )
     parser.add_argument(
         "--what",
-        default=",".join(WHAT),
-        help=f"comma-separated figures to draw, of {','.join(WHAT)} (default all)",
+        default=",".join(DEFAULT_WHAT),
+        help=f"comma-separated figures to draw, of {','.join(WHAT)} (default"
+        f" {','.join(DEFAULT_WHAT)}; map: all the file's contacts as one object, 'ep2 map')",
     )
 
 
@@ -87,7 +93,7 @@ def run(args):
     for g, label in zip(groups, labels, strict=True):
         prefix = stem if label is None else f"{stem}_{label}"
         name = g.patch if g.patch is not None else "1"
-        out = {w: outdir / f"{prefix}_{w}.png" for w in what}
+        out = {w: outdir / f"{prefix}_{w}.png" for w in what if w != "map"}
         if "contacts" in out:
             _draw(
                 plots.plot_contacts,
@@ -129,6 +135,8 @@ def run(args):
             )
         if "maps" in out:
             _draw(plots.plot_maps, res, out["maps"], points=g.points, unit=unit)
+    if "map" in what:  # after the patches' figures: a map that cannot be made loses none
+        _draw_map(groups, outdir / f"{stem}_map.png", unit)
     if failed:
         name, why = failed[0]
         raise DataError(
@@ -136,6 +144,13 @@ def run(args):
             f" first: patch {name}: {why}"
         )
     return 0
+
+
+def _draw_map(groups, path, unit):
+    """The region map of every contact of the file (``map_contacts``, noise estimated)."""
+    pts = np.vstack([g.points for g in groups])
+    found = map_contacts(pts, np.vstack([g.normals for g in groups]))
+    _draw(region_plot.plot_region_map, pts, found, path, unit=unit)
 
 
 def _draw(plot, *args, **kw):

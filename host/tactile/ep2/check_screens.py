@@ -49,7 +49,8 @@ def _across(m):
 
 def _no_edge(P, N):
     """Whether ``edges.find`` (strict) surely finds no edge: every normal near the mean
-    (the gate), or the best step not under ``STEP_RATIO`` of the smooth field's residual."""
+    (the gate), or the best step not under ``STEP_RATIO`` of the smooth field's residual
+    and a side's normals scattered beyond flat faces' (``edges.flat_faces``)."""
     B, n, _ = P.shape
     if n < edges.MIN_POINTS:
         return np.ones(B, bool)
@@ -65,7 +66,8 @@ def _no_edge(P, N):
 
 
 def _step_loses(P, N, m):
-    """``edges.find``'s ``rss_step > STEP_RATIO * smooth rss``, by the margins (else False)."""
+    """``edges.find``'s ``rss_step > STEP_RATIO * smooth rss`` and not flat faces, by the
+    margins (else False)."""
     n = P.shape[1]
     C = _gram(N - N.mean(axis=1, keepdims=True)) / (n - 1)
     w, V = np.linalg.eigh(C)
@@ -82,7 +84,10 @@ def _step_loses(P, N, m):
     left = c2[:, :-1] - np.sum(c1[:, :-1] ** 2, axis=2) / k
     right = (c2[:, -1:] - c2[:, :-1]) - np.sum((c1[:, -1:] - c1[:, :-1]) ** 2, axis=2) / (n - k)
     ok = (k >= edges.MIN_SIDE) & (n - k >= edges.MIN_SIDE)
-    rss_step = np.where(ok, left + right, np.inf).min(axis=1)
+    rss = np.where(ok, left + right, np.inf)
+    j = np.argmin(rss, axis=1)
+    rss_step = rss[np.arange(len(j)), j]
+    sure &= _scattered(c1, left, right, j, k)
     t1, t2 = _across(m)
     xy = np.stack([np.einsum("bnk,bk->bn", P, t) for t in (t1, t2)], axis=-1)
     xy = xy - xy.mean(axis=1, keepdims=True)
@@ -94,6 +99,19 @@ def _step_loses(P, N, m):
     rss_smooth = np.sum((N - A @ coef) ** 2, axis=(1, 2))
     bound = edges.STEP_RATIO * rss_smooth * (1 + REL) + ABS * n
     return sure & (rss_step > bound)
+
+
+def _scattered(c1, left, right, j, k):
+    """Whether a side of the best cut (index ``j`` into the cuts ``k``) surely scatters over
+    ``edges.TIGHT`` of the step between the sides' means: ``edges.flat_faces`` is False."""
+    b = np.arange(len(j))
+    kj = k[j]
+    n = k[-1] + 1
+    m1 = c1[b, j] / kj[:, None]
+    m2 = (c1[b, -1] - c1[b, j]) / (n - kj)[:, None]
+    step = np.linalg.norm(m2 - m1, axis=1)
+    rms = np.sqrt(np.maximum(np.maximum(left[b, j] / kj, right[b, j] / (n - kj)), 0.0))
+    return rms > edges.TIGHT * step * (1 + REL) + ABS
 
 
 def _few_far(N, cosmax):
@@ -142,11 +160,11 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     Sx = np.stack([zero, one, zero, x, y, zero, one, zero], axis=-1)
     Sy = np.stack([zero, zero, one, zero, x, y, zero, one], axis=-1)
     sp, ok = _residual(H[..., :6], z, n - 6)
-    sp = np.where(np.isnan(noise_pos), sp, noise_pos / Ls)
-    sure &= ok | ~np.isnan(noise_pos)
+    sp = np.fmax(sp, noise_pos / Ls)  # (NaN where not stated: the residual alone)
+    sure &= ok
     r, ok = _residual(H[..., :3], np.stack([sx, sy], axis=-1), n - 3)
-    sn = np.where(np.isnan(noise_normal), np.hypot(r[:, 0], r[:, 1]) / np.sqrt(2), noise_normal)
-    sure &= ok | ~np.isnan(noise_normal)
+    sn = np.fmax(np.hypot(r[:, 0], r[:, 1]) / np.sqrt(2), noise_normal)
+    sure &= ok
     sp, sn = np.maximum(sp, tilt.NOISE_FLOOR), np.maximum(sn, tilt.NOISE_FLOOR)
     A = np.concatenate([H / sp[:, None, None], Sx / sn[:, None, None], Sy / sn[:, None, None]], 1)
     b = np.concatenate([z / sp[:, None], sx / sn[:, None], sy / sn[:, None]], axis=1)

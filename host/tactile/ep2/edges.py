@@ -7,12 +7,14 @@ normals that jump.  ``find`` compares, along the direction in which the normals 
 - a step: two constant normals, the contacts cut in two by their normals along ``a``;
 - a smooth field: a quadratic in the patch coordinates (any 2-jet surface, and more).
 
-Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``), each side
+Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``) and each side
 holds at least ``MIN_SIDE`` contacts spread across the edge (over ``MIN_DEPTH`` of the
-patch: two lines along a tight cylinder look like two faces), the normals turn at least
+patch: two lines along a tight cylinder look like two faces), or where each side's normals
+are flat (``flat_faces``: they neither scatter nor turn within the side as they turn between
+the sides; a smooth field fits a few lines across a crease too), the normals turn at least
 ``MIN_TURN_DEG`` (by over ``MIN_Z`` standard errors) and at least ``MIN_APART`` of the
-contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a plane
-through its contacts' centroid with its mean normal; the edge is the planes' intersection
+contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a
+plane through its contacts' centroid with its mean normal; the edge is the planes' intersection
 (the point nearest the contacts' middle, its direction), the dihedral angle between the
 faces is 180 deg less the normals' turn, with a 95 % interval from the normals' scatter
 about each face's mean (Student t).  A ridge's faces fall away from the edge, a valley's
@@ -42,6 +44,15 @@ MIN_APART = 0.8  # share of contacts on their face's side of the edge
 MIN_DEPTH = 0.05  # each face's contacts span this share of the patch across the edge
 HALF_FLOOR_DEG = 1e-6  # noise-free faces: the interval holds the round-off
 MAX_LEFT_OUT = 2  # the normal screen's most (docs/ep2.md)
+JUMP_RATIO = 0.8  # a hinge's residual under this share of a smooth change's
+JUMP_GROSS = 5.0  # a contact the smooth change misses by this many robust sigmas: an outlier
+JUMP_F = 30.0  # and this many times the noise better than a constant curvature
+JUMP_PRE = 10.0  # the smooth change's own F against a constant curvature, to look at all
+FLAT_SHARE = 0.25  # a face's own turn, carried to the other face, explains under this share
+FLAT_Z = 2.0
+TIGHT = 0.1  # a face's normals scatter by under this share of the step (rms)
+MIN_SPREAD = 0.05  # rms, of the patch: a side thinner than this across is one line
+MIN_ACROSS = 0.02  # rms, of the patch: a line running across the edge by less sees nothing
 
 
 @dataclass
@@ -87,11 +98,13 @@ def _t975(dof):
 
 
 def _basis(m):
-    """Two unit vectors across the unit vector m."""
-    ref = np.array([1.0, 0.0, 0.0]) if abs(m[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    t1 = np.cross(m, ref)
-    t1 /= np.linalg.norm(t1)
-    return np.stack([t1, np.cross(m, t1)], axis=1)
+    """Two unit vectors across the unit vector m (m x ref, then m x that: ``np.cross``
+    written out, which costs more than the rest on 3-vectors)."""
+    a, b, c = m
+    t1 = np.array([0.0, c, -b]) if abs(a) < 0.9 else np.array([-c, 0.0, a])  # ref x, or y
+    t1 /= np.sqrt(t1 @ t1)
+    x, y, z = t1
+    return np.array([[x, b * z - c * y], [y, c * x - a * z], [z, a * y - b * x]])
 
 
 def _unit(v):
@@ -142,12 +155,15 @@ def find(points, normals, noise_normal=None, strict=True):
     T = _basis(_unit(total) if np.linalg.norm(total) > 1e-9 else nrm[0])
     a = np.linalg.eigh(np.cov(nrm.T))[1][:, -1]  # the normals vary most along a
     order, k, rss_step = _best_cut(nrm @ a, nrm)
-    if k is None or strict and rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
+    if k is None:
         return None
     sides = (np.sort(order[:k]), np.sort(order[k:]))
     x = pts @ a
-    if strict and min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
-        return None  # a face seen along one line: as much a strongly bent curve
+    if strict and not flat_faces(pts, nrm, sides, T, noise_normal):
+        if rss_step > STEP_RATIO * _smooth_rss(pts, nrm, T):
+            return None
+        if min(np.ptp(x[s]) for s in sides) < MIN_DEPTH * np.ptp(x):
+            return None  # a face seen along one line: as much a strongly bent curve
     n1, n2 = (_unit(nrm[s].mean(axis=0)) for s in sides)
     turn = float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
     if not MIN_TURN_DEG <= turn <= MAX_TURN_DEG:
@@ -168,6 +184,61 @@ def find(points, normals, noise_normal=None, strict=True):
         np.mean(np.concatenate([a0 >= -eps, a1 <= eps])),
     )
     return edge if apart >= MIN_APART else None  # else the faces interleave: no edge
+
+
+def flat_faces(pts, nrm, sides, T, noise_normal=None):
+    """Whether each side's normals stay constant: every side's normals scatter about their
+    mean by under ``TIGHT`` of the step between the sides' means (rms), and on every side
+    seen across the edge (at least one), the normals' gradient along each direction the
+    side spans (in the tangent plane ``T`` (3, 2)), with ``FLAT_Z`` standard errors, carried
+    across the edge from one side's middle to the other's, explains under ``FLAT_SHARE`` of
+    the step.  Two planar faces; a bent surface's normals turn within each side as they do
+    between them.  A side spans a direction where its rms spread along it is over
+    ``MIN_SPREAD`` of the patch (a line's noise is no width); a side along one line sees
+    across the edge only as far as the line runs across it (its gradient is divided by the
+    cosine)."""
+    xy = pts @ T
+    means = [nrm[s].mean(axis=0) for s in sides]
+    step = float(np.linalg.norm(means[1] - means[0]))
+    along = T.T @ np.cross(*means)  # the edge, in the tangent plane
+    if max(_rms(nrm[s] - m) for s, m in zip(sides, means)) > TIGHT * step or not any(along):
+        return False  # a side's normals scatter: outliers, not a face
+    across = np.array([-along[1], along[0]]) / np.linalg.norm(along)
+    mids = [xy[s].mean(axis=0) for s in sides]
+    span = np.ptp(xy, axis=0).max()
+    dist = abs(float((mids[1] - mids[0]) @ across))
+    if dist < MIN_DEPTH * span:
+        return False
+    fits = [_gradient(xy[s] - mid, nrm[s] - m, across, (MIN_SPREAD * span) ** 2)
+            for s, mid, m in zip(sides, mids, means)]  # fmt: skip
+    s2 = sum(f[0] for f in fits) / max(2 * (len(nrm) - 6), 1)  # (two components carry noise)
+    if noise_normal is not None:
+        s2 = max(s2, noise_normal**2)
+    limit = FLAT_SHARE * step / dist
+    told = [(g, FLAT_Z * np.sqrt(s2 / w)) for _, g, w in fits if g is not None]
+    told = [np.max(g + z) for g, z in told if np.max(z) < limit]  # sides that can tell
+    return bool(told) and max(told) <= limit
+
+
+def _rms(m):
+    return float(np.sqrt(np.mean(np.sum(m**2, axis=1))))
+
+
+def _gradient(u, m, across, wide):
+    """(rss, |gradient| across the edge per spanned direction, its sum of squares) of one
+    side's normals m (k, 3) over its coordinates u (k, 2) about their means; (rss, None,
+    None) where the side is not seen across the edge (its rms spread across it under
+    ``MIN_ACROSS`` of the patch, ``wide`` being ``MIN_SPREAD``'s square), or has fewer
+    than 4 contacts."""
+    w, V = np.linalg.eigh(u.T @ u)
+    spans = w > len(u) * wide
+    cos = 1.0 if spans[0] else abs(float(V[:, 1] @ across))
+    seen = w[1] * cos**2 > len(u) * (MIN_ACROSS / MIN_SPREAD) ** 2 * wide
+    if len(u) < 4 or not spans[1] or not seen:
+        return float(np.sum(m**2)), None, None  # (not seen across the edge)
+    c = u @ V[:, spans]
+    g, *_ = np.linalg.lstsq(c, m, rcond=None)  # (spans, 3): the normals' gradient
+    return float(np.sum((m - c @ g) ** 2)), np.linalg.norm(g, axis=1) / cos, w[spans] * cos**2
 
 
 def _edge(pts, sides, n1, n2, turn, half):
@@ -223,8 +294,111 @@ def check_answer(prep, out):
         if not str(out).startswith("positions and normals disagree"):
             return
     elif out["shape"] != "plane":
+        _jump(prep, out)
         return
     _ambiguous(prep)
+
+
+def find_jump(points, normals):
+    """(point, direction) of a curvature jump the contacts straddle, in their frame, or
+    None.  Along an axis u of the gradient of the normals' slope s (the axis fitted better),
+    a hinge (s constant on one side of u0, linear on the other: a plane joined tangentially
+    to a curved surface) leaves under ``JUMP_RATIO`` of a smooth change's residual (s
+    quadratic in u) and fits over ``JUMP_F`` times better than a constant curvature (s
+    linear in u) by an F test.  The hinge is looked for only where the smooth change beats
+    the constant curvature by ``JUMP_PRE``, first over the patch (quadratic against linear
+    slope fields), then along u: most smooth patches stop there.  The (at most
+    ``MAX_LEFT_OUT``) contacts whose slopes a quadratic field misses by over ``JUMP_GROSS``
+    robust sigmas are left out first (outliers, as the fit leaves them out).  Terms in v,
+    across u, are in every model."""
+    pts, nrm = np.asarray(points, float), np.asarray(normals, float)
+    m = _unit(nrm.sum(axis=0))
+    if len(pts) < MIN_POINTS + MAX_LEFT_OUT or np.min(nrm @ m) <= 0.1:
+        return None
+    T = _basis(m)
+    xy = pts @ T
+    L = np.ptp(xy, axis=0).max()
+    if not L > 0:
+        return None
+    xy = (xy - xy.mean(axis=0)) / L
+    s = -(nrm @ T) / (nrm @ m)[:, None]
+    x, y = xy.T
+    quad = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+    coef = _solve(quad, s)
+    res = np.sum((quad @ coef - s) ** 2, axis=1)
+    flat = float(np.sum((quad[:, :3] @ _solve(quad[:, :3], s) - s) ** 2))
+    if flat - res.sum() <= JUMP_PRE * res.sum() / max(len(s) - 6, 1):
+        return None  # the curvature does not change over the patch
+    V = np.linalg.eigh(coef[1:3] + coef[1:3].T)[1]  # the slopes' gradient's axes
+    res = np.sqrt(res)
+    gross = np.argsort(res)[::-1][:MAX_LEFT_OUT]
+    gross = gross[res[gross] > JUMP_GROSS * 1.4826 * np.median(res)]
+    keep = np.setdiff1d(np.arange(len(xy)), gross)
+    found = [(*_hinge(xy[keep] @ e, xy[keep] @ [-e[1], e[0]], s[keep] @ e), e) for e in V.T]
+    found = [f for f in found if f[0] is not None]
+    if not found:
+        return None
+    u0, _, e = min(found, key=lambda f: f[1])  # (each axis of the gradient: the better)
+    return pts.mean(axis=0) + T @ (u0 * L * e), T @ [-e[1], e[0]]
+
+
+def _hinge(u, v, y):
+    """(the hinge's u0, its residual over the smooth change's), or (None, None) where it
+    does not pass ``find_jump``'s tests: every cut
+    between neighbouring u with ``MIN_SIDE`` contacts a side, each way, at once (normal
+    equations, a trace-relative ridge of 1e-12 where v holds no information)."""
+    n, one = len(u), np.ones_like(u)
+    lin = _rss(np.column_stack([one, u, v, u * v]), y)
+    smooth = _rss(np.column_stack([one, u, u * u, v, u * v]), y)
+    if lin - smooth <= JUMP_PRE * smooth / max(n - 5, 1):
+        return None, None  # the curvature does not change along u
+    us = np.sort(u)
+    cuts = 0.5 * (us[MIN_SIDE - 1 : n - MIN_SIDE] + us[MIN_SIDE : n - MIN_SIDE + 1])
+    if not len(cuts):
+        return None, None
+    cuts = np.concatenate([cuts, cuts])
+    side = np.repeat([1.0, -1.0], len(cuts) // 2)
+    h = np.maximum(side[:, None] * (u[None] - cuts[:, None]), 0.0)
+    A = np.stack([np.broadcast_to(one, h.shape), h, np.broadcast_to(v, h.shape), h * v], -1)
+    G = A.transpose(0, 2, 1) @ A
+    G += 1e-12 * np.trace(G, axis1=1, axis2=2)[:, None, None] * np.eye(4)
+    coef = np.linalg.solve(G, (A.transpose(0, 2, 1) @ y)[..., None])
+    rss = np.sum(((A @ coef)[..., 0] - y) ** 2, axis=-1)
+    j = int(np.argmin(rss))
+    best, u0 = float(rss[j]), float(cuts[j])
+    gain = (lin - best) / max(best / max(n - 5, 1), 1e-300 * lin)
+    if best >= JUMP_RATIO * smooth or gain <= JUMP_F:
+        return None, None
+    return u0, best / max(smooth, 1e-300)
+
+
+def _rss(A, y):
+    return float(np.sum((A @ _solve(A, y) - y) ** 2))
+
+
+def _solve(A, y):
+    """Least squares by the normal equations (A's columns are of unit size here), with a
+    trace-relative ridge of 1e-12 for a column the contacts leave undetermined."""
+    G = A.T @ A
+    G[np.diag_indices_from(G)] += 1e-12 * np.trace(G)
+    return np.linalg.solve(G, A.T @ y)
+
+
+def _jump(prep, out):
+    """A fitted answer (not ``plane``) across a curvature jump: ``uncertain``, and said."""
+    if isinstance(out, DataError) or out["shape"] in ("plane", "uncertain"):
+        return
+    got = find_jump(prep.points, prep.normals)
+    if got is None:
+        return
+    point, direction = got
+    p = ", ".join(f"{x:.4g}" for x in point + prep.middle)
+    d = ", ".join(f"{x:.3f}" for x in direction)
+    out["shape"] = "uncertain"
+    out["warnings"] = [*out.get("warnings", []),
+                       f"a curvature jump at ({p}) along ({d}): one side's normals keep their"
+                       " slope, the other's turn (a plane joined to a curved surface?); the"
+                       " label is uncertain: fit each side alone"]  # fmt: skip
 
 
 def _ambiguous(prep):

@@ -6,10 +6,11 @@ positions are untouched.  ``estimate`` fits, in the patch frame (z along the mea
 lengths in units of the patch), one quadratic to the heights and its gradient plus two
 constants (``bx``, ``by``) to the slopes: the constants are the tilt, the quadratic's
 second derivatives the curvature, which a constant tilt does not move.  Rows are weighted
-by each kind's noise: stated, or the residual scatter of the heights' own quadratic and of
-the slopes' own plane.  The constants' covariance is the fit's at chi^2/dof (at least
-1); a chi^2/dof over ``MAX_CHI2`` means a tilt does not explain what the positions and
-normals disagree on.
+by each kind's noise: the residual scatter of the heights' own quadratic and of the slopes'
+own plane, or the stated noise where larger (a strongly curved patch's own misfit then
+counts as noise: with the stated noise alone it would refuse every tilt there).  The
+constants' covariance is the fit's at chi^2/dof (at least 1); a chi^2/dof over
+``MAX_CHI2`` means a tilt does not explain what the positions and normals disagree on.
 
 Where the tilt is ``MIN_DEG``-``MAX_DEG`` and over ``MIN_Z`` of its standard error, ``untilt``
 turns the normals back by it and names it in a warning, ``normals tilted 3.1 deg +/- 0.4
@@ -26,7 +27,7 @@ import numpy as np
 MIN_POINTS = 10
 MIN_DEG = 1.0
 MAX_DEG = 10.0  # beyond this it is no sensor's tare: the normals are another surface's
-MIN_Z = 4.0
+MIN_Z = 3.0
 MAX_CHI2 = 4.0  # per spare row, with each kind's own noise: the tilt must explain the rest
 NOISE_FLOOR = 1e-6  # of the patch size and rad: no noise is taken as zero
 
@@ -71,15 +72,13 @@ def estimate(points, normals, noise_pos=None, noise_normal=None):
         return None  # a normal near the tangent plane: slopes are not the right rows
     sx, sy = -nl[:, 0] / nl[:, 2], -nl[:, 1] / nl[:, 2]
     H, Sx, Sy = _rows(x, y)
-    coef, _, rank, _ = np.linalg.lstsq(H[:, :6], z, rcond=None)
-    sp = noise_pos / L if noise_pos is not None else np.sqrt(np.sum((H[:, :6] @ coef - z) ** 2)
-                                                             / (n - rank))  # fmt: skip
+    sp = _rms(H[:, :6], z, n - 6)
     Pn = np.column_stack([np.ones_like(x), x, y])
-    sn = (
-        noise_normal
-        if noise_normal is not None
-        else np.hypot(_rms(Pn, sx, n - 3), _rms(Pn, sy, n - 3)) / np.sqrt(2)
-    )
+    sn = np.hypot(_rms(Pn, sx, n - 3), _rms(Pn, sy, n - 3)) / np.sqrt(2)
+    if noise_pos is not None:
+        sp = max(sp, noise_pos / L)  # (a strongly curved patch's own misfit counts too)
+    if noise_normal is not None:
+        sn = max(sn, noise_normal)
     sp, sn = max(sp, NOISE_FLOOR), max(sn, NOISE_FLOOR)
     A = np.vstack([H / sp, Sx / sn, Sy / sn])
     b = np.concatenate([z / sp, sx / sn, sy / sn])

@@ -1,6 +1,6 @@
 """Held-out EP2 cases where a real object differs from a smooth patch (bench/ep2_edges.py).
 
-Kinds (``KINDS``), each drawn from its own seed, split by seed into ``bench`` (for tuning)
+Kinds (``KINDS``), each drawn from its own seed, split by seed into ``tune`` (for tuning)
 and ``holdout`` (FOR FINAL EVALUATION ONLY):
 
 - ``ridge``, ``valley``: two planar faces meeting along a straight edge at a dihedral angle
@@ -29,13 +29,13 @@ from tactile_sim.ep2.sweep import _tilt_normals
 from tactile_studies.ep2 import families, family_layouts
 
 KINDS = ("ridge", "valley", "join", "drift", "tilt", "small")
-SPLITS = {"bench": 40417, "holdout": 72931}  # holdout: FOR FINAL EVALUATION ONLY
+SPLITS = {"tune": 40417, "holdout": 72931}  # holdout: FOR FINAL EVALUATION ONLY
 CREASE_LAYOUTS = ("sweep", "scatter", "grid")
 DIHEDRAL_DEG = (30.0, 150.0)
 TILT_DEG = (2.0, 5.0)
 DRIFT_X = 3.0  # the drift's largest size over the noise
 SMOOTH = ("sphere", "pit", "cylinder", "concave_cylinder", "ellipsoid", "torus", "quadric")
-_FAMILY_INDEX = {"bench": 10_000, "holdout": 20_000}  # beyond every families split's count
+_FAMILY_INDEX = {"tune": 10_000, "holdout": 20_000}  # beyond every families split's count
 
 
 def _rng(split, kind, index):
