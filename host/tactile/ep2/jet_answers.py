@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.ep2 import centre_result, geometry
-from tactile.ep2.centre_result import DERIVS
+from tactile.ep2.centre_result import DERIVS, Answer
 from tactile.ep2.geometry import (
     design,
     exponents,
@@ -40,32 +40,30 @@ from tactile.errors import DataError
 MAX_HALF_WIDTH = 0.25  # of 1/L: the 2-jet's noise half-width (95 %) beyond which k is unknown
 
 
-def outcomes(stack, opts, lines=None):
-    """A list per patch of ``stack``: its field dict, or the ``DataError`` refusing it.
-    ``lines``: per patch, how to name its contacts (``patch_input.row_names``) or None."""
+def outcomes(stack, jet, names=None):
+    """A list per patch of ``stack``: its ``centre_result.Answer``, or the ``DataError``
+    refusing it.  ``jet``: the ``JetOptions`` (``grid``, ``intervals``); ``names``: per
+    patch, how to name its contacts (``patch_input.row_names``) or None."""
     B = len(stack.scale)
-    lines = [None] * B if lines is None else lines
+    names = [None] * B if names is None else names
     out = [None] * B
     _refuse_disagreeing(stack)
     live = [b for b in range(B) if stack.reason[b] is None]
     for b in range(B):
         if stack.reason[b] is not None:
-            out[b] = DataError(_name_rows(stack.reason[b], lines[b]) + _left(stack, b, lines[b]))
+            out[b] = DataError(_name_rows(stack.reason[b], names[b]) + _left(stack, b, names[b]))
     if live:
         for b in np.asarray(live)[_wide(stack, live)].tolist():
-            why = undetermined(stack, b)
-            out[b] = DataError(why + _left(stack, b, lines[b]))
+            out[b] = DataError(undetermined(stack, b) + _left(stack, b, names[b]))
     ok = np.array([b for b in live if out[b] is None], int)
     if not len(ok):
         return out
     heads = centre_result.summary(
-        stack.t[ok], stack.cov[ok], None, stack.scale[ok], opts["intervals"],
+        stack.t[ok], stack.cov[ok], None, stack.scale[ok], jet.intervals,
         np.zeros_like(stack.cov[ok]),  # (k1, k2 as fitted: debiasing them cost RMS S)
     )  # fmt: skip
-    ch, gx, gy = channels(stack, ok, opts["grid"])
-    stats = {
-        k: np.asarray(v).tolist() for k, v in centre_result.statistics(ch, stack.scale[ok]).items()
-    }
+    ch, gx, gy = channels(stack, ok, jet.grid)
+    stats = centre_result.grid_stats(ch, stack.scale[ok], [c.shape == "plane" for c in heads])
     zx, zy, zxx, zxy, zyy = np.moveaxis(stack.coef[ok][:, 1:6], -1, 0)
     d1 = np.einsum("bi,bij->bj", np.asarray(principal(zx, zy, zxx, zxy, zyy)["dir1"], float),
                    stack.axes[ok])  # fmt: skip
@@ -74,10 +72,17 @@ def outcomes(stack, opts, lines=None):
     box = np.concatenate([np.where(keep, xy, np.inf).min(1), np.where(keep, xy, -np.inf).max(1)],
                          -1)[:, [0, 2, 1, 3]].tolist()  # fmt: skip
     for k, (b, head) in enumerate(zip(ok.tolist(), heads, strict=True)):
-        head["warnings"] = [_name_rows(w, lines[b]) for w in stack.warnings[b]]
-        head.update(centre_result.at(stats, k, float(stack.scale[b]), head["shape"] == "plane"))
-        head.update(direction1=d1[k], box=tuple(box[k]))
-        out[b] = _fields(stack, b, head, ([c[k] for c in ch], gx[k], gy[k]))
+        L, coef, centre = float(stack.scale[b]), stack.coef[b], stack.centre[b]
+        order = _order_of(len(coef))
+        out[b] = Answer(
+            head, stats[k], _model_text(stack, b), int(stack.order[b]),
+            "stated" if stack.stated[b].any() else "auto",
+            float(stack.noise[b, 0]), float(stack.noise[b, 1]),
+            geometry.PatchFrame(stack.origin[b], stack.axes[b]), L,
+            lambda q, c=centre, o=order, a=coef: design(q[:, 0] - c[0], q[:, 1] - c[1], o)[0] @ a,
+            ([c[k] for c in ch], gx[k], gy[k]), d1[k], tuple(box[k]),
+            [_name_rows(w, names[b]) for w in stack.warnings[b]],
+        )  # fmt: skip
     return out
 
 
@@ -157,24 +162,6 @@ def _order_of(p):
     while size(o) < p:
         o += 1
     return o
-
-
-def _fields(stack, b, head, grid):
-    L, axes, coef = float(stack.scale[b]), stack.axes[b], stack.coef[b]
-    centre = stack.centre[b]
-    order = _order_of(len(coef))
-    head.update(
-        order=int(stack.order[b]),
-        weighting="stated" if stack.stated[b].any() else "auto",
-        model=_model_text(stack, b),
-        noise_pos=float(stack.noise[b, 0]),
-        noise_normal=float(stack.noise[b, 1]),
-        frame=geometry.PatchFrame(stack.origin[b], axes),
-        scale=L,
-        surface=lambda q: design(q[:, 0] - centre[0], q[:, 1] - centre[1], order)[0] @ coef,
-        grid=grid,
-    )
-    return head
 
 
 def _model_text(stack, b):

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.ep2 import edges, geometry
-from tactile.ep2.api import analyze_patches
+from tactile.ep2.stream import analyze_patches
 from tactile.errors import DataError, InputError
 
 NEIGHBOURS = 12
