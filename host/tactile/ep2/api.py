@@ -88,7 +88,7 @@ def analyze_sweep(points, normals, finger=None, split=False, **kw):
     (§6.2.5) is cut into parts analysed separately.  Returns a list of results."""
     lines = kw.pop("lines", None)
     req = patch_input.keywords(**kw)
-    parts = patch_input.sweep_parts(points, normals, finger, lines, split, req.jet.break_angle)
+    parts = sweep_parts(points, normals, finger, lines, split, req.jet.break_angle)
     if parts is None:
         return [analyze_patch(points, normals, finger=finger, lines=lines, **req.keywords())]
     return [
@@ -96,6 +96,45 @@ def analyze_sweep(points, normals, finger=None, split=False, **kw):
                       **req.keywords())
         for p in parts
     ]  # fmt: skip
+
+
+# --- A sweep cut at its discontinuities (§6.2.5): ``split_parts`` cuts every finger's sequence
+# at its breaks (``patch_input.find_breaks``) and groups the k-th piece of each finger into part
+# k, so each part can be fitted as its own patch.
+
+
+def sweep_parts(points, normals, finger, lines, split, break_angle=patch_input.BREAK_ANGLE_DEG):
+    """The parts ``analyze_sweep`` fits (dicts of points, normals, finger, lines, as
+    ``stream.analyze_patches`` takes them), or None when it fits the patch whole (no
+    ``split``, or no break).  Raises as ``analyze_sweep`` does for normals it cannot use."""
+    nrm = geometry.unit_normals(np.asarray(normals, float))
+    (breaks,) = patch_input.find_breaks(nrm[None], [finger], break_angle)
+    if not (split and breaks):
+        return None
+    pts, fing = np.asarray(points, float), np.asarray(finger)
+    return [
+        {
+            "points": pts[rows],
+            "normals": nrm[rows],
+            "finger": fing[rows],
+            "lines": None if lines is None else [lines[i] for i in rows],
+        }
+        for rows in split_parts(len(nrm), finger, breaks)
+    ]
+
+
+def split_parts(n_rows, finger, breaks):
+    """Row-index arrays of the parts left after cutting each finger at its breaks."""
+    part = np.zeros(n_rows, dtype=int)
+    finger = np.asarray(finger)
+    cut = {}
+    for row, f, _ in breaks:
+        cut.setdefault(f, []).append(row)
+    for f, rows_cut in cut.items():
+        rows = np.flatnonzero(finger == f)
+        for r in rows_cut:
+            part[rows[rows >= r]] += 1
+    return [np.flatnonzero(part == k) for k in range(part.max() + 1) if np.any(part == k)]
 
 
 # --- What ``analyze_patch`` returns: ``PatchResult``, its JSON record, and its assembly from the

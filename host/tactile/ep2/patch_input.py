@@ -302,9 +302,8 @@ def _drop_duplicates(pts, nrm, finger, lines, rows):
 # --- Discontinuities along a finger's sweep (§6.2.2, §6.2.5).
 #
 # A crease or edge shows as consecutive normals of one finger that differ by more than an angle.
-# ``find_breaks`` lists them for a stack of patches at once; ``split_parts`` cuts every
-# finger's sequence at its breaks and groups the k-th piece of each finger into part k, so
-# each part can be fitted as its own patch.
+# ``find_breaks`` lists them for a stack of patches at once (``api.split_parts`` cuts a sweep
+# at them).
 
 
 def find_breaks(normals, fingers, max_angle_deg=BREAK_ANGLE_DEG):
@@ -361,40 +360,6 @@ def _label_codes(fingers, n):
     if codes.dtype.kind not in "iuf" or (codes.dtype.kind == "f" and np.isnan(codes).any()):
         return None
     return codes
-
-
-def sweep_parts(points, normals, finger, lines, split, break_angle=BREAK_ANGLE_DEG):
-    """The parts ``api.analyze_sweep`` fits (dicts of points, normals, finger, lines, as
-    ``stream.analyze_patches`` takes them), or None when it fits the patch whole (no
-    ``split``, or no break).  Raises as ``analyze_sweep`` does for normals it cannot use."""
-    nrm = geometry.unit_normals(np.asarray(normals, float))
-    (breaks,) = find_breaks(nrm[None], [finger], break_angle)
-    if not (split and breaks):
-        return None
-    pts, fing = np.asarray(points, float), np.asarray(finger)
-    return [
-        {
-            "points": pts[rows],
-            "normals": nrm[rows],
-            "finger": fing[rows],
-            "lines": None if lines is None else [lines[i] for i in rows],
-        }
-        for rows in split_parts(len(nrm), finger, breaks)
-    ]
-
-
-def split_parts(n_rows, finger, breaks):
-    """Row-index arrays of the parts left after cutting each finger at its breaks."""
-    part = np.zeros(n_rows, dtype=int)
-    finger = np.asarray(finger)
-    cut = {}
-    for row, f, _ in breaks:
-        cut.setdefault(f, []).append(row)
-    for f, rows_cut in cut.items():
-        rows = np.flatnonzero(finger == f)
-        for r in rows_cut:
-            part[rows[rows >= r]] += 1
-    return [np.flatnonzero(part == k) for k in range(part.max() + 1) if np.any(part == k)]
 
 
 MIN_SPREAD = 1e-300

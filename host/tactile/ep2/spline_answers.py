@@ -67,7 +67,7 @@ def analyze(prep, opts):
     centre, d1 = _centre(fit, p, grid_xy, scale, s2, jet.intervals)
     channels = np.split(fit.grid_rows(*grid_xy, first=1) @ fit.coef, 5)
     ch = [np.asarray(c)[None] for c in channels]  # (a stack of one)
-    (stats,) = centre_result.grid_stats(ch, np.array([scale]), [centre.shape == "plane"])
+    (stats,) = geometry.grid_stats(ch, np.array([scale]), [centre.shape == "plane"])
     gx, gy = (g.ravel() for g in np.meshgrid(*grid_xy, indexing="ij"))
     d = fit.domain
     return Answer(

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile.ep2 import check_screens, edges, geometry, jet_answers, local_jet, patch_input, tilt
-from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep
+from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep, sweep_parts
 from tactile.errors import DataError, InputError
 from tactile.units import c_shift
 
@@ -80,7 +80,7 @@ def _outcome(name, n, results):
 def analyze_chunk(work, req, split):
     """[``Outcome``] of ``work``, a list of (``Contacts``, name): one ``analyze_patches``
     call for every patch of the chunk and every part of the ones ``split`` cuts (§6.2.5;
-    ``patch_input.sweep_parts``).  A cut patch is refused, as ``analyze_sweep`` refuses it, by its
+    ``api.sweep_parts``).  A cut patch is refused, as ``analyze_sweep`` refuses it, by its
     first part that is."""
     out = [None] * len(work)
     cut = _breaks([g for g, _ in work], req.jet.break_angle) if split else [False] * len(work)
@@ -106,10 +106,10 @@ def analyze_chunk(work, req, split):
 
 
 def _parts(group, angle):
-    """``patch_input.sweep_parts`` of a group ``_breaks`` found cut, or the exception it raised."""
+    """``api.sweep_parts`` of a group ``_breaks`` found cut, or the exception it raised."""
     try:
         g = group
-        return patch_input.sweep_parts(g.points, g.normals, g.finger, g.lines, True, angle)
+        return sweep_parts(g.points, g.normals, g.finger, g.lines, True, angle)
     except (DataError, InputError) as exc:
         return exc
 
