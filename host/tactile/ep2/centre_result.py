@@ -1,19 +1,16 @@
 """From the curvature at the patch centre and its covariance to what a user is told: S, k1,
-k2, radius and C with 95 % intervals and a label (``summary``, for a stack of patches), the
-thesis's grid statistics and maps (§4.8.2).
+k2, radius and C with 95 % intervals and a label (``summary``, for a stack of patches: a
+``Centre`` each), and what both methods hand ``api.PatchResult`` (``Answer``).
 
 The label: a plane where the curvature tensor cannot be told from 0 (a 99.9 % test; the
 spline also asks both k intervals to hold 0); otherwise the S band holding 99.9 % of S's
 distribution (``vote``), else ``uncertain``.  A plane has no S, C or radius.  Which
-patches are refused is decided before, by the fit (``jet_answers``, ``spline``).
+patches are refused is decided before, by the fit (``jet_answers``, ``spline_answers``).
 
 The curvature is summarised by t = (a, b, c), the symmetric shape-operator entries
 (``geometry.shape_entries``): m = (a + c)/2 the mean curvature, v = ((a - c)/2, b) the
 anisotropy, h = |v|, k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
 
-- **Covariance** (the spline's).  t is a smooth function of the coefficients, so
-  Cov(t) = s^2 (G F)(G F)^T with G = dt/dcoef (complex-step derivative along the five
-  derivative channels, exact to round-off) and F the coefficients' covariance factor.
 - **Debiased anisotropy.**  E|v_hat|^2 = |v|^2 + tr Cov(v), so the plug-in h is biased
   up (a noisy sphere looks anisotropic); the estimate uses h^2 = max(|v_hat|^2 - tr
   Cov(v), 0), the Rician bias correction.
@@ -24,9 +21,8 @@ anisotropy, h = |v|, k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
   rises to 5.99 there: c = crit(max(0, lambda - 2.448)), lambda the Mahalanobis length of
   v_hat and crit the 95 % quantile of (Rice(l) - l)^2 made non-increasing (``_CRIT``);
   for k1, k2 the umbilic truth is a point, so chi^2_3 = 7.81 (``critical_value_k``).
-  ``bias`` is added in quadrature along its own direction.
-- **Model bias** of the spline's curvature (``model_bias``, beyond the thesis): the refit
-  of the constant-curvature surface.
+  ``bias`` is added in quadrature along its own direction (the spline's model bias,
+  ``spline_answers.model_bias``).
 """
 
 import math

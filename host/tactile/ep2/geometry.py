@@ -18,6 +18,9 @@ P = C^-1 II C^-T in an orthonormal tangent basis (C the Cholesky factor of the f
 fundamental form I = C C^T).  Its eigenvalues k = m +/- hypot((a - c)/2, b), m = (a + c)/2,
 are exact at umbilics and planes: no k1 - k2 division, no square root of a negative
 round-off.
+
+**Grid statistics** (§4.8.2, ``grid_stats``): means and sds of k1, k2, R, S and C over the
+N x N grid, for both methods.
 """
 
 from dataclasses import dataclass

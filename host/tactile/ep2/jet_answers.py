@@ -1,4 +1,4 @@
-"""The default fit's answer for a stack (docs/ep2.md, "The default", steps 5-9).
+"""The default fit's answer for a stack (docs/ep2.md, "The default", steps 5-7 and 9).
 
 ``answer`` (steps 5-7, from one pass of ``local_jet.fit``, ``JetFit``): the 2-jet moved
 toward the jet below the top on evidence, its covariance of noise plus the bias left (the
@@ -6,15 +6,15 @@ Wald test of two jets' difference, the positive part of a measured bias, and the
 the terms a jet leaves out, from a sphere's or cylinder's of the measured curvature), the
 curvature at the centre and whether the contacts lie on one line: a ``JetStack``.
 
-``outcomes`` (steps 8-9): from a ``JetStack`` to each patch's result fields, or the
+``outcomes`` (step 9): from a ``JetStack`` to each patch's ``centre_result.Answer``, or the
 refusal in its place.  A patch is refused only when its fit says so (too few consistent
-contacts, one line, no quadric through them), when positions and normals disagree
-(``disagreements``), or when the noise covariance of its 2-jet's curvature leaves a
-direction undetermined, named in world coordinates: a 95 % half-width over
+contacts, one line, no quadric through them, positions and normals that disagree:
+``local_jet.disagreements``), or when the noise covariance of its 2-jet's curvature leaves
+a direction undetermined, named in world coordinates: a 95 % half-width over
 ``MAX_HALF_WIDTH`` / L.  The bias left widens the intervals; it refuses nothing.
 Otherwise: the headline curvature, intervals and label at the patch centre
-(``centre_result.summary``), the thesis's grid statistics (§4.8.2,
-``centre_result.statistics``) and the fields ``api.from_fields`` takes.
+(``centre_result.summary``) and the thesis's grid statistics (§4.8.2,
+``geometry.grid_stats``).
 """
 
 from dataclasses import dataclass, field

@@ -26,8 +26,10 @@ In one's head (thesis §4.5-4.6 made local; §5.1.2's frame):
    noise, and the order above the top, sized as a sphere or cylinder of the measured
    curvature would size it (a circle's z6 = 5 z4^2 / z2).
 
-``fit`` returns a ``jet_answers.JetStack`` (items 5-6 are ``jet_answers``');
-``jet_answers`` turns it into results and refusals.  Each pass of the fit is a ``JetFit``.
+``fit`` returns a ``jet_answers.JetStack`` (items 5-6 are ``jet_answers``'), each patch
+whose positions and normals describe different surfaces refused in it (``disagreements``,
+docs/ep2.md step 8); ``jet_answers.outcomes`` turns it into answers and refusals.  Each pass
+of the fit is a ``JetFit``.
 """
 
 import math
