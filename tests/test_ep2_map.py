@@ -111,3 +111,16 @@ def test_sim_writes_a_map_object_that_ep2_map_reads(tmp_path, cli):
     rec = json.loads(out)
     assert code == 0 and [r["shape"] for r in rec["regions"]] == ["plane"] * 3
     assert rec["units"]["length"] == "cm" and len(rec["edges"]) == 3
+
+
+def test_a_curvature_jump_is_placed_within_the_contacts_spacing():
+    """The capped cylinder's contacts are 4 mm apart across the jump: the crossing links'
+    midpoints alone put it 2 mm off; the hinge in the normals' turn puts it on the line."""
+    for name, seed in (("capped_cylinder", 11), ("rounded_edge", 12)):
+        d = map_objects.make(name, 0.005, 0.005, seed=seed)
+        found = map_contacts(d["points"], d["normals"], noise_pos=0.005, noise_normal=0.005)
+        jumps = [e for e in found.edges if e.kind == "curvature jump"]
+        for truth in d["edges"]:
+            off = [np.asarray(e.point) - truth["point"] for e in jumps]
+            dist = [np.linalg.norm(o - (o @ truth["direction"]) * truth["direction"]) for o in off]
+            assert min(dist) < 0.12  # cm

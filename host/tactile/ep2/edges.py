@@ -21,9 +21,9 @@ about each face's mean (Student t).  A ridge's faces fall away from the edge, a 
 rise.
 
 ``check`` raises ``EdgeError`` (a ``DataError``, exit 3) for such a patch, naming the edge's
-location, direction and dihedral angle; and where more than two normals disagree with the
-rest (beyond ``max_normal_angle``) but no edge explains them, it refuses the patch as a bad
-patch: the normal screen leaves out at most two contacts.
+location, direction and dihedral angle; where more than two normals disagree with the rest
+(beyond ``max_normal_angle``) and no edge explains them, it refuses a bad patch.
+``check_answer`` makes a fitted label ``uncertain`` across a curvature jump (``find_jump``).
 """
 
 from dataclasses import dataclass
@@ -92,8 +92,7 @@ class EdgeError(DataError):
 
 def _t975(dof):
     """Student t's 97.5 % quantile (Cornish-Fisher, within 1 % for dof >= 3)."""
-    z = 1.959964
-    dof = max(dof, 1)
+    z, dof = 1.959964, max(dof, 1)
     return z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
 
 
@@ -187,16 +186,13 @@ def find(points, normals, noise_normal=None, strict=True):
 
 
 def flat_faces(pts, nrm, sides, T, noise_normal=None):
-    """Whether each side's normals stay constant: every side's normals scatter about their
-    mean by under ``TIGHT`` of the step between the sides' means (rms), and on every side
-    seen across the edge (at least one), the normals' gradient along each direction the
-    side spans (in the tangent plane ``T`` (3, 2)), with ``FLAT_Z`` standard errors, carried
-    across the edge from one side's middle to the other's, explains under ``FLAT_SHARE`` of
-    the step.  Two planar faces; a bent surface's normals turn within each side as they do
-    between them.  A side spans a direction where its rms spread along it is over
-    ``MIN_SPREAD`` of the patch (a line's noise is no width); a side along one line sees
-    across the edge only as far as the line runs across it (its gradient is divided by the
-    cosine)."""
+    """Whether each side's normals stay constant: each side's scatter about its mean is
+    under ``TIGHT`` of the step between the means (rms), and on every side seen across the
+    edge (at least one) the normals' gradient along each direction the side spans (rms
+    spread over ``MIN_SPREAD`` of the patch; in the tangent plane ``T`` (3, 2)), with
+    ``FLAT_Z`` standard errors, carried from one side's middle to the other's, explains
+    under ``FLAT_SHARE`` of the step.  A bent surface's normals turn within each side as
+    between them.  A side along one line sees across the edge as far as it runs across."""
     xy = pts @ T
     means = [nrm[s].mean(axis=0) for s in sides]
     step = float(np.linalg.norm(means[1] - means[0]))
@@ -286,9 +282,8 @@ def check_answer(prep, out):
     """Raise ``EdgeError`` where the fit says ``plane``, or refuses the patch as "positions
     and normals disagree" (``out`` a ``DataError``), but the normals fall in two groups
     turned by over ``MIN_TURN_DEG`` (no plane has that): an edge seen along lines that a
-    bent surface would fit as well (two lines along it), named as the edge it may be, and
-    the message says the other reading.  (Of 4,400 smooth held-out patches, 11 answered
-    ``plane`` on a strongly bent surface's parallel lines are refused so.)"""
+    bent surface would fit as well, named as the edge it may be, and the message says the
+    other reading.  Any other fitted answer across a curvature jump: ``uncertain``."""
     if isinstance(out, DataError):
         if not str(out).startswith("positions and normals disagree"):
             return
@@ -300,16 +295,13 @@ def check_answer(prep, out):
 
 def find_jump(points, normals):
     """(point, direction) of a curvature jump the contacts straddle, in their frame, or
-    None.  Along an axis u of the gradient of the normals' slope s (the axis fitted better),
-    a hinge (s constant on one side of u0, linear on the other: a plane joined tangentially
+    None.  Along an axis u of the gradient of the normals' slope s (the better fitted), a
+    hinge (s constant on one side of u0, linear on the other: a plane joined tangentially
     to a curved surface) leaves under ``JUMP_RATIO`` of a smooth change's residual (s
     quadratic in u) and fits over ``JUMP_F`` times better than a constant curvature (s
-    linear in u) by an F test.  The hinge is looked for only where the smooth change beats
-    the constant curvature by ``JUMP_PRE``, first over the patch (quadratic against linear
-    slope fields), then along u: most smooth patches stop there.  The (at most
-    ``MAX_LEFT_OUT``) contacts whose slopes a quadratic field misses by over ``JUMP_GROSS``
-    robust sigmas are left out first (outliers, as the fit leaves them out).  Terms in v,
-    across u, are in every model."""
+    linear in u) by an F test; looked for only where the smooth change beats the constant
+    curvature by ``JUMP_PRE`` over the patch and along u.  Up to ``MAX_LEFT_OUT`` contacts
+    a quadratic slope field misses by ``JUMP_GROSS`` robust sigmas are left out first."""
     pts, nrm = np.asarray(points, float), np.asarray(normals, float)
     m = _unit(nrm.sum(axis=0))
     if len(pts) < MIN_POINTS + MAX_LEFT_OUT or np.min(nrm @ m) <= 0.1:
@@ -390,9 +382,8 @@ def _jump(prep, out):
     got = find_jump(prep.points, prep.normals)
     if got is None:
         return
-    point, direction = got
-    p = ", ".join(f"{x:.4g}" for x in point + prep.middle)
-    d = ", ".join(f"{x:.3f}" for x in direction)
+    where = (got[0] + prep.middle, got[1])
+    p, d = (", ".join(f"{x:{f}}" for x in v) for v, f in zip(where, (".4g", ".3f"), strict=True))
     out.centre.shape = "uncertain"
     out.warnings = [*out.warnings,
                        f"a curvature jump at ({p}) along ({d}): one side's normals keep their"

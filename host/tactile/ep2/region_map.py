@@ -20,7 +20,9 @@ regions separated by edges and curvature jumps, and each region is described:
    interval (a region is as curved as its parts; one 2-jet cannot follow a half cylinder).
 7. **Edges between regions**: the regions that share links are adjacent; their boundary's
    contacts are fitted by ``edges.find`` for a crease (point, direction, dihedral angle
-   with its interval), else the boundary is a curvature jump (dihedral 180 deg).
+   with its interval), else the boundary is a curvature jump (dihedral 180 deg): along the
+   line the crossing links' midpoints run along, placed across it where the normals' turn
+   across it is best a hinge (constant on one side, growing on the other).
 """
 
 from collections import Counter
@@ -35,6 +37,7 @@ from tactile.errors import DataError, InputError
 NEIGHBOURS = 12
 EDGE_ANGLE_DEG = 20.0
 MIN_REGION = 8
+JUMP_REACH = 2.5  # a jump is placed from the contacts within this many link lengths
 CHUNK = 512  # rows of the distance matrix at a time
 
 
@@ -215,19 +218,53 @@ def _edge(pts, nrm, region, links, pair, kw):
     mid = pts[near].mean(axis=0)
     e = edges.find(pts[near] - mid, nrm[near], kw.get("noise_normal"))
     if e is None:
-        return _jump(pair, pts, links[cross])
+        return _jump(pair, pts, nrm, links[cross])
     return RegionEdge(pair, e.kind, [float(v) for v in e.point + mid],
                       [float(v) for v in e.direction], float(e.dihedral_deg),
                       tuple(float(v) for v in e.dihedral_interval))  # fmt: skip
 
 
-def _jump(pair, pts, crossing):
-    """A curvature jump: the crossing links' midpoint nearest their mean, and the line
-    the midpoints run along (their principal axis)."""
+def _jump(pair, pts, nrm, crossing):
+    """A curvature jump along the line the crossing links' midpoints run along (their
+    principal axis), placed across it by ``_hinge``, else at the midpoint nearest the
+    midpoints' mean."""
     mids = 0.5 * (pts[crossing[:, 0]] + pts[crossing[:, 1]])
     centre = mids.mean(axis=0)
     point = mids[int(np.argmin(np.sum((mids - centre) ** 2, axis=1)))]
-    direction = None
-    if len(mids) > 1 and np.ptp(mids, axis=0).max() > 0:
-        direction = [float(v) for v in np.linalg.svd(mids - centre)[2][0]]
-    return RegionEdge(pair, "curvature jump", [float(v) for v in point], direction, 180.0, None)
+    if len(mids) < 2 or not np.ptp(mids, axis=0).max() > 0:
+        return RegionEdge(pair, "curvature jump", [float(v) for v in point], None, 180.0, None)
+    d = np.linalg.svd(mids - centre)[2][0]
+    spacing = float(np.median(np.linalg.norm(pts[crossing[:, 0]] - pts[crossing[:, 1]], axis=1)))
+    moved = _hinge(pts, nrm, point, d, spacing)  # (a point on it: the line may be an arc)
+    point = point if moved is None else moved
+    return RegionEdge(pair, "curvature jump", [float(v) for v in point],
+                      [float(v) for v in d], 180.0, None)  # fmt: skip
+
+
+def _hinge(pts, nrm, centre, d, spacing, reach=JUMP_REACH):
+    """Where across the line (``centre``, ``d``) the normals' turn across it is best a
+    hinge: constant on one side, growing linearly on the other (a plane or a cylinder's
+    straight side beside a curved part), over the contacts within ``reach`` link lengths
+    of the line; None where fewer than 3 lie on each side."""
+    rel = pts - centre
+    along = rel @ d
+    off = rel - np.outer(along, d)
+    near = np.linalg.norm(off, axis=1) <= reach * spacing
+    if near.sum() < 6:
+        return None
+    m = nrm[near].sum(axis=0)
+    across = np.cross(d, m)
+    across /= max(np.linalg.norm(across), 1e-300)
+    u = off[near] @ across
+    y = np.arcsin(np.clip(nrm[near] @ across, -1.0, 1.0))
+    order = np.argsort(u)
+    u, y = u[order], y[order]
+    best, where = np.inf, None
+    for k in range(3, len(u) - 2):
+        cut = 0.5 * (u[k - 1] + u[k])
+        for side in (1.0, -1.0):
+            A = np.column_stack([np.ones_like(u), np.maximum(side * (u - cut), 0.0)])
+            coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+            r = float(np.sum((A @ coef - y) ** 2))
+            best, where = (r, cut) if r < best else (best, where)
+    return None if where is None else centre + where * across
