@@ -23,18 +23,7 @@ import numpy as np
 
 from tactile.ep2 import centre_result, geometry
 from tactile.ep2.centre_result import Answer
-from tactile.ep2.geometry import (
-    DERIVS,
-    design,
-    exponents,
-    mv,
-    pick,
-    powers,
-    principal,
-    shape_entries,
-    size,
-    vm,
-)
+from tactile.ep2.geometry import DERIVS, design, mv, pick, size, vm
 from tactile.errors import DataError
 
 MAX_HALF_WIDTH = 0.25  # of 1/L: the 2-jet's noise half-width (95 %) beyond which k is unknown
@@ -64,8 +53,8 @@ def outcomes(stack, jet, names=None):
     ch, gx, gy = channels(stack, ok, jet.grid)
     stats = geometry.grid_stats(ch, stack.scale[ok], [c.shape == "plane" for c in heads])
     zx, zy, zxx, zxy, zyy = np.moveaxis(stack.coef[ok][:, 1:6], -1, 0)
-    d1 = np.einsum("bi,bij->bj", np.asarray(principal(zx, zy, zxx, zxy, zyy)["dir1"], float),
-                   stack.axes[ok])  # fmt: skip
+    dir1 = np.asarray(geometry.principal(zx, zy, zxx, zxy, zyy)["dir1"], float)
+    d1 = np.einsum("bi,bij->bj", dir1, stack.axes[ok])
     xy = stack.xy[ok] + stack.centre[ok][:, None, :]
     keep = stack.keep[ok][..., None]
     box = np.concatenate([np.where(keep, xy, np.inf).min(1), np.where(keep, xy, -np.inf).max(1)],
@@ -133,10 +122,10 @@ def channels(stack, idx, n):
     order = _order_of(coef.shape[1])
     # on a tensor grid the jet is px C py^T, C[i, j] the coefficient of x^i y^j / (i! j!)
     C = np.zeros((len(idx), order + 3, order + 3))
-    for k, (i, j) in enumerate(exponents(order)):
+    for k, (i, j) in enumerate(geometry.exponents(order)):
         C[:, i, j] = coef[:, k]
-    px = np.stack(powers(xs, order), -1)
-    pyT = np.swapaxes(np.stack(powers(ys, order), -1), -1, -2)
+    px = np.stack(geometry.powers(xs, order), -1)
+    pyT = np.swapaxes(np.stack(geometry.powers(ys, order), -1), -1, -2)
     ch = [(px @ C[:, a : a + order + 1, c : c + order + 1] @ pyT).reshape(len(idx), -1)
           for a, c in DERIVS]  # fmt: skip
     return ch, gx + centre[:, :1], gy + centre[:, 1:]
@@ -338,12 +327,12 @@ def _pick_coef(coefs, which, p):
 def _entries_and_jacobian(theta):
     """Shape-operator entries (B, 3) of (zx, zy, zxx, zxy, zyy) and their Jacobian (B, 3, 5)
     (complex step: exact to round-off)."""
-    t = np.stack(shape_entries(*np.moveaxis(theta, -1, 0)), -1)
+    t = np.stack(geometry.shape_entries(*np.moveaxis(theta, -1, 0)), -1)
     J = np.empty((len(theta), 3, 5))
     for k in range(5):
         z = theta.astype(complex)
         z[:, k] += 1e-30j
-        J[:, :, k] = np.stack(shape_entries(*np.moveaxis(z, -1, 0)), -1).imag / 1e-30
+        J[:, :, k] = np.stack(geometry.shape_entries(*np.moveaxis(z, -1, 0)), -1).imag / 1e-30
     return t, J
 
 

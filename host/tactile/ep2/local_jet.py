@@ -395,7 +395,7 @@ def _fit(A, b):
 
 def _verdict(tp, tn, rms, axes, L):
     """The line: where the two surfaces' curvatures differ most, or their tilt."""
-    Hp, Hn = _hessian(tp), _hessian(tn)
+    Hp, Hn = (np.array([[t[2], t[3]], [t[3], t[4]]]) for t in (tp, tn))
     lam, vec = np.linalg.eigh(Hp - Hn)
     u = vec[:, int(np.argmax(np.abs(lam)))]
     kp, kn = -(u @ Hp @ u) / L, -(u @ Hn @ u) / L  # k = -z'' (convex toward +z: k > 0)
@@ -409,13 +409,8 @@ def _verdict(tp, tn, rms, axes, L):
     )
 
 
-def _hessian(t):
-    return np.array([[t[2], t[3]], [t[3], t[4]]])
-
-
 def refuse_disagreeing(stack):
-    """Patches whose positions and normals describe different surfaces are refused
-    (``disagreements``)."""
+    """Refuse the patches whose positions and normals describe different surfaces."""
     live = np.array([b for b, why in enumerate(stack.reason) if why is None], int)
     if not len(live):
         return
