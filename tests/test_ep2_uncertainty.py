@@ -86,7 +86,7 @@ def test_k1_interval_is_the_delta_method_far_from_umbilics():
     d = np.array([0.5 * (t[0] - t[2]), t[1]]) / np.hypot(0.5 * (t[0] - t[2]), t[1])
     grad = np.array([0.5 + 0.5 * d[0], d[1], 0.5 - 0.5 * d[0]])  # d(m + h)/d(a, b, c)
     half = 1.96 * np.sqrt(grad @ cov @ grad)
-    lo, hi = iv["k1"]
+    lo, hi = iv.k1
     assert lo == pytest.approx(m + h - half, abs=0.02 * half)
     assert hi == pytest.approx(m + h + half, abs=0.02 * half)
 
@@ -109,7 +109,7 @@ def test_interval_coverage_on_gaussian_tensors(t_true, key, truth):
     n = 600
     for t in rng.multivariate_normal(t_true, cov, n):
         m, h, lam = centre_result.anisotropy(t, cov)
-        lo, hi = centre_result.ellipsoid_intervals(t, cov, m, h, lam)[key]
+        lo, hi = getattr(centre_result.ellipsoid_intervals(t, cov, m, h, lam), key)
         hits += lo <= truth <= hi
     assert 0.92 <= hits / n <= 0.995  # k at the umbilic vertex is conservative (~0.99)
 

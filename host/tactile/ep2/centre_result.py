@@ -64,13 +64,23 @@ class Centre:
 
 
 @dataclass
+class Intervals:
+    """95 % intervals (``ellipsoid_intervals``), in units of the patch: S, k1, k2 and kmax =
+    |m| + h, each (lo, hi) per patch of a stack, and S's ellipsoid radius^2 ``crit``."""
+
+    S: np.ndarray
+    k1: np.ndarray
+    k2: np.ndarray
+    kmax: np.ndarray
+    crit: np.ndarray
+
+
+@dataclass
 class Answer:
-    """What a method found for one patch (``jet_answers.outcomes``, ``spline_answers.analyze``),
-    what ``api.PatchResult`` is made of: the centre's answer, the grid statistics, the model
-    in one line, the order, weighting and noise the weights used, the patch frame (about the
-    centred contacts) and L, the fitted surface z(xy / L) / L, the grid's channels and
-    points (``grid``: for the maps), the first principal direction (world), the contacts'
-    box in the frame / L, the warnings and the B-spline fit (the spline's)."""
+    """What a method found for one patch (``jet_answers.outcomes``, ``spline_answers.analyze``)
+    and ``api.PatchResult`` is made of.  ``frame``: about the centred contacts; ``surface``:
+    z(xy / L) / L; ``grid``: the grid's channels and points (for the maps); ``direction1``:
+    world; ``box``: the contacts' in the frame / L; ``fit``: the B-spline's."""
 
     centre: Centre
     stats: GridStats
@@ -123,14 +133,14 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zer
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
     m, h, scale, c = (np.asarray(v, float).tolist() for v in (m, h, scale, c))
-    iv = None if iv is None else {k: np.asarray(v).tolist() for k, v in iv.items()}
+    iv = iv and Intervals(**{k: np.asarray(v).tolist() for k, v in vars(iv).items()})
     flat = zip(r.tolist(), d2.tolist(), plane.tolist(), strict=True)
     return [_summary_one(i, m, h, iv, f, scale, c) for i, f in enumerate(flat)]
 
 
 def _excludes_zero(iv):
     """(B,) whether the k1 or the k2 interval leaves out 0."""
-    k1, k2 = iv["k1"], iv["k2"]
+    k1, k2 = iv.k1, iv.k2
     return (k1[:, 0] > 0) | (k1[:, 1] < 0) | (k2[:, 0] > 0) | (k2[:, 1] < 0)
 
 
@@ -142,19 +152,19 @@ def _summary_one(i, m, h, iv, flat, scale, c):
     out = Centre(None, None, None, (m + h) / scale, (m - h) / scale, None, None, None, None,
                  None, None, {})  # fmt: skip
     if iv is not None:
-        out.k1_interval = tuple(float(v) / scale for v in iv["k1"][i])
-        out.k2_interval = tuple(float(v) / scale for v in iv["k2"][i])
+        out.k1_interval = tuple(float(v) / scale for v in iv.k1[i])
+        out.k2_interval = tuple(float(v) / scale for v in iv.k2[i])
     if plane:
         out.shape, out.confidence = "plane", plane_confidence(r, d2)
         return out
     s = float(shape_index(m + h, m - h))
     sd = None
     if iv is not None:
-        root = math.sqrt(float(iv["crit"][i]))
-        s_iv = tuple(float(v) for v in iv["S"][i])
+        root = math.sqrt(float(iv.crit[i]))
+        s_iv = tuple(float(v) for v in iv.S[i])
         sd = ((s - s_iv[0]) / root, (s_iv[1] - s) / root)
         out.S_interval = s_iv
-        lo, hi = (float(v) for v in iv["kmax"][i])
+        lo, hi = (float(v) for v in iv.kmax[i])
         out.radius_interval = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
     p_flat = plane_confidence(r, d2)
     out.shape, out.confidence, out.votes = vote(s, sd, p_flat)
@@ -410,5 +420,5 @@ def ellipsoid_intervals(t, cov, m, h, lam, bias=None):
     # the origin inside the ellipsoid: kmax can be 0 (a plane is compatible)
     inside = _mahalanobis(t, cov) ** 2 <= crit_k
     out["kmax"][:, 0] = np.where(inside, 0.0, out["kmax"][:, 0])
-    out["crit"] = crit_s
-    return {k: v[0] for k, v in out.items()} if one else out
+    iv = Intervals(**out, crit=crit_s)
+    return Intervals(**{k: v[0] for k, v in vars(iv).items()}) if one else iv
