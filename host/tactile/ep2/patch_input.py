@@ -107,7 +107,7 @@ class Prepared:
     normals: np.ndarray
     jet: JetOptions
     lines: list | None
-    names: object
+    names: "RowNames | None"
     breaks: list
     dropped: int
     middle: np.ndarray

@@ -329,7 +329,7 @@ def _fit(prepared, jet):
     for b, (_, prep) in enumerate(prepared):
         m = len(prep.points)
         P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
-    noise = [[_nan(getattr(prep.jet, k)) for _, prep in prepared] for k in _OWN]
+    noise = [[np.nan if (v := getattr(p.jet, k)) is None else v for _, p in prepared] for k in _OWN]
     stack = local_jet.fit(P, N, mask, *noise, jet.max_normal_angle)
     return jet_answers.outcomes(stack, jet, [prep.names for _, prep in prepared])
 
@@ -347,10 +347,6 @@ def _screens(preps):
         edge.update(zip(idx, e.tolist(), strict=True))
         tilted.update(zip(idx, t.tolist(), strict=True))
     return edge, tilted
-
-
-def _nan(v):
-    return np.nan if v is None else v
 
 
 def _one(p, req):
