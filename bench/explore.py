@@ -1,7 +1,10 @@
 """``tactile explore``'s planner against the thesis's fixed 3 x 6 plan, in process.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/explore.py [--split tune|holdout]
-     [--seeds 20] [--plots DIR (out/explore)] [--ep1]
+     [--seeds 20] [--plots DIR (out/explore)] [--ep1] [--flat 0.03] [--s-width W]
+
+``--flat`` (1/cm) is the plane's flatness (``Explorer.flat``), ``--s-width`` the second
+operating point's stop (``Explorer.s_width``: fewer touches against a lower RMS S).
 
 Objects: the EP2 families (``tactile_sim.ep2.objects``: sphere, cylinder, concave cylinder,
 pit, saddle, plane) in the tables 5-7 setup of docs/ep2.md (lengths in cm: a 5 x 6 cm patch,
@@ -41,6 +44,7 @@ from tactile_sim.ep2.objects import make  # noqa: E402
 from tactile_sim.ep2.sweep import _tilt_normals, sweep  # noqa: E402
 
 HALF, STANDOFF, BUDGET = 3.0, 1.5, 18
+FLAT = 0.03  # 1/cm: a plane, curvatures within +-1/33 cm (under half the R 15 pit's 1/15 cm)
 # name: (kind, radius cm, rotation deg, k for quadrics, noise_pos cm, noise_normal rad[, slope])
 SPLITS = {
     "tune": {
@@ -50,6 +54,7 @@ SPLITS = {
         "pit": ("pit", 15.0, 0.0, None, 0.05, 0.03),
         "saddle": ("quadric", 10.0, 20.0, (0.1, -0.1), 0.05, 0.03),
         "plane": ("plane", 10.0, 0.0, None, 0.05, 0.03),
+        "band_edge": ("quadric", 10.0, 40.0, (0.1, 0.0414), 0.05, 0.03),  # S 0.75 at the centre
     },
     "holdout": {
         "sphere_r8": ("sphere", 8.0, 0.0, None, 0.03, 0.02),
@@ -120,13 +125,13 @@ def centre_s(obj, res):
     return true_s(obj, c[0], c[1])
 
 
-def run_explore(obj, spec, seed):
+def run_explore(obj, spec, seed, flat=None, s_width=None):
     """(touches to a confident correct label or None, a confident wrong label, S error at
     the stop, S error after the whole budget, the trace)."""
     rng = np.random.default_rng(seed)
     opts = {"noise_pos": spec[4], "noise_normal": spec[5]}
     ex = Explorer(Region((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), HALF, STANDOFF), max_touches=BUDGET,
-                  options=opts)  # fmt: skip
+                  flat=flat, s_width=s_width, options=opts)  # fmt: skip
     first, wrong, at_stop, trace = None, False, None, []
     while ex.touches < BUDGET:  # on past the stop: the error after the same budget as fixed
         plan = ex.plan()
@@ -147,10 +152,10 @@ def s_error(obj, r):
     return r.S - t
 
 
-def run_fixed(obj, spec, seed):
+def run_fixed(obj, spec, seed, flat=None):
     d = sweep(obj, fingers=3, spacing=2.5, length=6.0, samples=6, repeats=1,
               origin=(-2.5, -3.0), noise_pos=spec[4], noise_normal=spec[5], seed=seed)  # fmt: skip
-    fit = fit_of(d["points"], d["normals"], noise_pos=spec[4], noise_normal=spec[5])
+    fit = fit_of(d["points"], d["normals"], flat=flat, noise_pos=spec[4], noise_normal=spec[5])
     ok = fit.result is not None and fit.label not in ("uncertain",) and fit.confidence >= 0.95
     want = truth_label(obj, fit.result) if fit.result is not None else None
     return (18 if ok and fit.label == want else None), ok and fit.label != want, s_error(obj,
@@ -162,16 +167,18 @@ def rms(v):
     return math.sqrt(sum(x * x for x in v) / len(v)) if v else None
 
 
-def table(split, seeds, plots):
+def table(split, seeds, plots, flat=None, s_width=None, only=None):
     rows = []
     print("| object | explore: touches to a confident correct label, median / max (runs) |"
           " within 9 | confident wrong | RMS S at the stop | RMS S after 18 |"
           " fixed 3x6: confident correct | confident wrong | RMS S |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|")
     for name, spec in SPLITS[split].items():
+        if only and name not in only:
+            continue
         obj = build(spec)
-        ex = [run_explore(obj, spec, SEED0[split] + i) for i in range(seeds)]
-        fx = [run_fixed(obj, spec, SEED0[split] + i) for i in range(seeds)]
+        ex = [run_explore(obj, spec, SEED0[split] + i, flat, s_width) for i in range(seeds)]
+        fx = [run_fixed(obj, spec, SEED0[split] + i, flat) for i in range(seeds)]
         got = [e[0] for e in ex if e[0] is not None]
         med = f"{int(np.median(got))} / {max(got)}" if got else "-"
         within = sum(1 for g in got if g <= 9) / seeds
@@ -326,9 +333,14 @@ def main():
         metavar="RUNS",
         help="also tactile explore on the emulated board and arm, RUNS per scene",
     )
+    ap.add_argument("--flat", type=float, default=FLAT,
+                    help=f"a plane's flatness (1/cm; {FLAT})")  # fmt: skip
+    ap.add_argument("--s-width", type=float, default=None,
+                    help="also stop only once the S interval is this narrow (1)")  # fmt: skip
+    ap.add_argument("--only", nargs="*", help="these objects only (tuning)")
     args = ap.parse_args()
     t0 = time.process_time()
-    table(args.split, args.seeds, args.plots)
+    table(args.split, args.seeds, args.plots, args.flat, args.s_width, args.only)
     if args.ep1:
         ep1_bench(args.seeds)
     if args.emulated:

@@ -17,11 +17,12 @@ bench = load_bench("explore")
 NOISE = {"noise_pos": 0.05, "noise_normal": 0.03}
 
 
-def explore(obj, seed, max_touches=18, region=None):
-    """The explorer after a run on ``obj`` (cm, noise as tables 5-7)."""
+def explore(obj, seed, max_touches=18, region=None, **stop):
+    """The explorer after a run on ``obj`` (cm, noise as tables 5-7); ``stop``: ``flat``,
+    ``s_width``."""
     rng = np.random.default_rng(seed)
     region = region or Region((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 3.0, 1.5)
-    ex = Explorer(region, max_touches=max_touches, options=dict(NOISE))
+    ex = Explorer(region, max_touches=max_touches, options=dict(NOISE), **stop)
     while ex.done() is None:
         plan = ex.plan()
         p, n = bench.touch(obj, plan, rng, NOISE["noise_pos"], NOISE["noise_normal"])
@@ -92,6 +93,47 @@ def test_no_confident_wrong_label_on_adversarial_surfaces(name, obj, truth, seed
         ex = explore(obj, seed, max_touches=12)
         if ex.done() == "label":
             assert ex.fit.label == truth, (name, seed, ex.fit.label, ex.fit.confidence)
+
+
+# S = 0.75 (the cylinder/sphere band edge) at k2 / k1 = 0.414: seeds on which the band vote
+# (0.95 or more) alone, or the 95 % S interval inside the band, gave a confident wrong label
+@pytest.mark.parametrize("k2, seeds", [(0.0414, (18, 26, 28, 32))])
+def test_a_label_whose_s_interval_crosses_its_band_edge_is_not_confident(k2, seeds):
+    obj = make("quadric", k=(0.1, k2), centre=(0, 0), rotation_deg=40)
+    for seed in seeds:
+        ex = explore(obj, seed)
+        for fit in ex.fits:
+            if fit.result is not None and fit.label in bench.S_NAMES:
+                lo, hi = fit.result.S_interval
+                band = bench.S_NAMES.index(fit.label)
+                assert bench.s_class(lo + 1e-9) == band == bench.s_class(hi - 1e-9), seed
+        if ex.done() == "label":
+            assert ex.fit.label == bench.truth_label(obj, ex.fit.result), (seed, ex.fit.label)
+        else:
+            assert "labels still feasible" in unknown(ex.fit, ex.touches)
+
+
+def test_a_plane_is_confident_once_its_curvature_is_within_flat():
+    obj = make("plane", slope=(0.3, 0.1), centre=(0.0, 0.0))
+    for seed in (0, 1, 2):
+        ex = explore(obj, seed, max_touches=9, flat=0.03)
+        assert ex.done() == "label" and ex.fit.label == "plane", seed
+        k = np.abs([*ex.fit.result.k1_interval, *ex.fit.result.k2_interval])
+        assert ex.fit.confidence >= 0.95 and k.max() < 2 * 0.03
+    # the flattest curved object of the bench (R 15 cm, 1/15 per cm) is never a plane
+    pit = make("pit", radius=15.0, centre=(0.0, 0.0))
+    for seed in (0, 1):
+        ex = explore(pit, seed, flat=0.03)
+        assert all(f.label != "plane" for f in ex.fits) and ex.fit.label == "concave_sphere"
+
+
+def test_an_s_width_stop_waits_for_a_narrow_interval():
+    obj = make("pit", radius=15.0, centre=(0.0, 0.0))
+    quick, narrow = explore(obj, 4), explore(obj, 4, s_width=0.1)
+    assert quick.done() == narrow.done() == "label"
+    width = np.diff(narrow.fit.result.S_interval)[0]
+    assert width <= 0.1 < np.diff(quick.fit.result.S_interval)[0]
+    assert narrow.touches > quick.touches
 
 
 def test_a_touch_across_a_ridge_is_named_and_the_first_face_kept():
@@ -225,6 +267,7 @@ def test_cli_explores_the_emulated_sphere(cli, emulated, tmp_path):
     assert contacts[0] == "# units: m" and len(contacts) == 2 + result["contacts"]
     meta = json.loads((out / "meta.json").read_text())
     assert meta["robot"] == robot and meta["label"] == "sphere" and meta["unknown"] is None
+    assert meta["options"]["flat_per_m"] == 3.0 and meta["options"]["s_width"] is None
     code, stdout, stderr = cli("ep2", "analyze", out / "contacts.csv")  # the same contract
     assert code == 0 and "sphere" in stdout
 
@@ -250,6 +293,8 @@ def test_cli_budget_spent_exits_3_saying_what_is_unknown(cli, emulated, tmp_path
         (["--robot", "nowhere"], "--robot"),
         (["--half-size", "-1"], "--half-size: -1"),
         (["--noise-normal", "nan"], "--noise-normal: nan"),
+        (["--flat", "0"], "--flat: 0"),
+        (["--s-width", "-0.1"], "--s-width: -0.1"),
     ],
 )
 def test_cli_bad_options_exit_2(cli, tmp_path, args, says):

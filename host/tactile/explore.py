@@ -2,25 +2,19 @@
 
 The thesis's future work asks that what has been felt choose the next probe: the principal
 directions to steer it (§6.2.2, "curvature flow"), the shapes still feasible to guide it
-(§6.2.3, the interpretation tree).  Here, for a fingertip that touches one point at a time:
+(§6.2.3, the interpretation tree).  For a fingertip that touches one point at a time
+(docs/explore.md):
 
-1. **Seed.**  Until a fit answers, touches come from ``SEED``: the region's centre, then points
-   on a circle of 0.7 of its half-size, spread so that any two span the plane.
-2. **Fit.**  Every contact so far goes to EP2 (``tactile.ep2.analyze_patch``): the curvature at
-   the patch centre, its 95 % intervals, the label and the votes of the S bands.
-3. **Choose.**  Candidate touches lie on a grid in the current fit's principal-direction frame
-   (u along direction1, v across it, on the fitted surface).  Each is scored by the S interval
-   the fit would have with one more contact there, predicted at the fitted surface with the
-   current noise stated (the design's effect alone, an A-optimal criterion on S); while the fit
-   says ``plane`` by the widest k interval instead.  The best scoring candidate is touched next,
-   along the fitted normal.  A fit that is refused falls back to the point farthest from every
-   contact (space filling).
-4. **Stop** (``Explorer.done``) once the label is confident: not ``uncertain``, its confidence
-   (the top S band's share of the vote, or a plane's test) at least ``confidence``, and at
-   least ``MIN_TOUCHES`` contacts; or when the budget is spent, saying what is still unknown
-   (``unknown``).
-5. **Edges.**  From ``edges.MIN_POINTS`` contacts on, ``edges.find`` looks for two faces; a touch
-   across an edge is named, and exploration keeps to the first touch's face (§6.2.2).
+1. **Seed** (``SEED``) until a fit answers: the region's centre, then a circle around it.
+2. **Fit** every contact so far with EP2 (``fit_of``): S at the patch centre, its 95 %
+   interval, the label (a curved one only while its S interval stays in its band; a plane
+   once both curvatures are within ``flat``).
+3. **Choose** (``Explorer.plan``) on a grid in the fit's principal-direction frame the touch
+   whose predicted contact leaves the narrowest S interval (a plane: k interval); a refused
+   fit falls back to the point farthest from every contact.
+4. **Stop** (``Explorer.done``) once the label is confident after ``MIN_TOUCHES``, or when the
+   budget is spent, saying what is still unknown (``unknown``).
+5. **Edges** (``edges.find``): a touch across an edge is named; the first touch's face is kept.
 
 EP1's next roll is ``tactile.ep1.estimator.next_roll``.  Lengths: the caller's unit.
 """
@@ -31,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.ep2 import analyze_patch, analyze_patches, edges
+from tactile.ep2.geometry import S_REGIONS
 from tactile.errors import DataError, InputError
 
 __all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "seed_points",
@@ -38,10 +33,12 @@ __all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "s
 
 MIN_TOUCHES = edges.MIN_POINTS  # a label waits until an edge could be seen (8)
 SEED = (90.0, 210.0, 330.0, 30.0, 150.0, 270.0)  # seed angles on the circle (deg)
-SEED_RADIUS = 0.7  # of the region's half-size
+SEED_RADIUS = 0.85  # of the region's half-size (a wider footprint pins the quadratic terms)
 GRID = 13  # candidates per side of the principal-direction grid (and of the space filling)
 MIN_GAP = 0.15  # of the half-size: no candidate this close to a contact
 STEP = 1e-4  # of the half-size: the finite difference of the fitted surface's slope
+Z95, Z99, EPS = 1.959964, 2.575829, 1e-12  # two-sided 95 and 99 % normal quantiles; a tolerance
+S_BANDS = {name: (lo, hi) for lo, hi, name in S_REGIONS}
 DOUBT_SD = 3.5  # a normal this many sds off the fit withholds the label (``Explorer._doubt``)
 
 
@@ -102,10 +99,12 @@ class Fit:
                 "confidence": r and round(self.confidence, 6)}  # fmt: skip
 
 
-def fit_of(points, normals, confidence=0.95, **options):
-    """``Fit`` of the contacts (k, 3): ``analyze_patch`` with ``options``; the label is the
-    top S band once its share of the vote reaches ``confidence`` (EP2's own label asks
-    0.999), ``plane`` with the flatness test's p-value, else ``uncertain``."""
+def fit_of(points, normals, confidence=0.95, flat=None, **options):
+    """``Fit`` of the contacts (k, 3) (``analyze_patch`` with ``options``): EP2's label, or the
+    top S band once its share of the vote reaches ``confidence`` (EP2's own asks 0.999), else
+    ``uncertain``; a curved label is withheld while its S interval, widened from 95 to 99 %
+    (z 2.576 / 1.960 each side, within [-1, 1]), crosses its band's edge.
+    With ``flat`` (1/length) a plane is ``plane_confidence``'s, else EP2's flatness p-value."""
     pts, nrm = np.asarray(points, float), np.asarray(normals, float)
     if len(pts) < 3:
         return Fit(refused=f"{len(pts)} contact(s): a fit needs 3 at least")
@@ -116,40 +115,64 @@ def fit_of(points, normals, confidence=0.95, **options):
     except (DataError, InputError) as exc:
         return Fit(refused=str(exc), label="refused")
     label, conf = res.shape, float(res.confidence)
+    if flat is not None and (p := plane_confidence(res, flat)) is not None:
+        if p >= confidence or label == "plane":
+            return Fit(result=res, label="plane", confidence=p)
     if label == "uncertain" and res.votes:
         top = max(res.votes, key=res.votes.get)
         conf = float(res.votes[top])
         label = top if conf >= confidence else "uncertain"
+    if label in S_BANDS and not _inside(res.S, res.S_interval, S_BANDS[label]):
+        return Fit(result=res, label="uncertain", confidence=conf, doubt=(
+            f"the S interval crosses an edge of {label}'s band {S_BANDS[label]}"))  # fmt: skip
     return Fit(result=res, label=label, confidence=conf)
 
 
-def confident(fit, n, confidence=0.95, min_touches=MIN_TOUCHES):
-    """Whether ``fit`` of ``n`` contacts ends the exploration."""
-    named = fit.result is not None and fit.label != "uncertain"
-    return named and fit.confidence >= confidence and n >= min_touches
+def plane_confidence(res, flat):
+    """The smaller over k1, k2 of P(|k| < ``flat``) (1/length), k normal about its 95 %
+    interval's middle with its half-width as 1.96 sd (None: no intervals): 0.95 where the
+    half-width is ``flat`` about a curvature of 0."""
+    ivs = (res.k1_interval, res.k2_interval)
+    if any(iv is None or None in iv for iv in ivs):
+        return None
+    sds = [(0.5 * (lo + hi), max(0.5 * (hi - lo) / Z95 * math.sqrt(2.0), 1e-300)) for lo, hi in ivs]
+    return max(0.0, min(0.5 * (math.erf((flat - m) / sd) - math.erf((-flat - m) / sd))
+                        for m, sd in sds))  # fmt: skip
+
+
+def confident(fit, n, confidence=0.95, min_touches=MIN_TOUCHES, s_width=None):
+    """Whether ``fit`` of ``n`` contacts ends the exploration (with ``s_width``, a curved
+    label also waits until its S interval is no wider)."""
+    named = fit.result is not None and fit.label not in ("uncertain", "none", "refused", "edge")
+    if not (named and fit.confidence >= confidence and n >= min_touches):
+        return False
+    return s_width is None or fit.label == "plane" or _width(fit.result.S_interval) <= s_width
 
 
 def unknown(fit, n):
     """One line: what ``n`` contacts leave unknown (for a budget spent)."""
     r = fit.result
-    if fit.doubt:
-        return f"after {n} touches {fit.doubt}"
     if r is None:
         why = fit.refused or "fewer than 3 contacts were found (the misses are named above)"
         return f"after {n} touches the curvature is not determined: {why}"
+    if fit.doubt and not fit.doubt.startswith("the S interval"):
+        return f"after {n} touches {fit.doubt}"
     if fit.label == "plane" or r.S is None:
         w = max(_width(r.k1_interval), _width(r.k2_interval))
-        return (
-            f"after {n} touches a plane cannot be told from a curvature under"
-            f" {0.5 * w:.3g} per unit length (95 %); plane confidence {fit.confidence:.3f}"
-        )
+        return (f"after {n} touches a plane cannot be told from a curvature under {0.5 * w:.3g}"
+                f" per unit length (95 %); plane confidence {fit.confidence:.3f}")  # fmt: skip
     lo, hi = r.S_interval or (r.S, r.S)
     feasible = sorted(r.votes, key=r.votes.get, reverse=True) or [r.shape]
     shares = ", ".join(f"{k} {r.votes.get(k, 0.0):.3f}" for k in feasible)
-    return (
-        f"after {n} touches S is {r.S:.3f} in [{lo:.3f}, {hi:.3f}] (95 %, width"
-        f" {hi - lo:.3f}); labels still feasible: {shares}"
-    )
+    return (f"after {n} touches S is {r.S:.3f} in [{lo:.3f}, {hi:.3f}] (95 %, width"
+            f" {hi - lo:.3f}){'; ' + fit.doubt if fit.doubt else ''}; labels still feasible:"
+            f" {shares}")  # fmt: skip
+
+
+def _inside(s, iv, band):
+    lo, hi = (max(-1.0, s - Z99 / Z95 * (s - iv[0])), min(1.0, s + Z99 / Z95 * (iv[1] - s))
+              ) if iv and None not in iv else (-2.0, 2.0)  # fmt: skip
+    return band[0] - EPS <= lo <= hi <= band[1] + EPS
 
 
 def seed_points(region, k):
@@ -172,6 +195,8 @@ class Explorer:
     confidence: float = 0.95
     max_touches: int = 9
     min_touches: int = MIN_TOUCHES
+    flat: float | None = None  # a plane: the curvature within +-flat (1/length), see fit_of
+    s_width: float | None = None  # a curved label also waits for an S interval this narrow
     options: dict = field(default_factory=dict)
     points: list = field(default_factory=list)
     normals: list = field(default_factory=list)
@@ -190,7 +215,7 @@ class Explorer:
 
     def done(self):
         """'label' (confident), 'budget' (spent) or None (go on)."""
-        if confident(self.fit, self._used(), self.confidence, self.min_touches):
+        if confident(self.fit, self._used(), self.confidence, self.min_touches, self.s_width):
             return "label"
         return "budget" if self.touches >= self.max_touches else None
 
@@ -216,11 +241,11 @@ class Explorer:
         pts, nrm = np.array(self.points), np.array(self.normals)
         if self.keep is not None:
             pts, nrm = pts[self.keep], nrm[self.keep]
-        fit = fit_of(pts, nrm, self.confidence, **self.options)
+        fit = fit_of(pts, nrm, self.confidence, self.flat, **self.options)
         if fit.edge is not None and self.keep is None:  # (seen by the fit's check, not ``find``)
             self._split(fit.edge)
             pts, nrm = np.array(self.points)[self.keep], np.array(self.normals)[self.keep]
-            fit = fit_of(pts, nrm, self.confidence, **self.options)
+            fit = fit_of(pts, nrm, self.confidence, self.flat, **self.options)
         self._doubt(fit, pts, nrm)
         self.fits.append(fit)
         return fit

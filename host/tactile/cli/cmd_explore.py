@@ -5,10 +5,9 @@ a start, a direction, a force, a travel limit) and holds; the board's SAMPLE fra
 hold above the board's contact gate are averaged; the spherical fingertip localises the
 contact (``--localise force``: the force's line through the fingertip's centre, frictionless as
 §5.1.1's probe; ``moment``: the line of action, valid with friction; then the sensor's pose at
-the hold); EP2 refits
-with intervals; the planner chooses the next touch.  It stops when the label is confident
-(``--confidence``) or ``--max-touches`` are spent, and then prints the label on one line:
-exit 0, or 3 with what is still unknown.
+the hold); EP2 refits with intervals; the planner chooses the next touch.  It stops when the
+label is confident (``--confidence``, ``--flat``, ``--s-width``) or ``--max-touches`` are
+spent, and then prints the label on one line: exit 0, or 3 with what is still unknown.
 
 RUN/contacts.csv (EP2's contract, m), RUN/explore.csv (a row per touch: touch, S, S_lo,
 S_hi, shape, confidence; ``null`` where there is no value) and RUN/meta.json are replaced
@@ -60,13 +59,18 @@ WRAP = 2**32  # the board's µs stamps wrap
 HOLD_S = 0.2  # a robot that does not know the board's clock: the hold read after its answer
 READ_S = 5.0  # longest wait for the hold's frames
 DRAIN_READS = 64  # reads (64 KiB each at most) of what came between touches
+FLAT = 3.0  # 1/m: the bench's 0.03 per cm, under half the flattest curvature it labels (R 15 cm)
 UNREACHABLE = ": unreachable"  # (the robot's line for a pose outside its reach, docs/robot.md)
+POSITIVE = ("half_size", "standoff", "force", "finger_radius", "noise_pos", "noise_normal",
+            "flat", "s_width")  # fmt: skip
 
 
 # (option, type, default, help): the stop rule and the geometry, lengths in m
 OPTIONS = (
     ("--confidence", float, 0.95, "stop once the label's confidence reaches this (0-1)"),
     ("--max-touches", int, 18, "touch budget (18: the thesis's 3 x 6 plan)"),
+    ("--flat", float, FLAT, f"a plane: both curvatures within +-this (1/m; {FLAT:g}: R 33 cm)"),
+    ("--s-width", float, None, "a curved label also waits for an S interval this narrow (1)"),
     ("--half-size", float, 0.015, "half the side of the square explored (m)"),
     ("--standoff", float, 0.015, "a touch starts this far above the expected surface (m)"),
     ("--force", float, 3.0, "press force (N)"),
@@ -101,7 +105,7 @@ def check(args):
         raise InputError(f"--confidence: {args.confidence} is not a probability in (0, 1)")
     if not 1 <= args.max_touches <= 1000:
         raise InputError(f"--max-touches: {args.max_touches} is not a count in 1-1000")
-    for name in ("half_size", "standoff", "force", "finger_radius", "noise_pos", "noise_normal"):
+    for name in POSITIVE:
         v = getattr(args, name)  # (the noises may be left out: None)
         if v is not None and not (math.isfinite(v) and v > 0):
             raise InputError(f"--{name.replace('_', '-')}: {v} is not a positive number")
@@ -164,7 +168,8 @@ class Run:
         centre = t + a.finger_offset * pole + (a.finger_radius + a.standoff) * pole
         region = Region(tuple(centre), tuple(-pole), a.half_size, a.standoff)
         noise = {k: getattr(a, k) for k in ("noise_pos", "noise_normal") if getattr(a, k)}
-        self.explorer = Explorer(region, a.confidence, a.max_touches, options=noise)
+        self.explorer = Explorer(region, a.confidence, a.max_touches, flat=a.flat,
+                                 s_width=a.s_width, options=noise)  # fmt: skip
         self.gate = board_settings.to_newtons(self.client.info.enter_threshold)
 
     def _loop(self):
@@ -271,6 +276,11 @@ class Run:
     def _meta(self):
         ex, a = self.explorer, self.args
         fit = ex.fit
+        options = {"confidence": a.confidence, "max_touches": a.max_touches, "flat_per_m": a.flat,
+                   "s_width": a.s_width, "half_size_m": a.half_size, "standoff_m": a.standoff,
+                   "force_N": a.force, "finger_radius_m": a.finger_radius,
+                   "finger_offset_m": a.finger_offset, "localise": a.localise,
+                   "noise_pos_m": a.noise_pos, "noise_normal_rad": a.noise_normal}  # fmt: skip
         return {
             "tactile_version": __version__,
             "protocol_version": C.PROTOCOL_VERSION,
@@ -280,18 +290,7 @@ class Run:
             "started_at": self.started,
             "ended": self.ended,
             "device": self.device,
-            "options": {
-                "confidence": a.confidence,
-                "max_touches": a.max_touches,
-                "half_size_m": a.half_size,
-                "standoff_m": a.standoff,
-                "force_N": a.force,
-                "finger_radius_m": a.finger_radius,
-                "finger_offset_m": a.finger_offset,
-                "localise": a.localise,
-                "noise_pos_m": a.noise_pos,
-                "noise_normal_rad": a.noise_normal,
-            },  # fmt: skip
+            "options": options,
             "touches": ex.touches,
             "contacts": len(ex.points),
             "label": fit.label,
