@@ -233,3 +233,27 @@ def test_options_by_dataclass_are_the_options_by_name():
     assert dumps(c.to_dict()) == dumps(analyze_patch(p, n, noise_pos=0.01).to_dict())
     with pytest.raises(TypeError, match="unexpected keyword argument 'order_x'"):
         analyze_patch(p, n, order_x=3)
+
+
+def test_map_and_batch_options_by_dataclass_are_the_options_by_name():
+    """``analyze_patches`` and ``map_contacts`` take ``JetOptions`` as ``analyze_patch`` does:
+    the noise stated through ``jet=`` is the noise every step uses, the edges' fit included."""
+    from tactile.ep2 import JetOptions, analyze_patches
+    from tactile.ep2.region_map import map_contacts
+    from tactile.output.text import dumps
+    from tactile_sim.ep2 import make, sweep
+
+    d = sweep(make("sphere", 8.0), noise_pos=0.01, noise_normal=0.01, seed=3)
+    patches = [(d["points"], d["normals"])] * 2
+    by_name = analyze_patches(patches, noise_pos=0.02, noise_normal=0.03)
+    by_jet = analyze_patches(patches, jet=JetOptions(noise_pos=0.02, noise_normal=0.03))
+    assert [dumps(r.to_dict()) for r in by_jet] == [dumps(r.to_dict()) for r in by_name]
+    g = np.linspace(0.05, 1.0, 8)
+    u, v = (a.ravel() for a in np.meshgrid(g, g))
+    rng = np.random.default_rng(0)
+    pts = np.vstack([np.c_[u, v, np.ones_like(u)], np.c_[np.ones_like(u), u, v]])
+    nrm = np.repeat([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], len(u), axis=0)
+    nrm = nrm + 0.005 * rng.standard_normal(nrm.shape)
+    got = map_contacts(pts, nrm, jet=JetOptions(noise_normal=0.05)).to_dict()
+    want = map_contacts(pts, nrm, noise_normal=0.05).to_dict()
+    assert got["edges"] and got == want

@@ -71,7 +71,7 @@ def test_spline_falls_back_to_one_at_a_time():
 
 
 def test_stacked_preparation_equals_one_patch_at_a_time():
-    """Patches of one size are checked and centred together (``api._prepare_stacked``):
+    """Patches of one size are checked and centred together (``patch_input.prepare_stack``):
     a duplicated row, a wild coordinate, a zero normal or a stated noise beyond the spread
     in one patch leaves it to the one-patch path, with its own message naming its CSV
     line, and the others of its size come out as alone."""

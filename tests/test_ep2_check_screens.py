@@ -57,7 +57,7 @@ def _screened(patches):
     preps = [patch_input.prepare(p, n, None, None, kw) for p, n, _ in patches]
     P = np.stack([p.points for p in preps])
     N = np.stack([p.normals for p in preps])
-    return preps, *check_screens.clear(P, N, [p.opts for p in preps])
+    return preps, *check_screens.clear(P, N, [p.jet for p in preps])
 
 
 def _trips_edges(prep):

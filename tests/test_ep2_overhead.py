@@ -39,9 +39,13 @@ def test_vote_is_its_array_form(seed):
 
 
 def test_duplicate_rows_found_as_by_whole_rows():
-    """``api._has_duplicates`` (whole rows compared only where two x are equal) says what
-    comparing every row says: exact repeats, equal x alone, -0.0 and 0.0, NaN."""
-    from tactile.ep2.api import _has_duplicates, _repeats
+    """``patch_input.has_duplicates`` (whole rows compared only where two x are equal) says
+    what comparing every row says: exact repeats, equal x alone, -0.0 and 0.0, NaN."""
+    from tactile.ep2.patch_input import has_duplicates
+
+    def repeats(P, N):  # every row of every patch compared whole
+        return np.array([len(np.unique(np.c_[p, n][np.isfinite(np.c_[p, n]).all(1)], axis=0))
+                         < len(p) for p, n in zip(P, N, strict=True)])  # fmt: skip
 
     rng = np.random.default_rng(5)
     P, N = rng.normal(size=(300, 9, 3)), rng.normal(size=(300, 9, 3))
@@ -49,6 +53,6 @@ def test_duplicate_rows_found_as_by_whole_rows():
     P[1::3, 5, 0] = P[1::3, 2, 0]  # the same x, another row
     P[2::9, 6, 0], P[2::9, 7, 0] = 0.0, -0.0
     P[5::9, 3, 1] = np.nan
-    got = _has_duplicates(P, N)
-    assert np.array_equal(got, _repeats(P, N))
+    got = has_duplicates(P, N)
+    assert np.array_equal(got, repeats(P, N))
     assert got[::3].all() and not got[1::3].any() and got[5::9].all()

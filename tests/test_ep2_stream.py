@@ -8,7 +8,9 @@ import pytest
 import tolerance
 
 from tactile.cli.main import main
+from tactile.ep2 import JetOptions, SplineOptions
 from tactile.ep2.contacts_csv import group_rows, read_contacts
+from tactile.ep2.patch_input import Request
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 
@@ -149,8 +151,11 @@ def _close(got, want, outcome, group, split=False):
     tolerance.assert_close(got, want, sens)
 
 
-OPTS = dict(method="jet", order=None, segments=1, weighting="auto", grid=8, noise_pos=None,
-            noise_normal=None, align=False, max_normal_angle=80.0, break_angle=30.0)  # fmt: skip
+OPTS = Request(
+    "jet",
+    jet=JetOptions(max_normal_angle=80.0, break_angle=30.0, grid=8),
+    spline=SplineOptions(order=None, segments=1, weighting="auto", align=False),
+)
 
 
 def _per_patch(groups, split=False):

@@ -6,8 +6,9 @@ import sys
 from tactile import units
 from tactile.cli import cmd_ep2_map
 from tactile.commands import add_quiet, contacts_of
-from tactile.ep2 import contacts_csv
+from tactile.ep2 import JetOptions, SplineOptions, contacts_csv
 from tactile.ep2.geometry import MAX_NORMAL_ANGLE_DEG
+from tactile.ep2.patch_input import Request
 from tactile.ep2.stream import MAX_JOBS, in_unit, outcomes
 from tactile.errors import DataError, InputError
 from tactile.output.text import dumps, printable_lines
@@ -101,24 +102,23 @@ def run(args):
     groups = _checked(args.file, args.quiet)  # read again, patch by patch, as they are analysed
     if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
         raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
-    opts = dict(
-        method=args.method,
-        order=args.order,
-        segments=args.segments,
-        weighting=args.weighting,
-        grid=args.grid,
-        noise_pos=None if args.noise_pos is None else args.noise_pos / scale,
-        noise_normal=args.noise_normal,
-        align=args.align,
-        max_normal_angle=args.max_normal_angle,
-        break_angle=args.break_angle,
+    req = Request(
+        args.method,
+        jet=JetOptions(
+            noise_pos=None if args.noise_pos is None else args.noise_pos / scale,
+            noise_normal=args.noise_normal,
+            max_normal_angle=args.max_normal_angle,
+            break_angle=args.break_angle,
+            grid=args.grid,
+        ),
+        spline=SplineOptions(args.order, args.segments, args.weighting, args.align),
     )
     named = ((g, patch_id(g.patch)) for g in groups)
     out = _Printer(args.json, shown, scale, file_unit is not None)
     failed = []
     bar = None if args.quiet else _progress(len(groups))
     try:
-        for done in outcomes(named, opts, split=args.split, jobs=args.jobs):
+        for done in outcomes(named, req, split=args.split, jobs=args.jobs):
             if done.input_error is not None:
                 raise InputError(f"{args.file}: patch {done.name}: {done.input_error}")
             if done.data_error is not None:

@@ -10,8 +10,9 @@ API::
 See docs/ep2.md for the math, conventions and benchmarks.
 """
 
-from tactile.ep2.api import PatchResult, analyze_patch, analyze_patches, analyze_sweep
+from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep
 from tactile.ep2.patch_input import JetOptions, SplineOptions
+from tactile.ep2.stream import analyze_patches
 
 __all__ = [
     "JetOptions",

@@ -1,19 +1,16 @@
 """From the curvature at the patch centre and its covariance to what a user is told: S, k1,
-k2, radius and C with 95 % intervals and a label (``summary``, for a stack of patches), the
-thesis's grid statistics and maps (§4.8.2).
+k2, radius and C with 95 % intervals and a label (``summary``, for a stack of patches: a
+``Centre`` each), and what both methods hand ``api.PatchResult`` (``Answer``).
 
 The label: a plane where the curvature tensor cannot be told from 0 (a 99.9 % test; the
 spline also asks both k intervals to hold 0); otherwise the S band holding 99.9 % of S's
 distribution (``vote``), else ``uncertain``.  A plane has no S, C or radius.  Which
-patches are refused is decided before, by the fit (``jet_answers``, ``spline``).
+patches are refused is decided before, by the fit (``jet_answers``, ``spline_answers``).
 
 The curvature is summarised by t = (a, b, c), the symmetric shape-operator entries
 (``geometry.shape_entries``): m = (a + c)/2 the mean curvature, v = ((a - c)/2, b) the
 anisotropy, h = |v|, k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
 
-- **Covariance** (the spline's).  t is a smooth function of the coefficients, so
-  Cov(t) = s^2 (G F)(G F)^T with G = dt/dcoef (complex-step derivative along the five
-  derivative channels, exact to round-off) and F the coefficients' covariance factor.
 - **Debiased anisotropy.**  E|v_hat|^2 = |v|^2 + tr Cov(v), so the plug-in h is biased
   up (a noisy sphere looks anisotropic); the estimate uses h^2 = max(|v_hat|^2 - tr
   Cov(v), 0), the Rician bias correction.
@@ -24,27 +21,82 @@ anisotropy, h = |v|, k1,2 = m +/- h, S = (2/pi) atan2(m, h) (§2.4).
   rises to 5.99 there: c = crit(max(0, lambda - 2.448)), lambda the Mahalanobis length of
   v_hat and crit the 95 % quantile of (Rice(l) - l)^2 made non-increasing (``_CRIT``);
   for k1, k2 the umbilic truth is a point, so chi^2_3 = 7.81 (``critical_value_k``).
-  ``bias`` is added in quadrature along its own direction.
-- **Model bias** of the spline's curvature (``model_bias``, beyond the thesis): the refit
-  of the constant-curvature surface.
+  ``bias`` is added in quadrature along its own direction (the spline's model bias,
+  ``spline_answers.model_bias``).
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from tactile.ep2.geometry import (
     S_EDGES,
     S_NAMES,
+    GridStats,
+    PatchFrame,
     curvedness_c,
     curvedness_r,
     eigen,
-    hk_labels,
     s_class,
-    s_region_map,
-    shape_entries,
     shape_index,
 )
+
+
+@dataclass
+class Centre:
+    """The curvature at the patch centre as a user is told it (``summary``): label,
+    confidence, S, k1, k2, radius, C and their 95 % intervals (input unit; None where a
+    plane has none, or without intervals), the S bands' votes."""
+
+    shape: str
+    confidence: float
+    S: float | None
+    k1: float
+    k2: float
+    radius: float | None
+    C: float | None
+    S_interval: tuple | None
+    k1_interval: tuple | None
+    k2_interval: tuple | None
+    radius_interval: tuple | None
+    votes: dict
+
+
+@dataclass
+class Intervals:
+    """95 % intervals (``ellipsoid_intervals``), in units of the patch: S, k1, k2 and kmax =
+    |m| + h, each (lo, hi) per patch of a stack, and S's ellipsoid radius^2 ``crit``."""
+
+    S: np.ndarray
+    k1: np.ndarray
+    k2: np.ndarray
+    kmax: np.ndarray
+    crit: np.ndarray
+
+
+@dataclass
+class Answer:
+    """What a method found for one patch (``jet_answers.outcomes``, ``spline_answers.analyze``)
+    and ``api.PatchResult`` is made of.  ``frame``: about the centred contacts; ``surface``:
+    z(xy / L) / L; ``grid``: the grid's channels and points (for the maps); ``direction1``:
+    world; ``box``: the contacts' in the frame / L; ``fit``: the B-spline's."""
+
+    centre: Centre
+    stats: GridStats
+    model: str
+    order: int
+    weighting: str
+    noise_pos: float | None
+    noise_normal: float | None
+    frame: PatchFrame
+    scale: float
+    surface: object
+    grid: tuple
+    direction1: np.ndarray
+    box: tuple
+    warnings: list
+    fit: object = None
 
 
 def direction_text(d):
@@ -81,134 +133,44 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zer
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
     m, h, scale, c = (np.asarray(v, float).tolist() for v in (m, h, scale, c))
-    iv = None if iv is None else {k: np.asarray(v).tolist() for k, v in iv.items()}
+    iv = iv and Intervals(**{k: np.asarray(v).tolist() for k, v in vars(iv).items()})
     flat = zip(r.tolist(), d2.tolist(), plane.tolist(), strict=True)
     return [_summary_one(i, m, h, iv, f, scale, c) for i, f in enumerate(flat)]
 
 
 def _excludes_zero(iv):
     """(B,) whether the k1 or the k2 interval leaves out 0."""
-    k1, k2 = iv["k1"], iv["k2"]
+    k1, k2 = iv.k1, iv.k2
     return (k1[:, 0] > 0) | (k1[:, 1] < 0) | (k2[:, 0] > 0) | (k2[:, 1] < 0)
 
 
 def _summary_one(i, m, h, iv, flat, scale, c):
-    """Patch ``i``'s fields of ``summary`` from its stack's numbers (lists); ``flat`` =
-    (R, d^2, plane), ``c`` the curvedness C."""
+    """Patch ``i``'s ``Centre`` from its stack's numbers (lists); ``flat`` = (R, d^2,
+    plane), ``c`` the curvedness C."""
     (r, d2, plane), scale = flat, scale[i]
     m, h = m[i], h[i]
-    out = dict.fromkeys("S C radius S_interval radius_interval k1_interval k2_interval".split())
-    out.update(k1=(m + h) / scale, k2=(m - h) / scale, votes={})
+    out = Centre(None, None, None, (m + h) / scale, (m - h) / scale, None, None, None, None,
+                 None, None, {})  # fmt: skip
     if iv is not None:
-        out["k1_interval"] = tuple(float(v) / scale for v in iv["k1"][i])
-        out["k2_interval"] = tuple(float(v) / scale for v in iv["k2"][i])
+        out.k1_interval = tuple(float(v) / scale for v in iv.k1[i])
+        out.k2_interval = tuple(float(v) / scale for v in iv.k2[i])
     if plane:
-        out.update(shape="plane", confidence=plane_confidence(r, d2))
+        out.shape, out.confidence = "plane", plane_confidence(r, d2)
         return out
     s = float(shape_index(m + h, m - h))
     sd = None
     if iv is not None:
-        root = math.sqrt(float(iv["crit"][i]))
-        s_iv = tuple(float(v) for v in iv["S"][i])
+        root = math.sqrt(float(iv.crit[i]))
+        s_iv = tuple(float(v) for v in iv.S[i])
         sd = ((s - s_iv[0]) / root, (s_iv[1] - s) / root)
-        out["S_interval"] = s_iv
-        lo, hi = (float(v) for v in iv["kmax"][i])
-        out["radius_interval"] = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
+        out.S_interval = s_iv
+        lo, hi = (float(v) for v in iv.kmax[i])
+        out.radius_interval = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
     p_flat = plane_confidence(r, d2)
-    out["shape"], out["confidence"], out["votes"] = vote(s, sd, p_flat)
+    out.shape, out.confidence, out.votes = vote(s, sd, p_flat)
     kmax = max(abs(m + h), abs(m - h))
-    out.update(S=s, radius=scale / kmax, C=float(c[i]))
+    out.S, out.radius, out.C = s, scale / kmax, float(c[i])
     return out
-
-
-def maps(channels, gx, gy, scale, plane, hk_eps):
-    """Grid maps in input units: k1, k2, H, K, HK labels; S, S regions, C unless a plane.
-
-    ``hk_eps`` (K, H) zero bands in units of the patch (1/L^2, 1/L): labels, S and C come
-    from the curvatures in those units, so no square of a curvature leaves the float range;
-    ``K`` itself is +-inf where |K| exceeds it (L under ~1e-154)."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        k1, k2 = eigen(*shape_entries(*channels))
-    H, K = 0.5 * (k1 + k2), k1 * k2
-    out = {"x": gx * scale, "y": gy * scale, "k1": k1 / scale, "k2": k2 / scale, "H": H / scale}
-    with np.errstate(over="ignore", under="ignore"):
-        out["K"] = K / scale / scale
-    out["hk"] = hk_labels(K, H, hk_eps[0], hk_eps[1])
-    if not plane:
-        s = shape_index(k1, k2)
-        r = curvedness_r(k1, k2)
-        safe = np.where(r > 0, r, 1.0) / scale
-        out.update(S=s, S_region=s_region_map(s), C=np.where(r > 0, curvedness_c(safe), np.nan))
-    return out
-
-
-def hk_eps(k1_int, k2_int, k1, k2):
-    """Zero bands (K, H) for the HK labels from the curvature resolution (0 without intervals)."""
-    if k1_int is None:
-        return 0.0, 0.0
-    h = 0.5 * max(k1_int[1] - k1_int[0], k2_int[1] - k2_int[0])
-    return h * max(abs(k1), abs(k2)) + h * h, h
-
-
-# --- The thesis's grid statistics (§4.8.2) for a whole stack of centre-jet fits at once.
-#
-# Per patch: the fitted surface's (z_x, z_y, z_xx, z_xy, z_yy) on an N x N grid over the contacts'
-# box (final frame, / L), then mean and sd of k1, k2, R, S and C over the grid points where the
-# surface is finite (a steep fit can overflow far from the centre).  The spline's one patch is
-# a stack of one.
-
-
-DERIVS = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
-KEYS = ("R_mean", "R_std", "k1_mean", "k2_mean", "k1_std", "k2_std", "S_mean", "S_std", "C_mean")
-
-
-def moments(ch):
-    """Grid means and sds of k1, k2, R, S and C (in units of the patch: / L, C of R / L
-    is taken later) per patch: dict of (B,) arrays, NaN where no grid point is finite."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        k1, k2 = eigen(*shape_entries(*ch))
-    ok = np.isfinite(k1) & np.isfinite(k2)
-    k1, k2 = np.where(ok, k1, 0.0), np.where(ok, k2, 0.0)
-    r = curvedness_r(k1, k2)
-    s = shape_index(k1, k2)
-    out = {}
-    for name, v in (("k1", k1), ("k2", k2), ("R", r), ("S", s)):
-        out[name + "_mean"], out[name + "_std"] = _mean_sd(v, ok)
-    return out, (r, ok)
-
-
-def statistics(ch, scale):
-    """Everything per patch the grid statistics need, before the label is known: dict of
-    (B,) arrays (``moments``, lengths still / L), ``C_mean`` of R / ``scale`` (B,), and
-    ``any`` / ``any_pos``: whether any grid point is finite / has R > 0."""
-    m, (r, ok) = moments(ch)
-    pos = ok & (r > 0)
-    c = np.where(pos, curvedness_c(np.where(pos, r, 1.0) / scale[:, None]), 0.0)
-    m["C_mean"], _ = _mean_sd(c, pos)
-    m["any"], m["any_pos"] = ok.any(axis=-1), pos.any(axis=-1)
-    return m
-
-
-def at(stats, i, scale, plane):
-    """Patch ``i``'s grid statistics (dict of ``KEYS``):
-    lengths / ``scale``; S and C null for a plane or where no grid point is finite."""
-    if not stats["any"][i]:
-        return dict.fromkeys(KEYS)
-    d = {k: float(stats[k][i]) / scale for k in KEYS[:6]}
-    d.update(S_mean=None, S_std=None, C_mean=None)
-    if not plane:
-        d.update(S_mean=float(stats["S_mean"][i]), S_std=float(stats["S_std"][i]))
-        if stats["any_pos"][i]:
-            d["C_mean"] = float(stats["C_mean"][i])
-    return d
-
-
-def _mean_sd(v, ok):
-    """Mean and population sd of ``v`` over ``ok`` along the last axis (two passes)."""
-    count = np.maximum(ok.sum(axis=-1), 1)
-    mean = np.where(ok, v, 0.0).sum(axis=-1) / count
-    dev = np.where(ok, v - mean[..., None], 0.0)
-    return mean, np.sqrt((dev * dev).sum(axis=-1) / count)
 
 
 # --- Shape labels with a confidence (§4.8.2, tables 1-3; beyond the thesis: intervals).
@@ -250,13 +212,6 @@ def flatness_distance(tensor, cov):
     # curvature along a direction the data pin to zero spread
     d2 = np.where(np.linalg.norm(rest, axis=-1) > 1e-9 * np.maximum(size, 1e-300), np.inf, d2)
     return np.where(keep.any(axis=-1), d2, np.where(np.any(diff != 0, axis=-1), np.inf, 0.0))
-
-
-def is_plane(r_mean, d2):
-    """Plane test on R (relative to a unit patch) and on d^2 (None: no noise estimate)."""
-    if r_mean <= R_TOL:
-        return True
-    return d2 is not None and d2 < CHI2_3_999
 
 
 def plane_confidence(r_mean, d2):
@@ -305,7 +260,6 @@ def vote(s_est, s_sd, p_flat=0.0):
     return "uncertain", float(shares[best]), votes
 
 
-Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
 CHI2_2_95 = 5.991464547107979
 # 95 % quantile of (Rice(l) - l)^2 (unit sigma) for l = 0, 0.1, ..., 1.0, made
@@ -313,36 +267,6 @@ CHI2_2_95 = 5.991464547107979
 _CRIT = np.array([5.991, 5.541, 5.162, 4.847, 4.588, 4.375, 4.201, 4.059, 3.942, 3.845, CHI2_1_95])
 K_UMBILIC = CHI2_2_95
 _T_DB = np.array([[0.5, 0.0, -0.5], [0.0, 1.0, 0.0]])  # (a, b, c) -> v = ((a - c)/2, b)
-
-
-def residual_scale(chi2, dof, noise_stated):
-    """Variance factor s^2 for the covariance; None when the fit has no spare rows."""
-    if dof <= 0:
-        return 1.0 if noise_stated else None
-    s2 = chi2 / dof
-    return max(s2, 1.0) if noise_stated else s2
-
-
-def tensor_and_jacobian(channels, rows):
-    """Grid-mean entries t (3,) and dt/dcoef (3, p).
-
-    ``channels`` = (zx, zy, zxx, zxy, zyy) at the grid points (each (n,));
-    ``rows`` the matching design rows stacked (5 n, p).
-    """
-    n = channels[0].size
-    step = 1e-20
-    ch = np.broadcast_to(np.asarray(channels, float), (5, 5, n)).astype(complex)
-    ch[np.arange(5), np.arange(5)] += 1j * step  # perturb channel k in copy k
-    a, b, c = shape_entries(*np.moveaxis(ch, 1, 0))  # each (5 copies, n)
-    t = np.array([a[0].real.mean(), b[0].real.mean(), c[0].real.mean()])
-    J = np.stack([a.imag, b.imag, c.imag]) / step  # (3, 5, n)
-    G = np.einsum("ikn,knp->ip", J, rows.reshape(5, n, -1))
-    return t, G / n
-
-
-def tensor_cov(G, cov_factor, s2):
-    GF = G @ cov_factor
-    return s2 * (GF @ GF.T)
 
 
 def anisotropy(t, cov):
@@ -496,48 +420,5 @@ def ellipsoid_intervals(t, cov, m, h, lam, bias=None):
     # the origin inside the ellipsoid: kmax can be 0 (a plane is compatible)
     inside = _mahalanobis(t, cov) ** 2 <= crit_k
     out["kmax"][:, 0] = np.where(inside, 0.0, out["kmax"][:, 0])
-    out["crit"] = crit_s
-    return {k: v[0] for k, v in out.items()} if one else out
-
-
-# --- Model bias of the patch curvature: refit of the constant-curvature surface.
-#
-# A biquadratic cannot follow a circle: on a cylinder of radius 8 over a 4 x 4
-# patch its grid-mean curvature is ~1 % low, which at low noise is several
-# standard deviations, so intervals from the noise alone miss the truth
-# (docs/ep2.md, calibration).  The bias is estimated by fitting, with the same
-# rows, weights and shrinkage (``SplineFit.data_map``, a linear map), noise-free
-# data from the surface whose shape operator is the estimated one everywhere.
-# To fourth order about the patch centre c, with A = -P (P the estimated
-# shape-operator matrix, d = x - c):
-#
-#     z = (d^T A d)/2 + (d^T A d)(d^T A^2 d)/8
-#
-# (exact to that order for spheres and cylinders: z = -k r^2/2 - k^3 r^4/8).
-# The bias vector is the refit's grid-mean entries minus P's; ``api`` adds its
-# outer product to the covariance of the intervals (not to the estimate: for a
-# quadric height field the fit itself is unbiased and the term only widens).
-
-
-def constant_curvature_data(xy, centre, tensor):
-    """(z, slope-x, slope-y) of the constant-shape-operator surface at points ``xy`` (n, 2)."""
-    a, b, c = tensor
-    A = -np.array([[a, b], [b, c]])
-    d = np.asarray(xy, float) - centre
-    ad = d @ A
-    a2d = ad @ A
-    q1 = np.einsum("ij,ij->i", d, ad)
-    q2 = np.einsum("ij,ij->i", ad, ad)  # d^T A^2 d
-    z = 0.5 * q1 + q1 * q2 / 8.0
-    grad = ad + (ad * q2[:, None] + a2d * q1[:, None]) / 4.0
-    return z, grad[:, 0], grad[:, 1]
-
-
-def model_bias(fit, xy, centre, tensor, grid_tensor):
-    """Bias (3,) of the grid-mean entries: refit of ``constant_curvature_data`` minus ``tensor``.
-
-    ``grid_tensor(coef)`` returns the grid-mean entries of a coefficient vector.
-    """
-    z, gx, gy = constant_curvature_data(xy, centre, tensor)
-    coef = fit.data_map @ np.concatenate([z, gx, gy])
-    return grid_tensor(coef) - np.asarray(tensor, float)
+    iv = Intervals(**out, crit=crit_s)
+    return Intervals(**{k: v[0] for k, v in vars(iv).items()}) if one else iv

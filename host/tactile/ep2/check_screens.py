@@ -24,16 +24,13 @@ TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than th
 def clear(points, normals, opts):
     """(edges clear (B,), tilt clear (B,)): whether ``edges.check`` passes (raises nothing)
     and whether ``tilt.untilt`` leaves the patch as it is, for ``points``, ``normals`` (B, n, 3)
-    of prepared patches (centred, unit normals) with options ``opts`` (one per patch)."""
-    noise_pos = _noise(opts, "noise_pos")
-    noise_normal = _noise(opts, "noise_normal")
-    cosmax = np.cos(np.radians([o["max_normal_angle"] for o in opts]))
+    of prepared patches (centred, unit normals) with options ``opts`` (``JetOptions``, one per
+    patch)."""
+    noise_pos = np.array([np.nan if o.noise_pos is None else o.noise_pos for o in opts], float)
+    noise_normal = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
+    cosmax = np.cos(np.radians([o.max_normal_angle for o in opts]))
     edge = _no_edge(points, normals) & _few_far(normals, cosmax)
     return edge, _no_tilt(points, normals, noise_pos, noise_normal)
-
-
-def _noise(opts, key):
-    return np.array([np.nan if o.get(key) is None else o[key] for o in opts], float)
 
 
 def _unit(v):

@@ -254,12 +254,11 @@ def check(prep):
     """Raise ``EdgeError`` for a prepared patch (``patch_input.Prepared``) that straddles an
     edge, ``DataError`` where over ``MAX_LEFT_OUT`` normals disagree with the rest and no
     edge explains them.  The edge's point is in the input frame."""
-    opts = prep.opts
-    edge = find(prep.points, prep.normals, opts.get("noise_normal"))
+    edge = find(prep.points, prep.normals, prep.jet.noise_normal)
     if edge is not None:
         edge.point = edge.point + prep.middle
         raise EdgeError(edge)
-    nrm, limit = prep.normals, opts["max_normal_angle"]
+    nrm, limit = prep.normals, prep.jet.max_normal_angle
     cosmax = np.cos(np.radians(limit))
     seed = nrm[int(np.argmax(nrm @ nrm.sum(axis=0)))]  # the medoid, as the screen's
     mean = _unit(nrm[nrm @ seed > cosmax].sum(axis=0))
@@ -267,7 +266,7 @@ def check(prep):
     far = np.flatnonzero(cos <= cosmax)
     if len(far) > MAX_LEFT_OUT:
         _ambiguous(prep)  # two groups of normals: an edge along the lines, said as such
-        names = opts.get("names")
+        names = prep.names
         rows = ", ".join(names[i] if names is not None else f"contact {i}" for i in far[:4])
         more = f" and {len(far) - 4} more" if len(far) > 4 else ""
         deg = np.degrees(np.arccos(np.clip(cos[far], -1.0, 1.0)))
@@ -288,7 +287,7 @@ def check_answer(prep, out):
     if isinstance(out, DataError):
         if not str(out).startswith("positions and normals disagree"):
             return
-    elif out["shape"] != "plane":
+    elif out.centre.shape != "plane":
         _jump(prep, out)
         return
     _ambiguous(prep)
@@ -378,22 +377,22 @@ def _solve(A, y):
 
 def _jump(prep, out):
     """A fitted answer (not ``plane``) across a curvature jump: ``uncertain``, and said."""
-    if isinstance(out, DataError) or out["shape"] in ("plane", "uncertain"):
+    if isinstance(out, DataError) or out.centre.shape in ("plane", "uncertain"):
         return
     got = find_jump(prep.points, prep.normals)
     if got is None:
         return
     where = (got[0] + prep.middle, got[1])
     p, d = (", ".join(f"{x:{f}}" for x in v) for v, f in zip(where, (".4g", ".3f"), strict=True))
-    out["shape"] = "uncertain"
-    out["warnings"] = [*out.get("warnings", []),
+    out.centre.shape = "uncertain"
+    out.warnings = [*out.warnings,
                        f"a curvature jump at ({p}) along ({d}): one side's normals keep their"
                        " slope, the other's turn (a plane joined to a curved surface?); the"
                        " label is uncertain: fit each side alone"]  # fmt: skip
 
 
 def _ambiguous(prep):
-    edge = find(prep.points, prep.normals, prep.opts.get("noise_normal"), strict=False)
+    edge = find(prep.points, prep.normals, prep.jet.noise_normal, strict=False)
     if edge is not None:
         edge.point = edge.point + prep.middle
         edge.ambiguous = True

@@ -18,6 +18,9 @@ P = C^-1 II C^-T in an orthonormal tangent basis (C the Cholesky factor of the f
 fundamental form I = C C^T).  Its eigenvalues k = m +/- hypot((a - c)/2, b), m = (a + c)/2,
 are exact at umbilics and planes: no k1 - k2 division, no square root of a negative
 round-off.
+
+**Grid statistics** (§4.8.2, ``grid_stats``): means and sds of k1, k2, R, S and C over the
+N x N grid, for both methods.
 """
 
 from dataclasses import dataclass
@@ -346,3 +349,70 @@ def pick(by_order, which):
         if sel.any():
             out[sel] = v[sel]
     return out
+
+
+# --- The thesis's grid statistics (§4.8.2) for a whole stack of centre-jet fits at once.
+#
+# Per patch: the fitted surface's (z_x, z_y, z_xx, z_xy, z_yy) on an N x N grid over the contacts'
+# box (final frame, / L), then mean and sd of k1, k2, R, S and C over the grid points where the
+# surface is finite (a steep fit can overflow far from the centre).  The spline's one patch is
+# a stack of one.
+
+
+@dataclass
+class GridStats:
+    """The thesis's statistics over the N x N grid (§4.8.2, ``grid_stats``), input unit; S
+    and C None for a plane, all None where no grid point is finite."""
+
+    R_mean: float | None = None
+    R_std: float | None = None
+    k1_mean: float | None = None
+    k2_mean: float | None = None
+    k1_std: float | None = None
+    k2_std: float | None = None
+    S_mean: float | None = None
+    S_std: float | None = None
+    C_mean: float | None = None
+
+
+DERIVS = ((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+KEYS = ("R_mean", "R_std", "k1_mean", "k2_mean", "k1_std", "k2_std", "S_mean", "S_std", "C_mean")
+
+
+def grid_stats(ch, scale, planes):
+    """[``GridStats``] per patch of a stack: ch the (zx, zy, zxx, zxy, zyy) channels on the
+    grid (each (B, N^2), in units of the patch), scale (B,) L, planes (B,) whether the
+    patch is labelled a plane.  Means and sds over the grid points where the surface is
+    finite; C_mean over those with R > 0."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        k1, k2 = eigen(*shape_entries(*ch))
+    ok = np.isfinite(k1) & np.isfinite(k2)
+    k1, k2 = np.where(ok, k1, 0.0), np.where(ok, k2, 0.0)
+    r = curvedness_r(k1, k2)
+    m = {}
+    for name, v in (("k1", k1), ("k2", k2), ("R", r), ("S", shape_index(k1, k2))):
+        m[name + "_mean"], m[name + "_std"] = _mean_sd(v, ok)
+    pos = ok & (r > 0)
+    c = np.where(pos, curvedness_c(np.where(pos, r, 1.0) / scale[:, None]), 0.0)
+    m["C_mean"], _ = _mean_sd(c, pos)
+    m = {k: np.asarray(v).tolist() for k, v in m.items()}
+    out = []
+    for i, (any_ok, any_pos, plane) in enumerate(zip(ok.any(-1), pos.any(-1), planes, strict=True)):
+        if not any_ok:
+            out.append(GridStats())
+            continue
+        L = float(scale[i])
+        d = GridStats(**{k: float(m[k][i]) / L for k in KEYS[:6]})
+        if not plane:
+            d.S_mean, d.S_std = float(m["S_mean"][i]), float(m["S_std"][i])
+            d.C_mean = float(m["C_mean"][i]) if any_pos else None
+        out.append(d)
+    return out
+
+
+def _mean_sd(v, ok):
+    """Mean and population sd of ``v`` over ``ok`` along the last axis (two passes)."""
+    count = np.maximum(ok.sum(axis=-1), 1)
+    mean = np.where(ok, v, 0.0).sum(axis=-1) / count
+    dev = np.where(ok, v - mean[..., None], 0.0)
+    return mean, np.sqrt((dev * dev).sum(axis=-1) / count)

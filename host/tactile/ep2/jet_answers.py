@@ -1,4 +1,4 @@
-"""The default fit's answer for a stack (docs/ep2.md, "The default", steps 5-9).
+"""The default fit's answer for a stack (docs/ep2.md, "The default", steps 5-7 and 9).
 
 ``answer`` (steps 5-7, from one pass of ``local_jet.fit``, ``JetFit``): the 2-jet moved
 toward the jet below the top on evidence, its covariance of noise plus the bias left (the
@@ -6,78 +6,71 @@ Wald test of two jets' difference, the positive part of a measured bias, and the
 the terms a jet leaves out, from a sphere's or cylinder's of the measured curvature), the
 curvature at the centre and whether the contacts lie on one line: a ``JetStack``.
 
-``outcomes`` (steps 8-9): from a ``JetStack`` to each patch's result fields, or the
+``outcomes`` (step 9): from a ``JetStack`` to each patch's ``centre_result.Answer``, or the
 refusal in its place.  A patch is refused only when its fit says so (too few consistent
-contacts, one line, no quadric through them), when positions and normals disagree
-(``disagreements``), or when the noise covariance of its 2-jet's curvature leaves a
-direction undetermined, named in world coordinates: a 95 % half-width over
+contacts, one line, no quadric through them, positions and normals that disagree:
+``local_jet.disagreements``), or when the noise covariance of its 2-jet's curvature leaves
+a direction undetermined, named in world coordinates: a 95 % half-width over
 ``MAX_HALF_WIDTH`` / L.  The bias left widens the intervals; it refuses nothing.
 Otherwise: the headline curvature, intervals and label at the patch centre
-(``centre_result.summary``), the thesis's grid statistics (§4.8.2,
-``centre_result.statistics``) and the fields ``api.from_fields`` takes.
+(``centre_result.summary``) and the thesis's grid statistics (§4.8.2,
+``geometry.grid_stats``).
 """
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from tactile.ep2 import centre_result, geometry
-from tactile.ep2.centre_result import DERIVS
-from tactile.ep2.geometry import (
-    design,
-    exponents,
-    mv,
-    pick,
-    powers,
-    principal,
-    shape_entries,
-    size,
-    vm,
-)
+from tactile.ep2.centre_result import Answer
+from tactile.ep2.geometry import DERIVS, design, mv, pick, size, vm
 from tactile.errors import DataError
 
 MAX_HALF_WIDTH = 0.25  # of 1/L: the 2-jet's noise half-width (95 %) beyond which k is unknown
 
 
-def outcomes(stack, opts, lines=None):
-    """A list per patch of ``stack``: its field dict, or the ``DataError`` refusing it.
-    ``lines``: per patch, how to name its contacts (``patch_input.row_names``) or None."""
+def outcomes(stack, jet, names=None):
+    """A list per patch of ``stack``: its ``centre_result.Answer``, or the ``DataError``
+    refusing it.  ``jet``: the ``JetOptions`` (``grid``, ``intervals``); ``names``: per
+    patch, how to name its contacts (``patch_input.row_names``) or None."""
     B = len(stack.scale)
-    lines = [None] * B if lines is None else lines
+    names = [None] * B if names is None else names
     out = [None] * B
-    _refuse_disagreeing(stack)
     live = [b for b in range(B) if stack.reason[b] is None]
     for b in range(B):
         if stack.reason[b] is not None:
-            out[b] = DataError(_name_rows(stack.reason[b], lines[b]) + _left(stack, b, lines[b]))
+            out[b] = DataError(_name_rows(stack.reason[b], names[b]) + _left(stack, b, names[b]))
     if live:
         for b in np.asarray(live)[_wide(stack, live)].tolist():
-            why = undetermined(stack, b)
-            out[b] = DataError(why + _left(stack, b, lines[b]))
+            out[b] = DataError(undetermined(stack, b) + _left(stack, b, names[b]))
     ok = np.array([b for b in live if out[b] is None], int)
     if not len(ok):
         return out
     heads = centre_result.summary(
-        stack.t[ok], stack.cov[ok], None, stack.scale[ok], opts["intervals"],
+        stack.t[ok], stack.cov[ok], None, stack.scale[ok], jet.intervals,
         np.zeros_like(stack.cov[ok]),  # (k1, k2 as fitted: debiasing them cost RMS S)
     )  # fmt: skip
-    ch, gx, gy = channels(stack, ok, opts["grid"])
-    stats = {
-        k: np.asarray(v).tolist() for k, v in centre_result.statistics(ch, stack.scale[ok]).items()
-    }
+    ch, gx, gy = channels(stack, ok, jet.grid)
+    stats = geometry.grid_stats(ch, stack.scale[ok], [c.shape == "plane" for c in heads])
     zx, zy, zxx, zxy, zyy = np.moveaxis(stack.coef[ok][:, 1:6], -1, 0)
-    d1 = np.einsum("bi,bij->bj", np.asarray(principal(zx, zy, zxx, zxy, zyy)["dir1"], float),
-                   stack.axes[ok])  # fmt: skip
+    dir1 = np.asarray(geometry.principal(zx, zy, zxx, zxy, zyy)["dir1"], float)
+    d1 = np.einsum("bi,bij->bj", dir1, stack.axes[ok])
     xy = stack.xy[ok] + stack.centre[ok][:, None, :]
     keep = stack.keep[ok][..., None]
     box = np.concatenate([np.where(keep, xy, np.inf).min(1), np.where(keep, xy, -np.inf).max(1)],
                          -1)[:, [0, 2, 1, 3]].tolist()  # fmt: skip
     for k, (b, head) in enumerate(zip(ok.tolist(), heads, strict=True)):
-        head["warnings"] = [_name_rows(w, lines[b]) for w in stack.warnings[b]]
-        head.update(centre_result.at(stats, k, float(stack.scale[b]), head["shape"] == "plane"))
-        head.update(direction1=d1[k], box=tuple(box[k]))
-        out[b] = _fields(stack, b, head, ([c[k] for c in ch], gx[k], gy[k]))
+        L, coef, centre = float(stack.scale[b]), stack.coef[b], stack.centre[b]
+        order = _order_of(len(coef))
+        out[b] = Answer(
+            head, stats[k], _model_text(stack, b), int(stack.order[b]),
+            "stated" if stack.stated[b].any() else "auto",
+            float(stack.noise[b, 0]), float(stack.noise[b, 1]),
+            geometry.PatchFrame(stack.origin[b], stack.axes[b]), L,
+            lambda q, c=centre, o=order, a=coef: design(q[:, 0] - c[0], q[:, 1] - c[1], o)[0] @ a,
+            ([c[k] for c in ch], gx[k], gy[k]), d1[k], tuple(box[k]),
+            [_name_rows(w, names[b]) for w in stack.warnings[b]],
+        )  # fmt: skip
     return out
 
 
@@ -86,20 +79,6 @@ def _left(stack, b, names, most=2):
     left = [_name_rows(w, names) for w in stack.warnings[b]]
     more = f"; and {len(left) - most} more left out" if len(left) > most + 1 else ""
     return "".join(f"; {w}" for w in left[: most if more else None]) + more
-
-
-def _refuse_disagreeing(stack):
-    """Patches whose positions and normals describe different surfaces are refused
-    (``disagreements``)."""
-    live = np.array([b for b, why in enumerate(stack.reason) if why is None], int)
-    if not len(live):
-        return
-    whys = disagreements(
-        stack.xy[live], stack.heights[live], stack.slopes[live], stack.keep[live],
-        stack.axes[live], stack.scale[live],
-    )  # fmt: skip
-    for b, why in zip(live.tolist(), whys, strict=True):
-        stack.reason[b] = why
 
 
 def _half_widths(cov):
@@ -143,10 +122,10 @@ def channels(stack, idx, n):
     order = _order_of(coef.shape[1])
     # on a tensor grid the jet is px C py^T, C[i, j] the coefficient of x^i y^j / (i! j!)
     C = np.zeros((len(idx), order + 3, order + 3))
-    for k, (i, j) in enumerate(exponents(order)):
+    for k, (i, j) in enumerate(geometry.exponents(order)):
         C[:, i, j] = coef[:, k]
-    px = np.stack(powers(xs, order), -1)
-    pyT = np.swapaxes(np.stack(powers(ys, order), -1), -1, -2)
+    px = np.stack(geometry.powers(xs, order), -1)
+    pyT = np.swapaxes(np.stack(geometry.powers(ys, order), -1), -1, -2)
     ch = [(px @ C[:, a : a + order + 1, c : c + order + 1] @ pyT).reshape(len(idx), -1)
           for a, c in DERIVS]  # fmt: skip
     return ch, gx + centre[:, :1], gy + centre[:, 1:]
@@ -157,24 +136,6 @@ def _order_of(p):
     while size(o) < p:
         o += 1
     return o
-
-
-def _fields(stack, b, head, grid):
-    L, axes, coef = float(stack.scale[b]), stack.axes[b], stack.coef[b]
-    centre = stack.centre[b]
-    order = _order_of(len(coef))
-    head.update(
-        order=int(stack.order[b]),
-        weighting="stated" if stack.stated[b].any() else "auto",
-        model=_model_text(stack, b),
-        noise_pos=float(stack.noise[b, 0]),
-        noise_normal=float(stack.noise[b, 1]),
-        frame=geometry.PatchFrame(stack.origin[b], axes),
-        scale=L,
-        surface=lambda q: design(q[:, 0] - centre[0], q[:, 1] - centre[1], order)[0] @ coef,
-        grid=grid,
-    )
-    return head
 
 
 def _model_text(stack, b):
@@ -194,95 +155,6 @@ def _name_rows(why, names):
         why = why.replace(f"contact {k} ", f"{names[k]} ", 1)
         why = why.replace(f"contact {k}:", f"{names[k]}:", 1)
     return why
-
-
-# --- Do a patch's positions and normals describe one surface? (thesis §4.5 fits both at
-# once, and so assumes they do.)
-#
-# Normals given in the wrong frame, flipped, or read off a flat plate describe another surface
-# than the contacts' positions, and a joint fit follows whichever rows its noise estimate trusts
-# more, confidently. So the normals alone are fitted by a 2-jet of slopes, and the surface it
-# describes (up to a constant) is compared with the positions in data space: they disagree where
-# the positions' rms gap to it exceeds ``MIN_RATIO`` times its expected size (the positions' own
-# 2-jet residual and the normals' surface's prediction noise) and ``MIN_GAP``. A data-space test
-# cannot be fooled by a layout that leaves the positions' own curvature ill-determined, and a
-# surface no 2-jet follows moves both fits alike. On the tune split of the families bench: 2
-# consistent patches of 7,824 refused, none of 2,640 with outliers; 20 of 21 inconsistent
-# reproducers refused (tests).
-
-
-REDUNDANCY = 1.5  # rows per term of each fit alone
-MIN_RATIO = 5.0  # the positions' rms gap to the normals' surface, in its expected sizes
-MIN_GAP = 2e-3  # of L: a smaller gap is no evidence of anything
-TINY = 1e-30
-
-
-def disagreements(xy, heights, slopes, keep, axes, scale):
-    """Per patch None, or the line saying how positions and normals disagree.  xy (B, n, 2)
-    and heights (B, n) in the frame / L, slopes (B, n, 2), keep (B, n), axes (B, 3, 3),
-    scale (B,) = L."""
-    n_kept = keep.sum(-1)
-    out = [None] * len(keep)
-    idx = np.flatnonzero(REDUNDANCY * size(2) <= n_kept)
-    if not len(idx):
-        return out
-    xy, z, s, w = xy[idx], heights[idx], slopes[idx], keep[idx].astype(float)
-    V, DX, DY = design(xy[..., 0], xy[..., 1], 2)
-    tp, _, rp, okp = _fit(V * w[..., None], z * w)
-    A = np.concatenate([DX, DY], 1)[..., 1:] * np.tile(w, 2)[..., None]
-    tn, Cn, _, okn = _fit(A, np.concatenate([s[..., 0], s[..., 1]], 1) * np.tile(w, 2))
-    pred = mv(V[..., 1:], tn)  # the normals' surface at the contacts, up to a constant
-    gap = (z - pred) * w
-    gap = (gap - (gap.sum(-1) / n_kept[idx])[:, None]) * w
-    var_p = np.sum(rp * rp, -1) / np.maximum(n_kept[idx] - size(2), 1)
-    var_pred = np.einsum("bnp,bpq,bnq->bn", V[..., 1:], Cn, V[..., 1:])
-    stat = np.sum(gap * gap / (var_p[:, None] + var_pred + TINY), -1) / n_kept[idx]
-    rms = np.sqrt(np.sum(gap * gap, -1) / n_kept[idx])
-    bad = okp & okn & (stat > MIN_RATIO**2) & (rms > MIN_GAP)
-    for k in np.flatnonzero(bad):
-        out[int(idx[k])] = _verdict(tp[k], tn[k], float(rms[k]), axes[idx[k]], float(scale[idx[k]]))
-    return out
-
-
-def _fit(A, b):
-    """(coef[first 5 after any constant], cov of all coefs, residuals, determined) of
-    least squares A c = b for a stack; the noise from the residuals."""
-    cn = np.sqrt(np.einsum("bij,bij->bj", A, A))
-    cn = np.where(cn > 0, cn, 1.0)
-    Q, R = np.linalg.qr(A / cn[:, None, :])
-    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
-    tiny = ~(d > 1e-9 * d.max(-1, keepdims=True))
-    R = R + np.eye(R.shape[-1]) * tiny[:, None, :]  # (a patch not determined: not compared)
-    qb = (b[:, None, :] @ Q)[:, 0]
-    resid = b - mv(Q, qb)
-    rows = np.any(A != 0, -1)
-    dof = np.maximum(rows.sum(-1) - A.shape[2], 1)
-    s2 = np.einsum("bi,bi->b", resid, resid) / dof
-    Rinv = np.linalg.inv(R) / cn[:, :, None]
-    coef = mv(Rinv, qb)
-    cov = Rinv @ np.swapaxes(Rinv, -1, -2) * s2[:, None, None]
-    lo = A.shape[2] - 5
-    return coef[:, lo:], cov[:, lo:, lo:], resid, ~tiny.any(-1)
-
-
-def _verdict(tp, tn, rms, axes, L):
-    """The line: where the two surfaces' curvatures differ most, or their tilt."""
-    Hp, Hn = _hessian(tp), _hessian(tn)
-    lam, vec = np.linalg.eigh(Hp - Hn)
-    u = vec[:, int(np.argmax(np.abs(lam)))]
-    kp, kn = -(u @ Hp @ u) / L, -(u @ Hn @ u) / L  # k = -z'' (convex toward +z: k > 0)
-    tilt = math.degrees(math.atan(float(np.linalg.norm(tp[:2] - tn[:2]))))
-    along = ", ".join(f"{v:.2f}" for v in u @ axes[:2])
-    return (
-        f"positions and normals disagree: the positions lie {rms:.2g} of the patch size (rms) "
-        f"off the surface the normals describe (curvature along ({along}) {kp:.3g} from the "
-        f"positions vs {kn:.3g} from the normals, 1/unit; tilt {tilt:.0f} deg); check the "
-        "normals' sign and frame, or take a smaller patch where the surface bends this much"
-    )
-
-
-def _hessian(t):
-    return np.array([[t[2], t[3]], [t[3], t[4]]])
 
 
 SHRINK = 20.0  # the answer leaves the 2-jet only on this many times the test's dof
@@ -455,12 +327,12 @@ def _pick_coef(coefs, which, p):
 def _entries_and_jacobian(theta):
     """Shape-operator entries (B, 3) of (zx, zy, zxx, zxy, zyy) and their Jacobian (B, 3, 5)
     (complex step: exact to round-off)."""
-    t = np.stack(shape_entries(*np.moveaxis(theta, -1, 0)), -1)
+    t = np.stack(geometry.shape_entries(*np.moveaxis(theta, -1, 0)), -1)
     J = np.empty((len(theta), 3, 5))
     for k in range(5):
         z = theta.astype(complex)
         z[:, k] += 1e-30j
-        J[:, :, k] = np.stack(shape_entries(*np.moveaxis(z, -1, 0)), -1).imag / 1e-30
+        J[:, :, k] = np.stack(geometry.shape_entries(*np.moveaxis(z, -1, 0)), -1).imag / 1e-30
     return t, J
 
 

@@ -16,12 +16,12 @@ before anything is summed.  Normals need no range: ``geometry.unit_normals`` nor
 any finite non-zero vector.
 """
 
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
 from tactile.ep2 import geometry
-from tactile.errors import InputError
+from tactile.errors import DataError, InputError
 
 METHODS = ("jet", "spline")
 BREAK_ANGLE_DEG = 30.0  # consecutive normals of one finger turning more: a discontinuity
@@ -65,48 +65,145 @@ _JET = tuple(f.name for f in fields(JetOptions))
 _SPLINE = tuple(f.name for f in fields(SplineOptions))
 
 
+@dataclass(frozen=True)
+class Request:
+    """What ``analyze_patch`` is asked: the method, whether to keep the grid maps, and the
+    two option sets."""
+
+    method: str = "jet"
+    maps: bool = False
+    jet: JetOptions = JetOptions()
+    spline: SplineOptions = SplineOptions()
+
+    def keywords(self):
+        """``analyze_patch``'s keywords that ask this again."""
+        return dict(method=self.method, maps=self.maps, jet=self.jet, spline=self.spline)
+
+    def with_noise(self, **noise):
+        """This request with a patch's own ``noise_pos`` / ``noise_normal`` over the jet's."""
+        return replace(self, jet=replace(self.jet, **noise)) if noise else self
+
+
 def keywords(method="jet", jet=None, spline=None, maps=False, **named):
-    """The flat options the steps read (``method``, ``maps`` and every field of both option
-    sets): ``jet`` and ``spline`` (or their defaults) with options ``named`` over them, as
-    ``analyze_patch(points, normals, noise_pos=0.01)`` writes them.  ``TypeError`` for a
-    name neither set has, as Python gives for an unknown keyword."""
+    """The ``Request`` of ``analyze_patch``'s keywords: ``jet`` and ``spline`` (or their
+    defaults) with options ``named`` over them, as ``analyze_patch(points, normals,
+    noise_pos=0.01)`` writes them.  ``TypeError`` for a name neither set has, as Python
+    gives for an unknown keyword."""
     unknown = sorted(set(named) - set(_JET) - set(_SPLINE))
     if unknown:
         raise TypeError(f"analyze_patch() got an unexpected keyword argument {unknown[0]!r}")
     jet = replace(jet or JetOptions(), **{k: v for k, v in named.items() if k in _JET})
     spline = replace(spline or SplineOptions(), **{k: v for k, v in named.items() if k in _SPLINE})
-    return dict(method=method, maps=maps, **asdict(jet), **asdict(spline))
+    return Request(method, maps, jet, spline)
 
 
 @dataclass
 class Prepared:
-    """One patch ready to fit: validated, duplicates dropped, centred (``analyze_patch``)."""
+    """One patch ready to fit: validated, duplicates dropped, centred (``analyze_patch``).
+    ``lines``: the fitted contacts' CSV lines or None; ``names``: how messages name them
+    (``row_names``); ``breaks``: its discontinuities; ``middle``: what centring took off."""
 
     points: np.ndarray
     normals: np.ndarray
-    opts: dict
+    jet: JetOptions
+    lines: list | None
+    names: "RowNames | None"
     breaks: list
     dropped: int
     middle: np.ndarray
 
 
-def prepare(points, normals, finger, lines, kw):
-    """Validation and the steps before the fit, shared by one patch and a batch."""
-    method, weighting, order = kw["method"], kw["weighting"], kw["order"]
-    noise_pos, noise_normal = kw["noise_pos"], kw["noise_normal"]
-    pts, nrm = validate(points, normals, method, weighting, lines)
-    check_options(
-        pts, noise_pos, noise_normal, kw["grid"], kw["segments"], kw["max_normal_angle"],
-        kw["break_angle"],
-    )  # fmt: skip
+def prepare(points, normals, finger, lines, req):
+    """Validation and the steps before the fit, shared by one patch and a batch (``req`` a
+    ``Request``)."""
+    pts, nrm = validate(points, normals, req, lines)
+    check_options(pts, req.jet, req.spline)
     rows = np.arange(len(pts))
     pts, nrm, finger, lines, rows, dropped = _drop_duplicates(pts, nrm, finger, lines, rows)
-    pts, middle = centred(pts)  # the frame's origin moves back in ``api.from_fields``
-    (breaks,) = find_breaks(nrm[None], [finger], kw["break_angle"])
-    check_order(method, order)
-    opts = options(kw, lines)
-    opts["names"] = row_names(lines, rows if dropped else None)
-    return Prepared(pts, nrm, opts, breaks, dropped, middle)
+    pts, middle = centred(pts)  # the frame's origin moves back in ``api.PatchResult``
+    (breaks,) = find_breaks(nrm[None], [finger], req.jet.break_angle)
+    check_order(req.method, req.spline.order)
+    names = row_names(lines, rows if dropped else None)
+    return Prepared(pts, nrm, req.jet, lines, names, breaks, dropped, middle)
+
+
+def prepare_stack(unpacked, reqs):
+    """``prepare`` of every patch of ``unpacked`` ((points, normals, finger, lines) each, its
+    ``Request`` in ``reqs``) that passes its checks as it stands (sound options, finite,
+    representable spread, non-zero normals, no duplicated rows), for each group of patches
+    of one size at once; None for the others, which ``prepare`` takes one at a time (it
+    refuses them, or drops their duplicates).  The same numbers either way."""
+    out = [None] * len(unpacked)
+    groups, sound = {}, {}
+    for j, (points, normals, _, _) in enumerate(unpacked):
+        own = (reqs[j].jet.noise_pos, reqs[j].jet.noise_normal)  # (all else is the chunk's)
+        if own not in sound:
+            sound[own] = _sound(reqs[j])
+        pts, nrm = np.asarray(points, float), np.asarray(normals, float)
+        if sound[own] and 0 < len(pts) <= MAX_ROWS and pts.ndim == 2 and pts.shape[1] == 3:
+            if nrm.shape == pts.shape:
+                groups.setdefault(len(pts), []).append((j, pts, nrm))
+    for group in groups.values():
+        idx = [j for j, _, _ in group]
+        got = _prepare_group(group, [unpacked[j] for j in idx], [reqs[j] for j in idx])
+        for k, prep in zip(idx, got, strict=True):
+            out[k] = prep
+    return out
+
+
+def _sound(req):
+    """Whether the options hold for any patch (else the one-patch path says why not)."""
+    try:
+        validate(np.zeros((1, 3)), np.ones((1, 3)), req)
+        check_options(np.zeros((1, 3)), replace(req.jet, noise_pos=None), req.spline)
+        check_order(req.method, req.spline.order)
+        if req.jet.noise_pos is not None and not np.isfinite(float(req.jet.noise_pos)):
+            return False
+    except (DataError, InputError, TypeError, ValueError):
+        return False
+    return True
+
+
+def _prepare_group(group, unpacked, reqs):
+    """``prepare_stack`` for patches of one size: [Prepared or None]."""
+    P = np.stack([pts for _, pts, _ in group])
+    N = np.stack([nrm for _, _, nrm in group])
+    good = np.all(np.isfinite(P), axis=(1, 2)) & np.all(np.isfinite(N), axis=(1, 2))
+    middle, half = box(P)
+    h = half.max(axis=-1)
+    good &= (h == 0.0) | ((MIN_SPREAD <= 2.0 * h) & (2.0 * h <= MAX_SPREAD))
+    noise = np.array([np.nan if r.jet.noise_pos is None else r.jet.noise_pos for r in reqs])
+    top = MAX_NOISE_SPREADS * 2.0 * np.where(good, h, 0.0)  # a wild patch: not here
+    good &= np.isnan(noise) | ((noise >= 0.0) & (noise <= top))
+    N, ok = geometry.unit_rows(N)
+    good &= np.all(ok, axis=-1)
+    good &= ~has_duplicates(P, N)
+    P = P - middle[:, None, :]  # ``centred``
+    out = [None] * len(group)
+    live = np.flatnonzero(good).tolist()
+    breaks = find_breaks(N[live], [unpacked[b][2] for b in live], reqs[0].jet.break_angle)
+    for b, brk in zip(live, breaks, strict=True):
+        lines = unpacked[b][3]
+        out[b] = Prepared(P[b], N[b], reqs[b].jet, lines, row_names(lines), brk, 0, middle[b])
+    return out
+
+
+def has_duplicates(P, N):
+    """(G,) whether a patch repeats a row exactly (``_drop_duplicates`` drops them).  Only a
+    patch with two equal x (or a non-finite number) can: the rows of those alone are
+    compared whole."""
+    x = np.sort(P[..., 0], axis=-1)
+    maybe = np.any(x[:, 1:] == x[:, :-1], axis=-1)
+    maybe |= ~(np.all(np.isfinite(P), axis=(1, 2)) & np.all(np.isfinite(N), axis=(1, 2)))
+    out = np.zeros(len(P), bool)
+    if maybe.any():
+        G, n, _ = P[maybe].shape
+        patch = np.repeat(np.arange(G, dtype=float), n)[:, None]
+        rows = np.concatenate([patch, P[maybe].reshape(-1, 3), N[maybe].reshape(-1, 3)], axis=1)
+        rows = rows[np.all(np.isfinite(rows), axis=1)]
+        distinct = np.unique(rows, axis=0)[:, 0].astype(int)
+        out[maybe] = np.bincount(distinct, minlength=G) < n
+    return out
 
 
 def row_names(lines, rows=None):
@@ -133,19 +230,8 @@ def check_order(method, order):
         raise InputError(f"the jet order is {JET_ORDER}; --order is for method spline")
 
 
-def options(kw, lines):
-    """The options the methods read, from ``analyze_patch``'s keywords and a patch's lines."""
-    out = {"order": 2 if kw["order"] is None else kw["order"]}
-    out.update({k: kw[k] for k in _METHOD_KEYS}, intervals=kw["intervals"], lines=lines)
-    return out
-
-
-_METHOD_KEYS = tuple(
-    "segments weighting noise_pos noise_normal grid align solver max_normal_angle shrink".split()
-)
-
-
-def validate(points, normals, method, weighting, lines=None):
+def validate(points, normals, req, lines=None):
+    method, weighting = req.method, req.spline.weighting
     if method not in METHODS:
         raise InputError(f"unknown method {method!r} (choose {', '.join(METHODS)})")
     if weighting not in WEIGHTINGS:
@@ -176,8 +262,10 @@ def too_many_rows(n):
     )
 
 
-def check_options(pts, noise_pos, noise_normal, grid, segments, max_angle, break_angle):
+def check_options(pts, jet, spline):
     """Numbers the fit can use, or ``InputError`` naming the keyword and its CLI option."""
+    noise_pos, noise_normal, grid = jet.noise_pos, jet.noise_normal, jet.grid
+    max_angle, break_angle, segments = jet.max_normal_angle, jet.break_angle, spline.segments
 
     def refuse(name, rule, value):
         option = "--" + name.replace("_", "-")
@@ -214,9 +302,8 @@ def _drop_duplicates(pts, nrm, finger, lines, rows):
 # --- Discontinuities along a finger's sweep (§6.2.2, §6.2.5).
 #
 # A crease or edge shows as consecutive normals of one finger that differ by more than an angle.
-# ``find_breaks`` lists them for a stack of patches at once; ``split_parts`` cuts every
-# finger's sequence at its breaks and groups the k-th piece of each finger into part k, so
-# each part can be fitted as its own patch.
+# ``find_breaks`` lists them for a stack of patches at once (``api.split_parts`` cuts a sweep
+# at them).
 
 
 def find_breaks(normals, fingers, max_angle_deg=BREAK_ANGLE_DEG):
@@ -273,20 +360,6 @@ def _label_codes(fingers, n):
     if codes.dtype.kind not in "iuf" or (codes.dtype.kind == "f" and np.isnan(codes).any()):
         return None
     return codes
-
-
-def split_parts(n_rows, finger, breaks):
-    """Row-index arrays of the parts left after cutting each finger at its breaks."""
-    part = np.zeros(n_rows, dtype=int)
-    finger = np.asarray(finger)
-    cut = {}
-    for row, f, _ in breaks:
-        cut.setdefault(f, []).append(row)
-    for f, rows_cut in cut.items():
-        rows = np.flatnonzero(finger == f)
-        for r in rows_cut:
-            part[rows[rows >= r]] += 1
-    return [np.flatnonzero(part == k) for k in range(part.max() + 1) if np.any(part == k)]
 
 
 MIN_SPREAD = 1e-300

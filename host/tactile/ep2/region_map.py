@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tactile.ep2 import edges, geometry
-from tactile.ep2.api import analyze_patches
+from tactile.ep2 import edges, geometry, patch_input
+from tactile.ep2.stream import analyze_patches
 from tactile.errors import DataError, InputError
 
 NEIGHBOURS = 12
@@ -216,7 +216,7 @@ def _edge(pts, nrm, region, links, pair, kw):
     near = np.unique(np.concatenate([rows, links[np.isin(links[:, 0], rows), 1]]))
     near = near[np.isin(region[near], pair)]
     mid = pts[near].mean(axis=0)
-    e = edges.find(pts[near] - mid, nrm[near], kw.get("noise_normal"))
+    e = edges.find(pts[near] - mid, nrm[near], patch_input.keywords(**kw).jet.noise_normal)
     if e is None:
         return _jump(pair, pts, nrm, links[cross])
     return RegionEdge(pair, e.kind, [float(v) for v in e.point + mid],

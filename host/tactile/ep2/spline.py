@@ -17,12 +17,9 @@ everything that depends only on degree and knots is cached.  The weighted system
 column-scaled and solved by SVD (or QR / LAPACK gelsy): never the normal equations of
 eq. 57.  A rank-deficient system raises ``DataError`` saying why.
 
-**Analysis** (``analyze``).  Frame and units as the default's; weights are the thesis's
-fixed ratios or, for ``auto``, per-row-type noise (REML, ``VC_PASSES`` passes);
-``shrink_to_jet`` shrinks the tensor-product excess toward the 2-jet;
-``centre_result.model_bias`` adds the biquadratic's bias on round surfaces to the
-intervals.  The headline curvature is the spline's at the patch centre, as for the
-default; the grid statistics (S_mean ...) are the thesis's (§4.8.2).
+**Shrinkage** (``shrink_to_jet``): the tensor-product excess shrunk toward the 2-jet.
+The analysis of a patch with it (weights, alignment, the centre, intervals, labels) is
+``spline_answers``.
 """
 
 import dataclasses
@@ -32,8 +29,6 @@ from functools import lru_cache
 import numpy as np
 from scipy.interpolate import BSpline
 
-from tactile.ep2 import centre_result, geometry
-from tactile.ep2.geometry import principal, shape_entries
 from tactile.errors import DataError
 
 ONE_LINE = "all contacts on one line (a single finger?): the patch needs contacts in two directions"
@@ -313,177 +308,6 @@ def _why_rank_deficient(x, y, degree, segments, p, rank):
         f" {p} coefficients but the rows determine only {rank}"
         f" ({len(x)} contacts, {ux} distinct x and {uy} distinct y); lower --order or add contacts"
     )
-
-
-WEIGHTINGS = ("auto", "tangent", "position")
-THESIS_RATIO = 100.0  # favoured : other rows (§4.9)
-NOISE_FLOOR = 1e-9  # relative noise floor so exact data keep finite weights
-ALIGN_SKIP_DEG = 2.0  # no principal-frame refit when the first pass is this close to aligned
-VC_PASSES = 1  # noise re-estimations before the final auto-weighted fit (measured: 1 = 2 = 3)
-
-
-def analyze(pts, nrm, opts):
-    """Result fields (dict) of one patch; ``opts`` are ``analyze_patch``'s keywords."""
-    kx, ky = (opts["order"],) * 2 if np.isscalar(opts["order"]) else opts["order"]
-    seg = opts["segments"]
-    seg = (seg, seg) if np.isscalar(seg) else seg
-    weighting = opts["weighting"]
-    frame = geometry.frame_from_contacts(pts, nrm)
-    p = frame.to_patch(pts)
-    sx, sy = geometry.slopes(frame.to_patch_dirs(nrm), opts["max_normal_angle"], opts["lines"])
-    scale = float(max(np.ptp(p[:, 0]), np.ptp(p[:, 1])))
-    if not scale > 0:
-        raise DataError(
-            "all contacts at one point: the patch needs contacts spread in two directions"
-        )
-    p = p / scale
-    grid_xy = _grid_lines(p, opts["grid"])
-    fit_opts = dict(degree=(kx, ky), segments=seg, solver=opts["solver"])
-    sig = _noise(opts["noise_pos"], opts["noise_normal"], scale)
-    stated = weighting == "auto" and any(v is not None for v in sig)
-    fit, sig, design = _fit_weighted(p, sx, sy, weighting, sig, fit_opts)
-    aligned = False
-    if opts["align"]:
-        angle = _principal_angle(fit, fit.grid_rows(*grid_xy, first=1))
-        if angle is not None:
-            frame = frame.rotated_about_z(angle)
-            c, s = np.cos(angle), np.sin(angle)
-            p = _turn(p, c, s)
-            sx, sy = c * sx + s * sy, -s * sx + c * sy
-            grid_xy = _grid_lines(p, opts["grid"])
-            fit, _, design = _fit_weighted(p, sx, sy, weighting, sig, fit_opts)
-            aligned = True
-    s2 = centre_result.residual_scale(fit.chi2, fit.dof, stated)
-    shrink = opts["shrink"]
-    if (weighting == "auto" if shrink is None else shrink) and s2 is not None:
-        fit, _, _ = shrink_to_jet(fit, p[:, 2], sx, sy, s2, design)
-    out = _centre(fit, p, grid_xy, scale, s2, opts["intervals"])
-    out.update(
-        order=kx,
-        weighting=weighting,
-        aligned=aligned,
-        model=f"B-spline degree {kx}x{ky}, {seg[0]}x{seg[1]} segment(s), {weighting} weights",
-        noise_pos=None if sig[0] is None else sig[0] * scale,
-        noise_normal=sig[1],
-        fit=fit,
-        frame=frame,
-        scale=scale,
-        surface=lambda xy: fit.derivatives(xy[:, 0], xy[:, 1])[0],
-    )
-    rows = fit.grid_rows(*grid_xy, first=1)
-    channels = np.split(rows @ fit.coef, 5)
-    stats = centre_result.statistics([np.asarray(c)[None] for c in channels], np.array([scale]))
-    stats = centre_result.at(stats, 0, scale, out["shape"] == "plane")  # (a stack of one)
-    out.update(stats)
-    gx, gy = (g.ravel() for g in np.meshgrid(*grid_xy, indexing="ij"))
-    out["grid"] = (channels, gx, gy)
-    return out
-
-
-def _centre(fit, p, grid_xy, scale, s2, intervals):
-    """Headline at the centre of the contacts' box: tensor, covariance, model bias, label."""
-    centre = np.array([0.5 * (g[0] + g[-1]) for g in grid_xy])
-    rows = fit.rows(centre[:1], centre[1:], first=1)
-    channels = [np.atleast_1d(v) for v in np.split(rows @ fit.coef, 5)]
-    if s2 is None:  # no spare rows: no covariance, the label from S alone
-        t = np.array([float(v[0]) for v in shape_entries(*channels)])
-        one = (t[None], np.zeros((1, 3, 3)), np.zeros((1, 3)), np.array([scale]), False)
-        (out,) = centre_result.summary(*one)
-    else:
-        t, G = centre_result.tensor_and_jacobian(channels, rows)
-        cov = centre_result.tensor_cov(G, fit.cov_factor, s2)
-        bias = np.zeros(3)
-        if intervals and fit.data_map is not None:
-            bias = centre_result.model_bias(fit, p[:, :2], centre, t, lambda c: _tensor(rows, c))
-        one = (t[None], cov[None], bias[None], np.array([scale]), intervals)
-        (out,) = centre_result.summary(*one, plane_holds_zero=True)
-    d = principal(*(v[0] for v in channels))["dir1"]
-    out["direction1_patch"] = np.asarray(d, float)
-    out["centre"] = centre
-    return out
-
-
-def _tensor(rows, coef):
-    a, b, c = shape_entries(*np.split(rows @ coef, 5))
-    return np.array([a.mean(), b.mean(), c.mean()])
-
-
-def _grid_lines(p, n):
-    """x and y lines of the N x N grid over the contacts' bounding box (patch frame, §4.8.1)."""
-    xs = np.linspace(p[:, 0].min(), p[:, 0].max(), n)
-    ys = np.linspace(p[:, 1].min(), p[:, 1].max(), n)
-    return xs, ys
-
-
-def _turn(p, c, s):
-    q = p.copy()
-    q[:, 0] = c * p[:, 0] + s * p[:, 1]
-    q[:, 1] = -s * p[:, 0] + c * p[:, 1]
-    return q
-
-
-def _noise(noise_pos, noise_normal, scale):
-    """Stated (sigma_pos / L, sigma_normal), None for a component not stated."""
-    sp = None if noise_pos is None else max(float(noise_pos) / scale, NOISE_FLOOR)
-    sn = None if noise_normal is None else max(float(noise_normal), NOISE_FLOOR)
-    return sp, sn
-
-
-def _fit_weighted(p, sx, sy, weighting, sig, opts):
-    """Fit with the chosen weights; ``auto`` estimates the unstated noise (``VC_PASSES``)."""
-    x, y, z = p[:, 0], p[:, 1], p[:, 2]
-    domain, rows = prepare(x, y, opts["degree"], opts["segments"])
-    kw = dict(opts, domain=domain, rows=rows)
-    if weighting in ("tangent", "position"):
-        w_pos, w_s = (1.0, THESIS_RATIO) if weighting == "tangent" else (THESIS_RATIO, 1.0)
-        return fit_patch(x, y, z, sx, sy, w_pos, w_s, w_s, **kw), (None, None), rows
-    g2 = sx * sx + sy * sy
-    stated = sig
-    sp, sn = (1.0 if s is None else s for s in sig)  # unstated: start at 1:1
-    passes = 0 if None not in stated else VC_PASSES
-    for i in range(passes + 1):
-        w_pos = 1.0 / (sp * np.sqrt(1.0 + g2))
-        w_s = 1.0 / (sn * (1.0 + g2))
-        fit = fit_patch(x, y, z, sx, sy, w_pos, w_s, w_s, **kw)
-        if i < passes:
-            fp, fs = _variance_factors(fit, w_pos, w_s)
-            sp = sp if stated[0] is not None else max(sp * np.sqrt(fp), NOISE_FLOOR)
-            sn = sn if stated[1] is not None else max(sn * np.sqrt(fs), NOISE_FLOOR)
-    return fit, (sp, sn), rows
-
-
-def _variance_factors(fit, w_pos, w_s):
-    """Per row type (position, slope): weighted RSS over its residual degrees of freedom
-    (rows minus the leverage they take, as in REML), 1 when a type has no spare rows."""
-    rz, rx, ry = fit.residuals
-    n = rz.size
-    lev = fit.leverage
-    out = []
-    for r2, rows, used in (
-        (np.sum(np.square(rz * w_pos)), n, lev[:n].sum()),
-        (np.sum(np.square(rx * w_s)) + np.sum(np.square(ry * w_s)), 2 * n, lev[n:].sum()),
-    ):
-        spare = rows - used
-        out.append(r2 / spare if spare >= 1.0 and r2 > 0 else 1.0)
-    return out
-
-
-def _principal_angle(fit, rows):
-    """Mean k1 direction in the xy plane (doubled-angle average weighted by k1 - k2).
-
-    None when the patch is isotropic or already within ``ALIGN_SKIP_DEG`` of
-    its principal frame, so the refit would change nothing.
-    """
-    zx, zy, zxx, zxy, zyy = np.split(rows @ fit.coef, 5)
-    geo = principal(zx, zy, zxx, zxy, zyy)
-    d = geo["dir1"]
-    w = geo["k1"] - geo["k2"]
-    vec = np.sum(w * np.exp(2j * np.arctan2(d[:, 1], d[:, 0])))
-    if not abs(vec) > 1e-9 * max(float(np.sum(w)), 1e-300):
-        return None
-    angle = 0.5 * float(np.angle(vec))
-    off = abs(np.degrees(angle)) % 90.0
-    return None if min(off, 90.0 - off) < ALIGN_SKIP_DEG else angle
 
 
 # --- Empirical-Bayes shrinkage of a tensor-product patch toward its 2-jet (beyond the thesis).

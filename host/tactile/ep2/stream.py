@@ -1,9 +1,9 @@
 """Many patches in order, one result at a time: the engine behind ``tactile ep2 analyze``.
 
-``outcomes(named, opts, split, jobs)`` takes an iterable of (``Contacts``, name) pairs
-(read lazily: ``contacts_csv.ContactsFile`` yields patches as the file is read) and yields
-one ``Outcome`` per patch, in input order, as soon as its chunk (and every chunk before
-it) is done.
+``outcomes(named, req, split, jobs)`` (``req`` a ``patch_input.Request``) takes an
+iterable of (``Contacts``, name) pairs (read lazily: ``contacts_csv.ContactsFile`` yields
+patches as the file is read) and yields one ``Outcome`` per patch, in input order, as soon
+as its chunk (and every chunk before it) is done.
 
 Patches go in chunks of ``CHUNK`` consecutive patches (fewer where their contacts pass
 ``CHUNK_ROWS``), each chunk fitted by one ``analyze_patches`` call, which sorts it into
@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tactile.ep2 import geometry, patch_input
-from tactile.ep2.api import analyze_patches, analyze_sweep, sweep_parts
+from tactile.ep2 import check_screens, edges, geometry, jet_answers, local_jet, patch_input, tilt
+from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep, sweep_parts
 from tactile.errors import DataError, InputError
 from tactile.units import c_shift
 
@@ -50,11 +50,16 @@ class Outcome:
     input_error: str | None = None
 
 
-def analyze_one(group, name, opts, split):
+def analyze_one(group, name, req, split):
     """``Outcome`` of one ``Contacts`` group labelled ``name``, by ``analyze_sweep``."""
     try:
         results = analyze_sweep(
-            group.points, group.normals, finger=group.finger, split=split, lines=group.lines, **opts
+            group.points,
+            group.normals,
+            finger=group.finger,
+            split=split,
+            lines=group.lines,
+            **req.keywords(),
         )
     except (DataError, InputError) as exc:
         return _outcome(name, len(group.points), exc)
@@ -72,16 +77,16 @@ def _outcome(name, n, results):
     return Outcome(name, n, [r.to_dict(f"{name}#{i + 1}") for i, r in enumerate(results)])
 
 
-def analyze_chunk(work, opts, split):
+def analyze_chunk(work, req, split):
     """[``Outcome``] of ``work``, a list of (``Contacts``, name): one ``analyze_patches``
     call for every patch of the chunk and every part of the ones ``split`` cuts (§6.2.5;
     ``api.sweep_parts``).  A cut patch is refused, as ``analyze_sweep`` refuses it, by its
     first part that is."""
     out = [None] * len(work)
-    cut = _breaks([g for g, _ in work], opts) if split else [False] * len(work)
+    cut = _breaks([g for g, _ in work], req.jet.break_angle) if split else [False] * len(work)
     patches, owners = [], []  # owners[k]: the work index patches[k] belongs to
     for i, (g, name) in enumerate(work):
-        parts = _parts(g, opts) if cut[i] else None
+        parts = _parts(g, req.jet.break_angle) if cut[i] else None
         if isinstance(parts, Exception):
             out[i] = _outcome(name, len(g.points), parts)
             continue
@@ -89,7 +94,7 @@ def analyze_chunk(work, opts, split):
         for part in parts or [whole]:
             patches.append(part)
             owners.append(i)
-    results = analyze_patches(patches, **opts)  # stacks of like size (``api.stacks``)
+    results = analyze_patches(patches, **req.keywords())  # stacks of like size (``stacks``)
     found = {}
     for i, res in zip(owners, results, strict=True):
         found.setdefault(i, []).append(res)
@@ -100,20 +105,20 @@ def analyze_chunk(work, opts, split):
     return out
 
 
-def _parts(group, opts):
+def _parts(group, angle):
     """``api.sweep_parts`` of a group ``_breaks`` found cut, or the exception it raised."""
     try:
-        return sweep_parts(group.points, group.normals, group.finger, group.lines, True, opts)
+        g = group
+        return sweep_parts(g.points, g.normals, g.finger, g.lines, True, angle)
     except (DataError, InputError) as exc:
         return exc
 
 
-def _breaks(groups, opts):
+def _breaks(groups, angle):
     """[bool] per ``Contacts`` group: whether ``analyze_sweep`` would cut it (its normals
     break, §6.2.5, or a zero normal makes it refuse, as ``analyze_one`` then says), for the
     groups of one size at once: ``geometry.unit_normals`` and
     ``patch_input.find_breaks`` on their stack."""
-    angle = opts.get("break_angle", patch_input.BREAK_ANGLE_DEG)
     out = [False] * len(groups)
     sizes = {}
     for i, g in enumerate(groups):
@@ -167,16 +172,16 @@ def chunks(named):
         yield work
 
 
-def outcomes(named, opts, split=False, jobs=1):
+def outcomes(named, req, split=False, jobs=1):
     """Yield the ``Outcome`` of each (``Contacts``, name) pair of ``named`` in input order."""
     if jobs <= 1:
         for work in chunks(named):
-            yield from analyze_chunk(work, opts, split)
+            yield from analyze_chunk(work, req, split)
         return
-    yield from _parallel(chunks(named), opts, split, jobs)
+    yield from _parallel(chunks(named), req, split, jobs)
 
 
-def _parallel(work, opts, split, jobs):
+def _parallel(work, req, split, jobs):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
@@ -189,7 +194,7 @@ def _parallel(work, opts, split, jobs):
         def submit():
             chunk = next(work, None)
             if chunk is not None:
-                pending.append(pool.submit(analyze_chunk, chunk, opts, split))
+                pending.append(pool.submit(analyze_chunk, chunk, req, split))
 
         for _ in range(jobs * _IN_FLIGHT):
             submit()
@@ -201,6 +206,155 @@ def _parallel(work, opts, split, jobs):
         finally:
             for f in pending:
                 f.cancel()
+
+
+# --- Many patches at once (``analyze_patches``): each is prepared as ``analyze_patch`` prepares
+# it (patches of one size together, ``patch_input.prepare_stack``), the crease and tilt checks
+# are screened for each size at once (``check_screens``; only the patches not cleared run
+# ``edges.check`` and ``tilt.untilt``), then a stack is fitted by one ``local_jet.fit`` call on
+# a padded stack with a row mask, and ``jet_answers.outcomes`` runs on the whole stack; only
+# the assembly of each result is per patch.  Each result equals ``analyze_patch``'s to
+# round-off (tested); a patch that is refused or malformed gives its exception in its place
+# and the others still come out.  ``method="spline"`` runs one patch at a time.
+
+STACK = 256  # patches per fit call
+WINDOW = 16  # stacks' worth of patches sorted by size together
+STACK_ROWS = patch_input.MAX_ROWS  # rows of a padded stack (patches x the largest's rows)
+_OWN = ("noise_pos", "noise_normal")  # options a patch dict may set for itself
+
+
+def analyze_patches(patches, *, chunk=STACK, **kw):
+    """[PatchResult or DataError/InputError] for ``patches``, an iterable of (points,
+    normals) pairs or dicts with ``points``, ``normals`` and optionally ``finger``,
+    ``lines``, ``noise_pos``, ``noise_normal`` (the patch's own, over the keyword's).
+    Keyword options are ``analyze_patch``'s and apply to every patch.  Patches are read
+    ``WINDOW`` stacks at a time and fitted in stacks of like size (less padding)."""
+    req = patch_input.keywords(**kw)
+    out, todo = [], []
+    for p in patches:
+        todo.append(p)
+        if len(todo) == chunk * WINDOW:
+            out += _window(todo, chunk, req)
+            todo = []
+    return out + (_window(todo, chunk, req) if todo else [])
+
+
+def _window(patches, chunk, req):
+    """``_stack`` over ``patches`` sorted by size, the results in the patches' order."""
+    sizes = [_size(p) for p in patches]
+    order = sorted(range(len(patches)), key=sizes.__getitem__)
+    out = [None] * len(patches)
+    for idx in stacks(order, sizes, chunk):
+        for j, res in zip(idx, _stack([patches[j] for j in idx], req), strict=True):
+            out[j] = res
+    return out
+
+
+def stacks(order, sizes, chunk, rows=STACK_ROWS):
+    """``order`` (indices by ascending size) cut into stacks of at most ``chunk`` patches
+    whose padded rows (count x the last's size) stay within ``rows``, or one patch alone:
+    memory in proportion to the rows fitted, however unlike the patches' sizes."""
+    out = []
+    for j in order:
+        if out and len(out[-1]) < chunk and (len(out[-1]) + 1) * sizes[j] <= rows:
+            out[-1].append(j)
+        else:
+            out.append([j])
+    return out
+
+
+def _size(p):
+    try:
+        return len(_unpack(p)[0])
+    except Exception:  # (malformed: ``_stack`` says why, in its place)
+        return 0
+
+
+def _unpack(p):
+    if isinstance(p, dict):
+        return p["points"], p["normals"], p.get("finger"), p.get("lines")
+    points, normals = p
+    return points, normals, None, None
+
+
+def _own(p, req):
+    """The ``Request`` of patch ``p``: ``req`` with the patch's own noise over it."""
+    if not isinstance(p, dict):
+        return req
+    return req.with_noise(**{k: p[k] for k in _OWN if k in p})
+
+
+def _stack(patches, req):
+    if req.method == "spline":
+        return [_one(p, _own(p, req)) for p in patches]
+    results, tilted = [None] * len(patches), {}
+    unpacked = [_unpack(p) for p in patches]
+    reqs = [_own(p, req) for p in patches]
+    quick = patch_input.prepare_stack(unpacked, reqs)
+    preps, prepared = {}, []
+    for j, (item, req_j) in enumerate(zip(unpacked, reqs, strict=True)):
+        try:
+            preps[j] = quick[j] or patch_input.prepare(*item, req_j)
+        except (DataError, InputError) as exc:
+            results[j] = exc
+    clear_edge, clear_tilt = _screens(preps)
+    for j, prep in preps.items():
+        try:
+            if not clear_edge[j]:
+                edges.check(prep)
+            prep, tilted[j] = (prep, None) if clear_tilt[j] else tilt.untilt(prep)
+            prepared.append((j, prep))
+        except (DataError, InputError) as exc:
+            results[j] = exc
+    if prepared:
+        for (j, prep), res in zip(prepared, _fit(prepared, req.jet), strict=True):
+            try:
+                edges.check_answer(prep, res)
+            except DataError as exc:
+                res = exc
+            if not isinstance(res, DataError):
+                res = PatchResult.of(res, prep, "jet", req.maps, tilted[j])
+            results[j] = res
+    return results
+
+
+def _fit(prepared, jet):
+    """``jet_answers.outcomes`` of the prepared patches ((j, Prepared) each) fitted as one
+    padded stack (``jet``: the options they share, all but the noise)."""
+    n = max(len(prep.points) for _, prep in prepared)
+    P = np.zeros((len(prepared), n, 3))
+    N = np.zeros((len(prepared), n, 3))
+    N[..., 2] = 1.0  # padding: finite and masked out
+    mask = np.zeros((len(prepared), n), bool)
+    for b, (_, prep) in enumerate(prepared):
+        m = len(prep.points)
+        P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
+    noise = [[np.nan if (v := getattr(p.jet, k)) is None else v for _, p in prepared] for k in _OWN]
+    stack = local_jet.fit(P, N, mask, *noise, jet.max_normal_angle)
+    return jet_answers.outcomes(stack, jet, [prep.names for _, prep in prepared])
+
+
+def _screens(preps):
+    """({j: bool}, {j: bool}): which prepared patches surely pass ``edges.check`` and are
+    surely left as they are by ``tilt.untilt`` (``check_screens``, a stack per size)."""
+    edge, tilted, groups = {}, {}, {}
+    for j, prep in preps.items():
+        groups.setdefault(len(prep.points), []).append(j)
+    for idx in groups.values():
+        P = np.stack([preps[j].points for j in idx])
+        N = np.stack([preps[j].normals for j in idx])
+        e, t = check_screens.clear(P, N, [preps[j].jet for j in idx])
+        edge.update(zip(idx, e.tolist(), strict=True))
+        tilted.update(zip(idx, t.tolist(), strict=True))
+    return edge, tilted
+
+
+def _one(p, req):
+    points, normals, finger, lines = _unpack(p)
+    try:
+        return analyze_patch(points, normals, finger=finger, lines=lines, **req.keywords())
+    except (DataError, InputError) as exc:
+        return exc
 
 
 # the power of length of each numeric field (1: a length, -1: a curvature); "C" is the

@@ -98,8 +98,7 @@ def estimate(points, normals, noise_pos=None, noise_normal=None):
 def untilt(prep):
     """(prep, warning): ``prep`` with its normals turned back by a tilt ``estimate`` finds
     (module docstring) and the warning naming it, or ``prep`` as it is and None."""
-    opts = prep.opts
-    got = estimate(prep.points, prep.normals, opts.get("noise_pos"), opts.get("noise_normal"))
+    got = estimate(prep.points, prep.normals, prep.jet.noise_pos, prep.jet.noise_normal)
     if got is None:
         return prep, None
     b, cov, R = got
