@@ -34,7 +34,7 @@ import threading
 import time
 
 import numpy as np
-from timing import best_of
+from timing import best_of, peak_rss_mb
 
 from tactile.ep2.contacts_csv import group_rows
 from tactile_sim.ep2 import make, sweep
@@ -86,23 +86,6 @@ def write_csv(path, n_patches):
                 lines.append(f"{text[i % len(text)][pos[i - start]]}{i}\n")
                 pos[i - start] += 1
             fh.write("".join(lines))
-
-
-def peak_rss_mb(pid):
-    """Largest VmHWM (MB) of ``pid`` and its live descendants, 0 when gone."""
-    peak, todo = 0, [pid]
-    while todo:
-        p = todo.pop()
-        try:
-            with open(f"/proc/{p}/status") as fh:
-                hwm = [ln for ln in fh if ln.startswith("VmHWM:")]
-            peak = max(peak, int(hwm[0].split()[1]) // 1024 if hwm else 0)
-            for task in os.listdir(f"/proc/{p}/task"):
-                with open(f"/proc/{p}/task/{task}/children") as fh:
-                    todo += [int(c) for c in fh.read().split()]
-        except (FileNotFoundError, ProcessLookupError, IndexError):
-            continue
-    return peak
 
 
 def cpu_s():

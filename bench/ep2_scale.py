@@ -31,6 +31,7 @@ import time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+from timing import peak_rss_mb  # noqa: E402
 
 from tactile.ep2 import analyze_patches  # noqa: E402
 from tactile_sim.ep2 import make  # noqa: E402
@@ -176,23 +177,6 @@ def cpu_per_patch(n, repeats=3):
             best = min(best, time.process_time() - t0)
         out[name] = 1e6 * best / n
     return out
-
-
-def peak_rss_mb(pid):
-    """Largest VmHWM (MB) of ``pid`` and its live descendants, 0 when gone."""
-    peak, todo = 0, [pid]
-    while todo:
-        p = todo.pop()
-        try:
-            with open(f"/proc/{p}/status") as fh:
-                hwm = [ln for ln in fh if ln.startswith("VmHWM:")]
-            peak = max(peak, int(hwm[0].split()[1]) // 1024 if hwm else 0)
-            for task in os.listdir(f"/proc/{p}/task"):
-                with open(f"/proc/{p}/task/{task}/children") as fh:
-                    todo += [int(c) for c in fh.read().split()]
-        except (FileNotFoundError, ProcessLookupError, IndexError):
-            continue
-    return peak
 
 
 def run_cli(path, jobs):
