@@ -264,16 +264,23 @@ def _ep1_error(folder, log, truth):
     return float(np.sqrt(np.mean((np.array([got["kx"], got["ky"]]) - k) ** 2)) / np.abs(k).max())
 
 
-def ep1_part(tmp, final, limit, seeds):
-    rows = []
-    base = tomllib.loads((SCENES / "ep1_roll_weighted.toml").read_text())
+def _shipped(scene, key, values, label, seeds):
+    """(name, tables) of the shipped ``scene`` with ``[motion] key`` at each of ``values``,
+    each at ``seeds`` seeds from 11."""
+    base = tomllib.loads((SCENES / f"{scene}.toml").read_text())
     cases = []
-    for force in (5.0, 1.5):
+    for value in values:
         for seed in range(seeds):
             tables = {k: dict(v) for k, v in base.items()}
             tables["scene"]["seed"] = 11 + seed
-            tables["motion"]["normal_force_N"] = force
-            cases.append((f"ep1_roll_weighted {force:g} N seed {seed}", tables))
+            tables["motion"][key] = value
+            cases.append((f"{scene} {label.format(value)} seed {seed}", tables))
+    return cases
+
+
+def ep1_part(tmp, final, limit, seeds):
+    rows = []
+    cases = _shipped("ep1_roll_weighted", "normal_force_N", (5.0, 1.5), "{:g} N", seeds)
     cases += reseeded(sim_cases("ep1", final, limit), seeds)
     for name, tables in cases:
         group = _group(name)
@@ -319,14 +326,7 @@ def _ep2(folder, truth_radius, obj):
 
 def ep2_part(tmp, final, limit, seeds):
     rows = []
-    base = tomllib.loads((SCENES / "ep2_sweep_wrist.toml").read_text())
-    cases = []
-    for obj in ("sphere", "saddle"):
-        for seed in range(seeds):
-            tables = {k: dict(v) for k, v in base.items()}
-            tables["scene"]["seed"] = 11 + seed
-            tables["motion"]["object"] = obj
-            cases.append((f"ep2_sweep_wrist {obj} seed {seed}", tables))
+    cases = _shipped("ep2_sweep_wrist", "object", ("sphere", "saddle"), "{}", seeds)
     cases += reseeded(sim_cases("ep2", final, limit), seeds)
     for name, tables in cases:
         obj = tables["motion"]["object"]
