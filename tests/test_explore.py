@@ -306,8 +306,8 @@ def test_cli_bad_options_exit_2(cli, tmp_path, args, says):
 
 
 def test_the_hold_is_the_frames_of_its_window_above_the_gate_across_a_wrap():
+    from tactile.board.client import hold_wrench
     from tactile.board.stream_decoder import Contact, Sample
-    from tactile.cli.cmd_explore import hold_wrench
 
     def sample(t_us, fz_N):
         return Sample(0, t_us % 2**32, 0, 0, 0, 0, round(fz_N * 1e6), 1000, 0, 0)

@@ -23,6 +23,7 @@ Invalid frames in a stream are passed on, counted, never acted on.
 """
 
 import logging
+import math
 import time
 
 from tactile.board.serial_port import describe_lost
@@ -67,6 +68,7 @@ COMMAND_FIELDS = {
     C.CMD_SET_CAL: ("sensor", "cal_id") + tuple(f"c{r}{c}" for r in range(6) for c in range(6)),
 }
 GATE_CEILING = 2**31 - 1  # the largest enter threshold (uN): what 'tare --force' gates at
+WRAP = 2**32  # the board's µs stamps wrap
 MAX_READ = 65536  # bytes per read call: bounded whatever the device claims to have
 ASK_AFTER_S = 0.2  # handshake: ask GET_INFO if no HELLO came this soon after opening
 
@@ -320,3 +322,29 @@ def info_dict(info):
     d["cal_ids"] = [getattr(info, f"cal_id_{i}") for i in range(info.n_sensors)]
     d["cal_crcs"] = [getattr(info, f"cal_crc_{i}") for i in range(info.n_sensors)]
     return d
+
+
+def hold_wrench(batches, window, gate_N):
+    """Mean wrench (6 floats) in N, N*m of the SAMPLE frames of a hold whose force exceeds
+    ``gate_N``, and their count; (None, 0) if none.  ``batches`` yields lists of messages;
+    ``window`` the hold's board-clock (t0, t1) µs (stamps wrap at 2^32), read until a frame
+    past it arrives; None: every frame of every batch."""
+    rows = []
+    for msgs in batches:
+        past = False
+        for m in msgs:
+            if m.type_code != C.MSG_SAMPLE:
+                continue
+            if window is not None:
+                since = (m.timestamp_us - window[0]) % WRAP
+                if since > (window[1] - window[0]) % WRAP:
+                    past |= since < WRAP // 2  # after the hold (before it: an old frame)
+                    continue
+            w = board_settings.wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
+            if math.hypot(*w[:3]) > gate_N:
+                rows.append(w)
+        if past:
+            break
+    if not rows:
+        return None, 0
+    return tuple(math.fsum(col) / len(rows) for col in zip(*rows)), len(rows)

@@ -26,7 +26,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from tactile import __version__
-from tactile.board.client import info_dict
+from tactile.board.client import hold_wrench, info_dict
 from tactile.cli.options import (
     add_foxglove_arguments,
     add_port_argument,
@@ -55,7 +55,6 @@ from tactile_protocol import settings as board_settings
 
 COLUMNS = ("touch", "S", "S_lo", "S_hi", "shape", "confidence")
 UNITS_LINE = "# units: 1 (touch: a count; S, S_lo, S_hi: shape index; confidence: 0-1)"
-WRAP = 2**32  # the board's µs stamps wrap
 HOLD_S = 0.2  # a robot that does not know the board's clock: the hold read after its answer
 READ_S = 5.0  # longest wait for the hold's frames
 DRAIN_READS = 64  # reads (64 KiB each at most) of what came between touches
@@ -203,6 +202,7 @@ class Run:
         wrench, n = hold_wrench(self._batches(msgs, touch.t_us), touch.t_us, self.gate)
         if wrench is None:
             return None, None, f"no frame above the gate ({self.gate:g} N) during the hold"
+        wrench = np.asarray(wrench)
         R, t = pose_from_quaternion(touch.pose.position_m, touch.pose.quaternion,
                                     scalar_first=True)  # fmt: skip
         tip = (a.finger_offset, 0.0, 0.0)  # the fingertip's centre in the sensor frame
@@ -344,30 +344,6 @@ class Run:
         if self.ended != "label":
             raise DataError(f"explore: {unknown(fit, ex.touches)}")
         return 0
-
-
-def hold_wrench(batches, window, gate_N):
-    """Mean wrench (6,) in N, N*m of the SAMPLE frames of a hold whose force exceeds
-    ``gate_N``, and their count; (None, 0) if none.  ``batches`` yields lists of messages;
-    ``window`` the hold's board-clock (t0, t1) µs (stamps wrap at 2^32), read until a frame
-    past it arrives; None: every frame of every batch."""
-    rows = []
-    for msgs in batches:
-        past = False
-        for m in msgs:
-            if m.type_code != C.MSG_SAMPLE:
-                continue
-            if window is not None:
-                since = (m.timestamp_us - window[0]) % WRAP
-                if since > (window[1] - window[0]) % WRAP:
-                    past |= since < WRAP // 2  # after the hold (before it: an old frame)
-                    continue
-            w = board_settings.wrench_si(m.fx, m.fy, m.fz, m.tx, m.ty, m.tz)
-            if math.hypot(*w[:3]) > gate_N:
-                rows.append(w)
-        if past:
-            break
-    return (np.mean(rows, axis=0), len(rows)) if rows else (None, 0)
 
 
 def final_line(fit, touches, ended):
