@@ -6,7 +6,15 @@ For the tests and reliability probes of what a host does when a board is unplugg
 middle of a command or a stream: the host's open port then fails exactly as a real one does
 (``in_waiting`` with EIO, ``read`` finding no data after select() said readable, ``write``
 with EIO).  Started as every server is: ``with DyingBoard(...) as board: ... board.path``.
+
+Its path is a link of its own in a private folder, not the pty's ``/dev/pts/N``: a dead
+board's pty number is soon another emulator's, and a host waiting for the port to come back
+must not find that one (tests run side by side).
 """
+
+import shutil
+import tempfile
+from pathlib import Path
 
 from tactile_sim.emulator import load_scene
 from tactile_sim.emulator.device import EmulatedBoard
@@ -17,7 +25,9 @@ class DyingBoard(PtyServer):
     """Serve ``scene`` in real time on a pty (``path``) until it dies, at most ``serve_s``."""
 
     def __init__(self, scene="press", at_command=1, after_s=0.0, serve_s=30.0):
-        super().__init__(EmulatedBoard(load_scene(scene)), realtime=True, duration_s=serve_s)
+        self._folder = Path(tempfile.mkdtemp(prefix="tactile-dying-"))
+        super().__init__(EmulatedBoard(load_scene(scene)), self._folder / "board",
+                         realtime=True, duration_s=serve_s)  # fmt: skip
         self.commands, self.at_command, self.after_s = 0, at_command, after_s
         self.dies_at_us = None  # the board's time it dies at, once the command came
 
@@ -38,3 +48,7 @@ class DyingBoard(PtyServer):
             super().serve()
         finally:
             self.close()  # the master closes: the host's port is dead
+
+    def close(self):
+        super().close()
+        shutil.rmtree(self._folder, ignore_errors=True)
