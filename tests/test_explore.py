@@ -136,6 +136,21 @@ def test_an_s_width_stop_waits_for_a_narrow_interval():
     assert narrow.touches > quick.touches
 
 
+def test_the_lattice_touches_the_squares_3_x_3_lattice_then_labels_no_sooner():
+    obj = bench.build(bench.SPLITS["tune"]["cylinder"])
+    rng, region = np.random.default_rng(0), Region((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 3.0, 1.5)
+    ex, starts = Explorer(region, options=dict(NOISE), flat=0.03, lattice=True), []
+    while ex.done() is None:
+        plan = ex.plan()
+        starts.append(plan.start)
+        ex.add(*bench.touch(obj, plan, rng, NOISE["noise_pos"], NOISE["noise_normal"]), plan)
+        assert ex.touches >= 9 or ex.done() is None  # (a confident label waits for the 9)
+    first = {tuple(np.round(s[:2], 9)) for s in starts[:9]}  # the centre, corners, edges
+    assert first == {(a, b) for a in (-3.0, 0.0, 3.0) for b in (-3.0, 0.0, 3.0)}
+    assert all(s[2] == 1.5 for s in starts[:9])
+    assert ex.done() == "label" and ex.fit.label == "cylinder" and ex.touches >= 9
+
+
 def test_a_touch_across_a_ridge_is_named_and_the_first_face_kept():
     ex = explore(Crease(0.5, 0.5), seed=0, max_touches=12)
     said = [n for n in ex.notes if "lands across an edge" in n]
