@@ -1,29 +1,26 @@
 """Edges and creases: a patch whose contacts lie on two faces is refused, naming the edge.
 
-A smooth surface's normals vary smoothly over the patch; two faces meeting at an edge give
-normals that jump.  ``find`` compares, along the direction in which the normals turn most
-(``a``, along which two faces' normals differ), two models of the normals:
+Two faces meeting at an edge give normals that jump.  ``find`` cuts the contacts in two by
+their normals along the direction in which these vary most, and finds an edge where the
+step (two constant normals) leaves under ``STEP_RATIO`` of a smooth field's residual (a
+quadratic in the patch coordinates) with each side spread across the edge (over
+``MIN_DEPTH`` of the patch), or where each side's normals are flat (``flat_faces``: they
+neither scatter nor turn within the side as between the sides); the normals turn by
+``MIN_TURN_DEG`` to ``MAX_TURN_DEG`` (over ``MIN_Z`` standard errors) and ``MIN_APART`` of
+the contacts lie on their face's side.  Each face is a plane through its contacts' centroid
+with their mean normal; the edge is the planes' intersection (the point nearest the
+contacts' middle, its direction); the dihedral angle is 180 deg less the normals' turn,
+with a 95 % interval from the normals' scatter (Student t).  A ridge's faces fall away
+from the edge, a valley's rise.
 
-- a step: two constant normals, the contacts cut in two by their normals along ``a``;
-- a smooth field: a quadratic in the patch coordinates (any 2-jet surface, and more).
-
-Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``) and each side
-holds at least ``MIN_SIDE`` contacts spread across the edge (over ``MIN_DEPTH`` of the
-patch: two lines along a tight cylinder look like two faces), or where each side's normals
-are flat (``flat_faces``: they neither scatter nor turn within the side as they turn between
-the sides; a smooth field fits a few lines across a crease too), the normals turn at least
-``MIN_TURN_DEG`` (by over ``MIN_Z`` standard errors) and at least ``MIN_APART`` of the
-contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a
-plane through its contacts' centroid with its mean normal; the edge is the planes' intersection
-(the point nearest the contacts' middle, its direction), the dihedral angle between the
-faces is 180 deg less the normals' turn, with a 95 % interval from the normals' scatter
-about each face's mean (Student t).  A ridge's faces fall away from the edge, a valley's
-rise.
-
-``check`` raises ``EdgeError`` (a ``DataError``, exit 3) for such a patch, naming the edge's
-location, direction and dihedral angle; where more than two normals disagree with the rest
-(beyond ``max_normal_angle``) and no edge explains them, it refuses a bad patch.
-``check_answer`` makes a fitted label ``uncertain`` across a curvature jump (``find_jump``).
+``check`` raises ``EdgeError`` (a ``DataError``, exit 3) naming the edge's location,
+direction and dihedral angle.  Where each side is a line (or lines) along which the normals
+are constant within the noise (``constant_faces``), any surface tangent to the two planes
+along the lines fits as well (a cylinder through two lines along its axis): the edge they
+imply is named as one reading, the layout said not to tell it from a smooth curve.  More
+than ``MAX_LEFT_OUT`` normals disagreeing with the rest with no edge: a bad patch.
+``check_answer`` says the same of a fitted ``plane`` whose normals turn, and makes a label
+``uncertain`` across a curvature jump (``find_jump``).
 """
 
 from dataclasses import dataclass
@@ -53,6 +50,8 @@ FLAT_Z = 2.0
 TIGHT = 0.1  # a face's normals scatter by under this share of the step (rms)
 MIN_SPREAD = 0.05  # rms, of the patch: a side thinner than this across is one line
 MIN_ACROSS = 0.02  # rms, of the patch: a line running across the edge by less sees nothing
+CONST_CHI2 = {1: 13.82, 2: 18.47}  # by directions a side spans (2 dof each): 99.9 %
+NOISE_FLOOR = 1e-6  # rad: noise-free normals are constant to their round-off
 
 
 @dataclass
@@ -77,8 +76,9 @@ class Edge:
             f"the patch straddles an edge (a {self.kind}) at ({p}){u} along ({d}), dihedral"
             f" {self.dihedral_deg:.1f} deg (95 %: {lo:.1f}-{hi:.1f} deg), faces of"
             f" {len(self.sides[0])} and {len(self.sides[1])} contacts: fit each face alone"
-            + ("; or one surface bent across the lines, which these contacts cannot tell from"
-               " an edge: add contacts across it" if self.ambiguous else "")
+            + ("; or one smooth surface curving between these two tangent planes: this layout"
+               " cannot tell an edge from a smooth curve: sweep across it" if self.ambiguous
+               else "")
         )  # fmt: skip
 
 
@@ -237,6 +237,32 @@ def _gradient(u, m, across, wide):
     return float(np.sum((m - c @ g) ** 2)), np.linalg.norm(g, axis=1) / cos, w[spans] * cos**2
 
 
+def constant_faces(pts, nrm, sides, noise_normal=None):
+    """Whether each side's normals are constant within the noise: they scatter under
+    ``TIGHT`` of the step, and their gradient over the directions the side spans (rms spread
+    over ``MIN_SPREAD`` of the patch: a line spans one; a cluster none, and is no face) is
+    under chi-square's 99.9 % (``CONST_CHI2``).  Two lines along an edge, or along a
+    cylinder, pass: either surface fits them."""
+    means = [nrm[s].mean(axis=0) for s in sides]
+    if max(_rms(nrm[s] - m) for s, m in zip(sides, means)) > TIGHT * np.linalg.norm(
+        means[1] - means[0]
+    ):
+        return False  # a side's normals scatter: outliers, not a face (as ``flat_faces``)
+    xy = pts @ _basis(_unit(nrm.sum(axis=0)))
+    wide, stats, rss, dof = (MIN_SPREAD * np.ptp(xy, axis=0).max()) ** 2, [], 0.0, 2 * len(pts)
+    for s, m in zip(sides, means):
+        u = xy[s] - xy[s].mean(axis=0)
+        w, V = np.linalg.eigh(u.T @ u)
+        c = u @ V[:, w > len(u) * wide]  # (orthogonal columns: each g row's variance s2 / c.c)
+        if not c.shape[1]:
+            return False
+        g = np.linalg.lstsq(c, nrm[s] - m, rcond=None)[0]
+        rss, dof = rss + float(np.sum((nrm[s] - m - c @ g) ** 2)), dof - 2 - 2 * c.shape[1]
+        stats.append((float(np.sum(g**2 * np.sum(c**2, axis=0)[:, None])), c.shape[1]))
+    s2 = max(rss / max(dof, 1), (noise_normal or 0.0) ** 2, NOISE_FLOOR**2)
+    return all(chi2 <= CONST_CHI2[k] * s2 for chi2, k in stats)  # fmt: skip
+
+
 def _edge(pts, sides, n1, n2, turn, half):
     c1, c2 = (pts[s].mean(axis=0) for s in sides)
     direction = _unit(np.cross(n1, n2))
@@ -258,6 +284,7 @@ def check(prep):
     if edge is not None:
         edge.point = edge.point + prep.middle
         raise EdgeError(edge)
+    _ambiguous(prep, constant=True)  # two groups of constant normals: an edge or a curve
     nrm, limit = prep.normals, prep.jet.max_normal_angle
     cosmax = np.cos(np.radians(limit))
     seed = nrm[int(np.argmax(nrm @ nrm.sum(axis=0)))]  # the medoid, as the screen's
@@ -279,11 +306,9 @@ def check(prep):
 
 
 def check_answer(prep, out):
-    """Raise ``EdgeError`` where the fit says ``plane``, or refuses the patch as "positions
-    and normals disagree" (``out`` a ``DataError``), but the normals fall in two groups
-    turned by over ``MIN_TURN_DEG`` (no plane has that): an edge seen along lines that a
-    bent surface would fit as well, named as the edge it may be, and the message says the
-    other reading.  Any other fitted answer across a curvature jump: ``uncertain``."""
+    """Raise ``EdgeError`` (the edge as one reading) where the fit says ``plane``, or
+    "positions and normals disagree" (``out`` a ``DataError``), but the normals fall in two
+    groups (``find``, loose).  Any other answer across a curvature jump: ``uncertain``."""
     if isinstance(out, DataError):
         if not str(out).startswith("positions and normals disagree"):
             return
@@ -334,10 +359,9 @@ def find_jump(points, normals):
 
 
 def _hinge(u, v, y):
-    """(the hinge's u0, its residual over the smooth change's), or (None, None) where it
-    does not pass ``find_jump``'s tests: every cut
-    between neighbouring u with ``MIN_SIDE`` contacts a side, each way, at once (normal
-    equations, a trace-relative ridge of 1e-12 where v holds no information)."""
+    """(the hinge's u0, its residual over the smooth change's), or (None, None) short of
+    ``find_jump``'s tests: every cut between neighbouring u with ``MIN_SIDE`` contacts a
+    side, each way, at once (normal equations, a ridge of 1e-12 of the trace)."""
     n, one = len(u), np.ones_like(u)
     lin = _rss(np.column_stack([one, u, v, u * v]), y)
     smooth = _rss(np.column_stack([one, u, u * u, v, u * v]), y)
@@ -368,8 +392,8 @@ def _rss(A, y):
 
 
 def _solve(A, y):
-    """Least squares by the normal equations (A's columns are of unit size here), with a
-    trace-relative ridge of 1e-12 for a column the contacts leave undetermined."""
+    """Least squares by the normal equations (unit-sized columns), a ridge of 1e-12 of the
+    trace for a column the contacts leave undetermined."""
     G = A.T @ A
     G[np.diag_indices_from(G)] += 1e-12 * np.trace(G)
     return np.linalg.solve(G, A.T @ y)
@@ -391,9 +415,12 @@ def _jump(prep, out):
                        " label is uncertain: fit each side alone"]  # fmt: skip
 
 
-def _ambiguous(prep):
-    edge = find(prep.points, prep.normals, prep.jet.noise_normal, strict=False)
-    if edge is not None:
+def _ambiguous(prep, constant=False):
+    """Raise the ``EdgeError`` of the edge the contacts may straddle (``find``, loose), as
+    one reading of two; with ``constant``, only where ``constant_faces``."""
+    pts, nrm, noise = prep.points, prep.normals, prep.jet.noise_normal
+    edge = find(pts, nrm, noise, strict=False)
+    if edge is not None and (not constant or constant_faces(pts, nrm, edge.sides, noise)):
         edge.point = edge.point + prep.middle
         edge.ambiguous = True
         raise EdgeError(edge)
