@@ -6,7 +6,7 @@ import re
 import numpy as np
 import pytest
 
-from tactile.ep2 import analyze_patch, analyze_patches, edges
+from tactile.ep2 import analyze_patch, analyze_patches, curvature_jump, edges
 from tactile.ep2.edges import EdgeError
 from tactile.errors import DataError
 from tactile_studies.ep2 import edge_cases
@@ -229,7 +229,9 @@ def test_a_smooth_cylinder_and_a_cubic_field_have_no_jump():
     ):
         nrm = np.column_stack([-grad, np.ones(30)]) + 0.002 * rng.standard_normal((30, 3))
         pts = np.column_stack([xy, z]) + 0.001 * rng.standard_normal((30, 3))
-        assert edges.find_jump(pts, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)) is None
+        assert (
+            curvature_jump.find_jump(pts, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)) is None
+        )
 
 
 def test_student_factor_is_the_t_quantile_over_z_squared():
