@@ -21,14 +21,6 @@ Overruns and frames dropped for a host that is not reading are counted and
 reported by a STATUS at most once per ``status_period_us``.
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
 from tactile_fw import calibration, frontend, gate, settings
 from tactile_fw.commands import dispatch
 from tactile_fw.identity import FW_VERSION, NO_BOARD_ID, board_id_from
@@ -63,6 +55,7 @@ from tactile_protocol.constants import (
     NAK_LOADED,
     PROTOCOL_VERSION,
     SENSOR_ALL,
+    const,
 )
 from tactile_protocol.framing import FRAME_OK, FrameAssembler, FrameEncoder
 
