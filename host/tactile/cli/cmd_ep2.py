@@ -93,10 +93,7 @@ def run(args):
         raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
 
     if args.file_units is not None:
-        try:
-            units.parse_length(args.file_units)
-        except ValueError as exc:
-            raise InputError(f"--file-units: {exc}") from None
+        units.length_option(args.file_units, "--file-units")
     file_unit = units.stated_length(args.file, args.file_units)
     shown, scale = units.display(file_unit, args.units)
     groups = _checked(args.file, args.quiet)  # read again, patch by patch, as they are analysed
