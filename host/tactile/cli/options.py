@@ -104,7 +104,8 @@ def _rate(rate_hz):
     return f"{rate_hz:g} Hz per sensor by the board's clock" if rate_hz else "every frame"
 
 
-def _count(n, what, plural="s"):
+def count(n, what, plural="s"):
+    """``n`` ``what`` in words: ``1 frame``, ``2,048 frames``."""
     return f"{n:,} {what}{plural * (n != 1)}"
 
 
@@ -115,9 +116,9 @@ def stop_foxglove(server, quiet=False):
     s = server.close()
     if quiet:
         return
-    line = f"foxglove: published {s['published']:,} of {_count(s['offered'], 'frame')}"
+    line = f"foxglove: published {s['published']:,} of {count(s['offered'], 'frame')}"
     out = [f"{s['decimated']:,} left out by the rate, {_rate(s['rate_hz'])}"] * bool(s["decimated"])
-    out += [_count(s["other"], "status or reply frame")] * bool(s["other"])
+    out += [count(s["other"], "status or reply frame")] * bool(s["other"])
     if out:
         line += f" ({'; '.join(out)})"
     line += f"; {s['dropped']:,} dropped (the publisher fell behind)"
@@ -128,8 +129,8 @@ def stop_foxglove(server, quiet=False):
     if c is not None:
         line = (
             f"foxglove: scene: {c['contacts']:,} contact readings localised,"
-            f" {_count(c['patches'], 'EP2 patch', 'es')} published"
-            f" ({_count(c['stale_fits'], 'fit')} skipped for newer contacts)"
+            f" {count(c['patches'], 'EP2 patch', 'es')} published"
+            f" ({count(c['stale_fits'], 'fit')} skipped for newer contacts)"
         )
         if c["dropped_batches"]:
             line += f"; {c['dropped_batches']:,} frame batches dropped (the scene fell behind)"
