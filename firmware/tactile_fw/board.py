@@ -330,7 +330,7 @@ class Board:
         if new:
             self.send_status(bit, i)
         if self.tare_mask & (1 << i):
-            self._tare_fail()
+            self._tare_nak(NAK_HARDWARE, NAK_DETAIL_NONE)
 
     def _retry(self, i, now):
         self.pending[i] = False
@@ -488,7 +488,7 @@ class Board:
             if self.gates[i].loaded(ft[0], ft[1], ft[2]):
                 self.tare_loaded[i] += 1
                 if self.tare_loaded[i] >= self.settings.debounce:
-                    self._tare_refuse(i)
+                    self._tare_nak(NAK_LOADED, i)
                     return
             else:
                 self.tare_loaded[i] = 0
@@ -505,17 +505,11 @@ class Board:
                 self.ack(CMD_TARE, self.tare_seq)
                 self.tare_seq = -1
 
-    def _tare_refuse(self, i):
-        """Sensor i is loaded: keep the old bias everywhere and NAK the TARE."""
+    def _tare_nak(self, reason, detail):
+        """The TARE ends refused (a loaded sensor, a failed read): the old bias kept everywhere."""
         self.tare_mask = 0
         if self.tare_seq >= 0:
-            self.nak(CMD_TARE, self.tare_seq, NAK_LOADED, i)
-        self.tare_seq = -1
-
-    def _tare_fail(self):
-        self.tare_mask = 0
-        if self.tare_seq >= 0:
-            self.nak(CMD_TARE, self.tare_seq, NAK_HARDWARE, NAK_DETAIL_NONE)
+            self.nak(CMD_TARE, self.tare_seq, reason, detail)
         self.tare_seq = -1
 
 
