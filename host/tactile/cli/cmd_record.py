@@ -24,7 +24,6 @@ from tactile.cli.options import (
     add_port_argument,
     check_foxglove,
     connect,
-    count,
     new_pose_log,
     start_foxglove,
     stop_foxglove,
@@ -34,7 +33,7 @@ from tactile.commands.derive import check_log, derive
 from tactile.errors import BoardError, DataError, InputError
 from tactile.files.writing import hold
 from tactile.logs.tags import log_end, show_time
-from tactile.output.text import fields, printable
+from tactile.output.text import count, fields, printable
 from tactile.payload.apply import Following, OnBoard, Orientations
 from tactile.payload.tool import read_tool
 from tactile.recording.session import Session

@@ -16,7 +16,7 @@ from tactile.board.client import BoardClient
 from tactile.commands import ENV_PORT
 from tactile.errors import InputError
 from tactile.foxglove.live import LiveServer, require_foxglove
-from tactile.output.text import printable
+from tactile.output.text import count, printable
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
@@ -102,11 +102,6 @@ def _rate(rate_hz):
     """The rate in words: by the board's clock, which an emulator in fast mode runs faster
     than the host's (a client then gets more messages per second of its own)."""
     return f"{rate_hz:g} Hz per sensor by the board's clock" if rate_hz else "every frame"
-
-
-def count(n, what, plural="s"):
-    """``n`` ``what`` in words: ``1 frame``, ``2,048 frames``."""
-    return f"{n:,} {what}{plural * (n != 1)}"
 
 
 def stop_foxglove(server, quiet=False):
