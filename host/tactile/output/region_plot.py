@@ -89,4 +89,4 @@ def plot_region_map(points, region_map, path, title=None, unit=None):
     )
     ax.set_title(f"{first}\n({MAP_REF})", fontsize=10)
     plots._thin_ticks(fig, ax)
-    return plots._save(plt, fig, path)
+    return plots.save(plt, fig, path)
