@@ -79,17 +79,10 @@ def run(args):
         prefix = stem if label is None else f"{stem}_{label}"
         name = g.patch if g.patch is not None else "1"
         out = {w: outdir / f"{prefix}_{w}.png" for w in what if w != "map"}
+        drawn = {"finger": g.finger, "unit": unit, "group": word}  # as every figure names them
         if "contacts" in out:
-            _draw(
-                plots.plot_contacts,
-                g.points,
-                g.normals,
-                out["contacts"],
-                finger=g.finger,
-                title=f"patch {name}: {len(g.points)} contacts and normals",
-                unit=unit,
-                group=word,
-            )
+            title = f"patch {name}: {len(g.points)} contacts and normals"
+            _draw(plots.plot_contacts, g.points, g.normals, out["contacts"], title=title, **drawn)
         if "patch" not in out and "maps" not in out:
             continue
         try:
@@ -108,16 +101,7 @@ def run(args):
             failed.append((name, str(exc)))
             continue
         if "patch" in out:
-            _draw(
-                plots.plot_patch,
-                res,
-                g.points,
-                g.normals,
-                out["patch"],
-                finger=g.finger,
-                unit=unit,
-                group=word,
-            )
+            _draw(plots.plot_patch, res, g.points, g.normals, out["patch"], **drawn)
         if "maps" in out:
             _draw(plots.plot_maps, res, out["maps"], points=g.points, unit=unit)
     if "map" in what:  # after the patches' figures: a map that cannot be made loses none
