@@ -300,6 +300,15 @@ def test_cli_budget_spent_exits_3_saying_what_is_unknown(cli, emulated, tmp_path
     assert json.loads((out / "meta.json").read_text())["ended"] == "budget"
 
 
+def test_cli_lattice_touches_the_lattice_first(cli, emulated, tmp_path):
+    port, robot = emulated
+    out = tmp_path / "run"
+    code, stdout, stderr = cli("explore", "--port", port, "--robot", robot, "-o", out,
+                               "--max-touches", "3", "--lattice")  # fmt: skip
+    assert code == 3 and "explore: touch 2 (lattice 2)" in stderr and "(lattice 3)" in stderr
+    assert json.loads((out / "meta.json").read_text())["options"]["lattice"] is True
+
+
 @pytest.mark.parametrize(
     "args, says",
     [
