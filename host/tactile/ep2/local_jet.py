@@ -219,8 +219,11 @@ def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
     X = Aw[..., :p_top] if solve else A[..., :p_top] * w[..., None]
     cn = np.sqrt(np.einsum("bij,bij->bj", X, X))
     cn = np.where(cn > 0, cn, 1.0)
-    Q, R = np.linalg.qr(X / cn[:, None, :])
+    X = X / cn[:, None, :]
+    R = np.linalg.qr(X, mode="r")  # (Householder's R; Q as X R^-1: LAPACK's Q costs 3-5 x)
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+    Rinv = _upper_inverse(R, d)
+    Q = X @ Rinv
     top = np.full(len(A), 2)
     quiet = np.full(len(A), 2)
     for o in range(3, top_cap + 1):
@@ -236,8 +239,7 @@ def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
         resid[o] = bw - mv(Qo, qb[:, : size(o)])
         hat[o] = np.einsum("bij,bij->bi", Qo, Qo)
     ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
-    Rinv = _upper_inverse(R, d) if solve else None
-    return JetFit(Q, Rinv, cn, qb, top, quiet, ok2, Aw, w, resid, hat)
+    return JetFit(Q, Rinv if solve else None, cn, qb, top, quiet, ok2, Aw, w, resid, hat)
 
 
 def _upper_inverse(R, d):
