@@ -334,11 +334,13 @@ def screen_normals(N, mask, max_angle):
 # more, confidently. So the normals alone are fitted by a 2-jet of slopes, and the surface it
 # describes (up to a constant) is compared with the positions in data space: they disagree where
 # the positions' rms gap to it exceeds ``MIN_RATIO`` times its expected size (the positions' own
-# 2-jet residual and the normals' surface's prediction noise) and ``MIN_GAP``. A data-space test
-# cannot be fooled by a layout that leaves the positions' own curvature ill-determined, and a
-# surface no 2-jet follows moves both fits alike. On the tune split of the families bench: 2
-# consistent patches of 7,824 refused, none of 2,640 with outliers; 20 of 21 inconsistent
-# reproducers refused (tests).
+# 2-jet residual and the normals' surface's prediction noise) and ``MIN_GAP`` plus the gap the
+# answer's own jet makes (a curvature changing over the patch, its cubic terms, puts positions
+# and slopes apart in the two 2-jets by itself; not its quartic, which on three lines can
+# reconcile flipped normals with the positions exactly). A data-space test cannot be fooled by
+# a layout that leaves the positions' own curvature ill-determined. On the tune split of the
+# families bench: 2 consistent patches of 7,824 refused, none of 2,640 with outliers; 20 of 21
+# inconsistent reproducers refused (tests).
 
 
 REDUNDANCY = 1.5  # rows per term of each fit alone
@@ -347,52 +349,65 @@ MIN_GAP = 2e-3  # of L: a smaller gap is no evidence of anything
 TINY = 1e-30
 
 
-def disagreements(xy, heights, slopes, keep, axes, scale):
+def disagreements(xy, heights, slopes, keep, axes, scale, model=None):
     """Per patch None, or the line saying how positions and normals disagree.  xy (B, n, 2)
     and heights (B, n) in the frame / L, slopes (B, n, 2), keep (B, n), axes (B, 3, 3),
-    scale (B,) = L."""
+    scale (B,) = L.  ``model`` (B, p): the answer's jet (about the centre), or None: the gap
+    its own heights and slopes leave between the two 2-jets (its terms beyond the second
+    order: a curvature changing over the patch) is added to the floor ``MIN_GAP``."""
     n_kept = keep.sum(-1)
     out = [None] * len(keep)
     idx = np.flatnonzero(REDUNDANCY * size(2) <= n_kept)
     if not len(idx):
         return out
     xy, z, s, w = xy[idx], heights[idx], slopes[idx], keep[idx].astype(float)
+    z, s = np.stack([z, 0 * z], -1), np.stack([s, 0 * s], -1)  # (the data, the model's)
+    if model is not None:
+        order = next(o for o in range(model.shape[1]) if size(o) >= model.shape[1])
+        Vm, DXm, DYm = design(xy[..., 0], xy[..., 1], order)
+        z[..., 1] = mv(Vm, model[idx])
+        s[..., 0, 1], s[..., 1, 1] = mv(DXm, model[idx]), mv(DYm, model[idx])
     V, DX, DY = design(xy[..., 0], xy[..., 1], 2)
-    tp, _, rp, okp = _fit(V * w[..., None], z * w)
+    tp, _, _, rp, okp = _fit(V * w[..., None], z * w[..., None])
     A = np.concatenate([DX, DY], 1)[..., 1:] * np.tile(w, 2)[..., None]
-    tn, Cn, _, okn = _fit(A, np.concatenate([s[..., 0], s[..., 1]], 1) * np.tile(w, 2))
-    pred = mv(V[..., 1:], tn)  # the normals' surface at the contacts, up to a constant
-    gap = (z - pred) * w
-    gap = (gap - (gap.sum(-1) / n_kept[idx])[:, None]) * w
+    sn = np.concatenate([s[:, :, 0], s[:, :, 1]], 1) * np.tile(w, 2)[..., None]
+    tn, Cn, s2, _, okn = _fit(A, sn)
+    pred = np.einsum("bnp,bpk->bnk", V[..., 1:], tn)  # the normals' surfaces, up to a constant
+    gap = (z - pred) * w[..., None]
+    gap = (gap - (gap.sum(1) / n_kept[idx, None])[:, None]) * w[..., None]
+    rms = np.sqrt(np.sum(gap * gap, 1) / n_kept[idx, None])
+    rms_model = rms[:, 1]
+    gap, rms, rp, s2 = gap[..., 0], rms[:, 0], rp[..., 0], s2[:, 0]
     var_p = np.sum(rp * rp, -1) / np.maximum(n_kept[idx] - size(2), 1)
-    var_pred = np.einsum("bnp,bpq,bnq->bn", V[..., 1:], Cn, V[..., 1:])
+    var_pred = np.einsum("bnp,bpq,bnq->bn", V[..., 1:], Cn, V[..., 1:]) * s2[:, None]
     stat = np.sum(gap * gap / (var_p[:, None] + var_pred + TINY), -1) / n_kept[idx]
-    rms = np.sqrt(np.sum(gap * gap, -1) / n_kept[idx])
-    bad = okp & okn & (stat > MIN_RATIO**2) & (rms > MIN_GAP)
+    bad = okp & okn & (stat > MIN_RATIO**2) & (rms > MIN_GAP + rms_model)
     for k in np.flatnonzero(bad):
-        out[int(idx[k])] = _verdict(tp[k], tn[k], float(rms[k]), axes[idx[k]], float(scale[idx[k]]))
+        out[int(idx[k])] = _verdict(tp[k, :, 0], tn[k, :, 0], float(rms[k]), axes[idx[k]],
+                                    float(scale[idx[k]]))  # fmt: skip
     return out
 
 
 def _fit(A, b):
-    """(coef[first 5 after any constant], cov of all coefs, residuals, determined) of
-    least squares A c = b for a stack; the noise from the residuals."""
+    """(coef[first 5 after any constant] (B, 5, k), their covariance over the noise variance
+    (B, 5, 5), the noise variance (B, k) from the residuals, the residuals (B, m, k),
+    determined (B,)) of least squares A c = b for a stack, k right-hand sides at once."""
     cn = np.sqrt(np.einsum("bij,bij->bj", A, A))
     cn = np.where(cn > 0, cn, 1.0)
     Q, R = np.linalg.qr(A / cn[:, None, :])
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     tiny = ~(d > 1e-9 * d.max(-1, keepdims=True))
     R = R + np.eye(R.shape[-1]) * tiny[:, None, :]  # (a patch not determined: not compared)
-    qb = (b[:, None, :] @ Q)[:, 0]
-    resid = b - mv(Q, qb)
+    qb = np.swapaxes(Q, -1, -2) @ b
+    resid = b - Q @ qb
     rows = np.any(A != 0, -1)
     dof = np.maximum(rows.sum(-1) - A.shape[2], 1)
-    s2 = np.einsum("bi,bi->b", resid, resid) / dof
+    s2 = np.sum(resid * resid, 1) / dof[:, None]
     Rinv = np.linalg.inv(R) / cn[:, :, None]
-    coef = mv(Rinv, qb)
-    cov = Rinv @ np.swapaxes(Rinv, -1, -2) * s2[:, None, None]
+    coef = Rinv @ qb
+    cov = Rinv @ np.swapaxes(Rinv, -1, -2)
     lo = A.shape[2] - 5
-    return coef[:, lo:], cov[:, lo:, lo:], resid, ~tiny.any(-1)
+    return coef[:, lo:], cov[:, lo:, lo:], s2, resid, ~tiny.any(-1)
 
 
 def _verdict(tp, tn, rms, axes, L):
@@ -418,7 +433,7 @@ def refuse_disagreeing(stack):
         return
     whys = disagreements(
         stack.xy[live], stack.heights[live], stack.slopes[live], stack.keep[live],
-        stack.axes[live], stack.scale[live],
+        stack.axes[live], stack.scale[live], stack.coef[live],
     )  # fmt: skip
     for b, why in zip(live.tolist(), whys, strict=True):
         stack.reason[b] = why
