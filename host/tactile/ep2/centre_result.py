@@ -132,9 +132,11 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zer
     h = np.where(plane, raw, h)
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
+    m, h = np.asarray(m, float), np.asarray(h, float)
+    s = shape_index(m + h, m - h).tolist()
     m, h, scale, c = (np.asarray(v, float).tolist() for v in (m, h, scale, c))
     iv = iv and Intervals(**{k: np.asarray(v).tolist() for k, v in vars(iv).items()})
-    flat = zip(r.tolist(), d2.tolist(), plane.tolist(), strict=True)
+    flat = zip(r.tolist(), d2.tolist(), plane.tolist(), s, strict=True)
     return [_summary_one(i, m, h, iv, f, scale, c) for i, f in enumerate(flat)]
 
 
@@ -146,8 +148,8 @@ def _excludes_zero(iv):
 
 def _summary_one(i, m, h, iv, flat, scale, c):
     """Patch ``i``'s ``Centre`` from its stack's numbers (lists); ``flat`` = (R, d^2,
-    plane), ``c`` the curvedness C."""
-    (r, d2, plane), scale = flat, scale[i]
+    plane, S), ``c`` the curvedness C."""
+    (r, d2, plane, s), scale = flat, scale[i]
     m, h = m[i], h[i]
     out = Centre(None, None, None, (m + h) / scale, (m - h) / scale, None, None, None, None,
                  None, None, {})  # fmt: skip
@@ -157,7 +159,6 @@ def _summary_one(i, m, h, iv, flat, scale, c):
     if plane:
         out.shape, out.confidence = "plane", plane_confidence(r, d2)
         return out
-    s = float(shape_index(m + h, m - h))
     sd = None
     if iv is not None:
         root = math.sqrt(float(iv.crit[i]))

@@ -66,8 +66,8 @@ class JetFit:
     ok2: np.ndarray  # (B,) whether the 2-jet is determined
     Aw: np.ndarray  # (B, 3n, p) the weighted jet, with the order above the top
     w: np.ndarray  # (B, 3n) the rows' weights (0: left out)
-    resid: dict  # order -> (B, 3n) weighted residuals
-    hat: dict  # order -> (B, 3n) leverages
+    resid: dict  # order -> (B, 3n) weighted residuals (the orders in ``quiet`` and ``top``)
+    hat: dict  # order -> (B, 3n) leverages (the orders in ``quiet``)
     origin: np.ndarray = None  # (B, 3) the frame (world), its axes' rows (B, 3, 3), L (B,)
     axes: np.ndarray = None
     L: np.ndarray = None
@@ -94,6 +94,8 @@ class JetFit:
             mine = getattr(self, k)
             if isinstance(v, dict):
                 for o, a in v.items():
+                    if o not in mine:  # (an order only the refitted patches use)
+                        mine[o] = np.zeros((len(self.top), *a.shape[1:]))
                     mine[o][idx] = a
             elif v is not None:
                 mine[idx] = v
@@ -233,11 +235,12 @@ def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
         fits = (NOISE_REDUNDANCY * size(o) <= 3 * n_kept) & det
         quiet = np.where(fits & (quiet == o - 1), o, quiet)
     qb = vm(bw, Q)
-    resid, hat = {}, {}
-    for o in range(2, top_cap + 1):
+    resid, hat = {}, {}  # (the orders the noise, the outlier test and the answer read)
+    for o in np.unique(np.concatenate([quiet, top] if solve else [quiet])).tolist():
         Qo = Q[..., : size(o)]
         resid[o] = bw - mv(Qo, qb[:, : size(o)])
-        hat[o] = np.einsum("bij,bij->bi", Qo, Qo)
+        if o in quiet:
+            hat[o] = np.einsum("bij,bij->bi", Qo, Qo)
     ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
     return JetFit(Q, Rinv if solve else None, cn, qb, top, quiet, ok2, Aw, w, resid, hat)
 
