@@ -411,6 +411,8 @@ def regress_omitted(f, o, cols, sel):
     """Coefficients of the omitted columns ``cols`` regressed on the order-o jet's, (b, p_o, q):
     how each omitted term, were it there with coefficient 1, moves the fit."""
     p = size(o)
+    every = sel.all()  # (no copy of the stack's Q and jet where every patch is asked)
+    Q, Aw = (f.Q, f.Aw) if every else (f.Q[sel], f.Aw[sel])
     Rinv, cn = f.Rinv[sel][:, :p, :p], f.cn[sel]
-    X = np.swapaxes(f.Q[sel][..., :p], -1, -2) @ f.Aw[sel][..., cols]
+    X = np.swapaxes(Q[..., :p], -1, -2) @ Aw[..., cols]
     return Rinv @ X / cn[:, :p, None]
