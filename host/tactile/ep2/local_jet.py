@@ -221,11 +221,12 @@ def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
     X = Aw[..., :p_top] if solve else A[..., :p_top] * w[..., None]
     cn = np.sqrt(np.einsum("bij,bij->bj", X, X))
     cn = np.where(cn > 0, cn, 1.0)
-    X = X / cn[:, None, :]
-    R = np.linalg.qr(X, mode="r")  # (Householder's R; Q as X R^-1: LAPACK's Q costs 3-5 x)
+    # the column-scaled jet's R (Householder's QR commutes with scaling the columns) and Q as
+    # X R^-1 (LAPACK's formed Q costs 3-5 x)
+    R = np.linalg.qr(X, mode="r") / cn[:, None, :]
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     Rinv = _upper_inverse(R, d)
-    Q = X @ Rinv
+    Q = X @ (Rinv / cn[:, :, None])
     top = np.full(len(A), 2)
     quiet = np.full(len(A), 2)
     for o in range(3, top_cap + 1):
@@ -436,7 +437,7 @@ def refuse_disagreeing(stack):
         return
     whys = disagreements(
         stack.xy[live], stack.heights[live], stack.slopes[live], stack.keep[live],
-        stack.axes[live], stack.scale[live], stack.coef[live],
+        stack.axes[live], stack.scale[live], stack.coef[live, : size(3)],  # (at most cubic)
     )  # fmt: skip
     for b, why in zip(live.tolist(), whys, strict=True):
         stack.reason[b] = why
