@@ -125,7 +125,8 @@ def fit(P, N, mask, noise_pos=None, noise_normal=None, max_angle=MAX_ANGLE):
     live = np.arange(len(P))
     f = _fit_once(P, N, keep, noise, top_cap, limit)
     for _ in range(MAX_OUTLIERS + 1):
-        worst, why = worst_contact(f.take(live), keep[live])
+        whole = len(live) == len(P)  # (the first pass: every patch, no copy of the fit)
+        worst, why = worst_contact(f if whole else f.take(live), keep if whole else keep[live])
         again = []
         for k in np.flatnonzero(worst >= 0):
             b = int(live[k])
