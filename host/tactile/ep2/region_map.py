@@ -15,9 +15,11 @@ regions separated by edges and curvature jumps, and each region is described:
    is cut too.
 5. **Regions** are the connected contacts; regions under ``min_region`` contacts join the
    neighbouring region they share most links with.
-6. **Each region** is described by its contacts' local fits: the label most of them carry,
-   and the median of S, k1 and k2, with the 2.5-97.5 % range of the local values as the
-   interval (a region is as curved as its parts; one 2-jet cannot follow a half cylinder).
+6. **Each region** is described by its contacts' local fits: the median of S, k1 and k2,
+   with the 2.5-97.5 % range of the local values as the interval (a region is as curved as
+   its parts; one 2-jet cannot follow a half cylinder), and a label voted by them
+   (``_label``: an ``uncertain`` fit votes its label shares; disagreement stays
+   ``uncertain``).
 7. **Edges between regions**: the regions that share links are adjacent; their boundary's
    contacts are fitted by ``edges.find`` for a crease (point, direction, dihedral angle
    with its interval), else the boundary is a curvature jump (dihedral 180 deg): along the
@@ -38,6 +40,7 @@ NEIGHBOURS = 12
 EDGE_ANGLE_DEG = 20.0
 MIN_REGION = 8
 JUMP_REACH = 2.5  # a jump is placed from the contacts within this many link lengths
+AGREE = 0.75  # the share of a region's confident local labels its label must hold
 CHUNK = 512  # rows of the distance matrix at a time
 
 
@@ -198,15 +201,36 @@ def _region(rid, rows, local):
     fits = [local[i] for i in rows if not isinstance(local[i], Exception)]
     if not fits:
         raise DataError(f"region {rid} ({len(rows)} contacts): no neighbourhood in it is fitted")
-    shape = Counter(f.shape for f in fits).most_common(1)[0][0]
     k1, k1_iv = _quant([f.k1 for f in fits])
     k2, k2_iv = _quant([f.k2 for f in fits])
     s_vals = [f.S for f in fits if f.S is not None]
-    S, S_iv = _quant(s_vals) if s_vals and shape != "plane" else (None, None)
+    S, S_iv = _quant(s_vals) if s_vals else (None, None)
+    shape = _label(fits, S)
+    S, S_iv = (None, None) if shape == "plane" else (S, S_iv)
     mid = int(np.argmin([abs(f.k1 - k1) + abs(f.k2 - k2) for f in fits]))
     d1 = fits[mid].direction1
     return Region(rid, [int(i) for i in rows], shape, S, k1, k2, S_iv, k1_iv, k2_iv,
                   None if d1 is None else [float(v) for v in d1])  # fmt: skip
+
+
+def _label(fits, S):
+    """The region's label: its confident local labels, each one vote, plus the votes of
+    its ``uncertain`` local fits (their top labels' shares), summed; ``uncertain`` where
+    the confident labels disagree (the top one under ``AGREE`` of them), the sum's top is
+    not theirs, or the median S lies outside that label's band."""
+    confident = Counter(f.shape for f in fits if f.shape != "uncertain")
+    if not confident:
+        return "uncertain"
+    top, n = confident.most_common(1)[0]
+    votes = Counter(confident)
+    for f in fits:
+        if f.shape == "uncertain":
+            votes.update(f.votes)
+    if n < AGREE * confident.total() or votes.most_common(1)[0][0] != top:
+        return "uncertain"
+    if top != "plane" and (S is None or geometry.s_region_map(S) != top):
+        return "uncertain"
+    return top
 
 
 def _edge(pts, nrm, region, links, pair, kw):
