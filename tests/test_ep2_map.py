@@ -144,3 +144,14 @@ def test_a_region_whose_confident_local_labels_disagree_stays_uncertain():
     unsure = Fit(shape="uncertain", votes={"sphere": 0.9, "cylinder": 0.1})
     assert region_map._label([Fit(shape="sphere", votes={})] * 3 + [unsure] * 5, 0.95) == "sphere"
     assert region_map._label([Fit(shape="sphere", votes={})] * 3 + [unsure] * 5, 0.6) == "uncertain"
+
+
+def test_a_jump_direction_is_the_line_through_its_sections_hinges_and_holds_its_interval():
+    """Seed 17: the crossing links' midpoints run 6.2 deg off the cap's rim; the line through
+    the hinge points of sections across it runs along it, within its stated half-angle."""
+    d = map_objects.make("capped_cylinder", 0.005, 0.005, seed=17)
+    found = map_contacts(d["points"], d["normals"], noise_pos=0.005, noise_normal=0.005)
+    (jump,) = [e for e in found.edges if e.kind == "curvature jump"]
+    truth = d["edges"][0]["direction"]
+    angle = np.degrees(np.arccos(min(1.0, abs(float(np.dot(jump.direction, truth))))))
+    assert angle < 5.0 and angle <= jump.direction_err_deg < 5.0

@@ -22,9 +22,11 @@ regions separated by edges and curvature jumps, and each region is described:
    ``uncertain``).
 7. **Edges between regions**: the regions that share links are adjacent; their boundary's
    contacts are fitted by ``edges.find`` for a crease (point, direction, dihedral angle
-   with its interval), else the boundary is a curvature jump (dihedral 180 deg): along the
-   line the crossing links' midpoints run along, placed across it where the normals' turn
-   across it is best a hinge (constant on one side, growing on the other).
+   with its interval), else the boundary is a curvature jump (dihedral 180 deg), placed
+   where the normals' turn across it is best a hinge (constant on one side, growing on the
+   other): its direction the total-least-squares line through the hinges of sections
+   across it, with a 95 % half-angle; its point the hinge nearest the crossing links'
+   middle.
 """
 
 from collections import Counter
@@ -40,6 +42,7 @@ NEIGHBOURS = 12
 EDGE_ANGLE_DEG = 20.0
 MIN_REGION = 8
 JUMP_REACH = 2.5  # a jump is placed from the contacts within this many link lengths
+JUMP_PASSES = 2  # fits of a jump's direction through its sections' hinge points
 AGREE = 0.75  # the share of a region's confident local labels its label must hold
 CHUNK = 512  # rows of the distance matrix at a time
 
@@ -73,6 +76,7 @@ class RegionEdge:
     direction: list | None
     dihedral_deg: float | None
     dihedral_interval: tuple | None
+    direction_err_deg: float | None = None  # a curvature jump's direction's 95 % half-angle
 
     def to_dict(self):
         return dict(self.__dict__, regions=list(self.regions))
@@ -249,27 +253,65 @@ def _edge(pts, nrm, region, links, pair, kw):
 
 
 def _jump(pair, pts, nrm, crossing):
-    """A curvature jump along the line the crossing links' midpoints run along (their
-    principal axis), placed across it by ``_hinge``, else at the midpoint nearest the
-    midpoints' mean."""
+    """A curvature jump: its direction the line through the hinge points of sections across
+    it (``_hinge_line``; at first the crossing links' midpoints' principal axis), with the
+    direction's 95 % half-angle; its point the midpoint nearest the midpoints' mean, moved
+    across the line by ``_hinge``."""
     mids = 0.5 * (pts[crossing[:, 0]] + pts[crossing[:, 1]])
     centre = mids.mean(axis=0)
     point = mids[int(np.argmin(np.sum((mids - centre) ** 2, axis=1)))]
     if len(mids) < 2 or not np.ptp(mids, axis=0).max() > 0:
         return RegionEdge(pair, "curvature jump", [float(v) for v in point], None, 180.0, None)
-    d = np.linalg.svd(mids - centre)[2][0]
+    d, err = np.linalg.svd(mids - centre)[2][0], None
     spacing = float(np.median(np.linalg.norm(pts[crossing[:, 0]] - pts[crossing[:, 1]], axis=1)))
+    for _ in range(JUMP_PASSES):
+        line = _hinge_line(pts, nrm, mids, point, d, spacing)
+        if line is None:
+            break
+        d, err = line
     moved = _hinge(pts, nrm, point, d, spacing)  # (a point on it: the line may be an arc)
-    point = point if moved is None else moved
-    return RegionEdge(pair, "curvature jump", [float(v) for v in point],
-                      [float(v) for v in d], 180.0, None)  # fmt: skip
+    point = point if moved is None else moved[0]
+    return RegionEdge(pair, "curvature jump", [float(v) for v in point], [float(v) for v in d],
+                      180.0, None, err)  # fmt: skip
+
+
+def _hinge_line(pts, nrm, mids, point, d, spacing):
+    """(direction, its 95 % half-angle in deg) of the total-least-squares line through the
+    hinge points of sections across the line (``point``, ``d``), one every link length
+    along the crossing links' midpoints and each a link length either side, in the plane
+    across the contacts' mean normal (an arc's bow, along the normal, drops out); None
+    under 3 hinge points.  The half-angle takes each hinge point's offset from the line
+    as its scatter about it plus a cut's rounding (a hinge falls between two contacts)."""
+    along = (pts - point) @ d
+    ends = (mids - point) @ d
+    hinges, gaps = [], []
+    for c in np.arange(ends.min(), ends.max() + spacing / 2, spacing):
+        sel = np.abs(along - c) <= spacing
+        h = _hinge(pts[sel], nrm[sel], point + c * d, d, spacing)
+        if h is not None:
+            hinges.append(h[0])
+            gaps.append(h[1])
+    if len(hinges) < 3:
+        return None
+    m = geometry.unit_normals(nrm[np.abs(along - ends.mean()) <= np.ptp(ends) / 2 + spacing]
+                              .sum(axis=0)[None])[0]  # fmt: skip
+    flat = np.asarray(hinges) - np.mean(hinges, axis=0)
+    flat -= np.outer(flat @ m, m)
+    _, sv, vt = np.linalg.svd(flat, full_matrices=False)
+    new = vt[0] if vt[0] @ d >= 0 else -vt[0]
+    # each hinge point off the line by its scatter, or by where between two contacts its
+    # cut falls (uniform over a link length), whichever the points' spread does not show
+    var = sv[1] ** 2 / max(len(hinges) - 2, 1) + np.mean(np.square(gaps)) / 12
+    se = np.sqrt(var) / max(sv[0], 1e-300)
+    return new, float(np.degrees(np.arctan(1.96 * se)))
 
 
 def _hinge(pts, nrm, centre, d, spacing, reach=JUMP_REACH):
     """Where across the line (``centre``, ``d``) the normals' turn across it is best a
     hinge: constant on one side, growing linearly on the other (a plane or a cylinder's
     straight side beside a curved part), over the contacts within ``reach`` link lengths
-    of the line; None where fewer than 3 lie on each side."""
+    of the line: (the point, the gap between the two contacts its cut falls between); None
+    where fewer than 3 lie on each side."""
     rel = pts - centre
     along = rel @ d
     off = rel - np.outer(along, d)
@@ -283,12 +325,13 @@ def _hinge(pts, nrm, centre, d, spacing, reach=JUMP_REACH):
     y = np.arcsin(np.clip(nrm[near] @ across, -1.0, 1.0))
     order = np.argsort(u)
     u, y = u[order], y[order]
-    best, where = np.inf, None
+    best, where, gap = np.inf, None, None
     for k in range(3, len(u) - 2):
         cut = 0.5 * (u[k - 1] + u[k])
         for side in (1.0, -1.0):
             A = np.column_stack([np.ones_like(u), np.maximum(side * (u - cut), 0.0)])
             coef, *_ = np.linalg.lstsq(A, y, rcond=None)
             r = float(np.sum((A @ coef - y) ** 2))
-            best, where = (r, cut) if r < best else (best, where)
-    return None if where is None else centre + where * across
+            if r < best:
+                best, where, gap = r, cut, u[k] - u[k - 1]
+    return None if where is None else (centre + where * across, float(gap))
