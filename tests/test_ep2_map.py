@@ -155,3 +155,12 @@ def test_a_jump_direction_is_the_line_through_its_sections_hinges_and_holds_its_
     truth = d["edges"][0]["direction"]
     angle = np.degrees(np.arccos(min(1.0, abs(float(np.dot(jump.direction, truth))))))
     assert angle < 5.0 and angle <= jump.direction_err_deg < 5.0
+
+
+def test_a_strip_along_a_join_held_by_stray_local_labels_joins_a_neighbour():
+    """Seed 18 at noise 0.01: two neighbourhoods at the cap's rim come out `plane` and their
+    eight `uncertain` neighbours settle to it: a 10-contact strip, not a third region."""
+    d = map_objects.make("capped_cylinder", 0.01, 0.01, seed=18)
+    found = map_contacts(d["points"], d["normals"], noise_pos=0.01, noise_normal=0.01)
+    assert sorted(r.shape for r in found.regions) == ["cylinder", "sphere"]
+    assert [e.kind for e in found.edges] == ["curvature jump"]

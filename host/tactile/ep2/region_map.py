@@ -13,8 +13,9 @@ regions separated by edges and curvature jumps, and each region is described:
    straddles a join) takes its labelled neighbours' most common label; then a link between
    two contacts whose labels differ (a plane beside a cylinder, a cylinder beside a sphere)
    is cut too.
-5. **Regions** are the connected contacts; regions under ``min_region`` contacts join the
-   neighbouring region they share most links with.
+5. **Regions** are the connected contacts; regions under ``min_region`` contacts, or under
+   twice that with under half their local fits confident (a strip along a join), join
+   the neighbouring region they share most links with.
 6. **Each region** is described by its contacts' local fits: the median of S, k1 and k2,
    with the 2.5-97.5 % range of the local values as the interval (a region is as curved as
    its parts; one 2-jet cannot follow a half cylinder), and a label voted by them
@@ -151,7 +152,8 @@ def map_contacts(points, normals, finger=None, *, neighbours_k=NEIGHBOURS,
     jump = np.array([label[a] is not None and label[b] is not None and label[a] != label[b]
                      for a, b in links])  # fmt: skip
     region = _components(len(pts), links[~crease & ~jump])
-    region = _merge_small(region, links, min_region)
+    sure = np.array([not isinstance(r, Exception) and r.shape != "uncertain" for r in local])
+    region = _merge_small(region, links, min_region, sure)
     return _describe(pts, nrm, region, links, local, kw)
 
 
@@ -171,10 +173,15 @@ def _settled(labels, nb, passes=4):
     return label
 
 
-def _merge_small(region, links, min_region):
+def _merge_small(region, links, min_region, sure):
+    """Regions under ``min_region`` contacts, or under twice that with under half their
+    local fits confident (a strip along a join, labelled by a stray local label), joined
+    to the neighbouring region they share most links with, one at a time."""
     while True:
         sizes = np.bincount(region)
-        small = [r for r in np.flatnonzero(sizes) if sizes[r] < min_region]
+        held = np.bincount(region, weights=sure, minlength=len(sizes))
+        small = [r for r in np.flatnonzero(sizes) if sizes[r] < min_region
+                 or (sizes[r] < 2 * min_region and held[r] < sizes[r] / 2)]  # fmt: skip
         if not small or len(np.flatnonzero(sizes)) == 1:
             return np.unique(region, return_inverse=True)[1]
         r = small[0]
