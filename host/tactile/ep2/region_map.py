@@ -26,8 +26,8 @@ regions separated by edges and curvature jumps, and each region is described:
    with its interval), else the boundary is a curvature jump (dihedral 180 deg), placed
    where the normals' turn across it is best a hinge (constant on one side, growing on the
    other): its direction the total-least-squares line through the hinges of sections
-   across it, with a 95 % half-angle; its point the hinge nearest the crossing links'
-   middle.
+   across it, with a 95 % half-angle; its point the hinge across it from the crossing
+   links' middle.
 """
 
 from collections import Counter
