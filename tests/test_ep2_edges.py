@@ -6,7 +6,7 @@ import re
 import numpy as np
 import pytest
 
-from tactile.ep2 import analyze_patch, analyze_patches, edges
+from tactile.ep2 import analyze_patch, analyze_patches, curvature_jump, edges
 from tactile.ep2.edges import EdgeError
 from tactile.errors import DataError
 from tactile_studies.ep2 import edge_cases
@@ -62,19 +62,67 @@ def test_half_the_normals_flipped_is_a_bad_patch_not_a_plane():
     assert not isinstance(info.value, EdgeError)
 
 
-def test_two_lines_along_a_tight_cylinder_are_not_an_edge():
-    """Two finger lines along a cylinder's axis give two constant normals, as two faces
-    would: with each 'face' one line, the patch is not refused as an edge."""
-    r, y = 1.0, np.linspace(0, 1, 8)
-    ang = np.repeat([-0.5, 0.5], 8)
-    pts = np.column_stack([r * np.sin(ang), np.tile(y, 2), r * np.cos(ang)])
-    nrm = pts * [1, 0, 1] / r
-    try:
+def _lines(xs, surface, noise=0.002, n=10, seed=2):
+    """Finger lines along y at each x of ``xs``: (points, normals) of ``surface`` (x ->
+    (z, normal)), with noise on both."""
+    rng = np.random.default_rng(seed)
+    x, y = np.repeat(xs, n), np.tile(np.linspace(0.0, 1.0, n), len(xs))
+    z, nrm = surface(x)
+    pts = np.column_stack([x, y, z]) + noise * rng.standard_normal((len(x), 3))
+    return pts, nrm + noise * rng.standard_normal(nrm.shape)
+
+
+def _ridge(dihedral):
+    """Two faces meeting along y at ``dihedral`` deg, falling away from the edge."""
+    half = np.radians(180 - dihedral) / 2
+    s, c = np.sin(half), np.cos(half)
+    return lambda x: (-np.abs(x) * np.tan(half), np.where((x < 0)[:, None], [[-s, 0, c]],
+                                                           [[s, 0, c]]))  # fmt: skip
+
+
+def _cylinder(r):
+    """A cylinder of radius r along y, its top at z = 0."""
+    return lambda x: (
+        np.sqrt(r * r - x * x) - r,
+        np.column_stack([x, 0 * x, np.sqrt(r * r - x * x)]) / r,
+    )
+
+
+def test_two_lines_along_an_edge_are_refused_naming_the_edge_as_one_reading():
+    """One line on each face, both along the edge, at unequal distances from it: a surface
+    curving between the two tangent planes fits them as well.  Refused, naming the edge the
+    planes meet on, and saying the layout cannot tell it from a smooth curve."""
+    pts, nrm = _lines([-0.45, 0.3], _ridge(100.0))
+    with pytest.raises(EdgeError, match="cannot tell an edge from a smooth curve") as info:
         analyze_patch(pts, nrm)
-    except EdgeError:  # pragma: no cover - the failure this test is for
-        pytest.fail("two lines on a cylinder called an edge")
-    except DataError:
-        pass  # two lines may leave the curvature undetermined: that is not an edge
+    edge, msg = info.value.edge, str(info.value)
+    assert edge.ambiguous and edge.kind == "ridge" and "sweep across it" in msg
+    lo, hi = edge.dihedral_interval
+    assert abs(edge.dihedral_deg - 100.0) < 0.5 and lo < edge.dihedral_deg < hi < lo + 3
+    assert abs(edge.direction[1]) > np.cos(np.radians(2))  # along y
+    assert np.hypot(edge.point[0], edge.point[2]) < 0.02  # on the line x = z = 0
+    assert msg.startswith("the patch straddles an edge (a ridge) at (")
+
+
+def test_two_lines_along_a_cylinder_are_refused_as_an_edge_or_a_curve():
+    """The same on a cylinder of radius 1 (lines at x = +-0.48): named as the edge its two
+    tangent planes meet on (x = 0, z = 1 / cos(0.5) - 1), not answered as a cylinder."""
+    ang = 0.5
+    pts, nrm = _lines(np.sin([-ang, ang]), _cylinder(1.0), noise=0.0)
+    with pytest.raises(EdgeError, match="cannot tell an edge from a smooth curve") as info:
+        analyze_patch(pts, nrm)
+    edge = info.value.edge
+    assert edge.dihedral_deg == pytest.approx(180 - np.degrees(2 * ang), abs=1e-6)
+    assert edge.point[[0, 2]] == pytest.approx([0.0, 1 / np.cos(ang) - 1], abs=1e-6)
+
+
+@pytest.mark.parametrize("seed", [2, 3, 4])
+def test_a_cylinder_with_three_sweeps_is_still_answered(seed):
+    """A third line between the two shows the normals turning across them: a cylinder."""
+    pts, nrm = _lines([-0.5, 0.0, 0.5], _cylinder(2.0), seed=seed)
+    res = analyze_patch(pts, nrm)
+    assert res.shape == "cylinder"
+    assert res.radius_interval[0] <= 2.0 <= res.radius_interval[1]
 
 
 def test_a_constant_tilt_is_named_and_the_patch_answered():
@@ -181,7 +229,9 @@ def test_a_smooth_cylinder_and_a_cubic_field_have_no_jump():
     ):
         nrm = np.column_stack([-grad, np.ones(30)]) + 0.002 * rng.standard_normal((30, 3))
         pts = np.column_stack([xy, z]) + 0.001 * rng.standard_normal((30, 3))
-        assert edges.find_jump(pts, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)) is None
+        assert (
+            curvature_jump.find_jump(pts, nrm / np.linalg.norm(nrm, axis=1, keepdims=True)) is None
+        )
 
 
 def test_student_factor_is_the_t_quantile_over_z_squared():

@@ -21,14 +21,6 @@ Overruns and frames dropped for a host that is not reading are counted and
 reported by a STATUS at most once per ``status_period_us``.
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
 from tactile_fw import calibration, frontend, gate, settings
 from tactile_fw.commands import dispatch
 from tactile_fw.identity import FW_VERSION, NO_BOARD_ID, board_id_from
@@ -63,6 +55,7 @@ from tactile_protocol.constants import (
     NAK_LOADED,
     PROTOCOL_VERSION,
     SENSOR_ALL,
+    const,
 )
 from tactile_protocol.framing import FRAME_OK, FrameAssembler, FrameEncoder
 
@@ -337,7 +330,7 @@ class Board:
         if new:
             self.send_status(bit, i)
         if self.tare_mask & (1 << i):
-            self._tare_fail()
+            self._tare_nak(NAK_HARDWARE, NAK_DETAIL_NONE)
 
     def _retry(self, i, now):
         self.pending[i] = False
@@ -495,7 +488,7 @@ class Board:
             if self.gates[i].loaded(ft[0], ft[1], ft[2]):
                 self.tare_loaded[i] += 1
                 if self.tare_loaded[i] >= self.settings.debounce:
-                    self._tare_refuse(i)
+                    self._tare_nak(NAK_LOADED, i)
                     return
             else:
                 self.tare_loaded[i] = 0
@@ -512,17 +505,11 @@ class Board:
                 self.ack(CMD_TARE, self.tare_seq)
                 self.tare_seq = -1
 
-    def _tare_refuse(self, i):
-        """Sensor i is loaded: keep the old bias everywhere and NAK the TARE."""
+    def _tare_nak(self, reason, detail):
+        """The TARE ends refused (a loaded sensor, a failed read): the old bias kept everywhere."""
         self.tare_mask = 0
         if self.tare_seq >= 0:
-            self.nak(CMD_TARE, self.tare_seq, NAK_LOADED, i)
-        self.tare_seq = -1
-
-    def _tare_fail(self):
-        self.tare_mask = 0
-        if self.tare_seq >= 0:
-            self.nak(CMD_TARE, self.tare_seq, NAK_HARDWARE, NAK_DETAIL_NONE)
+            self.nak(CMD_TARE, self.tare_seq, reason, detail)
         self.tare_seq = -1
 
 

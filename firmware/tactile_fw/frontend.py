@@ -10,15 +10,8 @@ reads each converter whose DRDY is set and returns True once all six are
 fresh.  Bus errors propagate as ``OSError``.
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
-
 from tactile_fw.ads122c04 import CODE_MAX, CODE_MIN
+from tactile_protocol.constants import const
 
 N_GAUGES = const(6)
 ALL_FRESH = const(0x3F)

@@ -9,13 +9,7 @@ taken in the x-y plane (thesis) or in 3-D (CFG_GATE_3D).  Integer bounds
 decide most samples; the rest compare exact squared magnitudes (no square root).
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
+from tactile_protocol.constants import const
 
 NONE = const(-1)  # no CONTACT message for this sample
 BEGIN = const(0)  # = PHASE_BEGIN

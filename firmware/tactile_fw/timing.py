@@ -7,13 +7,7 @@ emulator it is an object with the same four methods, e.g. ``ManualClock``
 MicroPython, so the wrap is exercised under CPython too.
 """
 
-try:
-    from micropython import const
-except ImportError:  # CPython
-
-    def const(x):
-        return x
-
+from tactile_protocol.constants import const
 
 TICKS_PERIOD = const(1 << 30)
 TICKS_MAX = const((1 << 30) - 1)

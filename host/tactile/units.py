@@ -65,6 +65,14 @@ def parse_length(text):
     return name
 
 
+def length_option(text, flag="--units"):
+    """``parse_length`` of an option's value: an ``InputError`` (exit 2) naming ``flag``."""
+    try:
+        return parse_length(text)
+    except ValueError as exc:
+        raise InputError(f"{flag}: {exc}") from None
+
+
 def show_unit(text):
     return repr(text.strip()[:20])
 
@@ -134,10 +142,7 @@ def display(file_unit, shown=None):
     "u", and ``shown`` cannot convert them (``InputError``)."""
     if shown is None:
         return (file_unit or "u"), 1.0
-    try:
-        shown = parse_length(shown)
-    except ValueError as exc:
-        raise InputError(f"--units: {exc}") from None
+    shown = length_option(shown)
     if file_unit is None:
         raise InputError(
             f"--units {shown}: the file states no length unit, so it cannot be converted; add"

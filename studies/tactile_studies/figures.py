@@ -11,8 +11,7 @@ format the name's, at ``DPI``, and closes it."""
 
 import numpy as np
 
-from tactile.files.writing import atomic_write
-from tactile.output.plots import image_format
+from tactile.output import plots
 
 STYLE = dict(fontsize=8)
 DPI = 110
@@ -47,9 +46,4 @@ def covers_data(ax, box):
 
 def save(plt, fig, path):
     """Write ``fig`` to ``path`` whole (its format the name's), close it: ``[path]``."""
-    try:
-        with atomic_write(path) as fh:
-            fig.savefig(fh, format=image_format(path), dpi=DPI)
-    finally:
-        plt.close(fig)
-    return [str(path)]
+    return [str(plots.save(plt, fig, path, dpi=DPI, tight=False))]

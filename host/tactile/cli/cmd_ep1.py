@@ -31,10 +31,7 @@ def run(args):
         raise InputError(f"--u0/--v0: ({args.u0}, {args.v0}) is outside the chart of eq. 20")
     dtheta, dp = read_probes(args.file)
     result = estimate(dtheta, dp, args.finger_radius, args.u0, args.resolution, args.noise_theta)
-    try:
-        unit = units.parse_length(args.units)
-    except ValueError as exc:
-        raise InputError(f"--units: {exc}") from None
+    unit = units.length_option(args.units)
     print_result(result.as_dict(), args.json, unit)
     if result.status not in EXIT_OK:
         raise DataError(f"{args.file}: {result.status}: {result.message}")

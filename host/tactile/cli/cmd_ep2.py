@@ -8,13 +8,34 @@ from tactile.cli import cmd_ep2_map
 from tactile.commands import add_quiet, contacts_of
 from tactile.ep2 import JetOptions, SplineOptions, contacts_csv
 from tactile.ep2.geometry import MAX_NORMAL_ANGLE_DEG
-from tactile.ep2.patch_input import Request
+from tactile.ep2.patch_input import METHODS, WEIGHTINGS, Request
 from tactile.ep2.stream import MAX_JOBS, in_unit, outcomes
 from tactile.errors import DataError, InputError
 from tactile.output.text import dumps, printable_lines
 
-METHODS = ("jet", "spline")
-WEIGHTINGS = ("auto", "tangent", "position")
+
+def add_fit_arguments(parser, method_help, weighting_help, segments=False):
+    """The fit's options, as ``tactile ep2 analyze`` and ``tactile plot`` share them:
+    ``--method``, ``--order``, (``--segments``,) ``--weighting`` and ``--grid``."""
+    parser.add_argument("--method", choices=METHODS, default="jet", help=method_help)
+    parser.add_argument(
+        "--order",
+        type=int,
+        choices=(2, 3, 4, 5),
+        help="spline degree per direction: 2 biquadratic (default), 3 bicubic, 4 biquartic",
+    )
+    if segments:
+        parser.add_argument("--segments", type=int, default=1, help="spline segments per direction")
+    parser.add_argument("--weighting", choices=WEIGHTINGS, default="auto", help=weighting_help)
+    parser.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
+
+
+def check_fit_arguments(args):
+    """``add_fit_arguments``'s options refused in one line (exit 2) before any file is read."""
+    if args.grid < 2:
+        raise InputError(f"--grid must be at least 2 (got {args.grid})")
+    if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
+        raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
 
 
 def add_arguments(parser):
@@ -25,27 +46,13 @@ def add_arguments(parser):
         help="CSV with x,y,z,nx,ny,nz [,finger] [,patch], or a 'tactile record -o DIR' folder"
         " (DIR/contacts.csv)",
     )
-    p.add_argument(
-        "--method",
-        choices=METHODS,
-        default="jet",
-        help="jet: curvature at the patch centre, model chosen by the data (default);"
+    add_fit_arguments(
+        p,
+        "jet: curvature at the patch centre, model chosen by the data (default);"
         " spline: the thesis's B-spline patch (§4.6)",
+        "spline row weights: auto (noise), or the thesis's tangent/position 100:1 (§4.9)",
+        segments=True,
     )
-    p.add_argument(
-        "--order",
-        type=int,
-        choices=(2, 3, 4, 5),
-        help="spline degree per direction: 2 biquadratic (default), 3 bicubic, 4 biquartic",
-    )
-    p.add_argument("--segments", type=int, default=1, help="spline segments per direction")
-    p.add_argument(
-        "--weighting",
-        choices=WEIGHTINGS,
-        default="auto",
-        help="spline row weights: auto (noise), or the thesis's tangent/position 100:1 (§4.9)",
-    )
-    p.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
     p.add_argument(
         "--units",
         metavar="U",
@@ -85,23 +92,17 @@ def run(args):
     if args.action == "map":
         return cmd_ep2_map.run(args)
     args.file = str(contacts_of(args.file))  # a run folder: its contacts.csv
-    if args.grid < 2:
-        raise InputError(f"--grid must be at least 2 (got {args.grid})")
+    check_fit_arguments(args)
     if args.segments < 1:
         raise InputError(f"--segments must be at least 1 (got {args.segments})")
     if not 1 <= args.jobs <= MAX_JOBS:
         raise InputError(f"--jobs must be a whole number in 1..{MAX_JOBS} (got {args.jobs})")
 
     if args.file_units is not None:
-        try:
-            units.parse_length(args.file_units)
-        except ValueError as exc:
-            raise InputError(f"--file-units: {exc}") from None
+        units.length_option(args.file_units, "--file-units")
     file_unit = units.stated_length(args.file, args.file_units)
     shown, scale = units.display(file_unit, args.units)
     groups = _checked(args.file, args.quiet)  # read again, patch by patch, as they are analysed
-    if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
-        raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
     req = Request(
         args.method,
         jet=JetOptions(

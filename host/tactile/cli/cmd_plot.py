@@ -13,6 +13,7 @@ import re
 import numpy as np
 
 from tactile import units
+from tactile.cli.cmd_ep2 import add_fit_arguments, check_fit_arguments
 from tactile.commands import add_out, contacts_of
 from tactile.ep2 import analyze_patch
 from tactile.ep2.contacts_csv import read_contacts
@@ -24,8 +25,6 @@ from tactile.recording.layout import read_meta
 
 WHAT = ("contacts", "patch", "maps", "map")
 DEFAULT_WHAT = WHAT[:3]  # the region map takes the whole file as one object: asked for
-METHODS = ("jet", "spline")
-WEIGHTINGS = ("auto", "tangent", "position")
 
 
 def add_arguments(parser):
@@ -33,22 +32,11 @@ def add_arguments(parser):
         "source", help="EP2 contacts CSV, or a 'tactile record -o DIR' directory (DIR/contacts.csv)"
     )
     add_out(parser, "where the PNGs go (default: next to the CSV, or DIR)", old=("--outdir",))
-    parser.add_argument(
-        "--method",
-        choices=METHODS,
-        default="jet",
-        help="jet: the default fit (no control mesh); spline: the thesis's B-spline and its mesh",
+    add_fit_arguments(
+        parser,
+        "jet: the default fit (no control mesh); spline: the thesis's B-spline and its mesh",
+        "spline row weights (§4.9)",
     )
-    parser.add_argument(
-        "--order",
-        type=int,
-        choices=(2, 3, 4, 5),
-        help="spline degree per direction: 2 biquadratic (default), 3 bicubic, 4 biquartic",
-    )
-    parser.add_argument(
-        "--weighting", choices=WEIGHTINGS, default="auto", help="spline row weights (§4.9)"
-    )
-    parser.add_argument("--grid", type=int, default=8, help="analysis grid N x N (default 8)")
     parser.add_argument(
         "--units",
         help="length unit drawn (m, cm, mm, ...; default: the CSV's '# units: U' line); a CSV"
@@ -70,10 +58,7 @@ def run(args):
             f"--what: unknown figure {unknown[0] if unknown else '(none)'!r}"
             f" (choose from {','.join(WHAT)})"
         )
-    if args.grid < 2:
-        raise InputError(f"--grid must be at least 2 (got {args.grid})")
-    if args.method == "jet" and (args.order is not None or args.weighting != "auto"):
-        raise InputError("--order and --weighting choose the thesis's spline: add --method spline")
+    check_fit_arguments(args)
     csv_path, stem, default_out = _source(pathlib.Path(args.source))
     outdir = pathlib.Path(args.out) if args.out else default_out
     plots.require_matplotlib()  # the install hint before any work
@@ -94,17 +79,10 @@ def run(args):
         prefix = stem if label is None else f"{stem}_{label}"
         name = g.patch if g.patch is not None else "1"
         out = {w: outdir / f"{prefix}_{w}.png" for w in what if w != "map"}
+        drawn = {"finger": g.finger, "unit": unit, "group": word}  # as every figure names them
         if "contacts" in out:
-            _draw(
-                plots.plot_contacts,
-                g.points,
-                g.normals,
-                out["contacts"],
-                finger=g.finger,
-                title=f"patch {name}: {len(g.points)} contacts and normals",
-                unit=unit,
-                group=word,
-            )
+            title = f"patch {name}: {len(g.points)} contacts and normals"
+            _draw(plots.plot_contacts, g.points, g.normals, out["contacts"], title=title, **drawn)
         if "patch" not in out and "maps" not in out:
             continue
         try:
@@ -123,16 +101,7 @@ def run(args):
             failed.append((name, str(exc)))
             continue
         if "patch" in out:
-            _draw(
-                plots.plot_patch,
-                res,
-                g.points,
-                g.normals,
-                out["patch"],
-                finger=g.finger,
-                unit=unit,
-                group=word,
-            )
+            _draw(plots.plot_patch, res, g.points, g.normals, out["patch"], **drawn)
         if "maps" in out:
             _draw(plots.plot_maps, res, out["maps"], points=g.points, unit=unit)
     if "map" in what:  # after the patches' figures: a map that cannot be made loses none

@@ -33,7 +33,7 @@ from tactile.commands.derive import check_log, derive
 from tactile.errors import BoardError, DataError, InputError
 from tactile.files.writing import hold
 from tactile.logs.tags import log_end, show_time
-from tactile.output.text import fields, printable
+from tactile.output.text import count, fields, printable
 from tactile.payload.apply import Following, OnBoard, Orientations
 from tactile.payload.tool import read_tool
 from tactile.recording.session import Session
@@ -207,7 +207,7 @@ def _says_kept(exc, rec):
     received nothing left nothing: ``Session``)."""
     if not rec.bytes or str(rec.dir) in str(exc):
         return exc
-    return BoardError(f"{exc}; the {_count(rec.bytes, 'byte')} received are kept in {rec.dir}")
+    return BoardError(f"{exc}; the {count(rec.bytes, 'byte')} received are kept in {rec.dir}")
 
 
 def time_summary(time_base):
@@ -223,7 +223,7 @@ def time_summary(time_base):
             f"time base: not usable{more}: {why}")  # fmt: skip
     if s["bins"] < 2:  # (one bin: an offset, no drift to speak of)
         return (
-            f"time base{more}: an offset only ({_count(s['frames'], 'frame')}, too few to"
+            f"time base{more}: an offset only ({count(s['frames'], 'frame')}, too few to"
             " measure the board clock's drift)"
         )
     return (
@@ -247,27 +247,23 @@ ENDED = {
 FINISHED = ("duration", "contacts", "pose log end", "scene end")
 
 
-def _count(n, what):
-    return f"{n:,} {what}{'s' * (n != 1)}"
-
-
 def summary(meta, out):
     """One line in words: what was recorded, why it stopped, what was lost, where it is."""
     d = meta["decoder"] or {}
     invalid = d.get("invalid", 0)  # frames outside the protocol's limits (device.jsonl names them)
     ended = ENDED.get(meta["ended"], str(meta["ended"]))
     lost = [
-        _count(d.get("lost_frames", 0), "frame"),
-        _count(d.get("crc_errors", 0), "CRC error"),
-        _count(len(meta["gaps"]), "gap"),
+        count(d.get("lost_frames", 0), "frame"),
+        count(d.get("crc_errors", 0), "CRC error"),
+        count(len(meta["gaps"]), "gap"),
     ]
-    refused = f", {_count(invalid, 'invalid frame')} refused" if invalid else ""
+    refused = f", {count(invalid, 'invalid frame')} refused" if invalid else ""
     dropped = meta.get("tx_dropped", 0)  # the board's own count, from its STATUS
     if dropped:
-        lost[0] += f" ({_count(dropped, 'frame')} dropped by the board: the host did not read)"
+        lost[0] += f" ({count(dropped, 'frame')} dropped by the board: the host did not read)"
     late = meta.get("late_samples", 0)
-    late = f"; {_count(late, 'reading')} late (the board missed its rate)" if late else ""
-    got = f"{_count(meta['samples'], 'reading')}, {_count(meta['contacts_ended'], 'contact')}"
+    late = f"; {count(late, 'reading')} late (the board missed its rate)" if late else ""
+    got = f"{count(meta['samples'], 'reading')}, {count(meta['contacts_ended'], 'contact')}"
     return (
         f"recorded {got} in {meta['elapsed_s']:.1f} s (stopped by {ended});"
         f" lost {', '.join(lost)}{refused}{late} -> {out}"

@@ -16,7 +16,7 @@ from tactile.board.client import BoardClient
 from tactile.commands import ENV_PORT
 from tactile.errors import InputError
 from tactile.foxglove.live import LiveServer, require_foxglove
-from tactile.output.text import printable
+from tactile.output.text import count, printable
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
@@ -104,10 +104,6 @@ def _rate(rate_hz):
     return f"{rate_hz:g} Hz per sensor by the board's clock" if rate_hz else "every frame"
 
 
-def _count(n, what, plural="s"):
-    return f"{n:,} {what}{plural * (n != 1)}"
-
-
 def stop_foxglove(server, quiet=False):
     """Stop ``server`` (if any); print one line of what it published and dropped."""
     if server is None:
@@ -115,9 +111,9 @@ def stop_foxglove(server, quiet=False):
     s = server.close()
     if quiet:
         return
-    line = f"foxglove: published {s['published']:,} of {_count(s['offered'], 'frame')}"
+    line = f"foxglove: published {s['published']:,} of {count(s['offered'], 'frame')}"
     out = [f"{s['decimated']:,} left out by the rate, {_rate(s['rate_hz'])}"] * bool(s["decimated"])
-    out += [_count(s["other"], "status or reply frame")] * bool(s["other"])
+    out += [count(s["other"], "status or reply frame")] * bool(s["other"])
     if out:
         line += f" ({'; '.join(out)})"
     line += f"; {s['dropped']:,} dropped (the publisher fell behind)"
@@ -128,8 +124,8 @@ def stop_foxglove(server, quiet=False):
     if c is not None:
         line = (
             f"foxglove: scene: {c['contacts']:,} contact readings localised,"
-            f" {_count(c['patches'], 'EP2 patch', 'es')} published"
-            f" ({_count(c['stale_fits'], 'fit')} skipped for newer contacts)"
+            f" {count(c['patches'], 'EP2 patch', 'es')} published"
+            f" ({count(c['stale_fits'], 'fit')} skipped for newer contacts)"
         )
         if c["dropped_batches"]:
             line += f"; {c['dropped_batches']:,} frame batches dropped (the scene fell behind)"

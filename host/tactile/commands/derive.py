@@ -92,10 +92,6 @@ def derive(outdir, pose_log, per_contact=None, payload=None):
     )
 
 
-def _write(path, text):
-    write_bytes(path, text)  # replaced whole; a disk error is exit 5
-
-
 def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, times=None, host=False):
     """SCARA joints (ch. 5) or sensor poses: contacts.csv in metres either way (the thesis's
     tables 5-7 are in cm; ``tactile ep2 analyze --units cm`` shows them so).  ``host``: the
@@ -111,7 +107,7 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, time
     points, normals, finger, report = posed_world_contacts(log, t, sensor, wrench, threshold)
     path = outdir / "contacts.csv"
     if len(t) == 0 and host:  # the host's gate found none: the board's were the weight's
-        _write(path, format_contacts(points, normals, finger=finger))
+        write_bytes(path, format_contacts(points, normals, finger=finger))
         return [f"0 contact readings (the host's gate found no contact) -> {path}"]
     if len(t) == 0:
         raise DataError(
@@ -120,7 +116,7 @@ def _derive_posed(outdir, pose_log, messages, threshold, gate, per_contact, time
         )
     if len(points) == 0:
         raise DataError(f"{outdir}: no contact could be localised: {_why(report, threshold)}")
-    _write(path, format_contacts(points, normals, finger=finger))  # metres, whatever the log
+    write_bytes(path, format_contacts(points, normals, finger=finger))  # metres, whatever the log
     lines = [f"{len(points)} of {len(t)} contact readings localised (m) -> {path}; {report}"]
     if 2 * len(points) < len(t):
         lines.append(
@@ -154,7 +150,7 @@ def _derive_probes(outdir, pose_log, messages, threshold, times=None):
         first = probe_report(log, t, wrench, threshold)[0]
         raise DataError(f"{outdir}: no probe is usable ({first})")
     path = outdir / "probes.csv"
-    _write(path, format_probes(rows[usable]))
+    write_bytes(path, format_probes(rows[usable]))
     out = [f"{int(np.sum(usable))} of {len(usable)} probes usable -> {path}"]
     out += [ln for ln in probe_report(log, t, wrench, threshold) if ": ok" not in ln]
     if 2 * np.sum(usable) < len(usable):

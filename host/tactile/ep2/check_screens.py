@@ -1,6 +1,6 @@
 """The crease, tilt and curvature-jump checks' screens for a stack of patches of one size.
 
-``edges.check``, ``tilt.untilt`` and ``edges.find_jump`` look at one patch at a time; on
+``edges.check``, ``tilt.untilt`` and ``curvature_jump.find_jump`` look at one patch at a time; on
 smooth data nearly every patch passes them.  ``clear`` and ``no_jump`` compute, for a
 stack of like-sized prepared patches, the numbers those checks decide on (the normals'
 gate and the step against the smooth field, the normal screen's far contacts; the tilt's
@@ -14,7 +14,7 @@ ill-conditioned fit is always checked one at a time.
 
 import numpy as np
 
-from tactile.ep2 import edges, tilt
+from tactile.ep2 import curvature_jump, edges, tilt
 
 REL = 1e-6  # relative margin on every decision
 ABS = 1e-9  # absolute margin, in units of the quantity's scale
@@ -36,13 +36,13 @@ def clear(points, normals, opts):
 
 
 def no_jump(points, normals, opts=None):
-    """(B,) whether ``edges.find_jump`` surely finds no curvature jump, for ``points``,
+    """(B,) whether ``curvature_jump.find_jump`` surely finds no jump, for ``points``,
     ``normals`` (B, n, 3) of prepared patches (as fitted: after ``tilt.untilt``): its gates
     (too few contacts, a normal near the tangent plane) or its first test (the slopes'
-    quadratic field no better than their linear one, by ``edges.JUMP_PRE``), by the margins.
+    quadratic field no better than their linear one, by ``JUMP_PRE``), by the margins.
     (``opts``: as ``clear`` takes them; the jump test has none.)"""
     B, n, _ = points.shape
-    if n < edges.MIN_POINTS + edges.MAX_LEFT_OUT:
+    if n < curvature_jump.MIN_POINTS:
         return np.ones(B, bool)
     total = normals.sum(axis=1)
     size = np.linalg.norm(total, axis=-1)
@@ -67,7 +67,7 @@ def no_jump(points, normals, opts=None):
     flat = np.sum((quad[..., :3] @ coef - s) ** 2, axis=(1, 2))
     sure &= ok & ok3
     slack = REL * (flat + res) + ABS * np.sum(s * s, axis=(1, 2))
-    none = flat - res + slack < edges.JUMP_PRE * res / max(n - 6, 1) * (1 - REL)
+    none = flat - res + slack < curvature_jump.JUMP_PRE * res / max(n - 6, 1) * (1 - REL)
     return low | sure & none
 
 

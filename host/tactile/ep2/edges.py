@@ -1,36 +1,36 @@
 """Edges and creases: a patch whose contacts lie on two faces is refused, naming the edge.
 
-A smooth surface's normals vary smoothly over the patch; two faces meeting at an edge give
-normals that jump.  ``find`` compares, along the direction in which the normals turn most
-(``a``, along which two faces' normals differ), two models of the normals:
+Two faces meeting at an edge give normals that jump.  ``find`` cuts the contacts in two by
+their normals along the direction in which these vary most, and finds an edge where the
+step (two constant normals) leaves under ``STEP_RATIO`` of a smooth field's residual (a
+quadratic in the patch coordinates) with each side spread across the edge (over
+``MIN_DEPTH`` of the patch), or where each side's normals are flat (``flat_faces``: they
+neither scatter nor turn within the side as between the sides); the normals turn by
+``MIN_TURN_DEG`` to ``MAX_TURN_DEG`` (over ``MIN_Z`` standard errors) and ``MIN_APART`` of
+the contacts lie on their face's side.  Each face is a plane through its contacts' centroid
+with their mean normal; the edge is the planes' intersection (the point nearest the
+contacts' middle, its direction); the dihedral angle is 180 deg less the normals' turn,
+with a 95 % interval from the normals' scatter (Student t).  A ridge's faces fall away
+from the edge, a valley's rise.
 
-- a step: two constant normals, the contacts cut in two by their normals along ``a``;
-- a smooth field: a quadratic in the patch coordinates (any 2-jet surface, and more).
-
-Where the step's residual is under 1/5 of the smooth field's (``STEP_RATIO``) and each side
-holds at least ``MIN_SIDE`` contacts spread across the edge (over ``MIN_DEPTH`` of the
-patch: two lines along a tight cylinder look like two faces), or where each side's normals
-are flat (``flat_faces``: they neither scatter nor turn within the side as they turn between
-the sides; a smooth field fits a few lines across a crease too), the normals turn at least
-``MIN_TURN_DEG`` (by over ``MIN_Z`` standard errors) and at least ``MIN_APART`` of the
-contacts lie on their face's side of the edge, the patch straddles an edge.  Each face is a
-plane through its contacts' centroid with its mean normal; the edge is the planes' intersection
-(the point nearest the contacts' middle, its direction), the dihedral angle between the
-faces is 180 deg less the normals' turn, with a 95 % interval from the normals' scatter
-about each face's mean (Student t).  A ridge's faces fall away from the edge, a valley's
-rise.
-
-``check`` raises ``EdgeError`` (a ``DataError``, exit 3) for such a patch, naming the edge's
-location, direction and dihedral angle; where more than two normals disagree with the rest
-(beyond ``max_normal_angle``) and no edge explains them, it refuses a bad patch.
-``check_answer`` makes a fitted label ``uncertain`` across a curvature jump (``find_jump``).
+``check`` raises ``EdgeError`` (a ``DataError``, exit 3) naming the edge's location,
+direction and dihedral angle.  Where each side is a line (or lines) along which the normals
+are constant within the noise (``constant_faces``), any surface tangent to the two planes
+along the lines fits as well (a cylinder through two lines along its axis): the edge they
+imply is named as one reading, the layout said not to tell it from a smooth curve.  More
+than ``MAX_LEFT_OUT`` normals disagreeing with the rest with no edge: a bad patch.
+``check_answer`` says the same of a fitted ``plane`` whose normals turn, and makes a label
+``uncertain`` across a curvature jump (``curvature_jump``).
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
+from tactile.ep2 import curvature_jump
 from tactile.errors import DataError
+
+_basis = curvature_jump.tangent_basis  # (check_screens mirrors it)
 
 STEP_RATIO = 1 / 5
 MIN_SIDE = 3
@@ -44,15 +44,13 @@ MIN_APART = 0.8  # share of contacts on their face's side of the edge
 MIN_DEPTH = 0.05  # each face's contacts span this share of the patch across the edge
 HALF_FLOOR_DEG = 1e-6  # noise-free faces: the interval holds the round-off
 MAX_LEFT_OUT = 2  # the normal screen's most (docs/ep2.md)
-JUMP_RATIO = 0.8  # a hinge's residual under this share of a smooth change's
-JUMP_GROSS = 5.0  # a contact the smooth change misses by this many robust sigmas: an outlier
-JUMP_F = 30.0  # and this many times the noise better than a constant curvature
-JUMP_PRE = 10.0  # the smooth change's own F against a constant curvature, to look at all
 FLAT_SHARE = 0.25  # a face's own turn, carried to the other face, explains under this share
 FLAT_Z = 2.0
 TIGHT = 0.1  # a face's normals scatter by under this share of the step (rms)
 MIN_SPREAD = 0.05  # rms, of the patch: a side thinner than this across is one line
 MIN_ACROSS = 0.02  # rms, of the patch: a line running across the edge by less sees nothing
+CONST_CHI2 = {1: 13.82, 2: 18.47}  # by directions a side spans (2 dof each): 99.9 %
+NOISE_FLOOR = 1e-6  # rad: noise-free normals are constant to their round-off
 
 
 @dataclass
@@ -77,8 +75,9 @@ class Edge:
             f"the patch straddles an edge (a {self.kind}) at ({p}){u} along ({d}), dihedral"
             f" {self.dihedral_deg:.1f} deg (95 %: {lo:.1f}-{hi:.1f} deg), faces of"
             f" {len(self.sides[0])} and {len(self.sides[1])} contacts: fit each face alone"
-            + ("; or one surface bent across the lines, which these contacts cannot tell from"
-               " an edge: add contacts across it" if self.ambiguous else "")
+            + ("; or one smooth surface curving between these two tangent planes: this layout"
+               " cannot tell an edge from a smooth curve: sweep across it" if self.ambiguous
+               else "")
         )  # fmt: skip
 
 
@@ -94,16 +93,6 @@ def _t975(dof):
     """Student t's 97.5 % quantile (Cornish-Fisher, within 1 % for dof >= 3)."""
     z, dof = 1.959964, max(dof, 1)
     return z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
-
-
-def _basis(m):
-    """Two unit vectors across the unit vector m (m x ref, then m x that: ``np.cross``
-    written out, which costs more than the rest on 3-vectors)."""
-    a, b, c = m
-    t1 = np.array([0.0, c, -b]) if abs(a) < 0.9 else np.array([-c, 0.0, a])  # ref x, or y
-    t1 /= np.sqrt(t1 @ t1)
-    x, y, z = t1
-    return np.array([[x, b * z - c * y], [y, c * x - a * z], [z, a * y - b * x]])
 
 
 def _unit(v):
@@ -237,6 +226,32 @@ def _gradient(u, m, across, wide):
     return float(np.sum((m - c @ g) ** 2)), np.linalg.norm(g, axis=1) / cos, w[spans] * cos**2
 
 
+def constant_faces(pts, nrm, sides, noise_normal=None):
+    """Whether each side's normals are constant within the noise: they scatter under
+    ``TIGHT`` of the step, and their gradient over the directions the side spans (rms spread
+    over ``MIN_SPREAD`` of the patch: a line spans one; a cluster none, and is no face) is
+    under chi-square's 99.9 % (``CONST_CHI2``).  Two lines along an edge, or along a
+    cylinder, pass: either surface fits them."""
+    means = [nrm[s].mean(axis=0) for s in sides]
+    if max(_rms(nrm[s] - m) for s, m in zip(sides, means)) > TIGHT * np.linalg.norm(
+        means[1] - means[0]
+    ):
+        return False  # a side's normals scatter: outliers, not a face (as ``flat_faces``)
+    xy = pts @ _basis(_unit(nrm.sum(axis=0)))
+    wide, stats, rss, dof = (MIN_SPREAD * np.ptp(xy, axis=0).max()) ** 2, [], 0.0, 2 * len(pts)
+    for s, m in zip(sides, means):
+        u = xy[s] - xy[s].mean(axis=0)
+        w, V = np.linalg.eigh(u.T @ u)
+        c = u @ V[:, w > len(u) * wide]  # (orthogonal columns: each g row's variance s2 / c.c)
+        if not c.shape[1]:
+            return False
+        g = np.linalg.lstsq(c, nrm[s] - m, rcond=None)[0]
+        rss, dof = rss + float(np.sum((nrm[s] - m - c @ g) ** 2)), dof - 2 - 2 * c.shape[1]
+        stats.append((float(np.sum(g**2 * np.sum(c**2, axis=0)[:, None])), c.shape[1]))
+    s2 = max(rss / max(dof, 1), (noise_normal or 0.0) ** 2, NOISE_FLOOR**2)
+    return all(chi2 <= CONST_CHI2[k] * s2 for chi2, k in stats)  # fmt: skip
+
+
 def _edge(pts, sides, n1, n2, turn, half):
     c1, c2 = (pts[s].mean(axis=0) for s in sides)
     direction = _unit(np.cross(n1, n2))
@@ -258,6 +273,7 @@ def check(prep):
     if edge is not None:
         edge.point = edge.point + prep.middle
         raise EdgeError(edge)
+    _ambiguous(prep, constant=True)  # two groups of constant normals: an edge or a curve
     nrm, limit = prep.normals, prep.jet.max_normal_angle
     cosmax = np.cos(np.radians(limit))
     seed = nrm[int(np.argmax(nrm @ nrm.sum(axis=0)))]  # the medoid, as the screen's
@@ -279,121 +295,24 @@ def check(prep):
 
 
 def check_answer(prep, out):
-    """Raise ``EdgeError`` where the fit says ``plane``, or refuses the patch as "positions
-    and normals disagree" (``out`` a ``DataError``), but the normals fall in two groups
-    turned by over ``MIN_TURN_DEG`` (no plane has that): an edge seen along lines that a
-    bent surface would fit as well, named as the edge it may be, and the message says the
-    other reading.  Any other fitted answer across a curvature jump: ``uncertain``."""
+    """Raise ``EdgeError`` (the edge as one reading) where the fit says ``plane``, or
+    "positions and normals disagree" (``out`` a ``DataError``), but the normals fall in two
+    groups (``find``, loose).  Any other answer across a curvature jump: ``uncertain``."""
     if isinstance(out, DataError):
         if not str(out).startswith("positions and normals disagree"):
             return
     elif out.centre.shape != "plane":
-        _jump(prep, out)
+        curvature_jump.check(prep, out)
         return
     _ambiguous(prep)
 
 
-def find_jump(points, normals):
-    """(point, direction) of a curvature jump the contacts straddle, in their frame, or
-    None.  Along an axis u of the gradient of the normals' slope s (the better fitted), a
-    hinge (s constant on one side of u0, linear on the other: a plane joined tangentially
-    to a curved surface) leaves under ``JUMP_RATIO`` of a smooth change's residual (s
-    quadratic in u) and fits over ``JUMP_F`` times better than a constant curvature (s
-    linear in u) by an F test; looked for only where the smooth change beats the constant
-    curvature by ``JUMP_PRE`` over the patch and along u.  Up to ``MAX_LEFT_OUT`` contacts
-    a quadratic slope field misses by ``JUMP_GROSS`` robust sigmas are left out first."""
-    pts, nrm = np.asarray(points, float), np.asarray(normals, float)
-    m = _unit(nrm.sum(axis=0))
-    if len(pts) < MIN_POINTS + MAX_LEFT_OUT or np.min(nrm @ m) <= 0.1:
-        return None
-    T = _basis(m)
-    xy = pts @ T
-    L = np.ptp(xy, axis=0).max()
-    if not L > 0:
-        return None
-    xy = (xy - xy.mean(axis=0)) / L
-    s = -(nrm @ T) / (nrm @ m)[:, None]
-    x, y = xy.T
-    quad = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
-    coef = _solve(quad, s)
-    res = np.sum((quad @ coef - s) ** 2, axis=1)
-    flat = float(np.sum((quad[:, :3] @ _solve(quad[:, :3], s) - s) ** 2))
-    if flat - res.sum() <= JUMP_PRE * res.sum() / max(len(s) - 6, 1):
-        return None  # the curvature does not change over the patch
-    V = np.linalg.eigh(coef[1:3] + coef[1:3].T)[1]  # the slopes' gradient's axes
-    res = np.sqrt(res)
-    gross = np.argsort(res)[::-1][:MAX_LEFT_OUT]
-    gross = gross[res[gross] > JUMP_GROSS * 1.4826 * np.median(res)]
-    keep = np.setdiff1d(np.arange(len(xy)), gross)
-    found = [(*_hinge(xy[keep] @ e, xy[keep] @ [-e[1], e[0]], s[keep] @ e), e) for e in V.T]
-    found = [f for f in found if f[0] is not None]
-    if not found:
-        return None
-    u0, _, e = min(found, key=lambda f: f[1])  # (each axis of the gradient: the better)
-    return pts.mean(axis=0) + T @ (u0 * L * e), T @ [-e[1], e[0]]
-
-
-def _hinge(u, v, y):
-    """(the hinge's u0, its residual over the smooth change's), or (None, None) where it
-    does not pass ``find_jump``'s tests: every cut
-    between neighbouring u with ``MIN_SIDE`` contacts a side, each way, at once (normal
-    equations, a trace-relative ridge of 1e-12 where v holds no information)."""
-    n, one = len(u), np.ones_like(u)
-    lin = _rss(np.column_stack([one, u, v, u * v]), y)
-    smooth = _rss(np.column_stack([one, u, u * u, v, u * v]), y)
-    if lin - smooth <= JUMP_PRE * smooth / max(n - 5, 1):
-        return None, None  # the curvature does not change along u
-    us = np.sort(u)
-    cuts = 0.5 * (us[MIN_SIDE - 1 : n - MIN_SIDE] + us[MIN_SIDE : n - MIN_SIDE + 1])
-    if not len(cuts):
-        return None, None
-    cuts = np.concatenate([cuts, cuts])
-    side = np.repeat([1.0, -1.0], len(cuts) // 2)
-    h = np.maximum(side[:, None] * (u[None] - cuts[:, None]), 0.0)
-    A = np.stack([np.broadcast_to(one, h.shape), h, np.broadcast_to(v, h.shape), h * v], -1)
-    G = A.transpose(0, 2, 1) @ A
-    G += 1e-12 * np.trace(G, axis1=1, axis2=2)[:, None, None] * np.eye(4)
-    coef = np.linalg.solve(G, (A.transpose(0, 2, 1) @ y)[..., None])
-    rss = np.sum(((A @ coef)[..., 0] - y) ** 2, axis=-1)
-    j = int(np.argmin(rss))
-    best, u0 = float(rss[j]), float(cuts[j])
-    gain = (lin - best) / max(best / max(n - 5, 1), 1e-300 * lin)
-    if best >= JUMP_RATIO * smooth or gain <= JUMP_F:
-        return None, None
-    return u0, best / max(smooth, 1e-300)
-
-
-def _rss(A, y):
-    return float(np.sum((A @ _solve(A, y) - y) ** 2))
-
-
-def _solve(A, y):
-    """Least squares by the normal equations (A's columns are of unit size here), with a
-    trace-relative ridge of 1e-12 for a column the contacts leave undetermined."""
-    G = A.T @ A
-    G[np.diag_indices_from(G)] += 1e-12 * np.trace(G)
-    return np.linalg.solve(G, A.T @ y)
-
-
-def _jump(prep, out):
-    """A fitted answer (not ``plane``) across a curvature jump: ``uncertain``, and said."""
-    if isinstance(out, DataError) or out.centre.shape in ("plane", "uncertain"):
-        return
-    got = find_jump(prep.points, prep.normals)
-    if got is None:
-        return
-    where = (got[0] + prep.middle, got[1])
-    p, d = (", ".join(f"{x:{f}}" for x in v) for v, f in zip(where, (".4g", ".3f"), strict=True))
-    out.centre.shape = "uncertain"
-    out.warnings = [*out.warnings,
-                       f"a curvature jump at ({p}) along ({d}): one side's normals keep their"
-                       " slope, the other's turn (a plane joined to a curved surface?); the"
-                       " label is uncertain: fit each side alone"]  # fmt: skip
-
-
-def _ambiguous(prep):
-    edge = find(prep.points, prep.normals, prep.jet.noise_normal, strict=False)
-    if edge is not None:
+def _ambiguous(prep, constant=False):
+    """Raise the ``EdgeError`` of the edge the contacts may straddle (``find``, loose), as
+    one reading of two; with ``constant``, only where ``constant_faces``."""
+    pts, nrm, noise = prep.points, prep.normals, prep.jet.noise_normal
+    edge = find(pts, nrm, noise, strict=False)
+    if edge is not None and (not constant or constant_faces(pts, nrm, edge.sides, noise)):
         edge.point = edge.point + prep.middle
         edge.ambiguous = True
         raise EdgeError(edge)

@@ -191,11 +191,13 @@ def _contacts_3d(ax, points, normals, finger, length, group="finger"):
         ax.quiver(*p.T, *v.T, color=colour, linewidth=0.8, arrow_length_ratio=0.25)
 
 
-def _save(plt, fig, path):
+def save(plt, fig, path, dpi=DPI, tight=True):
+    """Write ``fig`` to ``path`` whole (``atomic_write``; the format the name's, as
+    ``savefig(path)`` takes it), trimmed to its drawing unless ``tight`` is false; close it."""
+    trim = {"bbox_inches": "tight", "pad_inches": 0.15} if tight else {}
     try:
-        with atomic_write(path) as fh:  # the format is the name's, as savefig(path) takes it
-            fig.savefig(fh, format=image_format(path), dpi=DPI, bbox_inches="tight",
-                        pad_inches=0.15)  # fmt: skip
+        with atomic_write(path) as fh:
+            fig.savefig(fh, format=image_format(path), dpi=dpi, **trim)
     finally:
         plt.close(fig)
     return path
@@ -223,7 +225,7 @@ def plot_contacts(points, normals, path, finger=None, title=None, unit=None, gro
     first = plain_text(title) if title else f"{len(pts)} contacts and normals"
     ax.set_title(f"{first}\n({CONTACTS_REF})", fontsize=10)
     _thin_ticks(fig, ax)
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 def plot_patch(result, points, normals, path, finger=None, title=None, unit=None, group="finger"):
@@ -266,7 +268,7 @@ def plot_patch(result, points, normals, path, finger=None, title=None, unit=None
     first = plain_text(title) if title else f"Fitted patch: {_summary(result, unit)}"
     ax.set_title(f"{first}\n({patch_reference(result)})", fontsize=10)
     _thin_ticks(fig, ax)
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 def patch_reference(result):
@@ -364,7 +366,7 @@ def plot_maps(result, path, points=None, title=None, unit=None):
     first = plain_text(title) if title else f"S and C on the {n}x{n} grid: {_summary(result, unit)}"
     dots = "" if xy is None else "; dots: contacts"
     fig.suptitle(f"{first}\n({MAPS_REF}{dots})", fontsize=10)
-    return _save(plt, fig, path)
+    return save(plt, fig, path)
 
 
 def log_ticks(axis):

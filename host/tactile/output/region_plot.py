@@ -12,6 +12,7 @@ returns the path; matplotlib (the ``plot`` extra) is imported only inside it, on
 import numpy as np
 
 from tactile.output import plots
+from tactile.output.text import count
 
 MAP_REF = "cf. thesis fig. 50, §6.2.4-6.2.5"
 PLANE_GREY = "0.6"
@@ -42,10 +43,6 @@ def edge_segment(edge, points, regions, span):
     if not near.any():
         return None
     return np.stack([p + t[near].min() * d, p + t[near].max() * d])
-
-
-def _count(n, word):
-    return f"{n} {word}" if n == 1 else f"{n} {word}s"
 
 
 def plot_region_map(points, region_map, path, title=None, unit=None):
@@ -87,9 +84,9 @@ def plot_region_map(points, region_map, path, title=None, unit=None):
         plots.plain_text(title)
         if title
         else (
-            f"Region map: {_count(len(regions), 'region')}, {_count(len(region_map.edges), 'edge')}"
+            f"Region map: {count(len(regions), 'region')}, {count(len(region_map.edges), 'edge')}"
         )
     )
     ax.set_title(f"{first}\n({MAP_REF})", fontsize=10)
     plots._thin_ticks(fig, ax)
-    return plots._save(plt, fig, path)
+    return plots.save(plt, fig, path)

@@ -67,6 +67,11 @@ def value(v):
     return str(v)
 
 
+def count(n, what, plural="s"):
+    """``n`` ``what`` in words: ``1 frame``, ``2,048 frames``."""
+    return f"{n:,} {what}{plural * (n != 1)}"
+
+
 def fields(d, skip=("type",)):
     """``key=value`` pairs of a message dictionary, space separated."""
     return " ".join(f"{k}={value(v)}" for k, v in d.items() if k not in skip)

@@ -193,9 +193,6 @@ class Session:
         self.ended = "other board"
         raise self.identity.refusal(self.port_name, hello, self.rec.dir)
 
-    def _close_port(self):
-        self.client.close()
-
     def _reconnect(self, why):
         gap = {
             "lost_at_s": round(self.elapsed(), 3),
@@ -205,7 +202,7 @@ class Session:
             "back_at_s": None,  # (not back yet)
         }
         self.gaps.append(gap)
-        self._close_port()
+        self.client.close()
         self._write_meta()
         wait = f"waiting up to {self.reconnect_s:g} s for it to come back"
         self.on_notice(self, f"port lost at {gap['lost_at_s']:.1f} s; {wait}")
@@ -218,13 +215,13 @@ class Session:
                 raise
             except PortLost as exc:  # opened, then gone again (a board still booting)
                 gap.setdefault("retries", []).append(str(exc))
-                self._close_port()
+                self.client.close()
                 continue
             except PortError:  # not there yet
                 continue
             except BoardError as exc:  # there, but not answering (yet)
                 gap.setdefault("retries", []).append(str(exc))
-                self._close_port()
+                self.client.close()
                 continue
             gap["back_at_s"] = round(self.elapsed(), 3)
             self.run_clock.waited()
@@ -320,7 +317,7 @@ class Session:
             self._meta_failed = exc
             self._fail(exc)
         if self.client is not None:
-            self._close_port()
+            self.client.close()
         self.rec.close()
 
     def _refused(self):
@@ -328,7 +325,7 @@ class Session:
 
     def _discard(self):
         if self.client is not None:
-            self._close_port()
+            self.client.close()
         self.rec.discard()
         self.rec.close()
 

@@ -10,5 +10,4 @@ def add_arguments(parser):
     add_group(parser, "what", families("sim"))
 
 
-def run(args):
-    return run_group(args)
+run = run_group

@@ -64,10 +64,7 @@ def add_arguments(parser):
 def run(args):
     from tactile_sim.ep2 import make, sweep, write_rows  # NumPy: a family module (above)
 
-    try:
-        unit = units.parse_length(args.units)
-    except ValueError as exc:
-        raise InputError(f"--units: {exc}") from None
+    unit = units.length_option(args.units)
     if args.radius <= 0:
         raise InputError(f"--radius must be positive (got {args.radius})")
     if args.samples < 1 or args.repeats < 1 or args.patches < 1:

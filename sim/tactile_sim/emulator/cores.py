@@ -72,15 +72,7 @@ def c_board(buses, layout, link, clock, storage, **kw):
     return ccore.CBoard(lib, buses, layout, link, clock, storage, i2c=c_i2c(buses), **kw)
 
 
-def qemu_board(buses, layout, link, clock, storage, **kw):
-    return QemuBoard(buses, layout, link, clock, storage, **kw)
-
-
-def pico_board(buses, layout, link, clock, storage, **kw):
-    return PicoBoard(buses, layout, link, clock, storage, **kw)
-
-
-BUILDERS = {"python": python_board, "c": c_board, "qemu": qemu_board, "rp2040": pico_board}
+BUILDERS = {"python": python_board, "c": c_board, "qemu": QemuBoard, "rp2040": PicoBoard}
 
 
 def wiring(core, i):

@@ -33,7 +33,7 @@ from tactile.logs import ATTITUDE, write_log
 from tactile_sim.emulator.orientation import Track, quaternion
 from tactile_sim.ep1 import rolling
 from tactile_sim.ep1.probes import measure, simulate_probes
-from tactile_sim.ep1.rolling import CHART_MARGIN, finger_pose, true_curvature
+from tactile_sim.ep1.rolling import CHART_MARGIN, axes, finger_pose, true_curvature
 from tactile_sim.ep1.surfaces import fingertip, local, make
 from tactile_sim.rig.fingertip import fingertip_wrench
 
@@ -163,11 +163,6 @@ def build(scene):
         ) from None
 
 
-def _frame(g):
-    """A Gauss frame's axes as columns (3, 3)."""
-    return np.column_stack([g.x, g.y, g.z])
-
-
 def _starts_inside(scene, finger, obj, o):
     """The start contacts lie inside their charts: a roll that starts outside one never
     crosses its edge, so nothing would stop it integrating nonsense (for a minute)."""
@@ -205,7 +200,7 @@ def _build(scene, o):
         return np.concatenate([F, M], axis=-1)
 
     start = paths[0, 0]
-    world = _frame(local(obj, *start[2:4])).T  # world from object: the start normal up
+    world = axes(local(obj, *start[2:4])).T  # world from object: the start normal up
 
     def attitude(states):
         return quaternion([world @ finger_pose(finger, obj, y)[0] for y in states])

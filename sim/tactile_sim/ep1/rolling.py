@@ -162,7 +162,8 @@ def roll(
     return RollResult(float(sol.t[-1]), sol.y[:, -1].copy(), status, int(sol.nfev))
 
 
-def _frame(g):
+def axes(g):
+    """A Gauss frame's axes as columns (3, 3)."""
     return np.column_stack([g.x, g.y, g.z])
 
 
@@ -176,7 +177,7 @@ def finger_pose(finger, obj, y):
     g2 = local(obj, y[2], y[3])
     c, s = np.cos(y[4]), np.sin(y[4])
     F_psi = np.array([[c, -s, 0.0], [-s, -c, 0.0], [0.0, 0.0, -1.0]])
-    R = _frame(g2) @ F_psi @ _frame(g1).T
+    R = axes(g2) @ F_psi @ axes(g1).T
     return R, g2.point - R @ g1.point
 
 

@@ -10,5 +10,4 @@ def add_arguments(parser):
     add_group(parser, "study", families("study"))
 
 
-def run(args):
-    return run_group(args)
+run = run_group
