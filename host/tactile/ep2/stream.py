@@ -212,8 +212,9 @@ def _parallel(work, req, split, jobs):
 # it (patches of one size together, ``patch_input.prepare_stack``), the crease and tilt checks
 # are screened for each size at once (``check_screens``; only the patches not cleared run
 # ``edges.check`` and ``tilt.untilt``), then a stack is fitted by one ``local_jet.fit`` call on
-# a padded stack with a row mask, and ``jet_answers.outcomes`` runs on the whole stack; only
-# the assembly of each result is per patch.  Each result equals ``analyze_patch``'s to
+# a padded stack with a row mask, and ``jet_answers.outcomes`` runs on the whole stack; the
+# curvature-jump test is screened the same way (``check_screens.no_jump``); only the
+# assembly of each result is per patch.  Each result equals ``analyze_patch``'s to
 # round-off (tested); a patch that is refused or malformed gives its exception in its place
 # and the others still come out.  ``method="spline"`` runs one patch at a time.
 
