@@ -50,6 +50,7 @@ MAX_OUTLIERS = 2  # contacts left out by the deletion test; one more refuses the
 GROSS_POSITION = 0.05  # of L: a point off by less is not called an outlier, whatever the test
 GROSS_ANGLE = 10.0  # deg: nor a normal turned by less
 ISOLATED = 4.0  # an outlier's statistic is this many times that of the contacts after the worst
+CHEAP_COND = 1e4  # a stiffer jet takes LAPACK's formed Q (see _qr)
 
 
 @dataclass
@@ -222,12 +223,7 @@ def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
     X = Aw[..., :p_top] if solve else A[..., :p_top] * w[..., None]
     cn = np.sqrt(np.einsum("bij,bij->bj", X, X))
     cn = np.where(cn > 0, cn, 1.0)
-    # the column-scaled jet's R (Householder's QR commutes with scaling the columns) and Q as
-    # X R^-1 (LAPACK's formed Q costs 3-5 x)
-    R = np.linalg.qr(X, mode="r") / cn[:, None, :]
-    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
-    Rinv = _upper_inverse(R, d)
-    Q = X @ (Rinv / cn[:, :, None])
+    R, d, Rinv, Q = _qr(X, cn)
     top = np.full(len(A), 2)
     quiet = np.full(len(A), 2)
     for o in range(3, top_cap + 1):
@@ -245,6 +241,25 @@ def _qr_fits(A, b, w, top_cap, n_kept, solve=True):
             hat[o] = np.einsum("bij,bij->bi", Qo, Qo)
     ok2 = d[:, :6].min(-1) > 1e-9 * d[:, 0]
     return JetFit(Q, Rinv if solve else None, cn, qb, top, quiet, ok2, Aw, w, resid, hat)
+
+
+def _qr(X, cn):
+    """(R, |diag R|, R^-1, Q) of the column-scaled jet X / cn for a stack.  R is Householder's
+    (which commutes with scaling the columns) and Q is X R^-1: LAPACK's formed Q costs 3-5 x
+    at 15 columns.  X R^-1 is orthogonal to about cond * eps and the solutions through it to
+    about cond^2 * eps (the semi-normal equations), so a patch whose jet is stiffer than
+    ``CHEAP_COND`` (by ||R||_F ||R^-1||_F, an upper bound) takes LAPACK's Q and R."""
+    R = np.linalg.qr(X, mode="r") / cn[:, None, :]
+    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+    Rinv = _upper_inverse(R, d)
+    Q = X @ (Rinv / cn[:, :, None])
+    cond = np.sqrt(np.einsum("bij,bij->b", R, R) * np.einsum("bij,bij->b", Rinv, Rinv))
+    stiff = np.flatnonzero(~(cond <= CHEAP_COND))
+    if len(stiff):
+        Q[stiff], R[stiff] = np.linalg.qr(X[stiff] / cn[stiff, None, :])
+        d[stiff] = np.abs(np.diagonal(R[stiff], axis1=-2, axis2=-1))
+        Rinv[stiff] = _upper_inverse(R[stiff], d[stiff])
+    return R, d, Rinv, Q
 
 
 def _upper_inverse(R, d):
