@@ -8,7 +8,7 @@ import tolerance
 
 from tactile.ep2 import analyze_patch, analyze_patches
 from tactile.errors import DataError, InputError
-from tactile_studies.ep2 import cases
+from tactile_studies.ep2 import cases, edge_cases
 
 FIELDS = ("S", "k1", "k2", "radius", "C", "S_mean", "R_mean", "noise_pos", "noise_normal")
 INTERVALS = ("S_interval", "k1_interval", "k2_interval", "radius_interval")
@@ -130,3 +130,22 @@ def test_the_ep2_benches_refuse_a_count_below_one_in_one_line(script, flag, valu
     assert run.returncode == 2 and not run.stdout and "Traceback" not in run.stderr
     assert last.startswith(f"{script}: error: argument {flag}: ")
     assert ("at least 1" if value != "x" else "not a whole number") in last
+
+
+def test_curvature_jumps_in_a_stack_are_named_as_one_at_a_time():
+    """Plane-to-cylinder joins beside smooth patches of their sizes: the stack's jump screen
+    (``check_screens.no_jump``) leaves each join to the per-patch test, so a join is
+    ``uncertain`` with the jump named in the batch exactly where it is alone."""
+    joins = [edge_cases.make("tune", "join", i) for i in range(20, 44)]
+    patches = [{k: d[k] for k in ("points", "normals", "finger")} for d in joins]
+    batch = analyze_patches(patches)
+    named = 0
+    for p, got in zip(patches, batch, strict=True):
+        try:
+            want = analyze_patch(p["points"], p["normals"], finger=p["finger"])
+        except DataError as exc:
+            assert type(got) is type(exc) and str(got) == str(exc)
+            continue
+        assert (got.shape, got.warnings) == (want.shape, want.warnings)
+        named += any(w.startswith("a curvature jump at (") for w in got.warnings)
+    assert named >= 3

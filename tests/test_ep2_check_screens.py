@@ -4,7 +4,7 @@ their per-patch checks)."""
 
 import numpy as np
 
-from tactile.ep2 import check_screens, edges, patch_input, tilt
+from tactile.ep2 import check_screens, curvature_jump, edges, patch_input, tilt
 from tactile.errors import DataError
 from tactile_sim.ep2 import make
 from tactile_studies.ep2 import edge_cases
@@ -93,3 +93,23 @@ def test_creases_named_by_flat_faces_alone_are_not_cleared():
         case = edge_cases.make("tune", kind, index)
         (prep,), edge_ok, _ = _screened([(case["points"], case["normals"], "crease")])
         assert not edge_ok[0] and _trips_edges(prep)
+
+
+def test_a_patch_the_jump_screen_clears_has_no_jump_and_smooth_ones_are_cleared():
+    """``no_jump`` clears a patch only where ``curvature_jump.find_jump`` finds nothing; joins of a
+    plane and a cylinder (the tune split) are left to it, and it names most of them."""
+    patches = [(p, n) for p, n, _ in _patches()]
+    joins = [edge_cases.make("tune", "join", i) for i in range(20, 40)]
+    kw = patch_input.keywords()
+    preps = [patch_input.prepare(p, n, None, None, kw) for p, n in patches]
+    preps += [patch_input.prepare(d["points"], d["normals"], None, None, kw) for d in joins]
+    cleared, found = [], []
+    for size in {len(p.points) for p in preps}:
+        same = [p for p in preps if len(p.points) == size]
+        ok = check_screens.no_jump(np.stack([p.points for p in same]),
+                                   np.stack([p.normals for p in same]))  # fmt: skip
+        cleared += ok.tolist()
+        found += [curvature_jump.find_jump(p.points, p.normals) is not None for p in same]
+    assert not any(c and f for c, f in zip(cleared, found, strict=True))
+    assert sum(found) >= 5
+    assert np.mean(cleared) >= 0.7

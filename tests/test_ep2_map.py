@@ -1,9 +1,11 @@
 """``tactile ep2 map`` and ``tactile.ep2.region_map.map_contacts``: regions, edges, adjacency."""
 
 import json
+from types import SimpleNamespace as Fit
 
 import numpy as np
 
+from tactile.ep2 import region_map
 from tactile.ep2.region_map import map_contacts
 from tactile_sim.commands.sim_ep2 import MAP_OBJECTS
 from tactile_sim.ep2 import map_objects
@@ -124,3 +126,41 @@ def test_a_curvature_jump_is_placed_within_the_contacts_spacing():
             off = [np.asarray(e.point) - truth["point"] for e in jumps]
             dist = [np.linalg.norm(o - (o @ truth["direction"]) * truth["direction"]) for o in off]
             assert min(dist) < 0.12  # cm
+
+
+def test_a_cap_half_of_whose_local_fits_are_uncertain_is_still_a_sphere():
+    """Seed 4: 37 of the cap's 71 neighbourhoods are `uncertain`, nearly all with `sphere`
+    their top vote, and no confident fit says otherwise: the cap is a sphere."""
+    d = map_objects.make("capped_cylinder", 0.005, 0.005, seed=4)
+    found = map_contacts(d["points"], d["normals"], noise_pos=0.005, noise_normal=0.005)
+    assert sorted(r.shape for r in found.regions) == ["cylinder", "sphere"]
+    cap = next(r for r in found.regions if r.shape == "sphere")
+    assert cap.S > 0.9 and cap.S_interval[0] > 0.75  # the sphere band
+
+
+def test_a_region_whose_confident_local_labels_disagree_stays_uncertain():
+    fits = [Fit(shape="cylinder", votes={})] * 6 + [Fit(shape="sphere", votes={})] * 4
+    assert region_map._label(fits, 0.7) == "uncertain"
+    unsure = Fit(shape="uncertain", votes={"sphere": 0.9, "cylinder": 0.1})
+    assert region_map._label([Fit(shape="sphere", votes={})] * 3 + [unsure] * 5, 0.95) == "sphere"
+    assert region_map._label([Fit(shape="sphere", votes={})] * 3 + [unsure] * 5, 0.6) == "uncertain"
+
+
+def test_a_jump_direction_is_the_line_through_its_sections_hinges_and_holds_its_interval():
+    """Seed 17: the crossing links' midpoints run 6.2 deg off the cap's rim; the line through
+    the hinge points of sections across it runs along it, within its stated half-angle."""
+    d = map_objects.make("capped_cylinder", 0.005, 0.005, seed=17)
+    found = map_contacts(d["points"], d["normals"], noise_pos=0.005, noise_normal=0.005)
+    (jump,) = [e for e in found.edges if e.kind == "curvature jump"]
+    truth = d["edges"][0]["direction"]
+    angle = np.degrees(np.arccos(min(1.0, abs(float(np.dot(jump.direction, truth))))))
+    assert angle < 5.0 and angle <= jump.direction_err_deg < 5.0
+
+
+def test_a_strip_along_a_join_held_by_stray_local_labels_joins_a_neighbour():
+    """Seed 18 at noise 0.01: two neighbourhoods at the cap's rim come out `plane` and their
+    eight `uncertain` neighbours settle to it: a 10-contact strip, not a third region."""
+    d = map_objects.make("capped_cylinder", 0.01, 0.01, seed=18)
+    found = map_contacts(d["points"], d["normals"], noise_pos=0.01, noise_normal=0.01)
+    assert sorted(r.shape for r in found.regions) == ["cylinder", "sphere"]
+    assert [e.kind for e in found.edges] == ["curvature jump"]

@@ -31,7 +31,7 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from tactile.ep2 import analyze_patch, local_jet
-from tactile.ep2.geometry import unit_normals
+from tactile.ep2.geometry import design, unit_normals
 from tactile.errors import DataError, InputError
 from tactile.output.text import dumps
 from tactile_sim.ep2 import layouts
@@ -326,6 +326,28 @@ def test_fitting_noise_free_patches_in_a_stack():
     P[1], N[1], mask[1] = two["points"], unit_normals(two["normals"]), True
     batch = local_jet.fit(P, N, mask)
     _assert_as_alone(batch, 0, p, q)
+
+
+def test_a_stiff_jet_in_a_stack_takes_lapacks_orthogonal_q():
+    """The jet's Q is X R^-1 where that is orthogonal to round-off; a patch whose jet is
+    stiffer than ``CHEAP_COND`` (contacts in a cluster 1e-3 of the patch wide beside a
+    spread patch) takes LAPACK's formed Q, orthogonal to round-off whatever the condition."""
+    rng = np.random.default_rng(3)
+    xy = [
+        rng.uniform(-1, 1, (30, 2)),
+        np.vstack([rng.uniform(-1, 1, (3, 2)), 1e-3 * rng.uniform(-1, 1, (27, 2))]),
+    ]
+    spread, stiff = (design(c[:, 0], c[:, 1], 4)[0] for c in xy)
+    X = np.stack([spread, stiff])
+    cn = np.sqrt(np.einsum("bij,bij->bj", X, X))
+    R, d, Rinv, Q = local_jet._qr(X, cn)
+    cond = np.linalg.cond(X / cn[:, None, :])
+    assert cond[0] < local_jet.CHEAP_COND < cond[1]  # one of each
+    for b in range(2):
+        assert np.abs(Q[b].T @ Q[b] - np.eye(X.shape[2])).max() < 1e-12
+        assert np.allclose(Q[b] @ R[b], X[b] / cn[b], atol=1e-12)
+    cheap = stiff / cn[1] @ np.linalg.inv(np.linalg.qr(stiff / cn[1], mode="r"))
+    assert np.abs(cheap.T @ cheap - np.eye(X.shape[2])).max() > 1e-10  # what it would be
 
 
 def _scene(**kw):

@@ -85,7 +85,8 @@ def _edge_rows(rec):
         p = e["point"]
         d = e["direction"] or ["", "", ""]
         yield [*e["regions"], e["kind"], *(_f(v) for v in p), *(_f(v, ".3f") for v in d),
-               _f(e["dihedral_deg"], ".1f"), *_iv(e["dihedral_interval"], ".1f")]  # fmt: skip
+               _f(e["dihedral_deg"], ".1f"), *_iv(e["dihedral_interval"], ".1f"),
+               _f(e["direction_err_deg"], ".2f")]  # fmt: skip
 
 
 def _heads(unit):
@@ -93,7 +94,8 @@ def _heads(unit):
     regions = ["region", "n_points", "shape", "S", "S_lo", "S_hi", f"k1 {k}", f"k1_lo {k}",
                f"k1_hi {k}", f"k2 {k}", f"k2_lo {k}", f"k2_hi {k}"]  # fmt: skip
     edges = ["region_a", "region_b", "kind", f"x ({unit})", f"y ({unit})", f"z ({unit})", "dx",
-             "dy", "dz", "dihedral (deg)", "dihedral_lo (deg)", "dihedral_hi (deg)"]  # fmt: skip
+             "dy", "dz", "dihedral (deg)", "dihedral_lo (deg)", "dihedral_hi (deg)",
+             "direction_err (deg)"]  # fmt: skip
     return regions, edges
 
 

@@ -31,6 +31,7 @@ from tactile.ep2.geometry import (
     curvedness_c,
     curvedness_r,
     eigen,
+    hk_label,
     hk_labels,
     s_region_map,
     shape_entries,
@@ -213,7 +214,7 @@ class PatchResult:
         warnings += [f"normals turn {a:.0f} deg at row {r} (finger {f})" for r, f, a in prep.breaks]
         return cls(
             n_points=len(prep.points), method=method, model=ans.model, **vars(c), **vars(ans.stats),
-            hk_label=str(hk_labels(np.array(K), np.array(H), *eps)[()]),
+            hk_label=hk_label(K, H, *eps),
             direction1=ans.direction1, order=ans.order, weighting=ans.weighting,
             noise_pos=ans.noise_pos, noise_normal=ans.noise_normal, warnings=warnings,
             discontinuities=prep.breaks,

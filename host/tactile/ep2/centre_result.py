@@ -115,7 +115,8 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zer
     intervals honest must not pull a low-noise estimate's k1 and k2 together.
     ``plane_holds_zero``: "plane" only where the k1 and k2 intervals both hold 0 (the
     spline's: its model bias widens the flatness test beyond its intervals)."""
-    d2 = flatness_distance(t, cov)
+    eig = np.linalg.eigh(cov)  # (once: the flatness test and the intervals share it)
+    d2 = flatness_distance(t, cov, eig)
     k1s, k2s = eigen(*np.moveaxis(t, -1, 0))
     m, _, lam = anisotropy(t, cov)
     _, h, _ = anisotropy(t, cov if cov_noise is None else cov_noise)
@@ -123,18 +124,21 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zer
     plane = (r <= R_TOL) | (d2 < CHI2_3_999)  # ``is_plane``
     raw = np.hypot(0.5 * (t[:, 0] - t[:, 2]), t[:, 1])
     # no debiasing where the curvature itself is not resolved
-    iv = ellipsoid_intervals(t, cov, m, np.where(plane, raw, h), lam, bias) if intervals else None
+    hs = np.where(plane, raw, h)
+    iv = ellipsoid_intervals(t, cov, m, hs, lam, bias, eig) if intervals else None
     if iv is not None and plane_holds_zero:
         curved = (r > R_TOL) & _excludes_zero(iv)
         if np.any(plane & curved):
             plane &= ~curved
-            iv = ellipsoid_intervals(t, cov, m, np.where(plane, raw, h), lam, bias)
+            iv = ellipsoid_intervals(t, cov, m, np.where(plane, raw, h), lam, bias, eig)
     h = np.where(plane, raw, h)
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
+    m, h = np.asarray(m, float), np.asarray(h, float)
+    s = shape_index(m + h, m - h).tolist()
     m, h, scale, c = (np.asarray(v, float).tolist() for v in (m, h, scale, c))
     iv = iv and Intervals(**{k: np.asarray(v).tolist() for k, v in vars(iv).items()})
-    flat = zip(r.tolist(), d2.tolist(), plane.tolist(), strict=True)
+    flat = zip(r.tolist(), d2.tolist(), plane.tolist(), s, strict=True)
     return [_summary_one(i, m, h, iv, f, scale, c) for i, f in enumerate(flat)]
 
 
@@ -146,8 +150,8 @@ def _excludes_zero(iv):
 
 def _summary_one(i, m, h, iv, flat, scale, c):
     """Patch ``i``'s ``Centre`` from its stack's numbers (lists); ``flat`` = (R, d^2,
-    plane), ``c`` the curvedness C."""
-    (r, d2, plane), scale = flat, scale[i]
+    plane, S), ``c`` the curvedness C."""
+    (r, d2, plane, s), scale = flat, scale[i]
     m, h = m[i], h[i]
     out = Centre(None, None, None, (m + h) / scale, (m - h) / scale, None, None, None, None,
                  None, None, {})  # fmt: skip
@@ -157,7 +161,6 @@ def _summary_one(i, m, h, iv, flat, scale, c):
     if plane:
         out.shape, out.confidence = "plane", plane_confidence(r, d2)
         return out
-    s = float(shape_index(m + h, m - h))
     sd = None
     if iv is not None:
         root = math.sqrt(float(iv.crit[i]))
@@ -199,11 +202,11 @@ CHI2_3_999 = 16.26623619623813  # chi^2 with 3 dof, 99.9 % quantile
 _EDGES = (-math.inf, *S_EDGES.tolist(), math.inf)
 
 
-def flatness_distance(tensor, cov):
+def flatness_distance(tensor, cov, eig=None):
     """Mahalanobis d^2 of the mean shape-operator entries from 0, per patch of a stack:
-    tensor (B, 3), cov (B, 3, 3) -> (B,)."""
+    tensor (B, 3), cov (B, 3, 3) -> (B,); ``eig``: cov's ``eigh``, where known."""
     diff = np.asarray(tensor, float)
-    w, v = np.linalg.eigh(cov)
+    w, v = np.linalg.eigh(cov) if eig is None else eig
     keep = w > 1e-12 * np.maximum(w.max(axis=-1), 1e-300)[:, None]
     proj = np.where(keep, np.einsum("bij,bi->bj", v, diff), 0.0)
     rest = diff - np.einsum("bij,bj->bi", v, proj)
@@ -298,9 +301,9 @@ def critical_value_k(lam):
     return CHI2_1_95 + frac * (K_UMBILIC - CHI2_1_95)
 
 
-def _mahalanobis(v, cov):
+def _mahalanobis(v, cov, eig=None):
     """|v| in the metric of ``cov`` per problem: v (..., k), cov (..., k, k)."""
-    w, V = np.linalg.eigh(cov)
+    w, V = np.linalg.eigh(cov) if eig is None else eig
     tiny = 1e-12 * np.maximum(w.max(axis=-1), 0.0) + 1e-300
     proj = np.einsum("...ij,...i->...j", V, v)
     return np.sqrt(np.sum(proj * proj / np.maximum(w, tiny[..., None]), axis=-1))
@@ -318,12 +321,12 @@ def _sphere_dirs(n=160):
 _DIRS = _sphere_dirs()
 
 
-def ellipsoid_points(t, cov, crits):
+def ellipsoid_points(t, cov, crits, eig=None):
     """For each radius^2 in ``crits`` (each (B,)): (m, h, ok) at the boundary samples of
     each ellipsoid of the stack (t (B, 3), cov (B, 3, 3)) and where the umbilic axis
     a = c, b = 0 crosses it (those points have h = 0); ``ok`` marks the samples that exist
-    (a gradient step or an axis crossing may not)."""
-    w, V = np.linalg.eigh(cov)
+    (a gradient step or an axis crossing may not); ``eig``: cov's ``eigh``, where known."""
+    w, V = np.linalg.eigh(cov) if eig is None else eig
     w = np.maximum(w, 0.0)
     steps, ok_steps = _gradient_steps(t, cov)
     unit = np.concatenate([(V * np.sqrt(w)[:, None, :]) @ _DIRS, steps], axis=-1)
@@ -332,7 +335,7 @@ def ellipsoid_points(t, cov, crits):
     for crit in crits:
         pts = t[:, :, None] + np.sqrt(crit)[:, None, None] * unit
         m = 0.5 * (pts[:, 0] + pts[:, 2])
-        h = np.hypot(0.5 * (pts[:, 0] - pts[:, 2]), pts[:, 1])
+        h = _norm2(0.5 * (pts[:, 0] - pts[:, 2]), pts[:, 1])
         mu, ok_mu = _axis_crossing(t, w, V, crit)
         out.append(
             (
@@ -342,6 +345,15 @@ def ellipsoid_points(t, cov, crits):
             )
         )
     return out
+
+
+def _norm2(a, b):
+    """hypot(a, b), by sqrt(a^2 + b^2) (a tenth of hypot's cost) where no square of the
+    stack under- or overflows, else by hypot."""
+    big = np.maximum(np.abs(a), np.abs(b))
+    if big.size and 1e-150 < big.min() and big.max() < 1e150:
+        return np.sqrt(a * a + b * b)
+    return np.hypot(a, b)
 
 
 def _gradient_steps(t, cov):
@@ -391,23 +403,23 @@ def _axis_crossing(t, w, V, crit):
     return mu, np.repeat(ok[:, None], 2, axis=1)
 
 
-def ellipsoid_intervals(t, cov, m, h, lam, bias=None):
+def ellipsoid_intervals(t, cov, m, h, lam, bias=None, eig=None):
     """95 % intervals for S, k1, k2 and kmax = |m| + h, each widened to hold the estimate.
 
     ``lam`` is the anisotropy's Mahalanobis length (``anisotropy``); ``bias`` a model-bias
     vector whose outer product is added to Cov, or None.  S uses ``critical_value(lam)``;
     k1, k2 and kmax use ``critical_value_k(lam)``.  One patch (t (3,), cov (3, 3), m, h,
     lam numbers, bias (3,)): each interval (2,), ``crit`` (); a stack (t (B, 3) ...): each
-    (B, 2), ``crit`` (B,)."""
+    (B, 2), ``crit`` (B,).  ``eig``: cov's ``eigh`` (a stack's, without bias), where known."""
     one = np.ndim(t) == 1
     if one:  # a stack of one
         t, cov, bias = (None if x is None else np.asarray(x, float)[None] for x in (t, cov, bias))
         m, h, lam = (np.asarray(x, float).reshape(1) for x in (m, h, lam))
     if bias is not None:
-        cov = cov + bias[:, :, None] * bias[:, None, :]
+        cov, eig = cov + bias[:, :, None] * bias[:, None, :], None
     crit_s = critical_value(lam)
     crit_k = critical_value_k(lam)
-    (sm, sh, s_ok), (pm, ph, p_ok) = ellipsoid_points(t, cov, (crit_s, crit_k))
+    (sm, sh, s_ok), (pm, ph, p_ok) = ellipsoid_points(t, cov, (crit_s, crit_k), eig)
     S = shape_index(sm + sh, sm - sh)
     est = {"S": shape_index(m + h, m - h), "k1": m + h, "k2": m - h, "kmax": np.abs(m) + h}
     vals = {"S": (S, s_ok), "k1": (pm + ph, p_ok), "k2": (pm - ph, p_ok)}
@@ -418,7 +430,7 @@ def ellipsoid_intervals(t, cov, m, h, lam, bias=None):
         hi = np.maximum(np.where(ok, v, -np.inf).max(axis=-1), est[key])
         out[key] = np.stack([lo, hi], axis=-1)
     # the origin inside the ellipsoid: kmax can be 0 (a plane is compatible)
-    inside = _mahalanobis(t, cov) ** 2 <= crit_k
+    inside = _mahalanobis(t, cov, eig) ** 2 <= crit_k
     out["kmax"][:, 0] = np.where(inside, 0.0, out["kmax"][:, 0])
     iv = Intervals(**out, crit=crit_s)
     return Intervals(**{k: v[0] for k, v in vars(iv).items()}) if one else iv

@@ -1,18 +1,20 @@
-"""The crease and tilt checks' screens for a stack of patches of one size, at once.
+"""The crease, tilt and curvature-jump checks' screens for a stack of patches of one size.
 
-``edges.check`` and ``tilt.untilt`` look at one patch at a time; on smooth data nearly every
-patch passes both.  ``clear`` computes, for a stack of like-sized prepared patches, the
-numbers those checks decide on (the normals' gate and the step against the smooth field,
-the normal screen's far contacts; the tilt's fit, its chi^2, size and standard error) with
-stacked NumPy (``eigh``, normal equations) and says which patches pass each check by a
-margin (``REL``, ``ABS``) far beyond the two computations' round-off.  Only the others run
-the per-patch check, so the answers are the per-patch checks' exactly: a patch near a
-threshold, with tied normals or an ill-conditioned fit is always checked one at a time.
+``edges.check``, ``tilt.untilt`` and ``curvature_jump.find_jump`` look at one patch at a time; on
+smooth data nearly every patch passes them.  ``clear`` and ``no_jump`` compute, for a
+stack of like-sized prepared patches, the numbers those checks decide on (the normals'
+gate and the step against the smooth field, the normal screen's far contacts; the tilt's
+fit, its chi^2, size and standard error; the jump's first test, a smooth change of the
+slopes against a constant curvature) with stacked NumPy (``eigh``, normal equations) and
+say which patches pass each check by a margin (``REL``, ``ABS``) far beyond the two
+computations' round-off.  Only the others run the per-patch check, so the answers are the
+per-patch checks' exactly: a patch near a threshold, with tied normals or an
+ill-conditioned fit is always checked one at a time.
 """
 
 import numpy as np
 
-from tactile.ep2 import edges, tilt
+from tactile.ep2 import curvature_jump, edges, tilt
 
 REL = 1e-6  # relative margin on every decision
 ABS = 1e-9  # absolute margin, in units of the quantity's scale
@@ -31,6 +33,42 @@ def clear(points, normals, opts):
     cosmax = np.cos(np.radians([o.max_normal_angle for o in opts]))
     edge = _no_edge(points, normals) & _few_far(normals, cosmax)
     return edge, _no_tilt(points, normals, noise_pos, noise_normal)
+
+
+def no_jump(points, normals, opts=None):
+    """(B,) whether ``curvature_jump.find_jump`` surely finds no jump, for ``points``,
+    ``normals`` (B, n, 3) of prepared patches (as fitted: after ``tilt.untilt``): its gates
+    (too few contacts, a normal near the tangent plane) or its first test (the slopes'
+    quadratic field no better than their linear one, by ``JUMP_PRE``), by the margins.
+    (``opts``: as ``clear`` takes them; the jump test has none.)"""
+    B, n, _ = points.shape
+    if n < curvature_jump.MIN_POINTS:
+        return np.ones(B, bool)
+    total = normals.sum(axis=1)
+    size = np.linalg.norm(total, axis=-1)
+    live = size > 1e-6
+    m = np.where(live[:, None], total / np.where(live, size, 1.0)[:, None], [0.0, 0.0, 1.0])
+    nz = np.einsum("bnk,bk->bn", normals, m)
+    zmin = nz.min(axis=1)
+    low = live & (zmin < 0.1 * (1 - REL))  # (``find_jump`` returns None: a normal near the plane)
+    sure = live & (low | (zmin > 0.1 * (1 + REL)))
+    t1, t2 = _across(m)
+    xy = np.stack([np.einsum("bnk,bk->bn", points, t) for t in (t1, t2)], axis=-1)
+    L = np.ptp(xy, axis=1).max(axis=1)
+    sure &= L > ABS * np.abs(points).max(axis=(1, 2))
+    xy = (xy - xy.mean(axis=1, keepdims=True)) / np.where(L > 0, L, 1.0)[:, None, None]
+    nz = np.where(low[:, None], 1.0, nz)
+    s = -np.stack([np.einsum("bnk,bk->bn", normals, t) for t in (t1, t2)], axis=-1) / nz[..., None]
+    x, y = xy[..., 0], xy[..., 1]
+    quad = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
+    coef, ok = _solve(quad, s)
+    res = np.sum((quad @ coef - s) ** 2, axis=(1, 2))
+    coef, ok3 = _solve(quad[..., :3], s)
+    flat = np.sum((quad[..., :3] @ coef - s) ** 2, axis=(1, 2))
+    sure &= ok & ok3
+    slack = REL * (flat + res) + ABS * np.sum(s * s, axis=(1, 2))
+    none = flat - res + slack < curvature_jump.JUMP_PRE * res / max(n - 6, 1) * (1 - REL)
+    return low | sure & none
 
 
 def _unit(v):
@@ -190,15 +228,26 @@ def _gram(A):
 
 def _solve(A, Y, rhs=None, max_cond=MAX_COND):
     """(the normal equations' solution (B, k, m) of A (B, n, k) against Y (B, n, m), or
-    against ``rhs`` (B, k, m) as given; whether A's condition number is under ``MAX_COND``,
-    so that it is within the margins of ``np.linalg.lstsq``'s) per patch."""
+    against ``rhs`` (B, k, m) as given; whether A's condition number is surely under
+    ``MAX_COND``, so that it is within the margins of ``np.linalg.lstsq``'s) per patch.
+    The bound: cond(G) <= |G|_F |G^-1|_F (G = A^T A), an inverse costing a fraction of G's
+    eigenvalues; a patch it fails is left to the check."""
     G = _gram(A)
-    w = np.linalg.eigvalsh(G)
-    ok = w[:, 0] > w[:, -1] / max_cond**2
-    G[~ok] = np.eye(G.shape[-1])  # (left to the check: any solvable system)
+    try:
+        inv = np.linalg.inv(G)
+    except np.linalg.LinAlgError:  # (an exactly singular G in the stack)
+        w = np.linalg.eigvalsh(G)
+        ok = w[:, 0] > w[:, -1] / max_cond**2
+        G[~ok] = np.eye(G.shape[-1])  # (left to the check: any solvable system)
+        inv = np.linalg.inv(G)
+    else:
+        with np.errstate(over="ignore", invalid="ignore"):
+            bound = np.sqrt(np.sum(G * G, axis=(1, 2)) * np.sum(inv * inv, axis=(1, 2)))
+        ok = bound < max_cond**2
+        inv[~ok] = np.eye(G.shape[-1])  # (any finite solution: the check decides)
     if rhs is None:
         rhs = A.transpose(0, 2, 1) @ Y
-    return np.linalg.solve(G, rhs), ok
+    return inv @ rhs, ok
 
 
 def _residual(A, y, dof):

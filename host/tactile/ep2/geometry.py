@@ -170,12 +170,16 @@ def hk_labels(K, H, eps_k=0.0, eps_h=0.0, table=2):
     """
     names = _HK_NAMES[table == 2]
     if np.ndim(K) == 0 and np.ndim(H) == 0:  # one pair (a patch's label): Python floats
-        k, h, ek, eh = float(K), float(H), float(eps_k), float(eps_h)
-        code = 3 * ((k > ek) - (k < -ek)) + (h > eh) - (h < -eh) + 4
-        return np.array(names[code], dtype=object)
+        return np.array(hk_label(K, H, eps_k, eps_h, table), dtype=object)
     sk = (K > eps_k).astype(int) - (K < -eps_k)  # signs with zero bands |K| <= eps_k ...
     sh = (H > eps_h).astype(int) - (H < -eps_h)  # ... and |H| <= eps_h
     return names[3 * sk + sh + 4]
+
+
+def hk_label(K, H, eps_k=0.0, eps_h=0.0, table=2):
+    """``hk_labels`` of one pair, a str (Python floats: no array for one patch's label)."""
+    k, h, ek, eh = float(K), float(H), float(eps_k), float(eps_h)
+    return str(_HK_NAMES[table == 2][3 * ((k > ek) - (k < -ek)) + (h > eh) - (h < -eh) + 4])
 
 
 _HK_NAMES = tuple(

@@ -59,17 +59,18 @@ def outcomes(stack, jet, names=None):
     keep = stack.keep[ok][..., None]
     box = np.concatenate([np.where(keep, xy, np.inf).min(1), np.where(keep, xy, -np.inf).max(1)],
                          -1)[:, [0, 2, 1, 3]].tolist()  # fmt: skip
+    order = _order_of(stack.coef.shape[1])
+    # Python numbers for the stack at once (``tolist``: the same values as float(a[b]))
+    scale, jet, noise = stack.scale.tolist(), stack.order.tolist(), stack.noise.tolist()
+    stated = stack.stated.any(-1).tolist()
     for k, (b, head) in enumerate(zip(ok.tolist(), heads, strict=True)):
-        L, coef, centre = float(stack.scale[b]), stack.coef[b], stack.centre[b]
-        order = _order_of(len(coef))
+        coef, centre = stack.coef[b], stack.centre[b]
         out[b] = Answer(
-            head, stats[k], _model_text(stack, b), int(stack.order[b]),
-            "stated" if stack.stated[b].any() else "auto",
-            float(stack.noise[b, 0]), float(stack.noise[b, 1]),
-            geometry.PatchFrame(stack.origin[b], stack.axes[b]), L,
+            head, stats[k], _model_text(stack, b), jet[b], "stated" if stated[b] else "auto",
+            *noise[b], geometry.PatchFrame(stack.origin[b], stack.axes[b]), scale[b],
             lambda q, c=centre, o=order, a=coef: design(q[:, 0] - c[0], q[:, 1] - c[1], o)[0] @ a,
             ([c[k] for c in ch], gx[k], gy[k]), d1[k], tuple(box[k]),
-            [_name_rows(w, names[b]) for w in stack.warnings[b]],
+            [_name_rows(w, names[b]) for w in stack.warnings[b]] if stack.warnings[b] else [],
         )  # fmt: skip
     return out
 
@@ -193,12 +194,12 @@ class JetStack:
 
 
 def order_fit(f, o):
-    """(coef (B, p_o), cov factor F (B, p_o, p_o): coef cov = F F^T, weighted residuals)."""
+    """(coef (B, p_o), cov factor F (B, p_o, p_o): coef cov = F F^T)."""
     p = size(o)
     cn = f.cn[:, :p]
     Rinv = f.Rinv[:, :p, :p]  # (the inverse of R's leading block: its leading block)
     coef = mv(Rinv, f.qb[:, :p]) / cn
-    return coef, Rinv / cn[:, :, None], f.resid[o]
+    return coef, Rinv / cn[:, :, None]
 
 
 # Student's t 97.5 % quantile for 1-10 degrees of freedom (Cornish-Fisher beyond)
@@ -221,12 +222,11 @@ def answer(f, keep, reason, warnings, stated):
     hi = np.where(top >= 4, top - 1, top)
     orders = range(2, int(top.max()) + 1)
     theta, cov, coefs = {}, {}, {}
-    resid = {}
     for o in orders:
-        c, F, resid[o] = order_fit(f, o)
+        c, F = order_fit(f, o)
         coefs[o], theta[o] = c, c[:, 1:6]
         cov[o] = F[:, 1:6] @ np.swapaxes(F[:, 1:6], -1, -2)
-    rt = pick(resid, top)
+    rt = pick(f.resid, top)
     dof = 3 * keep.sum(-1) - np.array([size(int(o)) for o in top])
     s2 = np.sum(rt * rt, -1) / np.maximum(dof, 1)
     s2 = np.maximum(np.where(dof > 0, s2, 1.0), 1.0)  # (never below the weights' noise)
@@ -411,6 +411,8 @@ def regress_omitted(f, o, cols, sel):
     """Coefficients of the omitted columns ``cols`` regressed on the order-o jet's, (b, p_o, q):
     how each omitted term, were it there with coefficient 1, moves the fit."""
     p = size(o)
+    every = sel.all()  # (no copy of the stack's Q and jet where every patch is asked)
+    Q, Aw = (f.Q, f.Aw) if every else (f.Q[sel], f.Aw[sel])
     Rinv, cn = f.Rinv[sel][:, :p, :p], f.cn[sel]
-    X = np.swapaxes(f.Q[sel][..., :p], -1, -2) @ f.Aw[sel][..., cols]
+    X = np.swapaxes(Q[..., :p], -1, -2) @ Aw[..., cols]
     return Rinv @ X / cn[:, :p, None]

@@ -13,16 +13,21 @@ regions separated by edges and curvature jumps, and each region is described:
    straddles a join) takes its labelled neighbours' most common label; then a link between
    two contacts whose labels differ (a plane beside a cylinder, a cylinder beside a sphere)
    is cut too.
-5. **Regions** are the connected contacts; regions under ``min_region`` contacts join the
-   neighbouring region they share most links with.
-6. **Each region** is described by its contacts' local fits: the label most of them carry,
-   and the median of S, k1 and k2, with the 2.5-97.5 % range of the local values as the
-   interval (a region is as curved as its parts; one 2-jet cannot follow a half cylinder).
+5. **Regions** are the connected contacts; regions under ``min_region`` contacts, or under
+   twice that with under half their local fits confident (a strip along a join), join
+   the neighbouring region they share most links with.
+6. **Each region** is described by its contacts' local fits: the median of S, k1 and k2,
+   with the 2.5-97.5 % range of the local values as the interval (a region is as curved as
+   its parts; one 2-jet cannot follow a half cylinder), and a label voted by them
+   (``_label``: an ``uncertain`` fit votes its label shares; disagreement stays
+   ``uncertain``).
 7. **Edges between regions**: the regions that share links are adjacent; their boundary's
    contacts are fitted by ``edges.find`` for a crease (point, direction, dihedral angle
-   with its interval), else the boundary is a curvature jump (dihedral 180 deg): along the
-   line the crossing links' midpoints run along, placed across it where the normals' turn
-   across it is best a hinge (constant on one side, growing on the other).
+   with its interval), else the boundary is a curvature jump (dihedral 180 deg), placed
+   where the normals' turn across it is best a hinge (constant on one side, growing on the
+   other): its direction the total-least-squares line through the hinges of sections
+   across it, with a 95 % half-angle; its point the hinge across it from the crossing
+   links' middle.
 """
 
 from collections import Counter
@@ -38,6 +43,8 @@ NEIGHBOURS = 12
 EDGE_ANGLE_DEG = 20.0
 MIN_REGION = 8
 JUMP_REACH = 2.5  # a jump is placed from the contacts within this many link lengths
+JUMP_PASSES = 2  # fits of a jump's direction through its sections' hinge points
+AGREE = 0.75  # the share of a region's confident local labels its label must hold
 CHUNK = 512  # rows of the distance matrix at a time
 
 
@@ -70,6 +77,7 @@ class RegionEdge:
     direction: list | None
     dihedral_deg: float | None
     dihedral_interval: tuple | None
+    direction_err_deg: float | None = None  # a curvature jump's direction's 95 % half-angle
 
     def to_dict(self):
         return dict(self.__dict__, regions=list(self.regions))
@@ -144,7 +152,8 @@ def map_contacts(points, normals, finger=None, *, neighbours_k=NEIGHBOURS,
     jump = np.array([label[a] is not None and label[b] is not None and label[a] != label[b]
                      for a, b in links])  # fmt: skip
     region = _components(len(pts), links[~crease & ~jump])
-    region = _merge_small(region, links, min_region)
+    sure = np.array([not isinstance(r, Exception) and r.shape != "uncertain" for r in local])
+    region = _merge_small(region, links, min_region, sure)
     return _describe(pts, nrm, region, links, local, kw)
 
 
@@ -164,10 +173,15 @@ def _settled(labels, nb, passes=4):
     return label
 
 
-def _merge_small(region, links, min_region):
+def _merge_small(region, links, min_region, sure):
+    """Regions under ``min_region`` contacts, or under twice that with under half their
+    local fits confident (a strip along a join, labelled by a stray local label), joined
+    to the neighbouring region they share most links with, one at a time."""
     while True:
         sizes = np.bincount(region)
-        small = [r for r in np.flatnonzero(sizes) if sizes[r] < min_region]
+        held = np.bincount(region, weights=sure, minlength=len(sizes))
+        small = [r for r in np.flatnonzero(sizes) if sizes[r] < min_region
+                 or (sizes[r] < 2 * min_region and held[r] < sizes[r] / 2)]  # fmt: skip
         if not small or len(np.flatnonzero(sizes)) == 1:
             return np.unique(region, return_inverse=True)[1]
         r = small[0]
@@ -198,15 +212,36 @@ def _region(rid, rows, local):
     fits = [local[i] for i in rows if not isinstance(local[i], Exception)]
     if not fits:
         raise DataError(f"region {rid} ({len(rows)} contacts): no neighbourhood in it is fitted")
-    shape = Counter(f.shape for f in fits).most_common(1)[0][0]
     k1, k1_iv = _quant([f.k1 for f in fits])
     k2, k2_iv = _quant([f.k2 for f in fits])
     s_vals = [f.S for f in fits if f.S is not None]
-    S, S_iv = _quant(s_vals) if s_vals and shape != "plane" else (None, None)
+    S, S_iv = _quant(s_vals) if s_vals else (None, None)
+    shape = _label(fits, S)
+    S, S_iv = (None, None) if shape == "plane" else (S, S_iv)
     mid = int(np.argmin([abs(f.k1 - k1) + abs(f.k2 - k2) for f in fits]))
     d1 = fits[mid].direction1
     return Region(rid, [int(i) for i in rows], shape, S, k1, k2, S_iv, k1_iv, k2_iv,
                   None if d1 is None else [float(v) for v in d1])  # fmt: skip
+
+
+def _label(fits, S):
+    """The region's label: its confident local labels, each one vote, plus the votes of
+    its ``uncertain`` local fits (their top labels' shares), summed; ``uncertain`` where
+    the confident labels disagree (the top one under ``AGREE`` of them), the sum's top is
+    not theirs, or the median S lies outside that label's band."""
+    confident = Counter(f.shape for f in fits if f.shape != "uncertain")
+    if not confident:
+        return "uncertain"
+    top, n = confident.most_common(1)[0]
+    votes = Counter(confident)
+    for f in fits:
+        if f.shape == "uncertain":
+            votes.update(f.votes)
+    if n < AGREE * confident.total() or votes.most_common(1)[0][0] != top:
+        return "uncertain"
+    if top != "plane" and (S is None or geometry.s_region_map(S) != top):
+        return "uncertain"
+    return top
 
 
 def _edge(pts, nrm, region, links, pair, kw):
@@ -225,27 +260,65 @@ def _edge(pts, nrm, region, links, pair, kw):
 
 
 def _jump(pair, pts, nrm, crossing):
-    """A curvature jump along the line the crossing links' midpoints run along (their
-    principal axis), placed across it by ``_hinge``, else at the midpoint nearest the
-    midpoints' mean."""
+    """A curvature jump: its direction the line through the hinge points of sections across
+    it (``_hinge_line``; at first the crossing links' midpoints' principal axis), with the
+    direction's 95 % half-angle; its point the midpoint nearest the midpoints' mean, moved
+    across the line by ``_hinge``."""
     mids = 0.5 * (pts[crossing[:, 0]] + pts[crossing[:, 1]])
     centre = mids.mean(axis=0)
     point = mids[int(np.argmin(np.sum((mids - centre) ** 2, axis=1)))]
     if len(mids) < 2 or not np.ptp(mids, axis=0).max() > 0:
         return RegionEdge(pair, "curvature jump", [float(v) for v in point], None, 180.0, None)
-    d = np.linalg.svd(mids - centre)[2][0]
+    d, err = np.linalg.svd(mids - centre)[2][0], None
     spacing = float(np.median(np.linalg.norm(pts[crossing[:, 0]] - pts[crossing[:, 1]], axis=1)))
+    for _ in range(JUMP_PASSES):
+        line = _hinge_line(pts, nrm, mids, point, d, spacing)
+        if line is None:
+            break
+        d, err = line
     moved = _hinge(pts, nrm, point, d, spacing)  # (a point on it: the line may be an arc)
-    point = point if moved is None else moved
-    return RegionEdge(pair, "curvature jump", [float(v) for v in point],
-                      [float(v) for v in d], 180.0, None)  # fmt: skip
+    point = point if moved is None else moved[0]
+    return RegionEdge(pair, "curvature jump", [float(v) for v in point], [float(v) for v in d],
+                      180.0, None, err)  # fmt: skip
+
+
+def _hinge_line(pts, nrm, mids, point, d, spacing):
+    """(direction, its 95 % half-angle in deg) of the total-least-squares line through the
+    hinge points of sections across the line (``point``, ``d``), one every link length
+    along the crossing links' midpoints and each a link length either side, in the plane
+    across the contacts' mean normal (an arc's bow, along the normal, drops out); None
+    under 3 hinge points.  The half-angle takes each hinge point's offset from the line
+    as its scatter about it plus a cut's rounding (a hinge falls between two contacts)."""
+    along = (pts - point) @ d
+    ends = (mids - point) @ d
+    hinges, gaps = [], []
+    for c in np.arange(ends.min(), ends.max() + spacing / 2, spacing):
+        sel = np.abs(along - c) <= spacing
+        h = _hinge(pts[sel], nrm[sel], point + c * d, d, spacing)
+        if h is not None:
+            hinges.append(h[0])
+            gaps.append(h[1])
+    if len(hinges) < 3:
+        return None
+    m = geometry.unit_normals(nrm[np.abs(along - ends.mean()) <= np.ptp(ends) / 2 + spacing]
+                              .sum(axis=0)[None])[0]  # fmt: skip
+    flat = np.asarray(hinges) - np.mean(hinges, axis=0)
+    flat -= np.outer(flat @ m, m)
+    _, sv, vt = np.linalg.svd(flat, full_matrices=False)
+    new = vt[0] if vt[0] @ d >= 0 else -vt[0]
+    # each hinge point off the line by its scatter, or by where between two contacts its
+    # cut falls (uniform over a link length), whichever the points' spread does not show
+    var = sv[1] ** 2 / max(len(hinges) - 2, 1) + np.mean(np.square(gaps)) / 12
+    se = np.sqrt(var) / max(sv[0], 1e-300)
+    return new, float(np.degrees(np.arctan(1.96 * se)))
 
 
 def _hinge(pts, nrm, centre, d, spacing, reach=JUMP_REACH):
     """Where across the line (``centre``, ``d``) the normals' turn across it is best a
     hinge: constant on one side, growing linearly on the other (a plane or a cylinder's
     straight side beside a curved part), over the contacts within ``reach`` link lengths
-    of the line; None where fewer than 3 lie on each side."""
+    of the line: (the point, the gap between the two contacts its cut falls between); None
+    where fewer than 3 lie on each side."""
     rel = pts - centre
     along = rel @ d
     off = rel - np.outer(along, d)
@@ -259,12 +332,13 @@ def _hinge(pts, nrm, centre, d, spacing, reach=JUMP_REACH):
     y = np.arcsin(np.clip(nrm[near] @ across, -1.0, 1.0))
     order = np.argsort(u)
     u, y = u[order], y[order]
-    best, where = np.inf, None
+    best, where, gap = np.inf, None, None
     for k in range(3, len(u) - 2):
         cut = 0.5 * (u[k - 1] + u[k])
         for side in (1.0, -1.0):
             A = np.column_stack([np.ones_like(u), np.maximum(side * (u - cut), 0.0)])
             coef, *_ = np.linalg.lstsq(A, y, rcond=None)
             r = float(np.sum((A @ coef - y) ** 2))
-            best, where = (r, cut) if r < best else (best, where)
-    return None if where is None else centre + where * across
+            if r < best:
+                best, where, gap = r, cut, u[k] - u[k - 1]
+    return None if where is None else (centre + where * across, float(gap))

@@ -212,8 +212,9 @@ def _parallel(work, req, split, jobs):
 # it (patches of one size together, ``patch_input.prepare_stack``), the crease and tilt checks
 # are screened for each size at once (``check_screens``; only the patches not cleared run
 # ``edges.check`` and ``tilt.untilt``), then a stack is fitted by one ``local_jet.fit`` call on
-# a padded stack with a row mask, and ``jet_answers.outcomes`` runs on the whole stack; only
-# the assembly of each result is per patch.  Each result equals ``analyze_patch``'s to
+# a padded stack with a row mask, and ``jet_answers.outcomes`` runs on the whole stack; the
+# curvature-jump test is screened the same way (``check_screens.no_jump``); only the
+# assembly of each result is per patch.  Each result equals ``analyze_patch``'s to
 # round-off (tested); a patch that is refused or malformed gives its exception in its place
 # and the others still come out.  ``method="spline"`` runs one patch at a time.
 
@@ -307,9 +308,11 @@ def _stack(patches, req):
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:
+        smooth = _by_size(dict(prepared), check_screens.no_jump)
         for (j, prep), res in zip(prepared, _fit(prepared, req.jet), strict=True):
             try:
-                edges.check_answer(prep, res)
+                if not (smooth[j] and _curved(res)):  # (else ``check_answer`` passes it)
+                    edges.check_answer(prep, res)
             except DataError as exc:
                 res = exc
             if not isinstance(res, DataError):
@@ -337,16 +340,27 @@ def _fit(prepared, jet):
 def _screens(preps):
     """({j: bool}, {j: bool}): which prepared patches surely pass ``edges.check`` and are
     surely left as they are by ``tilt.untilt`` (``check_screens``, a stack per size)."""
-    edge, tilted, groups = {}, {}, {}
+    both = _by_size(preps, lambda P, N, opts: np.stack(check_screens.clear(P, N, opts), -1))
+    return {j: e for j, (e, _) in both.items()}, {j: t for j, (_, t) in both.items()}
+
+
+def _by_size(preps, screen):
+    """{j: screen's verdict} of the prepared patches ({j: Prepared}), ``screen`` called on
+    the points, normals (b, n, 3) and options of each size's stack (a stack per size)."""
+    out, groups = {}, {}
     for j, prep in preps.items():
         groups.setdefault(len(prep.points), []).append(j)
     for idx in groups.values():
         P = np.stack([preps[j].points for j in idx])
         N = np.stack([preps[j].normals for j in idx])
-        e, t = check_screens.clear(P, N, [preps[j].jet for j in idx])
-        edge.update(zip(idx, e.tolist(), strict=True))
-        tilted.update(zip(idx, t.tolist(), strict=True))
-    return edge, tilted
+        out.update(zip(idx, screen(P, N, [preps[j].jet for j in idx]).tolist(), strict=True))
+    return out
+
+
+def _curved(res):
+    """Whether ``edges.check_answer`` looks only for a curvature jump in ``res``: a fitted
+    answer, not ``plane``."""
+    return not isinstance(res, DataError) and res.centre.shape != "plane"
 
 
 def _one(p, req):
