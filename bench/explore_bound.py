@@ -11,9 +11,9 @@ touches.  This bench asks what any 9 touches could do, on the same objects, nois
   its stop, the RMS of S - truth at its patch centre after the n-th touch;
 - **fixed 9-touch designs**, analysed once as the fixed plan: ``3x3``, the square's centre,
   corners and edge mid-points (the widest 3 x 3 grid in the square explored); ``corners x2``,
-  the centre and each corner twice (the noise-optimal 9 for a 2-jet of positions and normals
-  on a round object: curvature from normals has variance ~ sigma_n^2 / sum r^2, from
-  positions ~ sigma_p^2 / sum r^4, both largest at the corners);
+  the centre and each corner twice (near the noise-optimal 9 for a 2-jet of positions and
+  normals, which on a sphere puts all 9 at the corners: curvature from normals has variance
+  ~ sigma_n^2 / sum r^2, from positions ~ sigma_p^2 / sum r^4, both largest there);
 - **fixed 3 x 6**, the thesis's plan (18 touches).
 
 Each cell is RMS S error (1) with, in brackets, its mean (the bias: an S bounded at +-1, as a
