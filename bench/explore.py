@@ -1,10 +1,11 @@
 """``tactile explore``'s planner against the thesis's fixed 3 x 6 plan, in process.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/explore.py [--split tune|holdout]
-     [--seeds 20] [--plots DIR (out/explore)] [--ep1] [--flat 0.03] [--s-width W]
+     [--seeds 20] [--plots DIR (out/explore)] [--ep1] [--flat 0.03] [--s-width W] [--lattice]
 
 ``--flat`` (1/cm) is the plane's flatness (``Explorer.flat``), ``--s-width`` the second
-operating point's stop (``Explorer.s_width``: fewer touches against a lower RMS S).
+operating point's stop (``Explorer.s_width``: fewer touches against a lower RMS S),
+``--lattice`` the third's first 9 touches (``Explorer.lattice``: the square's 3 x 3 lattice).
 
 Objects: the EP2 families (``tactile_sim.ep2.objects``: sphere, cylinder, concave cylinder,
 pit, saddle, plane) in the tables 5-7 setup of docs/ep2.md (lengths in cm: a 5 x 6 cm patch,
@@ -125,13 +126,13 @@ def centre_s(obj, res):
     return true_s(obj, c[0], c[1])
 
 
-def run_explore(obj, spec, seed, flat=None, s_width=None):
+def run_explore(obj, spec, seed, flat=None, s_width=None, lattice=False):
     """(touches to a confident correct label or None, a confident wrong label, S error at
     the stop, S error after the whole budget, the trace)."""
     rng = np.random.default_rng(seed)
     opts = {"noise_pos": spec[4], "noise_normal": spec[5]}
     ex = Explorer(Region((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), HALF, STANDOFF), max_touches=BUDGET,
-                  flat=flat, s_width=s_width, options=opts)  # fmt: skip
+                  flat=flat, s_width=s_width, lattice=lattice, options=opts)  # fmt: skip
     first, wrong, at_stop, trace = None, False, None, []
     while ex.touches < BUDGET:  # on past the stop: the error after the same budget as fixed
         plan = ex.plan()
@@ -167,7 +168,7 @@ def rms(v):
     return math.sqrt(sum(x * x for x in v) / len(v)) if v else None
 
 
-def table(split, seeds, plots, flat=None, s_width=None, only=None):
+def table(split, seeds, plots, flat=None, s_width=None, only=None, lattice=False):
     rows = []
     print("| object | explore: touches to a confident correct label, median / max (runs) |"
           " within 9 | confident wrong | RMS S at the stop | RMS S after 18 |"
@@ -177,7 +178,8 @@ def table(split, seeds, plots, flat=None, s_width=None, only=None):
         if only and name not in only:
             continue
         obj = build(spec)
-        ex = [run_explore(obj, spec, SEED0[split] + i, flat, s_width) for i in range(seeds)]
+        ex = [run_explore(obj, spec, SEED0[split] + i, flat, s_width, lattice)
+              for i in range(seeds)]  # fmt: skip
         fx = [run_fixed(obj, spec, SEED0[split] + i, flat) for i in range(seeds)]
         got = [e[0] for e in ex if e[0] is not None]
         med = f"{int(np.median(got))} / {max(got)}" if got else "-"
@@ -337,10 +339,12 @@ def main():
                     help=f"a plane's flatness (1/cm; {FLAT})")  # fmt: skip
     ap.add_argument("--s-width", type=float, default=None,
                     help="also stop only once the S interval is this narrow (1)")  # fmt: skip
+    ap.add_argument("--lattice", action="store_true",
+                    help="the first 9 touches on the square's 3 x 3 lattice")  # fmt: skip
     ap.add_argument("--only", nargs="*", help="these objects only (tuning)")
     args = ap.parse_args()
     t0 = time.process_time()
-    table(args.split, args.seeds, args.plots, args.flat, args.s_width, args.only)
+    table(args.split, args.seeds, args.plots, args.flat, args.s_width, args.only, args.lattice)
     if args.ep1:
         ep1_bench(args.seeds)
     if args.emulated:

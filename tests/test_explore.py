@@ -136,6 +136,21 @@ def test_an_s_width_stop_waits_for_a_narrow_interval():
     assert narrow.touches > quick.touches
 
 
+def test_the_lattice_touches_the_squares_3_x_3_lattice_then_labels_no_sooner():
+    obj = bench.build(bench.SPLITS["tune"]["cylinder"])
+    rng, region = np.random.default_rng(0), Region((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 3.0, 1.5)
+    ex, starts = Explorer(region, options=dict(NOISE), flat=0.03, lattice=True), []
+    while ex.done() is None:
+        plan = ex.plan()
+        starts.append(plan.start)
+        ex.add(*bench.touch(obj, plan, rng, NOISE["noise_pos"], NOISE["noise_normal"]), plan)
+        assert ex.touches >= 9 or ex.done() is None  # (a confident label waits for the 9)
+    first = {tuple(np.round(s[:2], 9)) for s in starts[:9]}  # the centre, corners, edges
+    assert first == {(a, b) for a in (-3.0, 0.0, 3.0) for b in (-3.0, 0.0, 3.0)}
+    assert all(s[2] == 1.5 for s in starts[:9])
+    assert ex.done() == "label" and ex.fit.label == "cylinder" and ex.touches >= 9
+
+
 def test_a_touch_across_a_ridge_is_named_and_the_first_face_kept():
     ex = explore(Crease(0.5, 0.5), seed=0, max_touches=12)
     said = [n for n in ex.notes if "lands across an edge" in n]
@@ -283,6 +298,15 @@ def test_cli_budget_spent_exits_3_saying_what_is_unknown(cli, emulated, tmp_path
     assert "not confident: the budget is spent" in stdout and len(stdout.splitlines()) == 1
     assert "explore: after 4 touches" in stderr.splitlines()[-1]
     assert json.loads((out / "meta.json").read_text())["ended"] == "budget"
+
+
+def test_cli_lattice_touches_the_lattice_first(cli, emulated, tmp_path):
+    port, robot = emulated
+    out = tmp_path / "run"
+    code, stdout, stderr = cli("explore", "--port", port, "--robot", robot, "-o", out,
+                               "--max-touches", "3", "--lattice")  # fmt: skip
+    assert code == 3 and "explore: touch 2 (lattice 2)" in stderr and "(lattice 3)" in stderr
+    assert json.loads((out / "meta.json").read_text())["options"]["lattice"] is True
 
 
 @pytest.mark.parametrize(

@@ -5,7 +5,8 @@ directions to steer it (§6.2.2, "curvature flow"), the shapes still feasible to
 (§6.2.3, the interpretation tree).  For a fingertip that touches one point at a time
 (docs/explore.md):
 
-1. **Seed** (``SEED``) until a fit answers: the region's centre, then a circle around it.
+1. **Seed** (``SEED``) until a fit answers: the region's centre, then a circle around it; or,
+   with ``lattice``, the square's 3 x 3 lattice (``LATTICE``) whatever the fit says.
 2. **Fit** every contact so far with EP2 (``fit_of``): S at the patch centre, its 95 %
    interval, the label (a curved one only while its S interval stays in its band; a plane
    once both curvatures are within ``flat``).
@@ -34,6 +35,7 @@ __all__ = ["MIN_TOUCHES", "Explorer", "Fit", "Region", "TouchPlan", "fit_of", "s
 MIN_TOUCHES = edges.MIN_POINTS  # a label waits until an edge could be seen (8)
 SEED = (90.0, 210.0, 330.0, 30.0, 150.0, 270.0)  # seed angles on the circle (deg)
 SEED_RADIUS = 0.85  # of the region's half-size (a wider footprint pins the quadratic terms)
+LATTICE = ((1, 1), (-1, -1), (-1, 1), (1, -1), (1, 0), (-1, 0), (0, 1), (0, -1))  # x half-size
 GRID = 13  # candidates per side of the principal-direction grid (and of the space filling)
 MIN_GAP = 0.15  # of the half-size: no candidate this close to a contact
 STEP = 1e-4  # of the half-size: the finite difference of the fitted surface's slope
@@ -175,15 +177,14 @@ def _inside(s, iv, band):
     return band[0] - EPS <= lo <= hi <= band[1] + EPS
 
 
-def seed_points(region, k):
-    """World start points of the first ``k`` seed touches (the centre, then ``SEED``)."""
+def seed_points(region, k, lattice=False):
+    """World start points of the first ``k`` seed touches: the centre, then ``SEED``'s circle
+    (or with ``lattice`` the square's corners and edge mid-points, ``LATTICE``)."""
     e1, e2, n = region.axes()
-    c = np.asarray(region.centre, float)
-    out = [c]
-    for a in SEED[: max(k - 1, 0)]:
-        t = math.radians(a)
-        out.append(c + SEED_RADIUS * region.half * (math.cos(t) * e1 + math.sin(t) * e2))
-    return [p + region.standoff * n for p in out[:k]]
+    c, h, r = np.asarray(region.centre, float), region.half, SEED_RADIUS
+    ring = [(r * math.cos(math.radians(a)), r * math.sin(math.radians(a))) for a in SEED]
+    offsets = [(0.0, 0.0)] + list(LATTICE if lattice else ring)
+    return [c + h * (a * e1 + b * e2) + region.standoff * n for a, b in offsets[:k]]
 
 
 @dataclass
@@ -197,6 +198,7 @@ class Explorer:
     min_touches: int = MIN_TOUCHES
     flat: float | None = None  # a plane: the curvature within +-flat (1/length), see fit_of
     s_width: float | None = None  # a curved label also waits for an S interval this narrow
+    lattice: bool = False  # the first 9 touches: the square's 3 x 3 lattice, then the planner
     options: dict = field(default_factory=dict)
     points: list = field(default_factory=list)
     normals: list = field(default_factory=list)
@@ -215,7 +217,8 @@ class Explorer:
 
     def done(self):
         """'label' (confident), 'budget' (spent) or None (go on)."""
-        if confident(self.fit, self._used(), self.confidence, self.min_touches, self.s_width):
+        least = max(self.min_touches, 1 + len(LATTICE)) if self.lattice else self.min_touches
+        if confident(self.fit, self._used(), self.confidence, least, self.s_width):
             return "label"
         return "budget" if self.touches >= self.max_touches else None
 
@@ -226,11 +229,8 @@ class Explorer:
         """A contact (world); returns its ``Fit``.  ``point`` None: ``plan`` missed (``why``);
         its aim (half its travel on) keeps later touches away."""
         if point is None:
-            aim = (
-                self.region.centre
-                if plan is None
-                else (np.asarray(plan.start) + 0.5 * plan.max_travel * np.asarray(plan.direction))
-            )
+            aim = self.region.centre if plan is None else np.asarray(plan.start) + 0.5 * (
+                plan.max_travel * np.asarray(plan.direction))  # fmt: skip
             self.missed.append(np.asarray(aim, float))
             self.notes.append(f"touch {self.touches}: {why or 'no contact within the travel'}")
             self.fits.append(self.fit)
@@ -296,6 +296,9 @@ class Explorer:
     def plan(self):
         """The next ``TouchPlan``."""
         n, fit = len(self.points), self.fit
+        if self.lattice and self.touches < 1 + len(LATTICE):
+            start = seed_points(self.region, self.touches + 1, True)[-1]
+            return self._down(start, None, f"lattice {self.touches + 1}")
         if fit.result is None and n < 1 + len(SEED) and not self.missed:
             start = seed_points(self.region, n + 1)[-1]
             return self._down(start, None, f"seed {n + 1}")
@@ -374,10 +377,8 @@ def scores(res, pts, nrm, cands, options):
     opts = dict(options)
     opts["noise_pos"] = options.get("noise_pos", res.noise_pos)
     opts["noise_normal"] = options.get("noise_normal", res.noise_normal)
-    patches = [
-        (np.vstack([pts, p[None]]), np.vstack([nrm, n[None]]))
-        for p, n in zip(cands["point"], cands["normal"], strict=True)
-    ]
+    patches = [(np.vstack([pts, p[None]]), np.vstack([nrm, n[None]]))
+               for p, n in zip(cands["point"], cands["normal"], strict=True)]  # fmt: skip
     out = analyze_patches(patches, **opts)
     use_s = res.S_interval is not None
     score = np.full(len(out), np.inf)

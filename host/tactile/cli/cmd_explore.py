@@ -6,7 +6,8 @@ hold above the board's contact gate are averaged; the spherical fingertip locali
 contact (``--localise force``: the force's line through the fingertip's centre, frictionless as
 §5.1.1's probe; ``moment``: the line of action, valid with friction; then the sensor's pose at
 the hold); EP2 refits with intervals; the planner chooses the next touch.  It stops when the
-label is confident (``--confidence``, ``--flat``, ``--s-width``) or ``--max-touches`` are
+label is confident (``--confidence``, ``--flat``, ``--s-width``; with ``--lattice`` the first
+9 touches are the square's 3 x 3 lattice and a label waits for them) or ``--max-touches`` are
 spent, and then prints the label on one line: exit 0, or 3 with what is still unknown.
 
 RUN/contacts.csv (EP2's contract, m), RUN/explore.csv (a row per touch: touch, S, S_lo,
@@ -93,6 +94,11 @@ def add_arguments(parser):
         help="contact from the force alone (frictionless, §5.1.1) or"
         " from the line of action (with friction)",
     )
+    parser.add_argument(
+        "--lattice",
+        action="store_true",
+        help="the first 9 touches on the square's 3 x 3 lattice, no label sooner",
+    )
     parser.add_argument("--json", action="store_true", help="the result as one JSON object")
     add_quiet(parser)
     add_foxglove_arguments(parser)
@@ -168,7 +174,7 @@ class Run:
         region = Region(tuple(centre), tuple(-pole), a.half_size, a.standoff)
         noise = {k: getattr(a, k) for k in ("noise_pos", "noise_normal") if getattr(a, k)}
         self.explorer = Explorer(region, a.confidence, a.max_touches, flat=a.flat,
-                                 s_width=a.s_width, options=noise)  # fmt: skip
+                                 s_width=a.s_width, lattice=a.lattice, options=noise)  # fmt: skip
         self.gate = board_settings.to_newtons(self.client.info.enter_threshold)
 
     def _loop(self):
@@ -277,8 +283,8 @@ class Run:
         ex, a = self.explorer, self.args
         fit = ex.fit
         options = {"confidence": a.confidence, "max_touches": a.max_touches, "flat_per_m": a.flat,
-                   "s_width": a.s_width, "half_size_m": a.half_size, "standoff_m": a.standoff,
-                   "force_N": a.force, "finger_radius_m": a.finger_radius,
+                   "s_width": a.s_width, "lattice": a.lattice, "half_size_m": a.half_size,
+                   "standoff_m": a.standoff, "force_N": a.force, "finger_radius_m": a.finger_radius,
                    "finger_offset_m": a.finger_offset, "localise": a.localise,
                    "noise_pos_m": a.noise_pos, "noise_normal_rad": a.noise_normal}  # fmt: skip
         return {
