@@ -303,12 +303,26 @@ def _own(p, req):
     return req.with_noise(**{k: p[k] for k in _OWN if k in p})
 
 
+def _owns(patches, req):
+    """``_own`` of each patch, one ``Request`` (frozen) per distinct noise of the stack."""
+    seen, out = {}, []
+    for p in patches:
+        own = tuple((k, type(p[k]), p[k]) for k in _OWN if k in p) if isinstance(p, dict) else ()
+        try:
+            if own not in seen:
+                seen[own] = _own(p, req)
+            out.append(seen[own])
+        except TypeError:  # (unhashable: that patch's own)
+            out.append(_own(p, req))
+    return out
+
+
 def _stack(patches, req):
     if req.method == "spline":
         return [_one(p, _own(p, req)) for p in patches]
     results, tilted = [None] * len(patches), {}
     unpacked = [_unpack(p) for p in patches]
-    reqs = [_own(p, req) for p in patches]
+    reqs = _owns(patches, req)
     quick = patch_input.prepare_stack(unpacked, reqs)
     preps, prepared = {}, []
     for j, (item, req_j) in enumerate(zip(unpacked, reqs, strict=True)):
