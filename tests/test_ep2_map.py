@@ -164,3 +164,16 @@ def test_a_strip_along_a_join_held_by_stray_local_labels_joins_a_neighbour():
     found = map_contacts(d["points"], d["normals"], noise_pos=0.01, noise_normal=0.01)
     assert sorted(r.shape for r in found.regions) == ["cylinder", "sphere"]
     assert [e.kind for e in found.edges] == ["curvature jump"]
+
+
+def test_each_regions_s_interval_holds_its_truth():
+    """A region's interval is its local values' spread widened to a typical part's own 95 %
+    interval: on a sphere every local S sits just under 1 (noise lowers |S|), so the
+    spread alone held the cap's S = 1 in 60 of 90 regions over 30 seeds."""
+    truth = {"cylinder": 0.5, "sphere": 1.0}
+    for seed in range(3):
+        d = map_objects.make("capped_cylinder", 0.005, 0.005, seed=seed)
+        found = map_contacts(d["points"], d["normals"], noise_pos=0.005, noise_normal=0.005)
+        for r in found.regions:
+            lo, hi = r.S_interval
+            assert lo <= truth[r.shape] <= hi and hi - lo < 0.3, (seed, r.shape, r.S_interval)

@@ -358,8 +358,8 @@ def _scene(**kw):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="two finger lines over a noisy cylinder answered plane: known miss, as the "
-    "two-finger cases of tests/test_ep2_trust_regressions.py",
+    reason="two doubled finger lines over a noisy cylinder answered plane: known miss, "
+    "docs/ep2.md 'Limits'",
 )
 def test_two_doubled_finger_lines_over_a_noisy_cylinder_are_not_confidently_plane():
     """Found by the first property: fingers at x = 0, 0, 1, 1 (two lines 1 apart, 8 stops

@@ -17,8 +17,9 @@ regions separated by edges and curvature jumps, and each region is described:
    twice that with under half their local fits confident (a strip along a join), join
    the neighbouring region they share most links with.
 6. **Each region** is described by its contacts' local fits: the median of S, k1 and k2,
-   with the 2.5-97.5 % range of the local values as the interval (a region is as curved as
-   its parts; one 2-jet cannot follow a half cylinder), and a label voted by them
+   with the 2.5-97.5 % range of the local values, widened to the median local 95 %
+   interval, as the interval (a region is as curved as its parts, and as known as they
+   are; one 2-jet cannot follow a half cylinder), and a label voted by them
    (``_label``: an ``uncertain`` fit votes its label shares; disagreement stays
    ``uncertain``).
 7. **Edges between regions**: the regions that share links are adjacent; their boundary's
@@ -203,19 +204,29 @@ def _describe(pts, nrm, region, links, local, kw):
     return RegionMap(regions, found, adjacency)
 
 
-def _quant(v):
+def _quant(v, iv=None):
+    """(median of ``v``, interval): the 2.5-97.5 % range of the local values, widened to the
+    median local 95 % interval (``iv``, None where a part has none), so the interval holds
+    both the region's spread and what a typical part knows of it."""
     v = np.asarray(v, float)
-    return float(np.median(v)), (float(np.quantile(v, 0.025)), float(np.quantile(v, 0.975)))
+    lo, hi = np.quantile(v, 0.025), np.quantile(v, 0.975)
+    known = [i for i in (iv or ()) if i is not None]
+    if known:
+        lo = min(lo, np.median([a for a, _ in known]))
+        hi = max(hi, np.median([b for _, b in known]))
+    return float(np.median(v)), (float(lo), float(hi))
 
 
 def _region(rid, rows, local):
     fits = [local[i] for i in rows if not isinstance(local[i], Exception)]
     if not fits:
         raise DataError(f"region {rid} ({len(rows)} contacts): no neighbourhood in it is fitted")
-    k1, k1_iv = _quant([f.k1 for f in fits])
-    k2, k2_iv = _quant([f.k2 for f in fits])
-    s_vals = [f.S for f in fits if f.S is not None]
-    S, S_iv = _quant(s_vals) if s_vals else (None, None)
+    k1, k1_iv = _quant([f.k1 for f in fits], [f.k1_interval for f in fits])
+    k2, k2_iv = _quant([f.k2 for f in fits], [f.k2_interval for f in fits])
+    s_fits = [f for f in fits if f.S is not None]
+    S, S_iv = (
+        _quant([f.S for f in s_fits], [f.S_interval for f in s_fits]) if s_fits else (None, None)
+    )
     shape = _label(fits, S)
     S, S_iv = (None, None) if shape == "plane" else (S, S_iv)
     mid = int(np.argmin([abs(f.k1 - k1) + abs(f.k2 - k2) for f in fits]))
