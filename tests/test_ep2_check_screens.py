@@ -113,3 +113,48 @@ def test_a_patch_the_jump_screen_clears_has_no_jump_and_smooth_ones_are_cleared(
     assert not any(c and f for c, f in zip(cleared, found, strict=True))
     assert sum(found) >= 5
     assert np.mean(cleared) >= 0.7
+
+
+def _cone(deg, rng, n=12):
+    """Noise-free normals on a cone of half-angle ``deg`` about z (mean z), a flat patch's
+    points: at the edge gate's angle, round-off decides ``edges.find``'s gate."""
+    phi = np.linspace(0.0, 2 * np.pi, n, endpoint=False) + rng.uniform(0, 1)
+    a = np.radians(deg)
+    nrm = np.column_stack([np.sin(a) * np.cos(phi), np.sin(a) * np.sin(phi), np.full(n, np.cos(a))])
+    return np.column_stack([rng.uniform(-2, 2, (n, 2)), np.zeros(n)]), nrm
+
+
+def _screen_turns(patches):
+    """(per patch: ``no_turn``'s verdict, ``edges.find``'s gate passed) for (points, normals)."""
+    kw = patch_input.keywords()
+    preps = [patch_input.prepare(p, n, None, None, kw) for p, n in patches]
+    out = [None] * len(preps)
+    for size in {len(p.points) for p in preps}:
+        idx = [i for i, p in enumerate(preps) if len(p.points) == size]
+        ok = check_screens.no_turn(np.stack([preps[i].points for i in idx]),
+                                   np.stack([preps[i].normals for i in idx]))  # fmt: skip
+        for i, cleared in zip(idx, ok.tolist(), strict=True):
+            nrm = preps[i].normals
+            total = nrm.sum(axis=0)
+            gate = np.min(nrm @ total) > np.cos(np.radians(edges.GATE_DEG)) * np.linalg.norm(total)
+            out[i] = (cleared, bool(gate))
+    return out
+
+
+def test_a_patch_the_turn_screen_clears_stops_at_the_edge_gate():
+    """``no_turn`` clears a patch only where ``edges.find`` (strict or loose) stops at its
+    gate, so a ``plane`` beside it needs no ``check_answer``: near-flat patches are cleared,
+    flipped normals and creases turning 30 deg or more are not, and cones of normals at the
+    gate's angle are decided with a margin."""
+    rng = np.random.default_rng(3)
+    flat = [(np.column_stack([rng.uniform(-2, 2, (n, 2)), 1e-3 * rng.standard_normal(n)]),
+             [0, 0, 1] + 0.01 * rng.standard_normal((n, 3)))
+            for n in (9, 16, 36) for _ in range(5)]  # fmt: skip
+    others = [(p, n) for p, n, w in _patches() if w == "flipped"]
+    others += [_crease(d, rng) for d in (90.0, 120.0, 150.0)]
+    cones = [_cone(edges.GATE_DEG + d, rng) for d in (-1e-3, -1e-9, 0.0, 1e-9, 1e-3)]
+    got = _screen_turns(flat + others + cones)
+    assert all(gate for cleared, gate in got if cleared)
+    assert all(c for c, _ in got[: len(flat)])
+    assert not any(c for c, _ in got[len(flat) : len(flat) + len(others)])
+    assert [c for c, _ in got[-5:]][::4] == [True, False]

@@ -82,6 +82,26 @@ def _across(m):
     return t1, np.cross(m, t1)
 
 
+def no_turn(points, normals, opts=None):
+    """(B,) whether ``edges.find``, strict or loose, surely stops at its gate (too few
+    contacts, or every normal within ``edges.GATE_DEG`` of the mean), by the margins: then
+    ``edges.check_answer`` has nothing to say of a ``plane`` or a refusal.  (``opts``: as
+    ``clear`` takes them; the gate has none.)"""
+    B, n, _ = points.shape
+    if n < edges.MIN_POINTS:
+        return np.ones(B, bool)
+    gate, _, size = _gate(normals)
+    return gate & (size > 1e-3)  # (normals within the gate sum to about n)
+
+
+def _gate(N):
+    """(``edges.find``'s gate passed by ``ABS``, the normals' sum, its length) (B,) each."""
+    total = N.sum(axis=1)
+    size = np.linalg.norm(total, axis=-1)
+    low = np.einsum("bnk,bk->bn", N, total).min(axis=1)
+    return low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size, total, size
+
+
 def _no_edge(P, N):
     """Whether ``edges.find`` (strict) surely finds no edge: every normal near the mean
     (the gate), or the best step not under ``STEP_RATIO`` of the smooth field's residual
@@ -89,10 +109,7 @@ def _no_edge(P, N):
     B, n, _ = P.shape
     if n < edges.MIN_POINTS:
         return np.ones(B, bool)
-    total = N.sum(axis=1)
-    size = np.linalg.norm(total, axis=-1)
-    low = np.einsum("bnk,bk->bn", N, total).min(axis=1)
-    gate = low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size
+    gate, total, size = _gate(N)
     out = gate.copy()
     todo = np.flatnonzero(~gate & (size > 1e-6))
     if todo.size:
