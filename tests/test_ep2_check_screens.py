@@ -158,3 +158,25 @@ def test_a_patch_the_turn_screen_clears_stops_at_the_edge_gate():
     assert all(c for c, _ in got[: len(flat)])
     assert not any(c for c, _ in got[len(flat) : len(flat) + len(others)])
     assert [c for c, _ in got[-5:]][::4] == [True, False]
+
+
+def test_noise_free_symmetric_patches_are_cleared_of_the_edge_check():
+    """A noise-free, gently curved sphere, cylinder or pit over a symmetric grid ties the
+    normal screen's seed (several contacts' normals are equally central): each tied seed
+    puts the same contacts near, so the screen clears it; three flipped normals still go
+    to the check, which refuses them."""
+    kw = patch_input.keywords()
+    preps, trips = [], []
+    for kind in ("sphere", "cylinder", "pit"):
+        obj = make(kind, 60.0)
+        z, _, _ = obj.eval(XY[:, 0], XY[:, 1])
+        pts, nrm = np.column_stack([XY, z]), obj.normals(XY[:, 0], XY[:, 1])
+        bad = nrm.copy()
+        bad[[0, 14, 35]] *= -1
+        for n in (nrm, bad):
+            preps.append(patch_input.prepare(pts, n, None, None, kw))
+            trips.append(_trips_edges(preps[-1]))
+    P, N = np.stack([p.points for p in preps]), np.stack([p.normals for p in preps])
+    edge_ok, _ = check_screens.clear(P, N, [p.jet for p in preps])
+    assert trips == [False, True] * 3
+    assert edge_ok.tolist() == [True, False] * 3

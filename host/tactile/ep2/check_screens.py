@@ -21,6 +21,7 @@ ABS = 1e-9  # absolute margin, in units of the quantity's scale
 MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to the check
 TILT_COND = 1e4  # the same for the tilt's weighted fit (its rows' scales differ)
 TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than the rest
+SEED_ROWS = 64  # contacts up to which every seed of the normal screen that ties is tried
 
 
 def clear(points, normals, opts):
@@ -169,17 +170,33 @@ def _scattered(c1, left, right, j, k):
 def _few_far(N, cosmax):
     """Whether ``edges.check``'s normal screen surely leaves out at most ``MAX_LEFT_OUT``."""
     dots = np.einsum("bnk,bk->bn", N, N.sum(axis=1))
-    top = np.sort(dots, axis=1)[:, -2:] if N.shape[1] > 1 else np.repeat(dots, 2, axis=1)
-    scale = np.abs(dots).max(axis=1)
-    sure = (N.shape[1] == 1) | (top[:, 1] - top[:, 0] > REL * scale)
-    seed = N[np.arange(len(N)), np.argmax(dots, axis=1)]
-    near = np.einsum("bnk,bk->bn", N, seed) - cosmax[:, None]
-    sure &= np.all(np.abs(near) > REL, axis=1)
+    seed = np.argmax(dots, axis=1)
+    if N.shape[1] <= SEED_ROWS:
+        seeds = np.einsum("bnk,bmk->bnm", N, N) - cosmax[:, None, None]  # (seed n, contact m)
+        near = seeds[np.arange(len(N)), seed]
+        sure = _same_near(dots, seeds, near)
+    else:  # (a seed that ties the next: left to the check)
+        top = np.sort(dots, axis=1)[:, -2:]
+        near = np.einsum("bnk,bk->bn", N, N[np.arange(len(N)), seed]) - cosmax[:, None]
+        sure = top[:, 1] - top[:, 0] > REL * np.abs(dots).max(axis=1)
+        sure &= np.all(np.abs(near) > REL, axis=1)
     mean = _unit(np.einsum("bn,bnk->bk", (near > 0).astype(float), N))
     cos = np.einsum("bnk,bk->bn", N, mean)
     sure &= np.all(np.abs(cos - cosmax[:, None]) > REL, axis=1)
     far = np.sum(cos <= cosmax[:, None], axis=1)
     return sure & (far <= edges.MAX_LEFT_OUT)
+
+
+def _same_near(dots, seeds, near):
+    """Whether the contacts near the seed (``near``, (B, n): each one's cosine to it less
+    the limit's) are surely those near the check's seed: every contact whose dot with the
+    normals' sum ties the largest (the check's argmax, to round-off) puts, as the seed
+    (``seeds`` (B, n, n)), the same contacts near, each by ``REL``.  Noise-free patches
+    laid out symmetrically tie."""
+    scale = np.abs(dots).max(axis=1, keepdims=True)
+    tied = dots >= dots.max(axis=1, keepdims=True) - REL * scale
+    same = np.all(np.abs(seeds) > REL, axis=2) & np.all((seeds > 0) == (near > 0)[:, None], 2)
+    return np.all(same | ~tied, axis=1)
 
 
 def _no_tilt(P, N, noise_pos, noise_normal):
