@@ -180,3 +180,28 @@ def test_noise_free_symmetric_patches_are_cleared_of_the_edge_check():
     edge_ok, _ = check_screens.clear(P, N, [p.jet for p in preps])
     assert trips == [False, True] * 3
     assert edge_ok.tolist() == [True, False] * 3
+
+
+def _sweeps(kind, rng, deg=0.0):
+    """Three close finger sweeps (0.2 apart) of 6 contacts, 4 long, over a curved patch,
+    normals turned by ``deg``."""
+    x = np.tile(np.linspace(0.0, 4.0, 6), 3) + rng.uniform(-0.05, 0.05, 18)
+    y = np.repeat([1.8, 2.0, 2.2], 6) + rng.uniform(-0.005, 0.005, 18)
+    obj = make(kind, 12.0)
+    z, _, _ = obj.eval(x, y)
+    pts = np.column_stack([x, y, z]) + 0.002 * rng.standard_normal((18, 3))
+    nrm = obj.normals(x, y) + 0.002 * rng.standard_normal((18, 3))
+    return pts, _turned(nrm, deg)
+
+
+def test_sweeps_without_a_tilt_are_cleared_and_tilted_sweeps_are_not():
+    """Close sweeps make the tilt fit's quadratic columns ill-conditioned for the normal
+    equations (cond ~ 2e3, its square beyond their bound): the screen fits them by QR, so
+    tilt-free sweeps skip ``tilt.untilt`` while a 4 deg tilt still goes to it and is named."""
+    rng = np.random.default_rng(5)
+    patches = [(*_sweeps(k, rng, deg), deg) for k in ("sphere", "cylinder", "saddle")
+               for deg in (0.0, 0.0, 4.0)]  # fmt: skip
+    preps, _, tilt_ok = _screened(patches)
+    named = [tilt.untilt(p)[1] is not None for p in preps]
+    assert named == [deg > 0 for _, _, deg in patches]
+    assert tilt_ok.tolist() == [deg == 0 for _, _, deg in patches]

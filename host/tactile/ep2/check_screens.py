@@ -21,6 +21,7 @@ ABS = 1e-9  # absolute margin, in units of the quantity's scale
 MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to the check
 TILT_COND = 1e4  # the same for the tilt's weighted fit (its rows' scales differ)
 TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than the rest
+QR_COND = 1e4  # the same for a fit by QR (its residual's error grows as cond, not cond^2)
 SEED_ROWS = 64  # contacts up to which every seed of the normal screen that ties is tried
 
 
@@ -228,7 +229,7 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     H = np.stack([one, x, y, x * x / 2, x * y, y * y / 2, zero, zero], axis=-1)
     Sx = np.stack([zero, one, zero, x, y, zero, one, zero], axis=-1)
     Sy = np.stack([zero, zero, one, zero, x, y, zero, one], axis=-1)
-    sp, ok = _residual(H[..., :6], z, n - 6)
+    sp, ok = _qr_residual(H[..., :6], z, n - 6)  # (sweeps' quadratic columns: cond ~ 1e3)
     sp = np.fmax(sp, noise_pos / Ls)  # (NaN where not stated: the residual alone)
     sure &= ok
     r, ok = _residual(H[..., :3], np.stack([sx, sy], axis=-1), n - 3)
@@ -291,3 +292,18 @@ def _residual(A, y, dof):
     coef, ok = _solve(A, Y)
     rms = np.sqrt(np.sum((A @ coef - Y) ** 2, axis=1) / max(dof, 1))
     return (rms if y.ndim == 3 else rms[:, 0]), ok
+
+
+def _qr_residual(A, y, dof):
+    """``_residual`` of y (B, n) by Householder QR, its residual within about cond(A) eps
+    of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps), and whether cond(A) is
+    surely under ``QR_COND`` (by ||R||_F ||R^-1||_F) per patch."""
+    Q, R = np.linalg.qr(A)
+    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+    tiny = ~(d > 1e-12 * np.maximum(d.max(axis=-1, keepdims=True), 1e-300))
+    Rinv = np.linalg.inv(R + np.eye(R.shape[-1]) * tiny[:, None, :])
+    with np.errstate(over="ignore", invalid="ignore"):
+        bound = np.sqrt(np.sum(R * R, axis=(1, 2)) * np.sum(Rinv * Rinv, axis=(1, 2)))
+    ok = ~tiny.any(axis=-1) & (bound < QR_COND)
+    r = y - (Q @ (np.swapaxes(Q, -1, -2) @ y[..., None]))[..., 0]
+    return np.sqrt(np.sum(r * r, axis=1) / max(dof, 1)), ok
