@@ -113,3 +113,95 @@ def test_a_patch_the_jump_screen_clears_has_no_jump_and_smooth_ones_are_cleared(
     assert not any(c and f for c, f in zip(cleared, found, strict=True))
     assert sum(found) >= 5
     assert np.mean(cleared) >= 0.7
+
+
+def _cone(deg, rng, n=12):
+    """Noise-free normals on a cone of half-angle ``deg`` about z (mean z), a flat patch's
+    points: at the edge gate's angle, round-off decides ``edges.find``'s gate."""
+    phi = np.linspace(0.0, 2 * np.pi, n, endpoint=False) + rng.uniform(0, 1)
+    a = np.radians(deg)
+    nrm = np.column_stack([np.sin(a) * np.cos(phi), np.sin(a) * np.sin(phi), np.full(n, np.cos(a))])
+    return np.column_stack([rng.uniform(-2, 2, (n, 2)), np.zeros(n)]), nrm
+
+
+def _screen_turns(patches):
+    """(per patch: ``no_turn``'s verdict, ``edges.find``'s gate passed) for (points, normals)."""
+    kw = patch_input.keywords()
+    preps = [patch_input.prepare(p, n, None, None, kw) for p, n in patches]
+    out = [None] * len(preps)
+    for size in {len(p.points) for p in preps}:
+        idx = [i for i, p in enumerate(preps) if len(p.points) == size]
+        ok = check_screens.no_turn(np.stack([preps[i].points for i in idx]),
+                                   np.stack([preps[i].normals for i in idx]))  # fmt: skip
+        for i, cleared in zip(idx, ok.tolist(), strict=True):
+            nrm = preps[i].normals
+            total = nrm.sum(axis=0)
+            gate = np.min(nrm @ total) > np.cos(np.radians(edges.GATE_DEG)) * np.linalg.norm(total)
+            out[i] = (cleared, bool(gate))
+    return out
+
+
+def test_a_patch_the_turn_screen_clears_stops_at_the_edge_gate():
+    """``no_turn`` clears a patch only where ``edges.find`` (strict or loose) stops at its
+    gate, so a ``plane`` beside it needs no ``check_answer``: near-flat patches are cleared,
+    flipped normals and creases turning 30 deg or more are not, and cones of normals at the
+    gate's angle are decided with a margin."""
+    rng = np.random.default_rng(3)
+    flat = [(np.column_stack([rng.uniform(-2, 2, (n, 2)), 1e-3 * rng.standard_normal(n)]),
+             [0, 0, 1] + 0.01 * rng.standard_normal((n, 3)))
+            for n in (9, 16, 36) for _ in range(5)]  # fmt: skip
+    others = [(p, n) for p, n, w in _patches() if w == "flipped"]
+    others += [_crease(d, rng) for d in (90.0, 120.0, 150.0)]
+    cones = [_cone(edges.GATE_DEG + d, rng) for d in (-1e-3, -1e-9, 0.0, 1e-9, 1e-3)]
+    got = _screen_turns(flat + others + cones)
+    assert all(gate for cleared, gate in got if cleared)
+    assert all(c for c, _ in got[: len(flat)])
+    assert not any(c for c, _ in got[len(flat) : len(flat) + len(others)])
+    assert [c for c, _ in got[-5:]][::4] == [True, False]
+
+
+def test_noise_free_symmetric_patches_are_cleared_of_the_edge_check():
+    """A noise-free, gently curved sphere, cylinder or pit over a symmetric grid ties the
+    normal screen's seed (several contacts' normals are equally central): each tied seed
+    puts the same contacts near, so the screen clears it; three flipped normals still go
+    to the check, which refuses them."""
+    kw = patch_input.keywords()
+    preps, trips = [], []
+    for kind in ("sphere", "cylinder", "pit"):
+        obj = make(kind, 60.0)
+        z, _, _ = obj.eval(XY[:, 0], XY[:, 1])
+        pts, nrm = np.column_stack([XY, z]), obj.normals(XY[:, 0], XY[:, 1])
+        bad = nrm.copy()
+        bad[[0, 14, 35]] *= -1
+        for n in (nrm, bad):
+            preps.append(patch_input.prepare(pts, n, None, None, kw))
+            trips.append(_trips_edges(preps[-1]))
+    P, N = np.stack([p.points for p in preps]), np.stack([p.normals for p in preps])
+    edge_ok, _ = check_screens.clear(P, N, [p.jet for p in preps])
+    assert trips == [False, True] * 3
+    assert edge_ok.tolist() == [True, False] * 3
+
+
+def _sweeps(kind, rng, deg=0.0):
+    """Three close finger sweeps (0.2 apart) of 6 contacts, 4 long, over a curved patch,
+    normals turned by ``deg``."""
+    x = np.tile(np.linspace(0.0, 4.0, 6), 3) + rng.uniform(-0.05, 0.05, 18)
+    y = np.repeat([1.8, 2.0, 2.2], 6) + rng.uniform(-0.005, 0.005, 18)
+    obj = make(kind, 12.0)
+    z, _, _ = obj.eval(x, y)
+    pts = np.column_stack([x, y, z]) + 0.002 * rng.standard_normal((18, 3))
+    nrm = obj.normals(x, y) + 0.002 * rng.standard_normal((18, 3))
+    return pts, _turned(nrm, deg)
+
+
+def test_sweeps_without_a_tilt_are_cleared_and_tilted_sweeps_are_not():
+    """Close sweeps make the tilt fit's quadratic columns ill-conditioned for the normal
+    equations (cond ~ 2e3, its square beyond their bound): the screen fits them by QR, so
+    tilt-free sweeps skip ``tilt.untilt`` while a 4 deg tilt still goes to it and is named."""
+    rng = np.random.default_rng(5)
+    patches = [(*_sweeps(k, rng, deg), deg) for k in ("sphere", "cylinder", "saddle")
+               for deg in (0.0, 0.0, 4.0)]  # fmt: skip
+    preps, _, tilt_ok = _screened(patches)
+    named = [tilt.untilt(p)[1] is not None for p in preps]
+    assert named == [deg > 0 for _, _, deg in patches]
+    assert tilt_ok.tolist() == [deg == 0 for _, _, deg in patches]

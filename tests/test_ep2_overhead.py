@@ -1,12 +1,13 @@
 """The per-patch steps around the EP2 fit, rewritten on Python numbers for speed (issue 13),
 give what their array forms give: the S vote."""
 
+import gc
 import math
 
 import numpy as np
 import pytest
 
-from tactile.ep2 import centre_result
+from tactile.ep2 import analyze_patches, centre_result
 from tactile.ep2.geometry import S_EDGES, S_NAMES
 
 
@@ -56,3 +57,34 @@ def test_duplicate_rows_found_as_by_whole_rows():
     got = has_duplicates(P, N)
     assert np.array_equal(got, repeats(P, N))
     assert got[::3].all() and not got[1::3].any() and got[5::9].all()
+
+
+def _spheres(n, seed=0, rows=12):
+    """n noisy sphere caps (r 20, 4 wide) as ``analyze_patches`` takes them."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        xy = rng.uniform(-2, 2, (rows, 2))
+        z = np.sqrt(400.0 - np.sum(xy * xy, 1)) - 20.0  # a dome
+        pts = np.c_[xy, z] + rng.normal(0, 1e-3, (rows, 3))
+        out.append({"points": pts, "normals": np.c_[xy, z + 20.0] / 20.0,
+                    "noise_pos": 1e-3, "noise_normal": 1e-3})  # fmt: skip
+    return out
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_a_stack_runs_without_the_cyclic_collector_and_leaves_it_as_it_was(enabled):
+    """One stack of 256 patches: at most the pass after it (not one per 700 allocations),
+    and the collector's state as the caller had it."""
+    passes = []
+    gc.callbacks.append(lambda phase, info: phase == "start" and passes.append(info))
+    was = gc.isenabled()
+    (gc.enable if enabled else gc.disable)()
+    try:
+        got = analyze_patches(_spheres(256))
+        assert gc.isenabled() is enabled
+    finally:
+        gc.callbacks.pop()
+        (gc.enable if was else gc.disable)()
+    assert all(r.shape == "sphere" for r in got)
+    assert len(passes) <= (1 if enabled else 0)

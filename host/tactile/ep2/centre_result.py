@@ -155,19 +155,19 @@ def _summary_one(i, m, h, iv, flat, scale, c):
     m, h = m[i], h[i]
     out = Centre(None, None, None, (m + h) / scale, (m - h) / scale, None, None, None, None,
                  None, None, {})  # fmt: skip
-    if iv is not None:
-        out.k1_interval = tuple(float(v) / scale for v in iv.k1[i])
-        out.k2_interval = tuple(float(v) / scale for v in iv.k2[i])
+    if iv is not None:  # (Python floats: ``summary``'s ``tolist``)
+        (lo1, hi1), (lo2, hi2) = iv.k1[i], iv.k2[i]
+        out.k1_interval, out.k2_interval = (lo1 / scale, hi1 / scale), (lo2 / scale, hi2 / scale)
     if plane:
         out.shape, out.confidence = "plane", plane_confidence(r, d2)
         return out
     sd = None
     if iv is not None:
-        root = math.sqrt(float(iv.crit[i]))
-        s_iv = tuple(float(v) for v in iv.S[i])
+        root = math.sqrt(iv.crit[i])
+        s_iv = tuple(iv.S[i])
         sd = ((s - s_iv[0]) / root, (s_iv[1] - s) / root)
         out.S_interval = s_iv
-        lo, hi = (float(v) for v in iv.kmax[i])
+        lo, hi = iv.kmax[i]
         out.radius_interval = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
     p_flat = plane_confidence(r, d2)
     out.shape, out.confidence, out.votes = vote(s, sd, p_flat)
@@ -250,7 +250,7 @@ def vote(s_est, s_sd, p_flat=0.0):
     """
     if not s_sd or not (any(s_sd) if type(s_sd) is tuple else np.any(s_sd)):
         return S_NAMES[int(s_class(s_est))], 1.0 - p_flat, {}
-    lo, hi = (s_sd, s_sd) if np.isscalar(s_sd) else s_sd
+    lo, hi = s_sd if type(s_sd) is tuple or not np.isscalar(s_sd) else (s_sd, s_sd)
     cdf = [split_normal_cdf(e, s_est, lo, hi) for e in _EDGES]
     # Python floats, the same arithmetic as np.diff; argmax as numpy's (first NaN, else
     # the first largest)

@@ -21,6 +21,8 @@ ABS = 1e-9  # absolute margin, in units of the quantity's scale
 MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to the check
 TILT_COND = 1e4  # the same for the tilt's weighted fit (its rows' scales differ)
 TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than the rest
+QR_COND = 1e4  # the same for a fit by QR (its residual's error grows as cond, not cond^2)
+SEED_ROWS = 64  # contacts up to which every seed of the normal screen that ties is tried
 
 
 def clear(points, normals, opts):
@@ -82,6 +84,26 @@ def _across(m):
     return t1, np.cross(m, t1)
 
 
+def no_turn(points, normals, opts=None):
+    """(B,) whether ``edges.find``, strict or loose, surely stops at its gate (too few
+    contacts, or every normal within ``edges.GATE_DEG`` of the mean), by the margins: then
+    ``edges.check_answer`` has nothing to say of a ``plane`` or a refusal.  (``opts``: as
+    ``clear`` takes them; the gate has none.)"""
+    B, n, _ = points.shape
+    if n < edges.MIN_POINTS:
+        return np.ones(B, bool)
+    gate, _, size = _gate(normals)
+    return gate & (size > 1e-3)  # (normals within the gate sum to about n)
+
+
+def _gate(N):
+    """(``edges.find``'s gate passed by ``ABS``, the normals' sum, its length) (B,) each."""
+    total = N.sum(axis=1)
+    size = np.linalg.norm(total, axis=-1)
+    low = np.einsum("bnk,bk->bn", N, total).min(axis=1)
+    return low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size, total, size
+
+
 def _no_edge(P, N):
     """Whether ``edges.find`` (strict) surely finds no edge: every normal near the mean
     (the gate), or the best step not under ``STEP_RATIO`` of the smooth field's residual
@@ -89,10 +111,7 @@ def _no_edge(P, N):
     B, n, _ = P.shape
     if n < edges.MIN_POINTS:
         return np.ones(B, bool)
-    total = N.sum(axis=1)
-    size = np.linalg.norm(total, axis=-1)
-    low = np.einsum("bnk,bk->bn", N, total).min(axis=1)
-    gate = low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size
+    gate, total, size = _gate(N)
     out = gate.copy()
     todo = np.flatnonzero(~gate & (size > 1e-6))
     if todo.size:
@@ -152,17 +171,33 @@ def _scattered(c1, left, right, j, k):
 def _few_far(N, cosmax):
     """Whether ``edges.check``'s normal screen surely leaves out at most ``MAX_LEFT_OUT``."""
     dots = np.einsum("bnk,bk->bn", N, N.sum(axis=1))
-    top = np.sort(dots, axis=1)[:, -2:] if N.shape[1] > 1 else np.repeat(dots, 2, axis=1)
-    scale = np.abs(dots).max(axis=1)
-    sure = (N.shape[1] == 1) | (top[:, 1] - top[:, 0] > REL * scale)
-    seed = N[np.arange(len(N)), np.argmax(dots, axis=1)]
-    near = np.einsum("bnk,bk->bn", N, seed) - cosmax[:, None]
-    sure &= np.all(np.abs(near) > REL, axis=1)
+    seed = np.argmax(dots, axis=1)
+    if N.shape[1] <= SEED_ROWS:
+        seeds = np.einsum("bnk,bmk->bnm", N, N) - cosmax[:, None, None]  # (seed n, contact m)
+        near = seeds[np.arange(len(N)), seed]
+        sure = _same_near(dots, seeds, near)
+    else:  # (a seed that ties the next: left to the check)
+        top = np.sort(dots, axis=1)[:, -2:]
+        near = np.einsum("bnk,bk->bn", N, N[np.arange(len(N)), seed]) - cosmax[:, None]
+        sure = top[:, 1] - top[:, 0] > REL * np.abs(dots).max(axis=1)
+        sure &= np.all(np.abs(near) > REL, axis=1)
     mean = _unit(np.einsum("bn,bnk->bk", (near > 0).astype(float), N))
     cos = np.einsum("bnk,bk->bn", N, mean)
     sure &= np.all(np.abs(cos - cosmax[:, None]) > REL, axis=1)
     far = np.sum(cos <= cosmax[:, None], axis=1)
     return sure & (far <= edges.MAX_LEFT_OUT)
+
+
+def _same_near(dots, seeds, near):
+    """Whether the contacts near the seed (``near``, (B, n): each one's cosine to it less
+    the limit's) are surely those near the check's seed: every contact whose dot with the
+    normals' sum ties the largest (the check's argmax, to round-off) puts, as the seed
+    (``seeds`` (B, n, n)), the same contacts near, each by ``REL``.  Noise-free patches
+    laid out symmetrically tie."""
+    scale = np.abs(dots).max(axis=1, keepdims=True)
+    tied = dots >= dots.max(axis=1, keepdims=True) - REL * scale
+    same = np.all(np.abs(seeds) > REL, axis=2) & np.all((seeds > 0) == (near > 0)[:, None], 2)
+    return np.all(same | ~tied, axis=1)
 
 
 def _no_tilt(P, N, noise_pos, noise_normal):
@@ -194,7 +229,7 @@ def _no_tilt(P, N, noise_pos, noise_normal):
     H = np.stack([one, x, y, x * x / 2, x * y, y * y / 2, zero, zero], axis=-1)
     Sx = np.stack([zero, one, zero, x, y, zero, one, zero], axis=-1)
     Sy = np.stack([zero, zero, one, zero, x, y, zero, one], axis=-1)
-    sp, ok = _residual(H[..., :6], z, n - 6)
+    sp, ok = _qr_residual(H[..., :6], z, n - 6)  # (sweeps' quadratic columns: cond ~ 1e3)
     sp = np.fmax(sp, noise_pos / Ls)  # (NaN where not stated: the residual alone)
     sure &= ok
     r, ok = _residual(H[..., :3], np.stack([sx, sy], axis=-1), n - 3)
@@ -257,3 +292,18 @@ def _residual(A, y, dof):
     coef, ok = _solve(A, Y)
     rms = np.sqrt(np.sum((A @ coef - Y) ** 2, axis=1) / max(dof, 1))
     return (rms if y.ndim == 3 else rms[:, 0]), ok
+
+
+def _qr_residual(A, y, dof):
+    """``_residual`` of y (B, n) by Householder QR, its residual within about cond(A) eps
+    of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps), and whether cond(A) is
+    surely under ``QR_COND`` (by ||R||_F ||R^-1||_F) per patch."""
+    Q, R = np.linalg.qr(A)
+    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+    tiny = ~(d > 1e-12 * np.maximum(d.max(axis=-1, keepdims=True), 1e-300))
+    Rinv = np.linalg.inv(R + np.eye(R.shape[-1]) * tiny[:, None, :])
+    with np.errstate(over="ignore", invalid="ignore"):
+        bound = np.sqrt(np.sum(R * R, axis=(1, 2)) * np.sum(Rinv * Rinv, axis=(1, 2)))
+    ok = ~tiny.any(axis=-1) & (bound < QR_COND)
+    r = y - (Q @ (np.swapaxes(Q, -1, -2) @ y[..., None]))[..., 0]
+    return np.sqrt(np.sum(r * r, axis=1) / max(dof, 1)), ok

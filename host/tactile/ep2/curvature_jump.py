@@ -65,10 +65,13 @@ def find_jump(points, normals):
         return None  # the curvature does not change over the patch
     V = np.linalg.eigh(coef[1:3] + coef[1:3].T)[1]  # the slopes' gradient's axes
     res = np.sqrt(res)
-    gross = np.argsort(res)[::-1][:MAX_LEFT_OUT]
-    gross = gross[res[gross] > JUMP_GROSS * 1.4826 * np.median(res)]
-    keep = np.setdiff1d(np.arange(len(xy)), gross)
-    found = [(*_hinge(xy[keep] @ e, xy[keep] @ [-e[1], e[0]], s[keep] @ e), e) for e in V.T]
+    order = np.argsort(res)
+    gross = order[::-1][:MAX_LEFT_OUT]
+    gross = gross[res[gross] > JUMP_GROSS * 1.4826 * _median(res[order])]
+    keep = np.ones(len(xy), bool)
+    keep[gross] = False
+    xy, s = xy[keep], s[keep]
+    found = [(*_hinge(xy @ e, xy @ [-e[1], e[0]], s @ e), e) for e in V.T]
     found = [f for f in found if f[0] is not None]
     if not found:
         return None
@@ -105,6 +108,14 @@ def _hinge(u, v, y):
     return u0, best / max(smooth, 1e-300)
 
 
+def _median(ordered):
+    """``np.median`` of values already in ascending order (the same number; NaN sorts last)."""
+    n = len(ordered)
+    if np.isnan(ordered[-1]):
+        return np.nan
+    return ordered[n // 2] if n % 2 else (ordered[n // 2 - 1] + ordered[n // 2]) / 2
+
+
 def _rss(A, y):
     return float(np.sum((A @ _solve(A, y) - y) ** 2))
 
@@ -113,7 +124,7 @@ def _solve(A, y):
     """Least squares by the normal equations (unit-sized columns), a ridge of 1e-12 of the
     trace for a column the contacts leave undetermined."""
     G = A.T @ A
-    G[np.diag_indices_from(G)] += 1e-12 * np.trace(G)
+    G.flat[:: len(G) + 1] += 1e-12 * np.trace(G)
     return np.linalg.solve(G, A.T @ y)
 
 

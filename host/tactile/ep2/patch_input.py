@@ -16,6 +16,7 @@ before anything is summed.  Normals need no range: ``geometry.unit_normals`` nor
 any finite non-zero vector.
 """
 
+import functools
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -154,7 +155,7 @@ def prepare_stack(unpacked, reqs):
 def _sound(req):
     """Whether the options hold for any patch (else the one-patch path says why not)."""
     try:
-        validate(np.zeros((1, 3)), np.ones((1, 3)), req)
+        _sound_method(req.method, req.spline.weighting)
         check_options(np.zeros((1, 3)), replace(req.jet, noise_pos=None), req.spline)
         check_order(req.method, req.spline.order)
         if req.jet.noise_pos is not None and not np.isfinite(float(req.jet.noise_pos)):
@@ -162,6 +163,16 @@ def _sound(req):
     except (DataError, InputError, TypeError, ValueError):
         return False
     return True
+
+
+@functools.lru_cache(maxsize=16)
+def _sound_method(method, weighting):
+    """``validate``'s checks of the method and weighting (all it checks of the options)."""
+    validate(
+        np.zeros((1, 3)),
+        np.ones((1, 3)),
+        Request(method, spline=SplineOptions(weighting=weighting)),
+    )
 
 
 def _prepare_group(group, unpacked, reqs):
