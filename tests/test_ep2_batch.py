@@ -149,3 +149,13 @@ def test_curvature_jumps_in_a_stack_are_named_as_one_at_a_time():
         assert (got.shape, got.warnings) == (want.shape, want.warnings)
         named += any(w.startswith("a curvature jump at (") for w in got.warnings)
     assert named >= 3
+
+
+@pytest.mark.parametrize("method", ["jet", "spline"])
+def test_a_refusal_in_a_stack_holds_no_frame_of_it(method):
+    """A refused patch's exception comes back without its traceback: the frames it was
+    raised through hold the whole stack's arrays for as long as the result is kept."""
+    line = {"points": np.column_stack([np.linspace(0, 1, 9), np.zeros(9), np.zeros(9)]),
+            "normals": np.tile([0.0, 0.0, 1.0], (9, 1))}  # fmt: skip
+    out = analyze_patches([line] * 3, method=method)
+    assert all(isinstance(r, DataError) and r.__traceback__ is None for r in out)

@@ -219,7 +219,8 @@ def _parallel(work, req, split, jobs):
 # ``edges.check_answer`` looks for beside a ``plane`` (``check_screens.no_turn``); only the
 # assembly of each result is per patch.  Each result equals ``analyze_patch``'s to
 # round-off (tested); a patch that is refused or malformed gives its exception in its place
-# and the others still come out.  ``method="spline"`` runs one patch at a time.
+# (without its traceback, which would hold the stack's arrays) and the others still come
+# out.  ``method="spline"`` runs one patch at a time.
 
 STACK = 256  # patches per fit call
 WINDOW = 16  # stacks' worth of patches sorted by size together
@@ -352,7 +353,13 @@ def _stack(patches, req):
             if not isinstance(res, DataError):
                 res = PatchResult.of(res, prep, "jet", req.maps, tilted[j])
             results[j] = res
-    return results
+    return [_bare(r) for r in results]
+
+
+def _bare(res):
+    """``res``, or the refusal without its traceback: that holds the frames it was raised
+    through, and so the whole stack's arrays, for as long as the caller keeps the result."""
+    return res.with_traceback(None) if isinstance(res, BaseException) else res
 
 
 def _fit(prepared, jet):
@@ -407,7 +414,7 @@ def _one(p, req):
     try:
         return analyze_patch(points, normals, finger=finger, lines=lines, **req.keywords())
     except (DataError, InputError) as exc:
-        return exc
+        return _bare(exc)
 
 
 # the power of length of each numeric field (1: a length, -1: a curvature); "C" is the
