@@ -359,7 +359,7 @@ def test_cli_a_start_the_arm_cannot_reach_is_a_touch_spent(cli, emulated, tmp_pa
                                "--max-touches", "3", "--half-size", "0.05")  # fmt: skip
     assert code == 3 and "after 3 touches" in stdout
     meta = json.loads((out / "meta.json").read_text())
-    assert meta["touches"] == 3 and meta["contacts"] == 1
+    assert meta["touches"] == 3 and meta["contacts"] == 1, (meta["notes"], stderr)
     assert sum("unreachable start" in n for n in meta["notes"]) == 2
     assert len((out / "explore.csv").read_text().splitlines()) == 2 + 3
 
