@@ -1,11 +1,12 @@
 """EP2 where a real object differs from a smooth patch (``tactile_studies.ep2.edge_cases``).
 
-Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_edges.py --split holdout [--per-kind 200]
-     [--kinds ridge,valley,join,drift,tilt,small]
+Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_edges.py --split holdout --final
+     [--per-kind 200] [--kinds ridge,valley,join,drift,tilt,small]
 
-``--split tune`` is for tuning; ``--split holdout`` is FOR FINAL EVALUATION ONLY.  Every
-patch goes through ``tactile.ep2.analyze_patch`` (with its finger labels, and its noise where
-the case states it).  Figures (docs/ep2.md, "Edges, joins, drift, tilt"):
+``--split tune`` is for tuning; ``--split holdout`` is FOR FINAL EVALUATION ONLY
+(``--final``).  Every patch goes through ``tactile.ep2.analyze_patch`` (with its finger
+labels, and its noise where the case states it).  Figures (docs/ep2.md, "Edges, joins, drift,
+tilt"):
 
 - creases (``ridge``, ``valley``): patches labelled ``plane``; refused naming the edge
   (``EdgeError``), with the right kind; the dihedral interval's coverage and RMS error; the
@@ -29,7 +30,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_args import positive_int  # noqa: E402
+from bench_args import add_split, check_split, positive_int  # noqa: E402
 
 from tactile.ep2 import analyze_patch  # noqa: E402
 from tactile.ep2.edges import EdgeError  # noqa: E402
@@ -116,10 +117,11 @@ def table(head, rows):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", default="tune", choices=sorted(edge_cases.SPLITS))
+    add_split(ap, edge_cases.SPLITS)
     ap.add_argument("--per-kind", type=positive_int, default=200)
     ap.add_argument("--kinds", default=",".join(edge_cases.KINDS))
     args = ap.parse_args(argv)
+    check_split(ap, args)
     kinds = [k for k in args.kinds.split(",") if k]
     crease, join, smooth = [], [], []
     for kind in kinds:

@@ -4,9 +4,9 @@ Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_families.py --split tune
      [--estimators default,jet2[,spline]] [--trials 5] [--per-family N] [--families a,b]
      [--repeats 3] [--out table.md]
 
-``--split holdout`` and ``--split robust_holdout`` are FOR FINAL EVALUATION ONLY
-(``families`` module docstring).  Estimators (``ESTIMATORS``, or ``module:function`` taking a
-list of patch dicts and returning a result or an exception per patch):
+``--split holdout`` and ``--split robust_holdout`` are FOR FINAL EVALUATION ONLY, refused
+without ``--final`` (``families`` module docstring).  Estimators (``ESTIMATORS``, or
+``module:function`` taking a list of patch dicts and returning a result or an exception per patch):
 
 - ``default``: ``tactile.ep2.analyze_patches`` as it is when run, in one call (each patch
   dict with its noise where the case states it);
@@ -36,7 +36,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_args import positive_int  # noqa: E402
+from bench_args import add_split, check_split, positive_int  # noqa: E402
 
 from tactile.ep2 import analyze_patches  # noqa: E402
 from tactile_studies.ep2 import families, family_score, fitpack_peer, jet2  # noqa: E402
@@ -155,7 +155,7 @@ def report(by_est, timing, head, robust):
 
 def _parser():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", default="tune", choices=tuple(families.SPLITS))
+    add_split(ap, families.SPLITS)
     ap.add_argument("--estimators", default="default,jet2", help="comma-separated")
     ap.add_argument("--trials", type=positive_int, default=DEFAULT_TRIALS)
     ap.add_argument("--per-family", type=positive_int, help="cases per family (default all)")
@@ -166,7 +166,9 @@ def _parser():
 
 
 def main(argv=None):
-    args = _parser().parse_args(argv)
+    ap = _parser()
+    args = ap.parse_args(argv)
+    check_split(ap, args)
     names = [n for n in args.estimators.split(",") if n]
     for n in names:
         resolve(n)

@@ -26,7 +26,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_args import positive_int  # noqa: E402
+from bench_args import add_split, check_split, positive_int  # noqa: E402
 
 from tactile.ep2.region_map import map_contacts  # noqa: E402
 from tactile_sim.ep2 import map_objects  # noqa: E402
@@ -52,14 +52,12 @@ def _match(truth, found):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", default="tune", choices=sorted(SEED0))
-    ap.add_argument("--final", action="store_true", help="allow --split holdout")
+    add_split(ap, SEED0)
     ap.add_argument("--trials", type=positive_int, default=30)
     ap.add_argument("--noise-pos", type=float, default=0.005)
     ap.add_argument("--noise-normal", type=float, default=0.005)
     args = ap.parse_args(argv)
-    if args.split == "holdout" and not args.final:
-        ap.error("--split holdout is for the final evaluation only: add --final")
+    check_split(ap, args)
     print(f"split {args.split}, {args.trials} seeds from {SEED0[args.split]}\n")
     print("| object | contacts | regions right | labels right | edges within 2 mm, 5 deg |"
           " worst edge (mm, deg) |")  # fmt: skip

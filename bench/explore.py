@@ -37,6 +37,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from bench_args import add_split, check_split  # noqa: E402
 
 from tactile.ep1.estimator import next_roll  # noqa: E402
 from tactile.ep2.geometry import S_NAMES, s_class  # noqa: E402
@@ -320,7 +321,7 @@ def _k_err(est, truth):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", choices=sorted(SPLITS), default="tune")
+    add_split(ap, SPLITS)
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument(
         "--plots",
@@ -343,6 +344,7 @@ def main():
                     help="the first 9 touches on the square's 3 x 3 lattice")  # fmt: skip
     ap.add_argument("--only", nargs="*", help="these objects only (tuning)")
     args = ap.parse_args()
+    check_split(ap, args)
     t0 = time.process_time()
     table(args.split, args.seeds, args.plots, args.flat, args.s_width, args.only, args.lattice)
     if args.ep1:

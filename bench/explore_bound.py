@@ -29,7 +29,7 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
-from bench_args import positive_int  # noqa: E402
+from bench_args import add_split, check_split, positive_int  # noqa: E402
 from explore import (  # noqa: E402
     BUDGET,
     FLAT,
@@ -110,11 +110,12 @@ def table(split, seeds, only=None):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", choices=sorted(SPLITS), default="tune")
+    add_split(ap, SPLITS)
     ap.add_argument("--seeds", type=positive_int, default=40,
                     help="runs per object and design (40; 20 move RMS S by 25 %%)")  # fmt: skip
     ap.add_argument("--only", nargs="*", help="these objects only")
     args = ap.parse_args()
+    check_split(ap, args)
     t0 = time.process_time()
     table(args.split, args.seeds, args.only)
     print(f"\n({time.process_time() - t0:.0f} CPU s)")

@@ -39,3 +39,17 @@ def test_the_helpers_are_named_in_the_prose():
     text = PAGE.read_text(encoding="utf-8")
     for helper in HELPERS:
         assert f"`{helper}`" in text, helper
+
+
+def test_every_held_out_split_is_refused_without_final():
+    """A bench's held-out split is kept unseen until the final run: each bench that has
+    one refuses it without ``--final`` in argparse's one line (exit 2), before any work."""
+    import subprocess
+    import sys
+
+    for script, split in [("ep2_edges.py", "holdout"), ("ep2_families.py", "robust_holdout"),
+                          ("ep2_map.py", "holdout"), ("explore.py", "holdout"),
+                          ("explore_bound.py", "holdout")]:  # fmt: skip
+        r = subprocess.run([sys.executable, str(ROOT / "bench" / script), "--split", split],
+                           capture_output=True, text=True, timeout=60)  # fmt: skip
+        assert r.returncode == 2 and "add --final" in r.stderr, (script, r.stderr)
