@@ -10,7 +10,8 @@ tilt"):
 
 - creases (``ridge``, ``valley``): patches labelled ``plane``; refused naming the edge
   (``EdgeError``), with the right kind; the dihedral interval's coverage and RMS error; the
-  edge's distance from the true edge line (in L) and its direction's error;
+  edge's distance from the true edge line (in L) and its direction's error; the share of
+  edges whose stated direction half-angle holds the true direction, and its median;
 - ``join``: answered patches whose k1 interval holds the truth or whose label is
   ``uncertain``;
 - ``drift``, ``tilt``, ``small``: answered share, coverage of S, k1, k2 (``family_score``),
@@ -60,10 +61,14 @@ def _rms(vals):
     return "-" if not vals else f"{math.sqrt(sum(v * v for v in vals) / len(vals)):.3g}"
 
 
+def _median(vals):
+    return "-" if not vals else f"{float(np.median(vals)):.3g}"
+
+
 def crease_row(cases, results):
     plane = sum(getattr(r, "shape", None) == "plane" for r in results)
     found = [(c, r.edge) for c, r in zip(cases, results) if isinstance(r, EdgeError)]
-    cover, err, dist, turn, kind = [], [], [], [], []
+    cover, err, dist, turn, kind, dcover, half = [], [], [], [], [], [], []
     for c, e in found:
         t = c["truth"]
         lo, hi = e.dihedral_interval
@@ -73,9 +78,11 @@ def crease_row(cases, results):
         off = e.point - t["point"][0]
         dist.append(np.linalg.norm(off - (off @ d) * d) / c["unit"])
         turn.append(math.degrees(math.acos(min(1.0, abs(float(e.direction @ d))))))
+        dcover.append(turn[-1] <= e.direction_err_deg)
+        half.append(e.direction_err_deg)
         kind.append(e.kind == t["kind"])
     return [len(cases), plane, len(found), _share(kind), _share(cover), _rms(err), _rms(dist),
-            _rms(turn)]  # fmt: skip
+            _rms(turn), _share(dcover), _median(half)]  # fmt: skip
 
 
 def join_row(cases, results):
@@ -139,7 +146,8 @@ def main(argv=None):
     print(f"split {args.split}, {args.per_kind} cases a kind\n")
     if crease:
         head = ["creases", "patches", "plane", "edge named", "kind right", "dihedral cover",
-                "RMS dihedral err (deg)", "RMS edge offset (L)", "RMS dir. err (deg)"]  # fmt: skip
+                "RMS dihedral err (deg)", "RMS edge offset (L)", "RMS dir. err (deg)", "dir. cover",
+                "median dir. half-angle (deg)"]  # fmt: skip
         print(table(head, crease) + "\n")
     if join:
         print(table(["joins", "patches", "answered", "uncertain", "k1 cover or uncertain"], join))

@@ -10,7 +10,8 @@ Per object, over ``--trials`` noise draws (noise stated to the map): the share o
 with the right number of regions, with every region labelled right (in order of the truth's
 labels, matched as multisets), and with every true edge matched by a found edge of its kind
 within 2 mm (0.2 cm) of the true edge line and 5 deg of its direction; the worst distance
-and angle seen.
+and angle seen; over the creases (ridges, valleys) matched, the share whose stated
+``direction_err_deg`` holds the true direction, and its median.
 """
 
 import os
@@ -36,7 +37,8 @@ SEED0 = {"tune": 0, "holdout": 1000}  # holdout: FOR FINAL EVALUATION ONLY
 
 
 def _match(truth, found):
-    """(distance cm, angle deg) of the best found edge of the truth's kind, or None."""
+    """(distance cm, angle deg, half-angle deg or None) of the best found edge of the
+    truth's kind, or None."""
     best = None
     d = np.asarray(truth["direction"], float)
     for e in found:
@@ -46,7 +48,7 @@ def _match(truth, found):
         dist = float(np.linalg.norm(off - (off @ d) * d))
         ang = math.degrees(math.acos(min(1.0, abs(float(np.dot(e.direction, d))))))
         if best is None or dist + ang / 25 < best[0] + best[1] / 25:
-            best = (dist, ang)
+            best = (dist, ang, e.direction_err_deg)
     return best
 
 
@@ -60,11 +62,12 @@ def main(argv=None):
     check_split(ap, args)
     print(f"split {args.split}, {args.trials} seeds from {SEED0[args.split]}\n")
     print("| object | contacts | regions right | labels right | edges within 2 mm, 5 deg |"
-          " worst edge (mm, deg) |")  # fmt: skip
-    print("|---|---|---|---|---|---|")
+          " worst edge (mm, deg) | crease dir. cover | median crease dir. half-angle (deg)"
+          " |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
     for name in map_objects.NAMES:
         count = labels = placed = 0
-        worst = [0.0, 0.0]
+        worst, cover, halves = [0.0, 0.0], [], []
         for seed in range(SEED0[args.split], SEED0[args.split] + args.trials):
             d = map_objects.make(name, args.noise_pos, args.noise_normal, seed=seed)
             m = map_contacts(d["points"], d["normals"], noise_pos=args.noise_pos or None,
@@ -80,13 +83,18 @@ def main(argv=None):
                     ok = False
                     continue
                 worst = [max(worst[0], got[0] * 10), max(worst[1], got[1])]
+                if tr["kind"] != "curvature jump":
+                    cover.append(got[1] <= got[2])
+                    halves.append(got[2])
                 ok &= got[0] <= MAX_CM and got[1] <= MAX_DEG
             placed += ok
         n = args.trials
         print(
             f"| {name} | {len(d['points'])} | {count / n:.2f} | {labels / n:.2f} |"
             f" {placed / n:.2f} | {worst[0]:.2f}, {worst[1]:.2f} |"
-        )
+            + (f" {np.mean(cover):.2f} ({len(cover)}) | {np.median(halves):.2f} |" if cover
+               else " - | - |")
+        )  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -44,6 +44,8 @@ def test_a_box_corner_maps_to_three_planes_and_three_right_angle_ridges():
         axis = int(np.argmax(np.abs(e.direction)))
         others = [i for i in range(3) if i != axis]
         assert np.allclose(np.array(e.point)[others], 1.0, atol=0.02)  # on the cube's edge
+        off = np.degrees(np.arccos(min(1.0, float(np.max(np.abs(e.direction))))))
+        assert off <= e.direction_err_deg < 1.0  # the crease's direction within its 95 %
     assert found.adjacency == {0: [1, 2], 1: [0, 2], 2: [0, 1]}
 
 
@@ -79,6 +81,7 @@ def test_cli_map_json_and_csv_name_their_units(tmp_path, cli):
     e = rec["edges"][0]
     assert max(e["point"]) > 9.0  # cm shown in mm
     assert e["dihedral_interval"][0] <= 90 <= e["dihedral_interval"][1]
+    assert 0.0 < e["direction_err_deg"] < 1.0  # a crease's direction's half-angle (deg)
     code, out, err = cli("ep2", "map", path, "--csv")
     head, *_ = out.splitlines()
     assert code == 0 and head.startswith("region,n_points,shape,S") and "k1 (1/cm)" in head

@@ -9,8 +9,10 @@ neither scatter nor turn within the side as between the sides); the normals turn
 ``MIN_TURN_DEG`` to ``MAX_TURN_DEG`` (over ``MIN_Z`` standard errors) and ``MIN_APART`` of
 the contacts lie on their face's side.  Each face is a plane through its contacts' centroid
 with their mean normal; the edge is the planes' intersection (the point nearest the
-contacts' middle, its direction); the dihedral angle is 180 deg less the normals' turn,
-with a 95 % interval from the normals' scatter (Student t).  A ridge's faces fall away
+contacts' middle, its direction n1 x n2); the dihedral angle is 180 deg less the normals'
+turn, with a 95 % interval from the normals' scatter (Student t).  The direction's 95 %
+half-angle (``direction_half``) carries each mean normal's error along the edge (the
+normals' scatter along it over the face's count) to n1 x n2.  A ridge's faces fall away
 from the edge, a valley's rise.
 
 ``check`` raises ``EdgeError`` (a ``DataError``, exit 3) naming the edge's location,
@@ -65,6 +67,7 @@ class Edge:
     sides: tuple  # (rows of face 1, rows of face 2), indices into the patch's rows
     normals: tuple  # each face's mean normal
     ambiguous: bool = False  # a bent surface fits the contacts as well (``check_answer``)
+    direction_err_deg: float = 0.0  # the direction's 95 % half-angle (``direction_half``)
 
     def describe(self, unit=""):
         p = ", ".join(f"{v:.4g}" for v in self.point)
@@ -72,7 +75,8 @@ class Edge:
         lo, hi = self.dihedral_interval
         u = f" {unit}" if unit else ""
         return (
-            f"the patch straddles an edge (a {self.kind}) at ({p}){u} along ({d}), dihedral"
+            f"the patch straddles an edge (a {self.kind}) at ({p}){u} along ({d})"
+            f" +- {self.direction_err_deg:.1f} deg, dihedral"
             f" {self.dihedral_deg:.1f} deg (95 %: {lo:.1f}-{hi:.1f} deg), faces of"
             f" {len(self.sides[0])} and {len(self.sides[1])} contacts: fit each face alone"
             + ("; or one smooth surface curving between these two tangent planes: this layout"
@@ -164,6 +168,7 @@ def find(points, normals, noise_normal=None, strict=True):
     if turn < MIN_Z * se or not strict and turn < LOOSE_SCATTER * np.degrees(np.sqrt(s2)):
         return None  # (loose: each face's normals must scatter as noise does, not as lines)
     edge = _edge(pts, sides, n1, n2, turn, max(_t975(dof) * se, HALF_FLOOR_DEG))
+    edge.direction_err_deg = direction_half(nrm, sides, edge.direction, turn, noise_normal)
     across = (pts - edge.point) @ (n2 - n1)
     eps = 1e-9 * np.ptp(pts)  # a contact on the edge itself lies on both faces
     a0, a1 = across[sides[0]], across[sides[1]]
@@ -250,6 +255,32 @@ def constant_faces(pts, nrm, sides, noise_normal=None):
         stats.append((float(np.sum(g**2 * np.sum(c**2, axis=0)[:, None])), c.shape[1]))
     s2 = max(rss / max(dof, 1), (noise_normal or 0.0) ** 2, NOISE_FLOOR**2)
     return all(chi2 <= CONST_CHI2[k] * s2 for chi2, k in stats)  # fmt: skip
+
+
+def direction_half(nrm, sides, direction, turn, noise_normal=None):
+    """The 95 % half-angle (deg) of the edge's direction n1 x n2 (delta method): each face's
+    mean normal errs along the edge by s / sqrt(k) (s the normals' scatter along it about
+    their face's mean, pooled, n - 2 dof, at least ``noise_normal``; k the face's count),
+    which turns n1 x n2 by that over sin(turn) about n2 (face 1) or n1 (face 2): a 2-D
+    error across the edge of covariance s^2 / sin^2(turn) (u1 u1' / k1 + u2 u2' / k2),
+    u1 . u2 = -cos(turn).  Its norm's 95 % quantile from ``_DRAWS`` (fixed), Student t's
+    widening for the dof; at least ``HALF_FLOOR_DEG``."""
+    ks = [len(s) for s in sides]
+    along = [(nrm[s] - nrm[s].mean(axis=0)) @ direction for s in sides]
+    s2 = sum(float(a @ a) for a in along) / max(sum(ks) - 2, 1)
+    if noise_normal is not None:
+        s2 = max(s2, noise_normal**2)
+    t = np.radians(turn)
+    a, b = 1 / ks[0], 1 / ks[1]  # eigenvalues of [[a, -a c], [-b c, b]], c = cos(turn)
+    mid, det = (a + b) / 2, a * b * np.sin(t) ** 2
+    root = np.sqrt(max(mid**2 - det, 0.0))
+    lam = np.array([mid + root, max(mid - root, 0.0)]) * s2 / np.sin(t) ** 2
+    q = float(np.quantile(np.sqrt(_DRAWS @ lam), 0.95))
+    half = np.degrees(q) * _t975(sum(ks) - 2) / _t975(np.inf)
+    return float(max(half, HALF_FLOOR_DEG))
+
+
+_DRAWS = np.random.default_rng(0).standard_normal((4000, 2)) ** 2  # (z1^2, z2^2), fixed
 
 
 def _edge(pts, sides, n1, n2, turn, half):

@@ -23,12 +23,12 @@ regions separated by edges and curvature jumps, and each region is described:
    (``_label``: an ``uncertain`` fit votes its label shares; disagreement stays
    ``uncertain``).
 7. **Edges between regions**: the regions that share links are adjacent; their boundary's
-   contacts are fitted by ``edges.find`` for a crease (point, direction, dihedral angle
-   with its interval), else the boundary is a curvature jump (dihedral 180 deg), placed
-   where the normals' turn across it is best a hinge (constant on one side, growing on the
-   other): its direction the total-least-squares line through the hinges of sections
-   across it, with a 95 % half-angle; its point the hinge across it from the crossing
-   links' middle.
+   contacts are fitted by ``edges.find`` for a crease (point, direction with its 95 %
+   half-angle, dihedral angle with its interval), else the boundary is a curvature jump
+   (dihedral 180 deg), placed where the normals' turn across it is best a hinge (constant
+   on one side, growing on the other): its direction the total-least-squares line through
+   the hinges of sections across it, with a 95 % half-angle; its point the hinge across
+   it from the crossing links' middle.
 """
 
 from collections import Counter
@@ -78,7 +78,7 @@ class RegionEdge:
     direction: list | None
     dihedral_deg: float | None
     dihedral_interval: tuple | None
-    direction_err_deg: float | None = None  # a curvature jump's direction's 95 % half-angle
+    direction_err_deg: float | None = None  # the direction's 95 % half-angle (deg)
 
     def to_dict(self):
         return dict(self.__dict__, regions=list(self.regions))
@@ -267,7 +267,8 @@ def _edge(pts, nrm, region, links, pair, kw):
         return _jump(pair, pts, nrm, links[cross])
     return RegionEdge(pair, e.kind, [float(v) for v in e.point + mid],
                       [float(v) for v in e.direction], float(e.dihedral_deg),
-                      tuple(float(v) for v in e.dihedral_interval))  # fmt: skip
+                      tuple(float(v) for v in e.dihedral_interval),
+                      float(e.direction_err_deg))  # fmt: skip
 
 
 def _jump(pair, pts, nrm, crossing):
