@@ -8,7 +8,7 @@ operating point's stop (``Explorer.s_width``: fewer touches against a lower RMS 
 ``--lattice`` the third's first 9 touches (``Explorer.lattice``: the square's 3 x 3 lattice).
 
 Objects: the EP2 families (``tactile_sim.ep2.objects``: sphere, cylinder, concave cylinder,
-pit, saddle, plane) in the tables 5-7 setup of docs/ep2.md (lengths in cm: a 5 x 6 cm patch,
+pit, saddle, plane) in the tables 5-7 setup of docs/ep2_thesis.md (lengths in cm: a 5 x 6 cm patch,
 noise 0.05 cm on positions and 0.03 rad on normals, stated to the fit).  ``tune`` holds
 the objects the planner was tuned on (seeds 0..); ``holdout`` other radii, rotations and
 noise (seeds 1000..), for the final table only.

@@ -219,7 +219,7 @@ def tensor_cov(G, cov_factor, s2):
 # A biquadratic cannot follow a circle: on a cylinder of radius 8 over a 4 x 4
 # patch its grid-mean curvature is ~1 % low, which at low noise is several
 # standard deviations, so intervals from the noise alone miss the truth
-# (docs/ep2.md, calibration).  The bias is estimated by fitting, with the same
+# (docs/ep2_thesis.md, item 9).  The bias is estimated by fitting, with the same
 # rows, weights and shrinkage (``SplineFit.data_map``, a linear map), noise-free
 # data from the surface whose shape operator is the estimated one everywhere.
 # To fourth order about the patch centre c, with A = -P (P the estimated
