@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile.ep2 import curvature_jump
+from tactile.ep2.geometry import Z975, t975
 from tactile.errors import DataError
 
 _basis = curvature_jump.tangent_basis  # (check_screens mirrors it)
@@ -91,12 +92,6 @@ class EdgeError(DataError):
     def __init__(self, edge):
         self.edge = edge
         super().__init__(edge.describe())
-
-
-def _t975(dof):
-    """Student t's 97.5 % quantile (Cornish-Fisher, within 1 % for dof >= 3)."""
-    z, dof = 1.959964, max(dof, 1)
-    return z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
 
 
 def _unit(v):
@@ -167,7 +162,7 @@ def find(points, normals, noise_normal=None, strict=True):
     se = np.degrees(np.sqrt(s2 * (1 / k + 1 / (n - k))))
     if turn < MIN_Z * se or not strict and turn < LOOSE_SCATTER * np.degrees(np.sqrt(s2)):
         return None  # (loose: each face's normals must scatter as noise does, not as lines)
-    edge = _edge(pts, sides, n1, n2, turn, max(_t975(dof) * se, HALF_FLOOR_DEG))
+    edge = _edge(pts, sides, n1, n2, turn, max(float(t975(dof)) * se, HALF_FLOOR_DEG))
     edge.direction_err_deg = direction_half(nrm, sides, edge.direction, turn, noise_normal)
     across = (pts - edge.point) @ (n2 - n1)
     eps = 1e-9 * np.ptp(pts)  # a contact on the edge itself lies on both faces
@@ -276,7 +271,7 @@ def direction_half(nrm, sides, direction, turn, noise_normal=None):
     root = np.sqrt(max(mid**2 - det, 0.0))
     lam = np.array([mid + root, max(mid - root, 0.0)]) * s2 / np.sin(t) ** 2
     q = float(np.quantile(np.sqrt(_DRAWS @ lam), 0.95))
-    half = np.degrees(q) * _t975(sum(ks) - 2) / _t975(np.inf)
+    half = np.degrees(q) * float(t975(sum(ks) - 2)) / Z975
     return float(max(half, HALF_FLOOR_DEG))
 
 

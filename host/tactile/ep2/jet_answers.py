@@ -202,18 +202,10 @@ def order_fit(f, o):
     return coef, Rinv / cn[:, :, None]
 
 
-# Student's t 97.5 % quantile for 1-10 degrees of freedom (Cornish-Fisher beyond)
-_T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228)
-
-
 def student_factor(dof):
     """(t_dof(97.5 %) / z(97.5 %))^2 per patch: the variance widening that holds 95 % where
     the noise is estimated from ``dof`` spare rows (a few contacts leave few), at most 16."""
-    dof = np.maximum(np.asarray(dof, float), 1.0)
-    z = 1.959964
-    cf = z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
-    t = np.where(dof <= 10, np.take(_T975, np.minimum(dof, 10).astype(int) - 1), cf)
-    return np.minimum((t / z) ** 2, 16.0)
+    return np.minimum((geometry.t975(dof) / geometry.Z975) ** 2, 16.0)
 
 
 def answer(f, keep, reason, warnings, stated):
