@@ -183,11 +183,13 @@ def flat_faces(pts, nrm, sides, T, noise_normal=None):
     under ``FLAT_SHARE`` of the step.  A bent surface's normals turn within each side as
     between them.  A side along one line sees across the edge as far as it runs across."""
     xy = pts @ T
-    means = [nrm[s].mean(axis=0) for s in sides]
+    means = _tight(nrm, sides)
+    if means is None:
+        return False
     step = float(np.linalg.norm(means[1] - means[0]))
     along = T.T @ np.cross(*means)  # the edge, in the tangent plane
-    if max(_rms(nrm[s] - m) for s, m in zip(sides, means)) > TIGHT * step or not any(along):
-        return False  # a side's normals scatter: outliers, not a face
+    if not any(along):
+        return False
     across = np.array([-along[1], along[0]]) / np.linalg.norm(along)
     mids = [xy[s].mean(axis=0) for s in sides]
     span = np.ptp(xy, axis=0).max()
@@ -207,6 +209,14 @@ def flat_faces(pts, nrm, sides, T, noise_normal=None):
 
 def _rms(m):
     return float(np.sqrt(np.mean(np.sum(m**2, axis=1))))
+
+
+def _tight(nrm, sides):
+    """Each side's mean normal, or None where a side's normals scatter over ``TIGHT`` of
+    the step between the means (rms): outliers, not a face."""
+    means = [nrm[s].mean(axis=0) for s in sides]
+    step = float(np.linalg.norm(means[1] - means[0]))
+    return None if max(_rms(nrm[s] - m) for s, m in zip(sides, means)) > TIGHT * step else means
 
 
 def _gradient(u, m, across, wide):
@@ -232,11 +242,9 @@ def constant_faces(pts, nrm, sides, noise_normal=None):
     over ``MIN_SPREAD`` of the patch: a line spans one; a cluster none, and is no face) is
     under chi-square's 99.9 % (``CONST_CHI2``).  Two lines along an edge, or along a
     cylinder, pass: either surface fits them."""
-    means = [nrm[s].mean(axis=0) for s in sides]
-    if max(_rms(nrm[s] - m) for s, m in zip(sides, means)) > TIGHT * np.linalg.norm(
-        means[1] - means[0]
-    ):
-        return False  # a side's normals scatter: outliers, not a face (as ``flat_faces``)
+    means = _tight(nrm, sides)
+    if means is None:
+        return False
     xy = pts @ _basis(_unit(nrm.sum(axis=0)))
     wide, stats, rss, dof = (MIN_SPREAD * np.ptp(xy, axis=0).max()) ** 2, [], 0.0, 2 * len(pts)
     for s, m in zip(sides, means):
