@@ -86,6 +86,20 @@ def test_a_clock_that_outruns_the_host_is_not_a_time_base():
     assert np.all(np.isnan(mono)) and mapping_from_meta(entry) is None
 
 
+def test_a_simulated_clock_paced_like_the_wall_clock_is_still_no_time_base():
+    # a loaded machine can run sim:// at about real time: the port's word decides, not the fit
+    rc = RecordingClock()
+    rc.board.simulated = True
+    msgs = [sample(k * 100_000) for k in range(30)]
+    rc.take(msgs, [5.0 + 0.1 * k for k in range(30)])  # 0.1 board s per 0.1 host s
+    rc.refit()
+    (entry,) = rc.meta()["segments"]
+    assert entry["drift_ppm"] == 0 and not entry["usable"]
+    assert entry["why"].startswith("simulated time: board time only")
+    mono, _ = rc.host_of(np.arange(30), np.array([m.timestamp_us for m in msgs]))
+    assert np.all(np.isnan(mono)) and mapping_from_meta(entry) is None
+
+
 def test_a_recording_without_a_time_base_cannot_join_a_host_clock_log():
     with pytest.raises(DataError, match="no time base .recorded by an older tactile"):
         recorded_times(b"", {"sessions": [{"bytes": 0}]}, "utc", "run1")

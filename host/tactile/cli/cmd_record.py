@@ -219,7 +219,7 @@ def time_summary(time_base):
     more = f" (segment {len(segs)} of {len(segs)}, one per boot)" if len(segs) > 1 else ""
     why = s.get("why", "no fit")
     if not s.get("usable"):
-        return f"time base{more}: {why}" if why.startswith("fast mode") else (
+        return f"time base{more}: {why}" if why.startswith(("fast mode", "simulated")) else (
             f"time base: not usable{more}: {why}")  # fmt: skip
     if s["bins"] < 2:  # (one bin: an offset, no drift to speak of)
         return (

@@ -139,6 +139,9 @@ class Session:
     # -- connection ------------------------------------------------------------
     def _connect(self):
         port = self.opener(self.port_name)
+        # a port whose board runs on simulated time (sim://, not paced) says so: its clock is
+        # no wall clock's, however near one a loaded machine paces it
+        self.timing.board.simulated = bool(getattr(port, "simulated_time", False))
         held = None
         if self.client is None:
             self.client = BoardClient(port, self.port_name, capture=self.rec.raw, clock=self.clock)

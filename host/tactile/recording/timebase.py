@@ -33,6 +33,7 @@ HALF = WRAP // 2
 # A fit whose rate is further than this from 1 is not a clock's drift (crystals differ by
 # tens of ppm): an emulator in fast mode, whose simulated time outruns the wall clock.
 MAX_DRIFT_PPM = 1000.0
+SIMULATED = "simulated time: board time only (the port runs the board as fast as it can)"
 METHOD = (
     f"the {TAU:.0%} quantile line of each bin's least (arrival - board time), bins of"
     f" {BIN_S:g} s or wider (tactile.recording.timefit)"
@@ -52,14 +53,17 @@ class Segment:
     rows: int = 0
     row_wraps: list = field(default_factory=list)  # (row, wraps) where the wrap count changes
     fitted: object = None  # the latest ClockFit (board s -> host monotonic s)
+    simulated: bool = False  # the port said its board runs on simulated time
 
     def fit(self):
         self.fitted = fit(self.bins)
         return self.fitted
 
     def usable(self):
-        """Whether the fit is a clock's (|drift| <= MAX_DRIFT_PPM)."""
-        return self.fitted is not None and abs(self.fitted.drift_ppm) <= MAX_DRIFT_PPM
+        """Whether the fit is a clock's (|drift| <= MAX_DRIFT_PPM) and the board's time is
+        not simulated (a loaded machine can pace a fast emulator near the wall clock)."""
+        fitted = self.fitted
+        return not self.simulated and fitted is not None and abs(fitted.drift_ppm) <= MAX_DRIFT_PPM
 
 
 class BoardClock:
@@ -67,12 +71,13 @@ class BoardClock:
 
     def __init__(self):
         self.segments = []
+        self.simulated = False  # set from the port (``simulated_time``): no segment is usable
         self._prev = None  # raw stamp of the previous frame (of the current segment)
         self._wraps = 0
         self._boot = None
 
     def _new_segment(self, boot_id, raw):
-        self.segments.append(Segment(boot_id, raw, raw))
+        self.segments.append(Segment(boot_id, raw, raw, simulated=self.simulated))
         self._prev, self._wraps, self._boot = raw, 0, boot_id
 
     def stamp(self, m):
@@ -228,7 +233,7 @@ def segment_meta(seg, utc_minus_mono):
         "usable": seg.usable(),
     }
     if not seg.usable():
-        out["why"] = _why_unusable(f.rate)
+        out["why"] = SIMULATED if seg.simulated else _why_unusable(f.rate)
     return out
 
 

@@ -1,6 +1,8 @@
 """A board that dies on cue: the emulator on a pty whose pty closes for good once the host's
-``at_command``-th command frame has reached the board, ``after_s`` seconds of the board's
-time later (its own clock: on a loaded machine the wall clock would cut its stream short).
+``at_command``-th command frame has reached the board: at once, or ``after_s`` seconds of the
+board's time later (its own clock: on a loaded machine the wall clock would cut its stream
+short), once the host has read what the board sent until then (on a loaded machine the pty's
+buffer would otherwise lose a varying tail, and a test could not say what the host kept).
 
 For the tests and reliability probes of what a host does when a board is unplugged in the
 middle of a command or a stream: the host's open port then fails exactly as a real one does
@@ -41,11 +43,13 @@ class DyingBoard(PtyServer):
 
     def tick(self):
         if self.dies_at_us is not None and self.board.t_us >= self.dies_at_us:
-            self.stop = True
+            self.end_us = self.dies_at_us  # the board sends nothing after this
 
     def serve(self):
         try:
             super().serve()
+            if not self.stop:  # died on its clock: what it sent reaches the host first
+                self._let_host_read()  # (bounded: a host that takes nothing is given up on)
         finally:
             self.close()  # the master closes: the host's port is dead
 

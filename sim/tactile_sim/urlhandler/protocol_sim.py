@@ -5,7 +5,8 @@ SCENE is a shipped scene name (``sim://press``) or a path
 (``sim:///abs/path.toml``).  Reading advances the emulator's simulated time
 (as fast as possible by default, or paced by the wall clock with
 ``realtime=1``) until the bytes asked for exist or the timeout has passed
-in simulated time.  ``faults=0`` ignores the scene's ``[link]`` faults;
+in simulated time; unpaced, the port says so (``simulated_time``), and a recorder claims no
+host time for its frames.  ``faults=0`` ignores the scene's ``[link]`` faults;
 ``core=c`` (or ``python``) runs that firmware core instead of the scene's.  Each open is
 a board of its own (its own HELLO ``board_id``, drawn at random); ``board_id=`` and 16 hex
 digits names it, so that a port opened again is the same board, rebooted.
@@ -49,6 +50,7 @@ class Serial(SerialBase):
         self.emulator = EmulatedBoard(scene, core=options["core"], board_id=options["board_id"])
         self.faults = LinkFaults.from_scene(scene.link) if options["faults"] else None
         self.realtime = options["realtime"]
+        self.simulated_time = not self.realtime  # the host maps no wall clock onto its stamps
         self._buffer = bytearray()
         self._t0 = time.monotonic()
         self.is_open = True
