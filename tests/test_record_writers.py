@@ -40,12 +40,13 @@ def _wait_for_bytes(path, more_than, proc, timeout_s=60):
 def _agree(out, sessions):
     """capture.bin decodes cleanly and meta.json accounts for every byte and row of it."""
     capture = (out / "capture.bin").read_bytes()
-    _, counters = decode_bytes(capture)
+    messages, counters = decode_bytes(capture)
     meta = json.loads((out / "meta.json").read_text())
     rows = (out / "frames.csv").read_text().splitlines()[2:]
     assert counters.crc_errors == 0 and counters.out_of_order == 0
     assert counters.reboots == sessions - 1  # each sim:// session is a fresh board
     assert meta["bytes"] == len(capture) and meta["samples"] == len(rows)
+    assert len(rows) == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages)
     assert len(meta.get("sessions", [meta])) == sessions
     return meta
 
