@@ -5,6 +5,7 @@ first is known to hold the folder (its capture.bin has bytes: it locks before it
 or the test holds the lock itself, as a first writer would."""
 
 import fcntl
+import functools
 import json
 import os
 import subprocess
@@ -14,6 +15,7 @@ import time
 import pytest
 from lying_device import LyingPort, lying_ports
 
+from tactile.board.client import BoardClient
 from tactile.board.stream_decoder import decode_bytes
 from tactile.recording.session import Session
 from tactile_protocol import constants as C
@@ -193,8 +195,11 @@ def StreamPeek(data):  # noqa: N802 - the commands in ``data``
 
 
 @pytest.mark.parametrize("no_tare", [False, True])
-def test_meta_json_says_tared_only_for_a_tare_the_board_acknowledged(cli, tmp_path, no_tare):
-    out = tmp_path / "run"
+def test_meta_json_says_tared_only_for_a_tare_the_board_acknowledged(
+    cli, tmp_path, no_tare, monkeypatch
+):
+    out = tmp_path / "run"  # a TARE unanswered for 0.3 s is as unanswered as for its 5 s
+    monkeypatch.setattr(BoardClient, "tare", functools.partialmethod(BoardClient.tare, timeout=0.3))
     with lying_ports(_NoTare):
         code, _, err = cli("record", "--port", "/dev/ttyX", "--duration", "0.3", "-o", out,
                            *(["--no-tare"] if no_tare else []))  # fmt: skip
