@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile.ep2 import jet_answers
-from tactile.ep2.geometry import design, mv, pick, size, unit, vm
+from tactile.ep2.geometry import design, mv, pick, size, stacked_design, unit, vm
 
 TOP_ORDER = 4
 TOP_REDUNDANCY = 1.2  # an order is fitted where the rows are this many times its terms
@@ -185,8 +185,7 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
     sy = np.clip(-nn[..., 1] / nz, -limit, limit)
     x, y = q[..., 0] - centre[:, :1], q[..., 1] - centre[:, 1:]
     n_kept = keep.sum(-1)
-    V, DX, DY = design(x, y, top_cap + 1)  # (the extra order: the top's truncation)
-    A = np.concatenate([V, DX, DY], 1)
+    A = stacked_design(x, y, top_cap + 1)  # (the extra order: the top's truncation)
     b = np.concatenate([q[..., 2], sx, sy], -1)
     g2 = sx * sx + sy * sy
     kk = np.tile(keep, 3).astype(float)
