@@ -413,16 +413,14 @@ def _fit(A, b):
     determined (B,)) of least squares A c = b for a stack, k right-hand sides at once."""
     cn = np.sqrt(np.einsum("bij,bij->bj", A, A))
     cn = np.where(cn > 0, cn, 1.0)
-    Q, R = np.linalg.qr(A / cn[:, None, :])
-    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
-    tiny = ~(d > 1e-9 * d.max(-1, keepdims=True))
-    R = R + np.eye(R.shape[-1]) * tiny[:, None, :]  # (a patch not determined: not compared)
+    _, d, Rinv, Q = _qr(A, cn)  # (Q as X R^-1 where the fit is not stiff)
+    tiny = ~(d > 1e-9 * d.max(-1, keepdims=True))  # (a patch not determined: not compared)
     qb = np.swapaxes(Q, -1, -2) @ b
     resid = b - Q @ qb
     rows = np.any(A != 0, -1)
     dof = np.maximum(rows.sum(-1) - A.shape[2], 1)
     s2 = np.sum(resid * resid, 1) / dof[:, None]
-    Rinv = np.linalg.inv(R) / cn[:, :, None]
+    Rinv = Rinv / cn[:, :, None]
     coef = Rinv @ qb
     cov = Rinv @ np.swapaxes(Rinv, -1, -2)
     lo = A.shape[2] - 5
