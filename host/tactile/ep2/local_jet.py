@@ -381,12 +381,12 @@ def disagreements(xy, heights, slopes, keep, axes, scale, model=None):
         return out
     xy, z, s, w = xy[idx], heights[idx], slopes[idx], keep[idx].astype(float)
     z, s = np.stack([z, 0 * z], -1), np.stack([s, 0 * s], -1)  # (the data, the model's)
-    if model is not None:
-        order = next(o for o in range(model.shape[1]) if size(o) >= model.shape[1])
-        Vm, DXm, DYm = design(xy[..., 0], xy[..., 1], order)
-        z[..., 1] = mv(Vm, model[idx])
-        s[..., 0, 1], s[..., 1, 1] = mv(DXm, model[idx]), mv(DYm, model[idx])
-    V, DX, DY = design(xy[..., 0], xy[..., 1], 2)
+    p = 0 if model is None else model.shape[1]
+    V, DX, DY = design(xy[..., 0], xy[..., 1], next(o for o in range(2, 9) if size(o) >= p))
+    if model is not None:  # (the 2-jet's rows below: the leading columns)
+        z[..., 1] = mv(V[..., :p], model[idx])
+        s[..., 0, 1], s[..., 1, 1] = mv(DX[..., :p], model[idx]), mv(DY[..., :p], model[idx])
+    V, DX, DY = (np.ascontiguousarray(v[..., : size(2)]) for v in (V, DX, DY))
     tp, _, _, rp, okp = _fit(V * w[..., None], z * w[..., None])
     A = np.concatenate([DX, DY], 1)[..., 1:] * np.tile(w, 2)[..., None]
     sn = np.concatenate([s[:, :, 0], s[:, :, 1]], 1) * np.tile(w, 2)[..., None]
