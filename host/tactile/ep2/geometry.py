@@ -434,14 +434,14 @@ def grid_stats(ch, scale, planes):
     pos = ok & (r > 0)
     c = np.where(pos, curvedness_c(np.where(pos, r, 1.0) / scale[:, None]), 0.0)
     m["C_mean"], _ = _mean_sd(c, pos)
-    m = {k: np.asarray(v).tolist() for k, v in m.items()}
+    per_length = (np.stack([m[k] for k in KEYS[:6]], -1) / scale[:, None]).tolist()
+    m = {k: np.asarray(m[k]).tolist() for k in KEYS[6:]}
     out = []
     for i, (any_ok, any_pos, plane) in enumerate(zip(ok.any(-1), pos.any(-1), planes, strict=True)):
         if not any_ok:
             out.append(GridStats())
             continue
-        L = float(scale[i])
-        d = GridStats(**{k: float(m[k][i]) / L for k in KEYS[:6]})
+        d = GridStats(*per_length[i])  # (``KEYS``' order: the first six, over L)
         if not plane:
             d.S_mean, d.S_std = float(m["S_mean"][i]), float(m["S_std"][i])
             d.C_mean = float(m["C_mean"][i]) if any_pos else None
