@@ -283,12 +283,13 @@ def _keep_heap():
     M_TOP_PAD) and serve blocks up to that size from the heap (M_MMAP_THRESHOLD), once a
     process: by default it hands the heap's top back to the system as a stack's temporaries
     (MBs each) are freed, and the next stack's fault their pages in again, about 10 page
-    faults a patch (a tenth of the CPU, mostly in the kernel).  Peak memory is the same: the
-    pad is reused, not added.  Without glibc: nothing."""
+    faults a patch (a tenth of the CPU, mostly in the kernel).  The pad is reused, not added:
+    peak RSS through the CLI measured the same at 10k and 100k patches.  Without glibc's
+    mallopt: nothing (False)."""
     try:
         libc = ctypes.CDLL(None)
         return libc.mallopt(_M_MMAP_THRESHOLD, HEAP_PAD) == libc.mallopt(_M_TOP_PAD, HEAP_PAD) == 1
-    except (OSError, AttributeError):  # (no C library by that name, or no mallopt in it)
+    except (OSError, AttributeError, TypeError):  # (no C library, no mallopt: not glibc)
         return False
 
 
