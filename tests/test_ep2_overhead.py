@@ -109,14 +109,15 @@ def test_a_stack_runs_without_the_cyclic_collector_and_leaves_it_as_it_was(enabl
 
 
 def test_a_second_stack_reuses_the_heap_instead_of_faulting_its_pages_in():
-    """glibc keeps ``stream.HEAP_PAD`` of freed heap (``_keep_heap``): a stack's temporaries
-    (MBs) reuse the last stack's pages.  Without it each stack of 36-contact patches faults
-    in about 10 pages a patch (a tenth of the CPU)."""
+    """Once an application opts in (``stream.keep_heap``, as ``tactile ep2 analyze`` does),
+    glibc keeps ``stream.HEAP_PAD`` of freed heap: a stack's temporaries (MBs) reuse the
+    last stack's pages.  Without it each stack of 36-contact patches faults in about 10
+    pages a patch (a tenth of the CPU)."""
     import resource
 
     from tactile.ep2 import stream
 
-    if not stream._keep_heap():
+    if not stream.keep_heap():
         pytest.skip("no glibc mallopt here")
     patches = _spheres(256, rows=36)
     analyze_patches(patches)
@@ -124,3 +125,25 @@ def test_a_second_stack_reuses_the_heap_instead_of_faulting_its_pages_in():
     analyze_patches(patches)
     faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
     assert faults < 2 * len(patches)  # (Python's own arenas fault a few hundred)
+
+
+def test_the_library_leaves_the_allocator_alone_and_the_cli_opts_in(cli, tmp_path, mocker):
+    """Setting the process's allocator is the application's choice: ``analyze_patches``
+    never calls ``keep_heap``; ``tactile ep2 analyze`` does, once, before fitting."""
+    from tactile.cli import cmd_ep2
+    from tactile.ep2 import stream
+
+    spy = mocker.patch.object(cmd_ep2, "keep_heap", wraps=stream.keep_heap)
+    lib = mocker.patch.object(stream, "keep_heap")
+    analyze_patches(_spheres(4, rows=12))
+    assert lib.call_count == 0
+    f = tmp_path / "c.csv"
+    rows = [
+        f"{x},{y},{-(x * x + y * y) / 20},{x / 10},{y / 10},1"
+        for x in range(-2, 3)
+        for y in range(-2, 3)
+    ]
+    f.write_text("# units: cm\nx,y,z,nx,ny,nz\n" + "\n".join(rows) + "\n")
+    code, _, err = cli("ep2", "analyze", f, "--quiet")
+    assert code == 0, err
+    assert spy.call_count == 1

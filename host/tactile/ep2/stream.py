@@ -236,7 +236,6 @@ def analyze_patches(patches, *, chunk=STACK, **kw):
     Keyword options are ``analyze_patch``'s and apply to every patch.  Patches are read
     ``WINDOW`` stacks at a time and fitted in stacks of like size (less padding)."""
     req = patch_input.keywords(**kw)
-    _keep_heap()
     out, todo = [], []
     for p in patches:
         todo.append(p)
@@ -278,14 +277,17 @@ _M_TOP_PAD, _M_MMAP_THRESHOLD = -2, -3  # (glibc's mallopt parameters)
 
 
 @functools.cache
-def _keep_heap():
+def keep_heap():
     """Have glibc keep ``HEAP_PAD`` of freed memory at the top of the heap (``mallopt``
     M_TOP_PAD) and serve blocks up to that size from the heap (M_MMAP_THRESHOLD), once a
     process: by default it hands the heap's top back to the system as a stack's temporaries
     (MBs each) are freed, and the next stack's fault their pages in again, about 10 page
     faults a patch (a tenth of the CPU, mostly in the kernel).  The pad is reused, not added:
-    peak RSS through the CLI measured the same at 10k and 100k patches.  Without glibc's
-    mallopt: nothing (False)."""
+    peak RSS through the CLI measured the same at 10k and 100k patches.
+
+    It sets the whole process's allocator, so the library never calls it by itself: an
+    application that fits many stacks opts in (``tactile ep2 analyze`` does, before its
+    workers fork, which inherit it).  True once set; without glibc's mallopt, False."""
     try:
         libc = ctypes.CDLL(None)
         return libc.mallopt(_M_MMAP_THRESHOLD, HEAP_PAD) == libc.mallopt(_M_TOP_PAD, HEAP_PAD) == 1
