@@ -13,7 +13,8 @@ directory (about 200 MB at 1M patches) with numpy and removed afterwards.
 - ``cpu``: CPU seconds (``time.process_time``) per patch, best of 3, in this process:
   ``tactile.ep2.analyze_patches`` (the default), the families bench's batched 2-jet
   (``tactile_studies.ep2.jet2.analyze``) and a lean batched numpy 2-jet (``lean_jet2``:
-  one stacked least-squares solve per patch size, no per-patch Python), side by side.
+  one stacked least-squares solve per patch size, no per-patch Python), side by side, in a
+  process whose allocator keeps its freed heap (``stream.keep_heap``), as the CLI's is.
 - ``cli``: each size through ``python -m tactile.cli.main ep2 analyze --json`` in a child
   process: wall, CPU (``RUSAGE_CHILDREN``) and peak RSS (the largest VmHWM of it and its
   workers, sampled from /proc every 0.1 s; not ``ru_maxrss`` of the children, which counts
@@ -34,6 +35,7 @@ import numpy as np  # noqa: E402
 from timing import peak_rss_mb  # noqa: E402
 
 from tactile.ep2 import analyze_patches  # noqa: E402
+from tactile.ep2.stream import keep_heap  # noqa: E402
 from tactile_sim.ep2 import make  # noqa: E402
 from tactile_studies.ep2 import jet2  # noqa: E402
 
@@ -200,6 +202,7 @@ def run_cli(path, jobs):
 
 
 def main(argv=None):
+    keep_heap()  # (as the CLI: the allocator keeps the stacks' pages)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="10000,100000,1000000")
     ap.add_argument("--jobs", default="1")

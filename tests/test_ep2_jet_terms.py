@@ -5,7 +5,7 @@ partial derivatives at the centre (the x^i y^j / (i! j!) normalisation)."""
 import numpy as np
 import pytest
 
-from tactile.ep2.geometry import design, exponents, rows, size
+from tactile.ep2.geometry import design, exponents, rows, size, stacked_design
 
 
 @pytest.mark.parametrize("order", [2, 3, 5])
@@ -39,3 +39,18 @@ def test_coefficients_are_the_partial_derivatives_at_the_centre(order):
     for k, ij in enumerate(names):
         np.testing.assert_array_equal(rows(zero, zero, order, *ij)[0], np.eye(len(names))[k])
     assert names[1:6] == [(1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]
+
+
+@pytest.mark.parametrize("shape", [(7,), (3, 12), (2, 3, 4)])
+def test_stacked_design_takes_each_product_once_and_equals_the_rows(shape):
+    """The fit's design (value, d/dx, d/dy stacked) reads a derivative's column off the
+    value's shifted exponents: the same products, bit for bit, as ``rows`` of each."""
+    rng = np.random.default_rng(len(shape))
+    x, y = rng.normal(size=(2, *shape))
+    for order in range(6):
+        A = stacked_design(x, y, order)
+        want = [rows(x, y, order, *d) for d in ((0, 0), (1, 0), (0, 1))]
+        assert A.shape == (*shape[:-1], 3 * shape[-1], size(order))
+        np.testing.assert_array_equal(A, np.concatenate(want, -2))
+        for got, w in zip(design(x, y, order), want, strict=True):
+            np.testing.assert_array_equal(got, w)

@@ -39,6 +39,21 @@ def test_vote_is_its_array_form(seed):
     assert seen == {True, False}
 
 
+def test_a_stacks_votes_are_each_patchs_vote():
+    """``votes`` (a stack's S votes at once) gives ``vote``'s label, confidence and shares,
+    bit for bit: S on and off the band edges, sds of 0 (one side or both), tiny, NaN."""
+    rng = np.random.default_rng(7)
+    s = rng.choice([*rng.uniform(-1.2, 1.2, 8), *S_EDGES, 1.0, -1.0, math.nan], 4000)
+    lo, hi = (rng.choice([*rng.uniform(0, 0.4, 8), 0.0, -0.0, 1e-12, math.nan], 4000) for _ in "ab")
+    p = rng.choice([0.0, 0.3, 0.999, 1.0], 4000)
+    got = centre_result.votes(s, lo, hi, p)
+    want = [
+        centre_result.vote(*a) for a in zip(s.tolist(), zip(lo.tolist(), hi.tolist()), p.tolist())
+    ]
+    assert repr(got) == repr(want)  # NaN confidences included
+    assert {g[0] for g in got} >= {"uncertain", "sphere", "saddle"}
+
+
 def test_duplicate_rows_found_as_by_whole_rows():
     """``patch_input.has_duplicates`` (whole rows compared only where two x are equal) says
     what comparing every row says: exact repeats, equal x alone, -0.0 and 0.0, NaN."""
@@ -75,16 +90,60 @@ def _spheres(n, seed=0, rows=12):
 @pytest.mark.parametrize("enabled", [True, False])
 def test_a_stack_runs_without_the_cyclic_collector_and_leaves_it_as_it_was(enabled):
     """One stack of 256 patches: at most the pass after it (not one per 700 allocations),
-    and the collector's state as the caller had it."""
+    and the collector's state as the caller had it (the patches built and the young
+    generation emptied first: what ran before, not the stack, set its count)."""
+    patches = _spheres(256)
+    gc.collect()
     passes = []
     gc.callbacks.append(lambda phase, info: phase == "start" and passes.append(info))
     was = gc.isenabled()
     (gc.enable if enabled else gc.disable)()
     try:
-        got = analyze_patches(_spheres(256))
+        got = analyze_patches(patches)
         assert gc.isenabled() is enabled
     finally:
         gc.callbacks.pop()
         (gc.enable if was else gc.disable)()
     assert all(r.shape == "sphere" for r in got)
     assert len(passes) <= (1 if enabled else 0)
+
+
+def test_a_second_stack_reuses_the_heap_instead_of_faulting_its_pages_in():
+    """Once an application opts in (``stream.keep_heap``, as ``tactile ep2 analyze`` does),
+    glibc keeps ``stream.HEAP_PAD`` of freed heap: a stack's temporaries (MBs) reuse the
+    last stack's pages.  Without it each stack of 36-contact patches faults in about 10
+    pages a patch (a tenth of the CPU)."""
+    import resource
+
+    from tactile.ep2 import stream
+
+    if not stream.keep_heap():
+        pytest.skip("no glibc mallopt here")
+    patches = _spheres(256, rows=36)
+    analyze_patches(patches)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    analyze_patches(patches)
+    faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+    assert faults < 2 * len(patches)  # (Python's own arenas fault a few hundred)
+
+
+def test_the_library_leaves_the_allocator_alone_and_the_cli_opts_in(cli, tmp_path, mocker):
+    """Setting the process's allocator is the application's choice: ``analyze_patches``
+    never calls ``keep_heap``; ``tactile ep2 analyze`` does, once, before fitting."""
+    from tactile.cli import cmd_ep2
+    from tactile.ep2 import stream
+
+    spy = mocker.patch.object(cmd_ep2, "keep_heap", wraps=stream.keep_heap)
+    lib = mocker.patch.object(stream, "keep_heap")
+    analyze_patches(_spheres(4, rows=12))
+    assert lib.call_count == 0
+    f = tmp_path / "c.csv"
+    rows = [
+        f"{x},{y},{-(x * x + y * y) / 20},{x / 10},{y / 10},1"
+        for x in range(-2, 3)
+        for y in range(-2, 3)
+    ]
+    f.write_text("# units: cm\nx,y,z,nx,ny,nz\n" + "\n".join(rows) + "\n")
+    code, _, err = cli("ep2", "analyze", f, "--quiet")
+    assert code == 0, err
+    assert spy.call_count == 1

@@ -350,6 +350,32 @@ def test_a_stiff_jet_in_a_stack_takes_lapacks_orthogonal_q():
     assert np.abs(cheap.T @ cheap - np.eye(X.shape[2])).max() > 1e-10  # what it would be
 
 
+def test_the_consistency_tests_fits_are_least_squares_for_a_stiff_patch_too():
+    """The positions' and the normals' own 2-jets (``local_jet._fit``, behind the consistency
+    test) share the jet's Q (X R^-1, LAPACK's where stiff): their coefficients, covariance
+    and residuals are ``lstsq``'s for a spread patch and for one stiffer than
+    ``CHEAP_COND``; a patch whose columns are dependent is marked undetermined."""
+    rng = np.random.default_rng(4)
+    xy = [
+        rng.uniform(-1, 1, (30, 2)),
+        np.vstack([rng.uniform(-1, 1, (4, 2)), 1e-5 * rng.uniform(-1, 1, (26, 2))]),
+        np.column_stack([np.linspace(-1, 1, 30), np.zeros(30)]),  # (one line: y's columns 0)
+    ]
+    A = np.stack([design(c[:, 0], c[:, 1], 2)[0] for c in xy])
+    cond = np.linalg.cond(A[:2] / np.linalg.norm(A[:2], axis=1, keepdims=True))
+    assert cond[0] < local_jet.CHEAP_COND < cond[1]  # one of each
+    b = rng.normal(size=(3, 30, 2))
+    coef, cov, s2, resid, ok = local_jet._fit(A, b)
+    assert ok.tolist() == [True, True, False]
+    for k in range(2):
+        want, rss, *_ = np.linalg.lstsq(A[k], b[k], rcond=None)
+        assert np.allclose(coef[k], want[1:], rtol=1e-8, atol=1e-9 * np.abs(want).max())
+        assert np.allclose(resid[k], b[k] - A[k] @ want, atol=1e-10)
+        assert np.allclose(s2[k], rss / (30 - 6), rtol=1e-9)
+        inv = np.linalg.inv(A[k].T @ A[k])[1:, 1:]
+        assert np.allclose(cov[k], inv, rtol=1e-6, atol=1e-9 * np.abs(inv).max())
+
+
 def _scene(**kw):
     """A scene as ``scenes`` draws it: level, unit 1, no duplicates, unless ``kw`` says."""
     base = dict(k=None, rotation=0.0, apex=(0.0, 0.0), slope=(0.0, 0.0), unit=1.0)

@@ -9,7 +9,7 @@ from tactile.commands import add_quiet, contacts_of
 from tactile.ep2 import JetOptions, SplineOptions, contacts_csv
 from tactile.ep2.geometry import MAX_NORMAL_ANGLE_DEG
 from tactile.ep2.patch_input import METHODS, WEIGHTINGS, Request
-from tactile.ep2.stream import MAX_JOBS, in_unit, outcomes
+from tactile.ep2.stream import MAX_JOBS, in_unit, keep_heap, outcomes
 from tactile.errors import DataError, InputError
 from tactile.output.text import dumps, printable_lines
 
@@ -118,6 +118,7 @@ def run(args):
     out = _Printer(args.json, shown, scale, file_unit is not None)
     failed = []
     bar = None if args.quiet else _progress(len(groups))
+    keep_heap()  # (this process fits stack after stack: the allocator keeps their pages)
     try:
         for done in outcomes(named, req, split=args.split, jobs=args.jobs):
             if done.input_error is not None:

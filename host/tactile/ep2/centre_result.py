@@ -135,10 +135,17 @@ def summary(t, cov, bias, scale, intervals=True, cov_noise=None, plane_holds_zer
     c = curvedness_c(np.where(plane, 1.0, curvedness_r(k1s, k2s)) / scale)
     # Python numbers once for the stack (``tolist``: the same values as float(a[i]))
     m, h = np.asarray(m, float), np.asarray(h, float)
-    s = shape_index(m + h, m - h).tolist()
-    m, h, scale, c = (np.asarray(v, float).tolist() for v in (m, h, scale, c))
+    s = shape_index(m + h, m - h)
+    p_flat = [plane_confidence(a, b) for a, b in zip(r.tolist(), d2.tolist(), strict=True)]
+    voted = dict.fromkeys(range(len(t)))  # (the curved patches' votes, where intervals)
+    if iv is not None:
+        curved = np.flatnonzero(~plane)
+        root = np.sqrt(iv.crit[curved])
+        sd = ((s[curved] - iv.S[curved, 0]) / root, (iv.S[curved, 1] - s[curved]) / root)
+        voted.update(zip(curved.tolist(), votes(s[curved], *sd, np.take(p_flat, curved))))
+    m, h, scale, c, s = (np.asarray(v, float).tolist() for v in (m, h, scale, c, s))
     iv = iv and Intervals(**{k: np.asarray(v).tolist() for k, v in vars(iv).items()})
-    flat = zip(r.tolist(), d2.tolist(), plane.tolist(), s, strict=True)
+    flat = zip(p_flat, plane.tolist(), s, voted.values(), strict=True)
     return [_summary_one(i, m, h, iv, f, scale, c) for i, f in enumerate(flat)]
 
 
@@ -149,9 +156,9 @@ def _excludes_zero(iv):
 
 
 def _summary_one(i, m, h, iv, flat, scale, c):
-    """Patch ``i``'s ``Centre`` from its stack's numbers (lists); ``flat`` = (R, d^2,
-    plane, S), ``c`` the curvedness C."""
-    (r, d2, plane, s), scale = flat, scale[i]
+    """Patch ``i``'s ``Centre`` from its stack's numbers (lists); ``flat`` = (the flatness
+    test's p-value, plane, S, the S vote (``votes``) or None), ``c`` the curvedness C."""
+    (p_flat, plane, s, voted), scale = flat, scale[i]
     m, h = m[i], h[i]
     out = Centre(None, None, None, (m + h) / scale, (m - h) / scale, None, None, None, None,
                  None, None, {})  # fmt: skip
@@ -159,18 +166,13 @@ def _summary_one(i, m, h, iv, flat, scale, c):
         (lo1, hi1), (lo2, hi2) = iv.k1[i], iv.k2[i]
         out.k1_interval, out.k2_interval = (lo1 / scale, hi1 / scale), (lo2 / scale, hi2 / scale)
     if plane:
-        out.shape, out.confidence = "plane", plane_confidence(r, d2)
+        out.shape, out.confidence = "plane", p_flat
         return out
-    sd = None
     if iv is not None:
-        root = math.sqrt(iv.crit[i])
-        s_iv = tuple(iv.S[i])
-        sd = ((s - s_iv[0]) / root, (s_iv[1] - s) / root)
-        out.S_interval = s_iv
+        out.S_interval = tuple(iv.S[i])
         lo, hi = iv.kmax[i]
         out.radius_interval = (scale / hi if hi > 0 else None, scale / lo if lo > 0 else None)
-    p_flat = plane_confidence(r, d2)
-    out.shape, out.confidence, out.votes = vote(s, sd, p_flat)
+    out.shape, out.confidence, out.votes = voted or vote(s, None, p_flat)
     kmax = max(abs(m + h), abs(m - h))
     out.S, out.radius, out.C = s, scale / kmax, float(c[i])
     return out
@@ -261,6 +263,37 @@ def vote(s_est, s_sd, p_flat=0.0):
     if shares[best] >= MIN_VOTE:
         return S_NAMES[best], float(shares[best]), votes
     return "uncertain", float(shares[best]), votes
+
+
+def votes(s, sd_lo, sd_hi, p_flat):
+    """``vote`` of a stack: S, its sds below and above it, the flatness p-values (each (B,)),
+    by the same arithmetic on arrays (``math.erf``/``erfc`` of each point, so each number is
+    ``vote``'s); a list of (label, confidence, votes)."""
+    s, lo, hi, p_flat = (np.asarray(v, float)[:, None] for v in (s, sd_lo, sd_hi, p_flat))
+    below = _EDGE_ARRAY <= s  # (``split_normal_cdf``'s branches)
+    total = lo + hi
+    with np.errstate(divide="ignore", invalid="ignore"):
+        arg = np.where(below, (s - _EDGE_ARRAY) / (lo * _ROOT2), (_EDGE_ARRAY - s) / (hi * _ROOT2))
+        pairs = zip(arg.ravel().tolist(), below.ravel().tolist(), strict=True)
+        e = np.array([math.erfc(a) if b else math.erf(a) for a, b in pairs]).reshape(arg.shape)
+        cdf = np.where(below, np.where(lo <= 0, 0.0, (lo / total) * e),
+                       np.where(hi <= 0, 1.0, lo / total + (hi / total) * e))  # fmt: skip
+    shares = (cdf[:, 1:] - cdf[:, :-1]) * (1.0 - p_flat)
+    best = np.argmax(shares, axis=1).tolist()  # (the first NaN, else the first largest)
+    none = ((lo == 0) & (hi == 0))[:, 0].tolist()  # (``vote``: no spread, the band of S)
+    out = []
+    for k, row in enumerate(shares.tolist()):
+        if none[k]:
+            out.append((S_NAMES[int(s_class(s[k, 0]))], 1.0 - float(p_flat[k, 0]), {}))
+            continue
+        share = row[best[k]]
+        picked = {S_NAMES[i]: c for i, c in enumerate(row) if c > 1e-4}
+        out.append((S_NAMES[best[k]] if share >= MIN_VOTE else "uncertain", share, picked))
+    return out
+
+
+_EDGE_ARRAY = np.array(_EDGES)
+_ROOT2 = math.sqrt(2)
 
 
 CHI2_1_95 = 3.841458820694124

@@ -173,7 +173,7 @@ def _few_far(N, cosmax):
     dots = np.einsum("bnk,bk->bn", N, N.sum(axis=1))
     seed = np.argmax(dots, axis=1)
     if N.shape[1] <= SEED_ROWS:
-        seeds = np.einsum("bnk,bmk->bnm", N, N) - cosmax[:, None, None]  # (seed n, contact m)
+        seeds = N @ np.swapaxes(N, -1, -2) - cosmax[:, None, None]  # (seed n, contact m)
         near = seeds[np.arange(len(N)), seed]
         sure = _same_near(dots, seeds, near)
     else:  # (a seed that ties the next: left to the check)

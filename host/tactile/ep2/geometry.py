@@ -23,6 +23,7 @@ round-off.
 N x N grid, for both methods.
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -326,8 +327,42 @@ def powers(x, order):
 
 
 def design(x, y, order):
-    """Rows of the jet's value, d/dx and d/dy: three (..., p) arrays."""
-    return rows(x, y, order), rows(x, y, order, 1, 0), rows(x, y, order, 0, 1)
+    """Rows of the jet's value, d/dx and d/dy: three (..., n, p) arrays for x, y (..., n)
+    (views of ``stacked_design``'s)."""
+    A, n = stacked_design(x, y, order), np.shape(x)[-1]
+    return A[..., :n, :], A[..., n : 2 * n, :], A[..., 2 * n :, :]
+
+
+def stacked_design(x, y, order):
+    """(..., 3n, p): ``rows`` of the value, d/dx and d/dy of points x, y (..., n), one above
+    the other.  Each term is the product of one power of x and one of y, as in ``rows``; a
+    derivative's column is the value's column of the shifted exponents (or 0), so every
+    product is taken once."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    i, j, dx, dy = _terms(order)
+    n, p = x.shape[-1], len(i)
+    px, py = np.stack(powers(x, order), -1), np.stack(powers(y, order), -1)
+    value = np.empty((*x.shape, p + 1))
+    value[..., p] = 0.0  # (the column a shifted exponent below 0 reads)
+    np.multiply(px[..., i], py[..., j], out=value[..., :p])
+    A = np.empty((*x.shape[:-1], 3 * n, p))
+    A[..., :n, :] = value[..., :p]
+    A[..., n : 2 * n, :] = value[..., dx]
+    A[..., 2 * n :, :] = value[..., dy]
+    return A
+
+
+@functools.lru_cache(maxsize=16)
+def _terms(order):
+    """The exponents (i, j) of ``exponents(order)`` as two index arrays, and per term the
+    column of the same jet holding x^(i-1) y^j (d/dx) and x^i y^(j-1) (d/dy): p for none."""
+    ex = exponents(order)
+    at = {e: k for k, e in enumerate(ex)}
+    p = len(ex)
+    i, j = (np.array(v) for v in zip(*ex, strict=True))
+    dx = np.array([at[(a - 1, b)] if a else p for a, b in ex])
+    dy = np.array([at[(a, b - 1)] if b else p for a, b in ex])
+    return i, j, dx, dy
 
 
 def mv(M, v):
@@ -399,14 +434,14 @@ def grid_stats(ch, scale, planes):
     pos = ok & (r > 0)
     c = np.where(pos, curvedness_c(np.where(pos, r, 1.0) / scale[:, None]), 0.0)
     m["C_mean"], _ = _mean_sd(c, pos)
-    m = {k: np.asarray(v).tolist() for k, v in m.items()}
+    per_length = (np.stack([m[k] for k in KEYS[:6]], -1) / scale[:, None]).tolist()
+    m = {k: np.asarray(m[k]).tolist() for k in KEYS[6:]}
     out = []
     for i, (any_ok, any_pos, plane) in enumerate(zip(ok.any(-1), pos.any(-1), planes, strict=True)):
         if not any_ok:
             out.append(GridStats())
             continue
-        L = float(scale[i])
-        d = GridStats(**{k: float(m[k][i]) / L for k in KEYS[:6]})
+        d = GridStats(*per_length[i])  # (``KEYS``' order: the first six, over L)
         if not plane:
             d.S_mean, d.S_std = float(m["S_mean"][i]), float(m["S_std"][i])
             d.C_mean = float(m["C_mean"][i]) if any_pos else None

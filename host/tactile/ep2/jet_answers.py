@@ -63,16 +63,29 @@ def outcomes(stack, jet, names=None):
     # Python numbers for the stack at once (``tolist``: the same values as float(a[b]))
     scale, jet, noise = stack.scale.tolist(), stack.order.tolist(), stack.noise.tolist()
     stated = stack.stated.any(-1).tolist()
-    for k, (b, head) in enumerate(zip(ok.tolist(), heads, strict=True)):
-        coef, centre = stack.coef[b], stack.centre[b]
+    weight, top = stack.weight.tolist(), stack.top.tolist()
+    # each patch's rows as views (``list`` of an array: no fancy index a patch)
+    coefs, centres, origins, axes = (
+        list(a) for a in (stack.coef, stack.centre, stack.origin, stack.axes)
+    )
+    grids = zip(*(list(c) for c in ch), list(gx), list(gy), list(d1), strict=True)
+    for k, (b, head, (*chk, gxk, gyk, d1k)) in enumerate(
+        zip(ok.tolist(), heads, grids, strict=True)
+    ):
         out[b] = Answer(
-            head, stats[k], _model_text(stack, b), jet[b], "stated" if stated[b] else "auto",
-            *noise[b], geometry.PatchFrame(stack.origin[b], stack.axes[b]), scale[b],
-            lambda q, c=centre, o=order, a=coef: design(q[:, 0] - c[0], q[:, 1] - c[1], o)[0] @ a,
-            ([c[k] for c in ch], gx[k], gy[k]), d1[k], tuple(box[k]),
+            head, stats[k], _model_text(weight[b], top[b]), jet[b],
+            "stated" if stated[b] else "auto", *noise[b],
+            geometry.PatchFrame(origins[b], axes[b]), scale[b],
+            _surface(centres[b], order, coefs[b]),
+            (chk, gxk, gyk), d1k, tuple(box[k]),
             [_name_rows(w, names[b]) for w in stack.warnings[b]] if stack.warnings[b] else [],
         )  # fmt: skip
     return out
+
+
+def _surface(c, order, coef):
+    """z(q) of the jet ``coef`` about the centre ``c`` (frame, / L), q (m, 2)."""
+    return lambda q: design(q[:, 0] - c[0], q[:, 1] - c[1], order)[0] @ coef
 
 
 def _left(stack, b, names, most=2):
@@ -139,9 +152,9 @@ def _order_of(p):
     return o
 
 
-def _model_text(stack, b):
-    """One line: the jet the answer is, how far it moved from the 2-jet, what checked it."""
-    w, top = float(stack.weight[b]), int(stack.top[b])
+def _model_text(w, top):
+    """One line: the jet the answer is (moved ``w`` of the way from the 2-jet), what checked
+    it (the ``top``-jet)."""
     hi = top - 1 if top >= 4 else top
     moved = f", moved {w:.2f} of the way to the {hi}-jet" if hi > 2 else ""
     return (f"2-jet of positions and normals{moved}; truncation checked against the "

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tactile.ep2 import jet_answers
-from tactile.ep2.geometry import design, mv, pick, size, unit, vm
+from tactile.ep2.geometry import design, mv, pick, size, stacked_design, unit, vm
 
 TOP_ORDER = 4
 TOP_REDUNDANCY = 1.2  # an order is fitted where the rows are this many times its terms
@@ -185,8 +185,7 @@ def _fit_once(P, N, keep, noise, top_cap, limit):
     sy = np.clip(-nn[..., 1] / nz, -limit, limit)
     x, y = q[..., 0] - centre[:, :1], q[..., 1] - centre[:, 1:]
     n_kept = keep.sum(-1)
-    V, DX, DY = design(x, y, top_cap + 1)  # (the extra order: the top's truncation)
-    A = np.concatenate([V, DX, DY], 1)
+    A = stacked_design(x, y, top_cap + 1)  # (the extra order: the top's truncation)
     b = np.concatenate([q[..., 2], sx, sy], -1)
     g2 = sx * sx + sy * sy
     kk = np.tile(keep, 3).astype(float)
@@ -382,12 +381,12 @@ def disagreements(xy, heights, slopes, keep, axes, scale, model=None):
         return out
     xy, z, s, w = xy[idx], heights[idx], slopes[idx], keep[idx].astype(float)
     z, s = np.stack([z, 0 * z], -1), np.stack([s, 0 * s], -1)  # (the data, the model's)
-    if model is not None:
-        order = next(o for o in range(model.shape[1]) if size(o) >= model.shape[1])
-        Vm, DXm, DYm = design(xy[..., 0], xy[..., 1], order)
-        z[..., 1] = mv(Vm, model[idx])
-        s[..., 0, 1], s[..., 1, 1] = mv(DXm, model[idx]), mv(DYm, model[idx])
-    V, DX, DY = design(xy[..., 0], xy[..., 1], 2)
+    p = 0 if model is None else model.shape[1]
+    V, DX, DY = design(xy[..., 0], xy[..., 1], next(o for o in range(2, 9) if size(o) >= p))
+    if model is not None:  # (the 2-jet's rows below: the leading columns)
+        z[..., 1] = mv(V[..., :p], model[idx])
+        s[..., 0, 1], s[..., 1, 1] = mv(DX[..., :p], model[idx]), mv(DY[..., :p], model[idx])
+    V, DX, DY = (np.ascontiguousarray(v[..., : size(2)]) for v in (V, DX, DY))
     tp, _, _, rp, okp = _fit(V * w[..., None], z * w[..., None])
     A = np.concatenate([DX, DY], 1)[..., 1:] * np.tile(w, 2)[..., None]
     sn = np.concatenate([s[:, :, 0], s[:, :, 1]], 1) * np.tile(w, 2)[..., None]
@@ -414,16 +413,14 @@ def _fit(A, b):
     determined (B,)) of least squares A c = b for a stack, k right-hand sides at once."""
     cn = np.sqrt(np.einsum("bij,bij->bj", A, A))
     cn = np.where(cn > 0, cn, 1.0)
-    Q, R = np.linalg.qr(A / cn[:, None, :])
-    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
-    tiny = ~(d > 1e-9 * d.max(-1, keepdims=True))
-    R = R + np.eye(R.shape[-1]) * tiny[:, None, :]  # (a patch not determined: not compared)
+    _, d, Rinv, Q = _qr(A, cn)  # (Q as X R^-1 where the fit is not stiff)
+    tiny = ~(d > 1e-9 * d.max(-1, keepdims=True))  # (a patch not determined: not compared)
     qb = np.swapaxes(Q, -1, -2) @ b
     resid = b - Q @ qb
     rows = np.any(A != 0, -1)
     dof = np.maximum(rows.sum(-1) - A.shape[2], 1)
     s2 = np.sum(resid * resid, 1) / dof[:, None]
-    Rinv = np.linalg.inv(R) / cn[:, :, None]
+    Rinv = Rinv / cn[:, :, None]
     coef = Rinv @ qb
     cov = Rinv @ np.swapaxes(Rinv, -1, -2)
     lo = A.shape[2] - 5
