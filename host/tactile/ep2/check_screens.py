@@ -22,6 +22,8 @@ MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to 
 TILT_COND = 1e4  # the same for the tilt's weighted fit (its rows' scales differ)
 TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than the rest
 QR_COND = 1e4  # the same for a fit by QR (its residual's error grows as cond, not cond^2)
+GAP = 1e-3  # the slopes' gradient's eigenvalues this share apart, or its axes are left to the check
+DIR = 1e-8  # a fit's coefficients' error, relative: its axes may turn by this over the gap
 SEED_ROWS = 64  # contacts up to which every seed of the normal screen that ties is tried
 
 
@@ -63,14 +65,90 @@ def no_jump(points, normals, opts=None):
     s = -np.stack([np.einsum("bnk,bk->bn", normals, t) for t in (t1, t2)], axis=-1) / nz[..., None]
     x, y = xy[..., 0], xy[..., 1]
     quad = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
-    coef, ok = _solve(quad, s)
-    res = np.sum((quad @ coef - s) ** 2, axis=(1, 2))
+    coef_q, ok = _solve(quad, s)
+    res = np.sum((quad @ coef_q - s) ** 2, axis=(1, 2))
     coef, ok3 = _solve(quad[..., :3], s)
     flat = np.sum((quad[..., :3] @ coef - s) ** 2, axis=(1, 2))
     sure &= ok & ok3
     slack = REL * (flat + res) + ABS * np.sum(s * s, axis=(1, 2))
     none = flat - res + slack < curvature_jump.JUMP_PRE * res / max(n - 6, 1) * (1 - REL)
+    todo = np.flatnonzero(sure & ~none)
+    if todo.size:  # (the smooth change beats a constant curvature: the hinges, stacked)
+        none[todo] = _no_hinge(xy[todo], s[todo], quad[todo], coef_q[todo])
     return low | sure & none
+
+
+def _no_hinge(xy, s, quad, coef):
+    """(B,) whether ``find_jump`` surely finds no hinge along either axis of the slopes'
+    gradient, for patches past its first test: the same gross contacts left out (each one's
+    residual, and the next one's, clear of the cut-off by the margins), axes told apart
+    (their eigenvalues ``GAP`` apart), and on each axis either its first test fails or the
+    best cut's residual (every cut, each way, by QR: a lower bound on the check's, whose
+    ridge only adds to it) fails ``JUMP_RATIO`` or ``JUMP_F``, by the margins widened by how
+    far the axes may turn between the two fits."""
+    cj = curvature_jump
+    scale = np.sum(s * s, axis=(1, 2))
+    keep, sure = _kept(np.sqrt(np.sum((quad @ coef - s) ** 2, axis=2)), REL * np.sqrt(scale))
+    w, V = np.linalg.eigh(coef[:, 1:3] + np.swapaxes(coef[:, 1:3], 1, 2))
+    spread = np.abs(w).max(axis=1)
+    gap = w[:, 1] - w[:, 0]
+    sure &= gap > GAP * spread
+    slack = (ABS + DIR * spread / np.maximum(gap, 1e-300)) * scale
+    m = keep.sum(axis=1)
+    dof = np.maximum(m - 5, 1)
+    none = np.ones(len(xy), bool)
+    for e in np.swapaxes(V, 1, 2).transpose(1, 0, 2):  # (each axis: (B, 2))
+        u = np.einsum("bnk,bk->bn", xy, e)
+        v = np.einsum("bnk,bk->bn", xy, np.stack([-e[:, 1], e[:, 0]], axis=1))
+        y = np.einsum("bnk,bk->bn", s, e) * keep
+        one = keep.astype(float)
+        lin, ok1 = _qr_rss(np.stack([one, u, v, u * v], -1) * one[..., None], y)
+        smooth, ok2 = _qr_rss(np.stack([one, u, u * u, v, u * v], -1) * one[..., None], y)
+        sure &= ok1 & ok2
+        sl = REL * (lin + smooth) + slack
+        pre = lin - smooth + sl < cj.JUMP_PRE * (smooth - sl) / dof * (1 - REL)
+        best, ok = _best_hinge(u, v, y, keep, m)
+        lo, sure = best * (1 - REL) - slack, sure & (ok | pre)
+        search = lo > cj.JUMP_RATIO * (smooth * (1 + REL) + slack)
+        search |= lin * (1 + REL) + slack - lo < cj.JUMP_F * lo / dof * (1 - REL)
+        none &= pre | search
+    return sure & none
+
+
+def _kept(r, mrg):
+    """(the contacts ``find_jump`` keeps (B, n), whether surely the same: the largest
+    ``MAX_LEFT_OUT`` residuals r (B, n), and the next, clear of its cut-off by ``mrg`` (B,)
+    and by ``REL`` of it)."""
+    k = curvature_jump.MAX_LEFT_OUT
+    cut = curvature_jump.JUMP_GROSS * 1.4826 * np.median(r, axis=1)
+    mrg = mrg + REL * cut
+    top = np.sort(r, axis=1)[:, ::-1][:, : k + 1]  # the largest, and the next
+    gross = top[:, :k] > cut[:, None]
+    sure = np.all(np.abs(top[:, :k] - cut[:, None]) > mrg[:, None], axis=1)
+    sure &= ~gross[:, -1] | (top[:, -2] - top[:, -1] > mrg)  # (the left-out set is certain)
+    return r < np.where(gross, top[:, :k], np.inf).min(axis=1)[:, None], sure
+
+
+def _best_hinge(u, v, y, keep, m):
+    """(the least residual over ``find_jump``'s cuts, each way, of a hinge on u; whether
+    every fit's condition number is surely under ``QR_COND``) (B,) each: rows not kept are
+    zero and sort last; patch b's cuts are between its m[b] kept u's sorted."""
+    side = curvature_jump.MIN_SIDE
+    n = u.shape[1]
+    us = np.sort(np.where(keep, u, np.inf), axis=1)
+    idx = np.arange(side - 1, n - side)
+    valid = idx[None] < (m - side)[:, None]
+    c = np.where(valid, 0.5 * (us[:, idx] + us[:, idx + 1]), 0.0)  # (inf past the kept)
+    c = np.concatenate([c, c], axis=1)[..., None]  # (B, 2C, 1)
+    sign = np.repeat([1.0, -1.0], len(idx))[None, :, None]
+    one = keep.astype(float)[:, None]
+    h = np.maximum(sign * (u[:, None] - c), 0.0) * one
+    vv = np.broadcast_to(v[:, None] * one, h.shape)
+    A = np.stack([np.broadcast_to(one, h.shape), h, vv, h * vv], -1)
+    rss, ok = _qr_rss(A.reshape(-1, n, 4), np.broadcast_to(y[:, None], h.shape).reshape(-1, n))
+    valid = np.concatenate([valid, valid], axis=1)
+    rss, ok = rss.reshape(h.shape[:2]), ok.reshape(h.shape[:2])
+    return np.where(valid, rss, np.inf).min(axis=1), np.all(ok | ~valid, axis=1)
 
 
 def _unit(v):
@@ -295,9 +373,15 @@ def _residual(A, y, dof):
 
 
 def _qr_residual(A, y, dof):
-    """``_residual`` of y (B, n) by Householder QR, its residual within about cond(A) eps
-    of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps), and whether cond(A) is
-    surely under ``QR_COND`` (by ||R||_F ||R^-1||_F) per patch."""
+    """``_residual`` of y (B, n) by ``_qr_rss``, and its ok."""
+    rss, ok = _qr_rss(A, y)
+    return np.sqrt(rss / max(dof, 1)), ok
+
+
+def _qr_rss(A, y):
+    """(the residual sum of squares (B,) of y (B, n) fitted by A's columns, by Householder QR:
+    within about cond(A) eps of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps);
+    whether cond(A) is surely under ``QR_COND`` (by ||R||_F ||R^-1||_F)) per patch."""
     Q, R = np.linalg.qr(A)
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     tiny = ~(d > 1e-12 * np.maximum(d.max(axis=-1, keepdims=True), 1e-300))
@@ -306,4 +390,4 @@ def _qr_residual(A, y, dof):
         bound = np.sqrt(np.sum(R * R, axis=(1, 2)) * np.sum(Rinv * Rinv, axis=(1, 2)))
     ok = ~tiny.any(axis=-1) & (bound < QR_COND)
     r = y - (Q @ (np.swapaxes(Q, -1, -2) @ y[..., None]))[..., 0]
-    return np.sqrt(np.sum(r * r, axis=1) / max(dof, 1)), ok
+    return np.sum(r * r, axis=1), ok
