@@ -39,56 +39,62 @@ def clear(points, normals, opts):
     return edge, _no_tilt(points, normals, noise_pos, noise_normal)
 
 
-def no_jump(points, normals, opts=None):
+def no_jump(points, normals, mask=None):
     """(B,) whether ``curvature_jump.find_jump`` surely finds no jump, for ``points``,
-    ``normals`` (B, n, 3) of prepared patches (as fitted: after ``tilt.untilt``): its gates
-    (too few contacts, a normal near the tangent plane) or its first test (the slopes'
-    quadratic field no better than their linear one, by ``JUMP_PRE``), by the margins.
-    (``opts``: as ``clear`` takes them; the jump test has none.)"""
-    B, n, _ = points.shape
-    if n < curvature_jump.MIN_POINTS:
-        return np.ones(B, bool)
+    ``normals`` (B, n, 3) of prepared patches (as fitted: after ``tilt.untilt``), padded
+    where ``mask`` (B, n) is False (None: none is): its gates (too few contacts, a normal
+    near the tangent plane), its first test (the slopes' quadratic field no better than
+    their linear one, by ``JUMP_PRE``) or its hinges' (``_no_hinge``), by the margins."""
+    mask = np.ones(points.shape[:2], bool) if mask is None else mask
+    k = mask.sum(axis=1)
+    if k.max() < curvature_jump.MIN_POINTS:
+        return np.ones(len(k), bool)
+    points, normals = points * mask[..., None], normals * mask[..., None]
     total = normals.sum(axis=1)
     size = np.linalg.norm(total, axis=-1)
     live = size > 1e-6
     m = np.where(live[:, None], total / np.where(live, size, 1.0)[:, None], [0.0, 0.0, 1.0])
     nz = np.einsum("bnk,bk->bn", normals, m)
-    zmin = nz.min(axis=1)
+    zmin = np.where(mask, nz, np.inf).min(axis=1)
     low = live & (zmin < 0.1 * (1 - REL))  # (``find_jump`` returns None: a normal near the plane)
     sure = live & (low | (zmin > 0.1 * (1 + REL)))
     t1, t2 = _across(m)
     xy = np.stack([np.einsum("bnk,bk->bn", points, t) for t in (t1, t2)], axis=-1)
-    L = np.ptp(xy, axis=1).max(axis=1)
+    inside = mask[..., None]
+    L = np.where(inside, xy, -np.inf).max(axis=1) + np.where(inside, -xy, -np.inf).max(axis=1)
+    L = L.max(axis=1)  # (each one's ptp over the patch's rows)
     sure &= L > ABS * np.abs(points).max(axis=(1, 2))
-    xy = (xy - xy.mean(axis=1, keepdims=True)) / np.where(L > 0, L, 1.0)[:, None, None]
-    nz = np.where(low[:, None], 1.0, nz)
+    xy = (xy - xy.sum(axis=1, keepdims=True) / k[:, None, None]) * inside
+    xy /= np.where(L > 0, L, 1.0)[:, None, None]
+    nz = np.where(low[:, None] | ~mask, 1.0, nz)
     s = -np.stack([np.einsum("bnk,bk->bn", normals, t) for t in (t1, t2)], axis=-1) / nz[..., None]
     x, y = xy[..., 0], xy[..., 1]
-    quad = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
+    quad = np.stack([mask.astype(float), x, y, x * x, x * y, y * y], axis=-1)
     coef_q, ok = _solve(quad, s)
     res = np.sum((quad @ coef_q - s) ** 2, axis=(1, 2))
     coef, ok3 = _solve(quad[..., :3], s)
     flat = np.sum((quad[..., :3] @ coef - s) ** 2, axis=(1, 2))
     sure &= ok & ok3
     slack = REL * (flat + res) + ABS * np.sum(s * s, axis=(1, 2))
-    none = flat - res + slack < curvature_jump.JUMP_PRE * res / max(n - 6, 1) * (1 - REL)
+    none = flat - res + slack < curvature_jump.JUMP_PRE * res / np.maximum(k - 6, 1) * (1 - REL)
     todo = np.flatnonzero(sure & ~none)
     if todo.size:  # (the smooth change beats a constant curvature: the hinges, stacked)
-        none[todo] = _no_hinge(xy[todo], s[todo], quad[todo], coef_q[todo])
-    return low | sure & none
+        none[todo] = _no_hinge(xy[todo], s[todo], quad[todo], coef_q[todo], mask[todo])
+    return (k < curvature_jump.MIN_POINTS) | low | sure & none
 
 
-def _no_hinge(xy, s, quad, coef):
+def _no_hinge(xy, s, quad, coef, mask):
     """(B,) whether ``find_jump`` surely finds no hinge along either axis of the slopes'
     gradient, for patches past its first test: the same gross contacts left out (each one's
     residual, and the next one's, clear of the cut-off by the margins), axes told apart
     (their eigenvalues ``GAP`` apart), and on each axis either its first test fails or the
-    best cut's residual (every cut, each way, by QR: a lower bound on the check's, whose
+    best cut's residual (every cut, each way, stably: a lower bound on the check's, whose
     ridge only adds to it) fails ``JUMP_RATIO`` or ``JUMP_F``, by the margins widened by how
     far the axes may turn between the two fits."""
     cj = curvature_jump
     scale = np.sum(s * s, axis=(1, 2))
-    keep, sure = _kept(np.sqrt(np.sum((quad @ coef - s) ** 2, axis=2)), REL * np.sqrt(scale))
+    r = np.sqrt(np.sum((quad @ coef - s) ** 2, axis=2))
+    keep, sure = _kept(r, mask, REL * np.sqrt(scale))
     w, V = np.linalg.eigh(coef[:, 1:3] + np.swapaxes(coef[:, 1:3], 1, 2))
     spread = np.abs(w).max(axis=1)
     gap = w[:, 1] - w[:, 0]
@@ -96,18 +102,20 @@ def _no_hinge(xy, s, quad, coef):
     slack = (ABS + DIR * spread / np.maximum(gap, 1e-300)) * scale
     m = keep.sum(axis=1)
     dof = np.maximum(m - 5, 1)
+    one = keep.astype(float)
     none = np.ones(len(xy), bool)
     for e in np.swapaxes(V, 1, 2).transpose(1, 0, 2):  # (each axis: (B, 2))
-        u = np.einsum("bnk,bk->bn", xy, e)
-        v = np.einsum("bnk,bk->bn", xy, np.stack([-e[:, 1], e[:, 0]], axis=1))
-        y = np.einsum("bnk,bk->bn", s, e) * keep
-        one = keep.astype(float)
-        lin, ok1 = _qr_rss(np.stack([one, u, v, u * v], -1) * one[..., None], y)
-        smooth, ok2 = _qr_rss(np.stack([one, u, u * u, v, u * v], -1) * one[..., None], y)
-        sure &= ok1 & ok2
+        u = np.einsum("bnk,bk->bn", xy, e) * one
+        v = np.einsum("bnk,bk->bn", xy, np.stack([-e[:, 1], e[:, 0]], axis=1)) * one
+        y = np.einsum("bnk,bk->bn", s, e) * one
+        shared, ok = _basis_of([one / np.sqrt(m)[:, None], v])  # (each cut's columns: 1, v)
+        lin, ok1 = _basis_of([u, u * v], shared)
+        smooth, ok2 = _basis_of([u * u], lin)
+        sure &= ok & ok1 & ok2
+        lin, smooth = (np.sum(_less(y, q) ** 2, axis=-1) for q in (lin, smooth))
         sl = REL * (lin + smooth) + slack
         pre = lin - smooth + sl < cj.JUMP_PRE * (smooth - sl) / dof * (1 - REL)
-        best, ok = _best_hinge(u, v, y, keep, m)
+        best, ok = _best_hinge(u, v, y, keep, m, shared)
         lo, sure = best * (1 - REL) - slack, sure & (ok | pre)
         search = lo > cj.JUMP_RATIO * (smooth * (1 + REL) + slack)
         search |= lin * (1 + REL) + slack - lo < cj.JUMP_F * lo / dof * (1 - REL)
@@ -115,24 +123,41 @@ def _no_hinge(xy, s, quad, coef):
     return sure & none
 
 
-def _kept(r, mrg):
-    """(the contacts ``find_jump`` keeps (B, n), whether surely the same: the largest
-    ``MAX_LEFT_OUT`` residuals r (B, n), and the next, clear of its cut-off by ``mrg`` (B,)
-    and by ``REL`` of it)."""
-    k = curvature_jump.MAX_LEFT_OUT
-    cut = curvature_jump.JUMP_GROSS * 1.4826 * np.median(r, axis=1)
+def _basis_of(xs, qs=()):
+    """(``qs`` and the columns ``xs`` orthonormalised after them in turn (modified
+    Gram-Schmidt), whether each one's rest is over 1 / ``QR_COND`` of its length)."""
+    qs, ok = list(qs), True
+    for x in xs:
+        q, good = _next_q(x, qs)
+        qs, ok = [*qs, q], ok & good
+    return qs, ok
+
+
+def _kept(r, mask, mrg):
+    """(the contacts ``find_jump`` keeps (B, n) of those in ``mask``, whether surely the
+    same: the largest ``MAX_LEFT_OUT`` residuals r (B, n), and the next, clear of its
+    cut-off by ``mrg`` (B,) and by ``REL`` of it)."""
+    k, (B, n) = curvature_jump.MAX_LEFT_OUT, r.shape
+    order = np.sort(np.where(mask, r, -1.0), axis=1)  # (the padding first)
+    c = mask.sum(axis=1)
+    b = np.arange(B)
+    median = 0.5 * (order[b, n - c + (c - 1) // 2] + order[b, n - c + c // 2])
+    cut = curvature_jump.JUMP_GROSS * 1.4826 * median
     mrg = mrg + REL * cut
-    top = np.sort(r, axis=1)[:, ::-1][:, : k + 1]  # the largest, and the next
+    top = order[:, ::-1][:, : k + 1]  # the largest, and the next
     gross = top[:, :k] > cut[:, None]
     sure = np.all(np.abs(top[:, :k] - cut[:, None]) > mrg[:, None], axis=1)
     sure &= ~gross[:, -1] | (top[:, -2] - top[:, -1] > mrg)  # (the left-out set is certain)
-    return r < np.where(gross, top[:, :k], np.inf).min(axis=1)[:, None], sure
+    return mask & (r < np.where(gross, top[:, :k], np.inf).min(axis=1)[:, None]), sure
 
 
-def _best_hinge(u, v, y, keep, m):
+def _best_hinge(u, v, y, keep, m, shared):
     """(the least residual over ``find_jump``'s cuts, each way, of a hinge on u; whether
-    every fit's condition number is surely under ``QR_COND``) (B,) each: rows not kept are
-    zero and sort last; patch b's cuts are between its m[b] kept u's sorted."""
+    every fit's condition number is surely under about ``QR_COND``) (B,) each.  Rows not
+    kept are zero and sort last: patch b's cuts are between its m[b] kept u's sorted.  Each
+    cut's fit by modified Gram-Schmidt (backward stable for a residual, as QR): y and the
+    hinge's columns h, h v less their projections on the columns all cuts share (1, v),
+    then on h's rest, then on h v's."""
     side = curvature_jump.MIN_SIDE
     n = u.shape[1]
     us = np.sort(np.where(keep, u, np.inf), axis=1)
@@ -141,14 +166,31 @@ def _best_hinge(u, v, y, keep, m):
     c = np.where(valid, 0.5 * (us[:, idx] + us[:, idx + 1]), 0.0)  # (inf past the kept)
     c = np.concatenate([c, c], axis=1)[..., None]  # (B, 2C, 1)
     sign = np.repeat([1.0, -1.0], len(idx))[None, :, None]
-    one = keep.astype(float)[:, None]
-    h = np.maximum(sign * (u[:, None] - c), 0.0) * one
-    vv = np.broadcast_to(v[:, None] * one, h.shape)
-    A = np.stack([np.broadcast_to(one, h.shape), h, vv, h * vv], -1)
-    rss, ok = _qr_rss(A.reshape(-1, n, 4), np.broadcast_to(y[:, None], h.shape).reshape(-1, n))
+    one = keep.astype(float)
+    h = np.maximum(sign * (u[:, None] - c), 0.0) * one[:, None]
+    shared = [q[:, None] for q in shared]
+    q2, ok2 = _next_q(h, shared)
+    q3, ok3 = _next_q(h * v[:, None], [*shared, q2])
+    r = _less(np.broadcast_to(y[:, None], h.shape), [*shared, q2, q3])
     valid = np.concatenate([valid, valid], axis=1)
-    rss, ok = rss.reshape(h.shape[:2]), ok.reshape(h.shape[:2])
-    return np.where(valid, rss, np.inf).min(axis=1), np.all(ok | ~valid, axis=1)
+    rss = np.where(valid, np.sum(r * r, axis=-1), np.inf).min(axis=1)
+    return rss, np.all(ok2 & ok3 | ~valid, axis=1)
+
+
+def _less(x, qs):
+    """x (..., n) less its projection on each unit q (..., n) of ``qs`` in turn."""
+    for q in qs:
+        x = x - q * np.sum(x * q, axis=-1, keepdims=True)
+    return x
+
+
+def _next_q(x, qs):
+    """(x (..., n) less its projections on ``qs`` (orthonormal), as a unit vector; whether
+    its rest is over 1 / ``QR_COND`` of its length: else the columns are near dependent)."""
+    r = _less(x, qs)
+    size = np.sqrt(np.sum(r * r, axis=-1))
+    ok = size > np.sqrt(np.sum(x * x, axis=-1)) / QR_COND
+    return r / np.where(ok, size, 1.0)[..., None], ok
 
 
 def _unit(v):

@@ -366,10 +366,12 @@ def _stack(patches, req):
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:
-        smooth = _by_size(dict(prepared), check_screens.no_jump)
-        for (j, prep), res in zip(prepared, _fit(prepared, req.jet), strict=True):
+        P, N, mask = _padded(prepared)
+        smooth = check_screens.no_jump(P, N, mask).tolist()
+        fits = _fit(prepared, req.jet, P, N, mask)
+        for b, ((j, prep), res) in enumerate(zip(prepared, fits, strict=True)):
             try:
-                passes = smooth[j] if _curved(res) else no_turn[j] and not tilted[j]
+                passes = smooth[b] if _curved(res) else no_turn[j] and not tilted[j]
                 if not passes:  # (screened: ``check_answer`` would pass ``res``)
                     edges.check_answer(prep, res)
             except DataError as exc:
@@ -386,9 +388,9 @@ def _bare(res):
     return res.with_traceback(None) if isinstance(res, BaseException) else res
 
 
-def _fit(prepared, jet):
-    """``jet_answers.outcomes`` of the prepared patches ((j, Prepared) each) fitted as one
-    padded stack (``jet``: the options they share, all but the noise)."""
+def _padded(prepared):
+    """(points, normals (B, n, 3), mask (B, n)) of the prepared patches ((j, Prepared) each)
+    as one stack padded to the largest (padding: normal z, masked out)."""
     n = max(len(prep.points) for _, prep in prepared)
     P = np.zeros((len(prepared), n, 3))
     N = np.zeros((len(prepared), n, 3))
@@ -397,6 +399,13 @@ def _fit(prepared, jet):
     for b, (_, prep) in enumerate(prepared):
         m = len(prep.points)
         P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
+    return P, N, mask
+
+
+def _fit(prepared, jet, P, N, mask):
+    """``jet_answers.outcomes`` of the prepared patches ((j, Prepared) each) fitted as the
+    padded stack ``P``, ``N``, ``mask`` (``_padded``; ``jet``: the options they share, all
+    but the noise)."""
     noise = [[np.nan if (v := getattr(p.jet, k)) is None else v for _, p in prepared] for k in _OWN]
     stack = local_jet.fit(P, N, mask, *noise, jet.max_normal_angle)
     return jet_answers.outcomes(stack, jet, [prep.names for _, prep in prepared])
