@@ -168,13 +168,27 @@ def _best_hinge(u, v, y, keep, m, shared):
     sign = np.repeat([1.0, -1.0], len(idx))[None, :, None]
     one = keep.astype(float)
     h = np.maximum(sign * (u[:, None] - c), 0.0) * one[:, None]
-    shared = [q[:, None] for q in shared]
-    q2, ok2 = _next_q(h, shared)
-    q3, ok3 = _next_q(h * v[:, None], [*shared, q2])
-    r = _less(np.broadcast_to(y[:, None], h.shape), [*shared, q2, q3])
+    Q = np.stack(shared, axis=-1)  # (B, n, 2): classical Gram-Schmidt on them, then modified
+    cols = (h, h * v[:, None])
+    rest = [x - (x @ Q) @ np.swapaxes(Q, 1, 2) for x in cols]
+    along = _dot(rest[1], rest[0]) / _safe(_dot(rest[0], rest[0]))
+    rest[1] = rest[1] - rest[0] * along[..., None]
+    size = [_dot(r, r) for r in rest]
+    ok = np.all([z * QR_COND**2 > _dot(x, x) for z, x in zip(size, cols)], axis=0)
+    q2, q3 = (r / np.sqrt(_safe(z))[..., None] for r, z in zip(rest, size))
+    ry = _less(y, shared)[..., None]  # (the rest by Pythagoras: its error ~ eps |y|^2)
+    rss = np.sum(ry * ry, axis=(1, 2))[:, None] - (q2 @ ry)[..., 0] ** 2 - (q3 @ ry)[..., 0] ** 2
     valid = np.concatenate([valid, valid], axis=1)
-    rss = np.where(valid, np.sum(r * r, axis=-1), np.inf).min(axis=1)
-    return rss, np.all(ok2 & ok3 | ~valid, axis=1)
+    rss = np.where(valid, rss, np.inf).min(axis=1)
+    return rss, np.all(ok | ~valid, axis=1)
+
+
+def _dot(a, b):
+    return np.einsum("...n,...n->...", a, b)
+
+
+def _safe(z):
+    return np.where(z > 0, z, 1.0)
 
 
 def _less(x, qs):

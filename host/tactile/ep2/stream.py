@@ -367,11 +367,11 @@ def _stack(patches, req):
             results[j] = exc
     if prepared:
         P, N, mask = _padded(prepared)
-        smooth = check_screens.no_jump(P, N, mask).tolist()
         fits = _fit(prepared, req.jet, P, N, mask)
+        smooth = _smooth(fits, P, N, mask)
         for b, ((j, prep), res) in enumerate(zip(prepared, fits, strict=True)):
             try:
-                passes = smooth[b] if _curved(res) else no_turn[j] and not tilted[j]
+                passes = smooth.get(b, True) if _curved(res) else no_turn[j] and not tilted[j]
                 if not passes:  # (screened: ``check_answer`` would pass ``res``)
                     edges.check_answer(prep, res)
             except DataError as exc:
@@ -440,6 +440,15 @@ def _curved(res):
     """Whether ``edges.check_answer`` looks only for a curvature jump in ``res``: a fitted
     answer, not ``plane`` (else only for an edge, by ``edges.find``, loose)."""
     return not isinstance(res, DataError) and res.centre.shape != "plane"
+
+
+def _smooth(fits, P, N, mask):
+    """{b: ``check_screens.no_jump``} of the fitted answers ``curvature_jump.check`` looks
+    at (``_curved``, not ``uncertain``) in the padded stack ``P``, ``N``, ``mask``."""
+    look = [b for b, res in enumerate(fits) if _curved(res) and res.centre.shape != "uncertain"]
+    if not look:
+        return {}
+    return dict(zip(look, check_screens.no_jump(P[look], N[look], mask[look]).tolist()))
 
 
 def _one(p, req):
