@@ -7,7 +7,7 @@ import numpy as np
 from tactile.ep2 import check_screens, curvature_jump, edges, patch_input, tilt
 from tactile.errors import DataError
 from tactile_sim.ep2 import make
-from tactile_studies.ep2 import edge_cases
+from tactile_studies.ep2 import edge_cases, families
 
 GRID = np.linspace(0.0, 4.0, 6)
 XY = np.column_stack([np.repeat(GRID, 6), np.tile(GRID, 6)])
@@ -205,3 +205,51 @@ def test_sweeps_without_a_tilt_are_cleared_and_tilted_sweeps_are_not():
     named = [tilt.untilt(p)[1] is not None for p in preps]
     assert named == [deg > 0 for _, _, deg in patches]
     assert tilt_ok.tolist() == [deg == 0 for _, _, deg in patches]
+
+
+def _families_prepared():
+    """The tune split's first draw of 60 cases a family, prepared and untilted (as fitted), and
+    their points and normals padded into one stack with a row mask."""
+    kw = patch_input.keywords()
+    preps = []
+    for case in families.split("tune", 60):
+        d = families.draw(case)
+        try:
+            preps.append(
+                tilt.untilt(patch_input.prepare(d["points"], d["normals"], None, None, kw))[0]
+            )
+        except DataError:
+            continue
+    n = max(len(p.points) for p in preps)
+    P, N, mask = (
+        np.zeros((len(preps), n, 3)),
+        np.zeros((len(preps), n, 3)),
+        np.zeros((len(preps), n), bool),
+    )
+    for b, p in enumerate(preps):
+        k = len(p.points)
+        P[b, :k], N[b, :k], mask[b, :k] = p.points, p.normals, True
+    return preps, P, N, mask
+
+
+def test_over_the_families_each_screen_clears_only_patches_its_check_passes():
+    """Over the families (every family, size, layout, noise and outliers of the tune
+    split): a patch ``no_jump`` clears has no curvature jump, one ``no_turn`` clears no
+    edge by ``edges.find`` (strict or loose), one ``clear`` clears passes ``edges.check``
+    and keeps its tilt.  The jump screen clears nearly every patch without a jump, those
+    whose slopes' curvature changes over the patch (past ``find_jump``'s first test) too."""
+    preps, P, N, mask = _families_prepared()
+    jumps = [curvature_jump.find_jump(p.points, p.normals) is not None for p in preps]
+    smooth = check_screens.no_jump(P, N, mask)
+    assert not any(smooth & jumps)
+    assert smooth[~np.array(jumps)].mean() >= 0.92  # (its first test alone: 0.84)
+    for size in {len(p.points) for p in preps}:
+        same = [p for p in preps if len(p.points) == size]
+        Ps, Ns = np.stack([p.points for p in same]), np.stack([p.normals for p in same])
+        for prep, ok in zip(same, check_screens.no_turn(Ps, Ns), strict=True):
+            if ok:
+                args = prep.points, prep.normals, prep.jet.noise_normal
+                assert edges.find(*args) is None and edges.find(*args, strict=False) is None
+        edge_ok, tilt_ok = check_screens.clear(Ps, Ns, [p.jet for p in same])
+        assert not any(_trips_edges(p) for p, ok in zip(same, edge_ok, strict=True) if ok)
+        assert not any(tilt.untilt(p)[1] for p, ok in zip(same, tilt_ok, strict=True) if ok)
