@@ -33,7 +33,7 @@ def clear(points, normals, opts):
     noise_pos = np.array([np.nan if o.noise_pos is None else o.noise_pos for o in opts], float)
     noise_normal = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
     cosmax = np.cos(np.radians([o.max_normal_angle for o in opts]))
-    edge = _no_edge(points, normals) & _few_far(normals, cosmax)
+    edge = _no_edge(points, normals, noise_normal) & _few_far(normals, cosmax)
     return edge, _no_tilt(points, normals, noise_pos, noise_normal)
 
 
@@ -44,7 +44,7 @@ def _unit(v):
 def no_turn(points, normals, opts):
     """(B,) whether ``edges.find``, loose, surely finds no edge, by the margins: it stops at
     its gate (too few contacts, or every normal within ``edges.GATE_DEG`` of the mean), or
-    its faces' turn fails its tests (``_no_loose_edge``): then ``edges.check_answer`` has
+    its faces' turn fails its tests (``_turn_fails``): then ``edges.check_answer`` has
     nothing to say of a ``plane`` or a refusal.  ``opts`` as ``clear`` takes them."""
     B, n, _ = points.shape
     if n < edges.MIN_POINTS:
@@ -54,7 +54,7 @@ def no_turn(points, normals, opts):
     todo = np.flatnonzero(~out)
     if todo.size:
         noise = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
-        out[todo] = _no_loose_edge(normals[todo], noise[todo])
+        out[todo] = _turn_fails(normals[todo], noise[todo], loose=True)
     return out
 
 
@@ -66,10 +66,11 @@ def _gate(N):
     return low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size, total, size
 
 
-def _no_edge(P, N):
+def _no_edge(P, N, noise):
     """Whether ``edges.find`` (strict) surely finds no edge: every normal near the mean
-    (the gate), or the best step not under ``STEP_RATIO`` of the smooth field's residual
-    and a side's normals scattered beyond flat faces' (``edges.flat_faces``)."""
+    (the gate), the best step not under ``STEP_RATIO`` of the smooth field's residual and a
+    side's normals scattered beyond flat faces' (``edges.flat_faces``), or the faces' turn
+    failing its tests (``_turn_fails``: then the loose find's too)."""
     B, n, _ = P.shape
     if n < edges.MIN_POINTS:
         return np.ones(B, bool)
@@ -78,6 +79,7 @@ def _no_edge(P, N):
     todo = np.flatnonzero(~gate & (size > 1e-6))
     if todo.size:
         out[todo] = _step_loses(P[todo], N[todo], total[todo] / size[todo, None])
+        out[todo] |= _turn_fails(N[todo], noise[todo], loose=False)
     return out
 
 
@@ -125,11 +127,12 @@ def _cuts(N):
     return sure, c1, left, right, j, k, rss[np.arange(len(j)), j]
 
 
-def _no_loose_edge(N, noise):
-    """Whether ``edges.find`` (loose) surely finds no edge past its gate: its best cut
-    (sure, and the next best ``REL`` of the normals' count behind) has faces turning under
-    ``MIN_TURN_DEG`` or over ``MAX_TURN_DEG``, or under ``MIN_Z`` standard errors or
-    ``LOOSE_SCATTER`` scatters of a normal (noise at least ``noise`` (B,), NaN: none)."""
+def _turn_fails(N, noise, loose):
+    """Whether ``edges.find`` surely finds no edge past its gate for its faces' turn: its
+    best cut (sure, and the next best ``REL`` of the normals' count behind) has faces
+    turning under ``MIN_TURN_DEG`` or over ``MAX_TURN_DEG``, or under ``MIN_Z`` standard
+    errors (noise at least ``noise`` (B,), NaN: none), or, with ``loose``, under
+    ``LOOSE_SCATTER`` scatters of a normal."""
     e, (B, n, _) = edges, N.shape
     sure, c1, left, right, j, k, best = _cuts(N)
     rss = np.where((k >= e.MIN_SIDE) & (n - k >= e.MIN_SIDE), left + right, np.inf)
@@ -143,7 +146,8 @@ def _no_loose_edge(N, noise):
     s2 = np.fmax(np.maximum(best - ABS * n, 0.0) / (2 * n - 4), noise**2)  # (the least it is)
     se = np.degrees(np.sqrt(s2 * (1 / kj + 1 / (n - kj))))
     none = (hi < e.MIN_TURN_DEG) | (lo > e.MAX_TURN_DEG) | (hi < e.MIN_Z * se * (1 - REL))
-    none |= hi < e.LOOSE_SCATTER * np.degrees(np.sqrt(s2)) * (1 - REL)
+    if loose:
+        none |= hi < e.LOOSE_SCATTER * np.degrees(np.sqrt(s2)) * (1 - REL)
     return sure & none
 
 
