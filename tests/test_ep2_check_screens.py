@@ -243,7 +243,7 @@ def test_over_the_families_each_screen_clears_only_patches_its_check_passes():
     jumps = [curvature_jump.find_jump(p.points, p.normals) is not None for p in preps]
     smooth = check_screens.no_jump(P, N, mask)
     assert not any(smooth & jumps)
-    assert smooth[~np.array(jumps)].mean() >= 0.92  # (its first test alone: 0.84)
+    assert smooth[~np.array(jumps)].mean() >= 0.94  # (its first test alone: 0.85)
     for size in {len(p.points) for p in preps}:
         same = [p for p in preps if len(p.points) == size]
         Ps, Ns = np.stack([p.points for p in same]), np.stack([p.normals for p in same])

@@ -33,7 +33,8 @@ ABS = 1e-9  # absolute margin, in units of the quantity's scale
 MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to the check
 QR_COND = 1e4  # the same for a fit by QR (its residual's error grows as cond, not cond^2)
 GAP = 1e-3  # the slopes' gradient's eigenvalues this share apart, else left to the check
-DIR = 1e-8  # a fit's coefficients' error, relative: its axes may turn by this over the gap
+DIR = 1e-7  # a fit's coefficients' error, relative (cond^2 eps at QR_COND, and more):
+# the gradient's axes may turn by this over the eigenvalues' gap
 
 
 def _unit(v):
@@ -192,10 +193,8 @@ def no_jump(points, normals, mask=None):
     s = -np.stack([np.einsum("bnk,bk->bn", normals, t) for t in (t1, t2)], axis=-1) / nz[..., None]
     x, y = xy[..., 0], xy[..., 1]
     quad = np.stack([mask.astype(float), x, y, x * x, x * y, y * y], axis=-1)
-    coef_q, ok = solve_stacked(quad, s)
-    res = np.sum((quad @ coef_q - s) ** 2, axis=(1, 2))
-    coef, ok3 = solve_stacked(quad[..., :3], s)
-    flat = np.sum((quad[..., :3] @ coef - s) ** 2, axis=(1, 2))
+    coef_q, res, ok = _qr_fit(quad, s)
+    _, flat, ok3 = _qr_fit(quad[..., :3], s)
     sure &= ok & ok3
     slack = REL * (flat + res) + ABS * np.sum(s * s, axis=(1, 2))
     none = flat - res + slack < JUMP_PRE * res / np.maximum(k - 6, 1) * (1 - REL)
@@ -326,6 +325,21 @@ def _next_q(x, qs):
     size = np.sqrt(np.sum(r * r, axis=-1))
     ok = size > np.sqrt(np.sum(x * x, axis=-1)) / QR_COND
     return r / np.where(ok, size, 1.0)[..., None], ok
+
+
+def _qr_fit(A, Y):
+    """(coefficients (B, k, m), residual sum of squares (B,), whether cond(A) is surely
+    under ``QR_COND`` (by ||R||_F ||R^-1||_F)) of Y (B, n, m) fitted by A's (B, n, k)
+    columns, by Householder QR: within about cond(A) eps of ``np.linalg.lstsq``'s."""
+    Q, R = np.linalg.qr(A)
+    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+    tiny = ~(d > 1e-12 * np.maximum(d.max(axis=-1, keepdims=True), 1e-300))
+    Rinv = np.linalg.inv(R + np.eye(R.shape[-1]) * tiny[:, None, :])
+    with np.errstate(over="ignore", invalid="ignore"):
+        bound = np.sqrt(np.sum(R * R, axis=(1, 2)) * np.sum(Rinv * Rinv, axis=(1, 2)))
+    QtY = np.swapaxes(Q, 1, 2) @ Y
+    r = Y - Q @ QtY
+    return Rinv @ QtY, np.sum(r * r, axis=(1, 2)), ~tiny.any(axis=-1) & (bound < QR_COND)
 
 
 def tangent_bases(m):
