@@ -25,37 +25,35 @@ TURN_TOL = 1e-6  # deg: the faces' turn's round-off, an arccos near 1 included
 SEED_ROWS = 64  # contacts up to which every seed of the normal screen that ties is tried
 
 
-def clear(points, normals, opts):
-    """(edges clear (B,), tilt clear (B,)): whether ``edges.check`` passes (raises nothing)
-    and whether ``tilt.untilt`` leaves the patch as it is, for ``points``, ``normals`` (B, n, 3)
+def screens(points, normals, opts):
+    """(edges clear, tilt clear, turn clear) (B,) each, for ``points``, ``normals`` (B, n, 3)
     of prepared patches (centred, unit normals) with options ``opts`` (``JetOptions``, one per
-    patch)."""
+    patch): whether ``edges.check`` passes (raises nothing), whether ``tilt.untilt`` leaves
+    the patch as it is, and whether ``edges.find``, loose, surely finds no edge (then
+    ``edges.check_answer`` has nothing to say of a ``plane`` or a refusal)."""
     noise_pos = np.array([np.nan if o.noise_pos is None else o.noise_pos for o in opts], float)
     noise_normal = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
     cosmax = np.cos(np.radians([o.max_normal_angle for o in opts]))
-    edge = _no_edge(points, normals, noise_normal) & _few_far(normals, cosmax)
-    return edge, _no_tilt(points, normals, noise_pos, noise_normal)
+    strict, loose = _no_edges(points, normals, noise_normal)
+    tilt_ok = _no_tilt(points, normals, noise_pos, noise_normal)
+    return strict & _few_far(normals, cosmax), tilt_ok, loose
 
 
-def _unit(v):
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+def clear(points, normals, opts):
+    """(edges clear (B,), tilt clear (B,)): ``screens``' first two."""
+    return screens(points, normals, opts)[:2]
 
 
 def no_turn(points, normals, opts):
     """(B,) whether ``edges.find``, loose, surely finds no edge, by the margins: it stops at
     its gate (too few contacts, or every normal within ``edges.GATE_DEG`` of the mean), or
-    its faces' turn fails its tests (``_turn_fails``): then ``edges.check_answer`` has
-    nothing to say of a ``plane`` or a refusal.  ``opts`` as ``clear`` takes them."""
-    B, n, _ = points.shape
-    if n < edges.MIN_POINTS:
-        return np.ones(B, bool)
-    gate, _, size = _gate(normals)
-    out = gate & (size > 1e-3)  # (normals within the gate sum to about n)
-    todo = np.flatnonzero(~out)
-    if todo.size:
-        noise = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
-        out[todo] = _turn_fails(normals[todo], noise[todo], loose=True)
-    return out
+    its faces' turn fails its tests (``_turn_fails``).  ``opts`` as ``clear`` takes them."""
+    noise = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
+    return _no_edges(points, normals, noise)[1]
+
+
+def _unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def _gate(N):
@@ -66,29 +64,32 @@ def _gate(N):
     return low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size, total, size
 
 
-def _no_edge(P, N, noise):
-    """Whether ``edges.find`` (strict) surely finds no edge: every normal near the mean
-    (the gate), the best step not under ``STEP_RATIO`` of the smooth field's residual and a
-    side's normals scattered beyond flat faces' (``edges.flat_faces``), or the faces' turn
-    failing its tests (``_turn_fails``: then the loose find's too)."""
+def _no_edges(P, N, noise):
+    """(strict, loose) (B,) each: whether ``edges.find`` surely finds no edge, strict (every
+    normal near the mean (the gate), the best step not under ``STEP_RATIO`` of the smooth
+    field's residual and a side's normals scattered beyond flat faces' (``edges.flat_faces``),
+    or the faces' turn failing its tests (``_turn_fails``: then the loose find's too)) and
+    loose (the gate, or the turn's tests with the loose one)."""
     B, n, _ = P.shape
     if n < edges.MIN_POINTS:
-        return np.ones(B, bool)
+        return np.ones(B, bool), np.ones(B, bool)
     gate, total, size = _gate(N)
-    out = gate.copy()
+    strict, loose = gate.copy(), gate & (size > 1e-3)  # (normals in the gate sum to about n)
     todo = np.flatnonzero(~gate & (size > 1e-6))
     if todo.size:
-        out[todo] = _step_loses(P[todo], N[todo], total[todo] / size[todo, None])
-        out[todo] |= _turn_fails(N[todo], noise[todo], loose=False)
-    return out
+        cuts = _cuts(N[todo])
+        turn_strict, loose[todo] = _turn_fails(cuts, N[todo], noise[todo])
+        strict[todo] = _step_loses(P[todo], N[todo], total[todo] / size[todo, None], cuts)
+        strict[todo] |= turn_strict
+    return strict, loose
 
 
-def _step_loses(P, N, m):
+def _step_loses(P, N, m, cuts):
     """``edges.find``'s ``rss_step > STEP_RATIO * smooth rss`` and not flat faces, by the
-    margins (else False)."""
+    margins (else False); ``cuts``: ``_cuts(N)``."""
     n = P.shape[1]
-    sure, c1, left, right, j, k, rss_step = _cuts(N)
-    sure &= _scattered(c1, left, right, j, k)
+    sure, c1, left, right, j, k, rss_step = cuts
+    sure = sure & _scattered(c1, left, right, j, k)  # (not in place: ``cuts`` is shared)
     t1, t2 = _across(m)
     xy = np.stack([np.einsum("bnk,bk->bn", P, t) for t in (t1, t2)], axis=-1)
     xy = xy - xy.mean(axis=1, keepdims=True)
@@ -127,17 +128,17 @@ def _cuts(N):
     return sure, c1, left, right, j, k, rss[np.arange(len(j)), j]
 
 
-def _turn_fails(N, noise, loose):
-    """Whether ``edges.find`` surely finds no edge past its gate for its faces' turn: its
-    best cut (sure, and the next best ``REL`` of the normals' count behind) has faces
-    turning under ``MIN_TURN_DEG`` or over ``MAX_TURN_DEG``, or under ``MIN_Z`` standard
-    errors (noise at least ``noise`` (B,), NaN: none), or, with ``loose``, under
-    ``LOOSE_SCATTER`` scatters of a normal."""
+def _turn_fails(cuts, N, noise):
+    """(strict, loose) (B,) each: whether ``edges.find`` surely finds no edge past its gate
+    for its faces' turn: its best cut (``cuts``: ``_cuts(N)``; sure, and the next best
+    ``REL`` of the normals' count behind) has faces turning under ``MIN_TURN_DEG`` or over
+    ``MAX_TURN_DEG``, or under ``MIN_Z`` standard errors (noise at least ``noise`` (B,),
+    NaN: none); loose, or under ``LOOSE_SCATTER`` scatters of a normal."""
     e, (B, n, _) = edges, N.shape
-    sure, c1, left, right, j, k, best = _cuts(N)
+    sure, c1, left, right, j, k, best = cuts
     rss = np.where((k >= e.MIN_SIDE) & (n - k >= e.MIN_SIDE), left + right, np.inf)
     rss[np.arange(B), j] = np.inf
-    sure &= rss.min(axis=1) - best > REL * n
+    sure = sure & (rss.min(axis=1) - best > REL * n)  # (not in place: ``cuts`` is shared)
     b, kj = np.arange(B), k[j]
     n1 = _unit(c1[b, j] / kj[:, None])
     n2 = _unit((c1[b, -1] - c1[b, j]) / (n - kj)[:, None])
@@ -146,9 +147,8 @@ def _turn_fails(N, noise, loose):
     s2 = np.fmax(np.maximum(best - ABS * n, 0.0) / (2 * n - 4), noise**2)  # (the least it is)
     se = np.degrees(np.sqrt(s2 * (1 / kj + 1 / (n - kj))))
     none = (hi < e.MIN_TURN_DEG) | (lo > e.MAX_TURN_DEG) | (hi < e.MIN_Z * se * (1 - REL))
-    if loose:
-        none |= hi < e.LOOSE_SCATTER * np.degrees(np.sqrt(s2)) * (1 - REL)
-    return sure & none
+    scatter = hi < e.LOOSE_SCATTER * np.degrees(np.sqrt(s2)) * (1 - REL)
+    return sure & none, sure & (none | scatter)
 
 
 def _scattered(c1, left, right, j, k):

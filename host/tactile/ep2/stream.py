@@ -420,7 +420,7 @@ def _screens(preps):
 
 
 def _screen(P, N, opts):
-    return np.stack([*check_screens.clear(P, N, opts), check_screens.no_turn(P, N, opts)], -1)
+    return np.stack(check_screens.screens(P, N, opts), -1)
 
 
 def _by_size(preps, screen):
