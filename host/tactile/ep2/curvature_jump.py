@@ -193,9 +193,10 @@ def no_jump(points, normals, mask=None):
     s = -np.stack([np.einsum("bnk,bk->bn", normals, t) for t in (t1, t2)], axis=-1) / nz[..., None]
     x, y = xy[..., 0], xy[..., 1]
     quad = np.stack([mask.astype(float), x, y, x * x, x * y, y * y], axis=-1)
-    coef_q, res, ok = _qr_fit(quad, s)
-    _, flat, ok3 = _qr_fit(quad[..., :3], s)
-    sure &= ok & ok3
+    Q, coef_q, res, ok = _qr_fit(quad, s)
+    Q3 = Q[..., :3]  # (Householder's first columns: the linear columns' own QR)
+    flat = np.sum((s - Q3 @ (np.swapaxes(Q3, 1, 2) @ s)) ** 2, axis=(1, 2))
+    sure &= ok  # (a subset of A's columns: cond no larger)
     slack = REL * (flat + res) + ABS * np.sum(s * s, axis=(1, 2))
     none = flat - res + slack < JUMP_PRE * res / np.maximum(k - 6, 1) * (1 - REL)
     todo = np.flatnonzero(sure & ~none)
@@ -328,9 +329,9 @@ def _next_q(x, qs):
 
 
 def _qr_fit(A, Y):
-    """(coefficients (B, k, m), residual sum of squares (B,), whether cond(A) is surely
-    under ``QR_COND`` (by ||R||_F ||R^-1||_F)) of Y (B, n, m) fitted by A's (B, n, k)
-    columns, by Householder QR: within about cond(A) eps of ``np.linalg.lstsq``'s."""
+    """(Q (B, n, k), coefficients (B, k, m), residual sum of squares (B,), whether cond(A)
+    is surely under ``QR_COND`` (by ||R||_F ||R^-1||_F)) of Y (B, n, m) fitted by A's
+    (B, n, k) columns, by Householder QR: within about cond(A) eps of ``np.linalg.lstsq``'s."""
     Q, R = np.linalg.qr(A)
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     tiny = ~(d > 1e-12 * np.maximum(d.max(axis=-1, keepdims=True), 1e-300))
@@ -339,7 +340,7 @@ def _qr_fit(A, Y):
         bound = np.sqrt(np.sum(R * R, axis=(1, 2)) * np.sum(Rinv * Rinv, axis=(1, 2)))
     QtY = np.swapaxes(Q, 1, 2) @ Y
     r = Y - Q @ QtY
-    return Rinv @ QtY, np.sum(r * r, axis=(1, 2)), ~tiny.any(axis=-1) & (bound < QR_COND)
+    return Q, Rinv @ QtY, np.sum(r * r, axis=(1, 2)), ~tiny.any(axis=-1) & (bound < QR_COND)
 
 
 def tangent_bases(m):
