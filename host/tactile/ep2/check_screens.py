@@ -1,99 +1,59 @@
 """The crease, tilt and curvature-jump checks' screens for a stack of patches of one size.
 
-``edges.check``, ``tilt.untilt`` and ``curvature_jump.find_jump`` look at one patch at a time; on
-smooth data nearly every patch passes them.  ``clear`` and ``no_jump`` compute, for a
-stack of like-sized prepared patches, the numbers those checks decide on (the normals'
-gate and the step against the smooth field, the normal screen's far contacts; the tilt's
-fit, its chi^2, size and standard error; the jump's first test, a smooth change of the
-slopes against a constant curvature) with stacked NumPy (``eigh``, normal equations) and
-say which patches pass each check by a margin (``REL``, ``ABS``) far beyond the two
-computations' round-off.  Only the others run the per-patch check, so the answers are the
-per-patch checks' exactly: a patch near a threshold, with tied normals or an
-ill-conditioned fit is always checked one at a time.
-"""
+``edges.check``, ``tilt.untilt``, ``curvature_jump.find_jump`` and ``edges.check_answer``
+look at one patch at a time; on smooth data nearly every patch passes them.  ``clear``,
+``no_turn`` and ``no_jump`` (``curvature_jump``'s, with the margins and stacked fits these
+share) compute, for a stack of like-sized prepared patches, the numbers those checks decide
+on (the normals' gate and the step against the smooth field, the normal screen's far
+contacts, the loose edge's turn; the tilt's fit, its chi^2, size and standard error; the
+jump's tests) with stacked NumPy (``eigh``, QR, Gram-Schmidt, normal equations under a
+condition bound) and say which patches pass each check by a margin (``REL``, ``ABS``) far
+beyond the two computations' round-off.  Only the others run the per-patch check, so the
+answers are the per-patch checks' exactly: a patch near a threshold, with tied normals or an
+ill-conditioned fit is always checked one at a time."""
 
 import numpy as np
 
-from tactile.ep2 import curvature_jump, edges, tilt
+from tactile.ep2 import edges, tilt
+from tactile.ep2.curvature_jump import ABS, QR_COND, REL, no_jump  # noqa: F401 (no_jump: here with the others)
+from tactile.ep2.curvature_jump import solve_stacked as _solve
+from tactile.ep2.curvature_jump import tangent_bases as _across
 
-REL = 1e-6  # relative margin on every decision
-ABS = 1e-9  # absolute margin, in units of the quantity's scale
-MAX_COND = 1e3  # a fit's condition number beyond which the screen leaves it to the check
-TILT_COND = 1e4  # the same for the tilt's weighted fit (its rows' scales differ)
+TILT_COND = 1e4  # the tilt's weighted fit's MAX_COND (its rows' scales differ)
 TILT_REL = 1e-3  # the tilt's margin: its fit's inverse is less accurate than the rest
-QR_COND = 1e4  # the same for a fit by QR (its residual's error grows as cond, not cond^2)
+TURN_TOL = 1e-6  # deg: the faces' turn's round-off, an arccos near 1 included
 SEED_ROWS = 64  # contacts up to which every seed of the normal screen that ties is tried
 
 
-def clear(points, normals, opts):
-    """(edges clear (B,), tilt clear (B,)): whether ``edges.check`` passes (raises nothing)
-    and whether ``tilt.untilt`` leaves the patch as it is, for ``points``, ``normals`` (B, n, 3)
+def screens(points, normals, opts):
+    """(edges clear, tilt clear, turn clear) (B,) each, for ``points``, ``normals`` (B, n, 3)
     of prepared patches (centred, unit normals) with options ``opts`` (``JetOptions``, one per
-    patch)."""
+    patch): whether ``edges.check`` passes (raises nothing), whether ``tilt.untilt`` leaves
+    the patch as it is, and whether ``edges.find``, loose, surely finds no edge (then
+    ``edges.check_answer`` has nothing to say of a ``plane`` or a refusal)."""
     noise_pos = np.array([np.nan if o.noise_pos is None else o.noise_pos for o in opts], float)
     noise_normal = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
     cosmax = np.cos(np.radians([o.max_normal_angle for o in opts]))
-    edge = _no_edge(points, normals) & _few_far(normals, cosmax)
-    return edge, _no_tilt(points, normals, noise_pos, noise_normal)
+    strict, loose = _no_edges(points, normals, noise_normal)
+    tilt_ok = _no_tilt(points, normals, noise_pos, noise_normal)
+    return strict & _few_far(normals, cosmax), tilt_ok, loose
 
 
-def no_jump(points, normals, opts=None):
-    """(B,) whether ``curvature_jump.find_jump`` surely finds no jump, for ``points``,
-    ``normals`` (B, n, 3) of prepared patches (as fitted: after ``tilt.untilt``): its gates
-    (too few contacts, a normal near the tangent plane) or its first test (the slopes'
-    quadratic field no better than their linear one, by ``JUMP_PRE``), by the margins.
-    (``opts``: as ``clear`` takes them; the jump test has none.)"""
-    B, n, _ = points.shape
-    if n < curvature_jump.MIN_POINTS:
-        return np.ones(B, bool)
-    total = normals.sum(axis=1)
-    size = np.linalg.norm(total, axis=-1)
-    live = size > 1e-6
-    m = np.where(live[:, None], total / np.where(live, size, 1.0)[:, None], [0.0, 0.0, 1.0])
-    nz = np.einsum("bnk,bk->bn", normals, m)
-    zmin = nz.min(axis=1)
-    low = live & (zmin < 0.1 * (1 - REL))  # (``find_jump`` returns None: a normal near the plane)
-    sure = live & (low | (zmin > 0.1 * (1 + REL)))
-    t1, t2 = _across(m)
-    xy = np.stack([np.einsum("bnk,bk->bn", points, t) for t in (t1, t2)], axis=-1)
-    L = np.ptp(xy, axis=1).max(axis=1)
-    sure &= L > ABS * np.abs(points).max(axis=(1, 2))
-    xy = (xy - xy.mean(axis=1, keepdims=True)) / np.where(L > 0, L, 1.0)[:, None, None]
-    nz = np.where(low[:, None], 1.0, nz)
-    s = -np.stack([np.einsum("bnk,bk->bn", normals, t) for t in (t1, t2)], axis=-1) / nz[..., None]
-    x, y = xy[..., 0], xy[..., 1]
-    quad = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
-    coef, ok = _solve(quad, s)
-    res = np.sum((quad @ coef - s) ** 2, axis=(1, 2))
-    coef, ok3 = _solve(quad[..., :3], s)
-    flat = np.sum((quad[..., :3] @ coef - s) ** 2, axis=(1, 2))
-    sure &= ok & ok3
-    slack = REL * (flat + res) + ABS * np.sum(s * s, axis=(1, 2))
-    none = flat - res + slack < curvature_jump.JUMP_PRE * res / max(n - 6, 1) * (1 - REL)
-    return low | sure & none
+def clear(points, normals, opts):
+    """(edges clear (B,), tilt clear (B,)): ``screens``' first two."""
+    return screens(points, normals, opts)[:2]
+
+
+def no_turn(points, normals, opts):
+    """(B,) whether ``edges.find``, loose, surely finds no edge, by the margins: it stops at
+    its gate (too few contacts, or every normal within ``edges.GATE_DEG`` of the mean), or
+    its faces' turn fails its tests (``_turn_fails``).  ``opts`` as ``clear`` takes them."""
+    noise = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
+    return _no_edges(points, normals, noise)[1]
 
 
 def _unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _across(m):
-    """``edges._basis`` / ``tilt._frame`` of each unit row of m: (t1, t2) (B, 3) each."""
-    ref = np.where(np.abs(m[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    t1 = _unit(np.cross(m, ref))
-    return t1, np.cross(m, t1)
-
-
-def no_turn(points, normals, opts=None):
-    """(B,) whether ``edges.find``, strict or loose, surely stops at its gate (too few
-    contacts, or every normal within ``edges.GATE_DEG`` of the mean), by the margins: then
-    ``edges.check_answer`` has nothing to say of a ``plane`` or a refusal.  (``opts``: as
-    ``clear`` takes them; the gate has none.)"""
-    B, n, _ = points.shape
-    if n < edges.MIN_POINTS:
-        return np.ones(B, bool)
-    gate, _, size = _gate(normals)
-    return gate & (size > 1e-3)  # (normals within the gate sum to about n)
 
 
 def _gate(N):
@@ -104,29 +64,54 @@ def _gate(N):
     return low - np.cos(np.radians(edges.GATE_DEG)) * size > ABS * size, total, size
 
 
-def _no_edge(P, N):
-    """Whether ``edges.find`` (strict) surely finds no edge: every normal near the mean
-    (the gate), or the best step not under ``STEP_RATIO`` of the smooth field's residual
-    and a side's normals scattered beyond flat faces' (``edges.flat_faces``)."""
+def _no_edges(P, N, noise):
+    """(strict, loose) (B,) each: whether ``edges.find`` surely finds no edge, strict (every
+    normal near the mean (the gate), the best step not under ``STEP_RATIO`` of the smooth
+    field's residual and a side's normals scattered beyond flat faces' (``edges.flat_faces``),
+    or the faces' turn failing its tests (``_turn_fails``: then the loose find's too)) and
+    loose (the gate, or the turn's tests with the loose one)."""
     B, n, _ = P.shape
     if n < edges.MIN_POINTS:
-        return np.ones(B, bool)
+        return np.ones(B, bool), np.ones(B, bool)
     gate, total, size = _gate(N)
-    out = gate.copy()
+    strict, loose = gate.copy(), gate & (size > 1e-3)  # (normals in the gate sum to about n)
     todo = np.flatnonzero(~gate & (size > 1e-6))
     if todo.size:
-        out[todo] = _step_loses(P[todo], N[todo], total[todo] / size[todo, None])
-    return out
+        cuts = _cuts(N[todo])
+        turn_strict, loose[todo] = _turn_fails(cuts, N[todo], noise[todo])
+        strict[todo] = _step_loses(P[todo], N[todo], total[todo] / size[todo, None], cuts)
+        strict[todo] |= turn_strict
+    return strict, loose
 
 
-def _step_loses(P, N, m):
+def _step_loses(P, N, m, cuts):
     """``edges.find``'s ``rss_step > STEP_RATIO * smooth rss`` and not flat faces, by the
-    margins (else False)."""
+    margins (else False); ``cuts``: ``_cuts(N)``."""
     n = P.shape[1]
+    sure, c1, left, right, j, k, rss_step = cuts
+    sure = sure & _scattered(c1, left, right, j, k)  # (not in place: ``cuts`` is shared)
+    t1, t2 = _across(m)
+    xy = np.stack([np.einsum("bnk,bk->bn", P, t) for t in (t1, t2)], axis=-1)
+    xy = xy - xy.mean(axis=1, keepdims=True)
+    xy = xy / np.maximum(np.ptp(xy, axis=(1, 2)), 1e-300)[:, None, None]
+    u, v = xy[..., 0], xy[..., 1]
+    A = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
+    coef, ok = _solve(A, N)
+    sure &= ok  # (a coefficient off the least squares' only adds to rss_smooth: the safe side)
+    rss_smooth = np.sum((N - A @ coef) ** 2, axis=(1, 2))
+    bound = edges.STEP_RATIO * rss_smooth * (1 + REL) + ABS * n
+    return sure & (rss_step > bound)
+
+
+def _cuts(N):
+    """``edges.find``'s best cut (``edges._best_cut``) of normals N (B, n, 3) along their
+    main axis, stacked: (whether the axis and the order along it are sure, the sorted
+    normals' cumulative sums, each cut's rss left and right, the best cut's index j into
+    the cuts k, its rss)."""
+    n = N.shape[1]
     C = _gram(N - N.mean(axis=1, keepdims=True)) / (n - 1)
     w, V = np.linalg.eigh(C)
-    a = V[:, :, -1]
-    x = np.einsum("bnk,bk->bn", N, a)
+    x = np.einsum("bnk,bk->bn", N, V[:, :, -1])
     order = np.argsort(x, axis=1)
     xs = np.take_along_axis(x, order, axis=1)
     gap = np.diff(xs, axis=1).min(axis=1)
@@ -140,19 +125,30 @@ def _step_loses(P, N, m):
     ok = (k >= edges.MIN_SIDE) & (n - k >= edges.MIN_SIDE)
     rss = np.where(ok, left + right, np.inf)
     j = np.argmin(rss, axis=1)
-    rss_step = rss[np.arange(len(j)), j]
-    sure &= _scattered(c1, left, right, j, k)
-    t1, t2 = _across(m)
-    xy = np.stack([np.einsum("bnk,bk->bn", P, t) for t in (t1, t2)], axis=-1)
-    xy = xy - xy.mean(axis=1, keepdims=True)
-    xy = xy / np.maximum(np.ptp(xy, axis=(1, 2)), 1e-300)[:, None, None]
-    u, v = xy[..., 0], xy[..., 1]
-    A = np.stack([np.ones_like(u), u, v, u * u, u * v, v * v], axis=-1)
-    coef, ok = _solve(A, N)
-    sure &= ok  # (a coefficient off the least squares' only adds to rss_smooth: the safe side)
-    rss_smooth = np.sum((N - A @ coef) ** 2, axis=(1, 2))
-    bound = edges.STEP_RATIO * rss_smooth * (1 + REL) + ABS * n
-    return sure & (rss_step > bound)
+    return sure, c1, left, right, j, k, rss[np.arange(len(j)), j]
+
+
+def _turn_fails(cuts, N, noise):
+    """(strict, loose) (B,) each: whether ``edges.find`` surely finds no edge past its gate
+    for its faces' turn: its best cut (``cuts``: ``_cuts(N)``; sure, and the next best
+    ``REL`` of the normals' count behind) has faces turning under ``MIN_TURN_DEG`` or over
+    ``MAX_TURN_DEG``, or under ``MIN_Z`` standard errors (noise at least ``noise`` (B,),
+    NaN: none); loose, or under ``LOOSE_SCATTER`` scatters of a normal."""
+    e, (B, n, _) = edges, N.shape
+    sure, c1, left, right, j, k, best = cuts
+    rss = np.where((k >= e.MIN_SIDE) & (n - k >= e.MIN_SIDE), left + right, np.inf)
+    rss[np.arange(B), j] = np.inf
+    sure = sure & (rss.min(axis=1) - best > REL * n)  # (not in place: ``cuts`` is shared)
+    b, kj = np.arange(B), k[j]
+    n1 = _unit(c1[b, j] / kj[:, None])
+    n2 = _unit((c1[b, -1] - c1[b, j]) / (n - kj)[:, None])
+    turn = np.degrees(np.arccos(np.clip(np.sum(n1 * n2, axis=1), -1.0, 1.0)))
+    lo, hi = turn * (1 - REL) - TURN_TOL, turn * (1 + REL) + TURN_TOL
+    s2 = np.fmax(np.maximum(best - ABS * n, 0.0) / (2 * n - 4), noise**2)  # (the least it is)
+    se = np.degrees(np.sqrt(s2 * (1 / kj + 1 / (n - kj))))
+    none = (hi < e.MIN_TURN_DEG) | (lo > e.MAX_TURN_DEG) | (hi < e.MIN_Z * se * (1 - REL))
+    scatter = hi < e.LOOSE_SCATTER * np.degrees(np.sqrt(s2)) * (1 - REL)
+    return sure & none, sure & (none | scatter)
 
 
 def _scattered(c1, left, right, j, k):
@@ -261,30 +257,6 @@ def _gram(A):
     return A.transpose(0, 2, 1) @ A
 
 
-def _solve(A, Y, rhs=None, max_cond=MAX_COND):
-    """(the normal equations' solution (B, k, m) of A (B, n, k) against Y (B, n, m), or
-    against ``rhs`` (B, k, m) as given; whether A's condition number is surely under
-    ``MAX_COND``, so that it is within the margins of ``np.linalg.lstsq``'s) per patch.
-    The bound: cond(G) <= |G|_F |G^-1|_F (G = A^T A), an inverse costing a fraction of G's
-    eigenvalues; a patch it fails is left to the check."""
-    G = _gram(A)
-    try:
-        inv = np.linalg.inv(G)
-    except np.linalg.LinAlgError:  # (an exactly singular G in the stack)
-        w = np.linalg.eigvalsh(G)
-        ok = w[:, 0] > w[:, -1] / max_cond**2
-        G[~ok] = np.eye(G.shape[-1])  # (left to the check: any solvable system)
-        inv = np.linalg.inv(G)
-    else:
-        with np.errstate(over="ignore", invalid="ignore"):
-            bound = np.sqrt(np.sum(G * G, axis=(1, 2)) * np.sum(inv * inv, axis=(1, 2)))
-        ok = bound < max_cond**2
-        inv[~ok] = np.eye(G.shape[-1])  # (any finite solution: the check decides)
-    if rhs is None:
-        rhs = A.transpose(0, 2, 1) @ Y
-    return inv @ rhs, ok
-
-
 def _residual(A, y, dof):
     """(rms residual (B,) or (B, m) of y (B, n) or (B, n, m) fitted by A's columns, with
     ``dof`` spare rows; ``_solve``'s ok) per patch."""
@@ -295,9 +267,15 @@ def _residual(A, y, dof):
 
 
 def _qr_residual(A, y, dof):
-    """``_residual`` of y (B, n) by Householder QR, its residual within about cond(A) eps
-    of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps), and whether cond(A) is
-    surely under ``QR_COND`` (by ||R||_F ||R^-1||_F) per patch."""
+    """``_residual`` of y (B, n) by ``_qr_rss``, and its ok."""
+    rss, ok = _qr_rss(A, y)
+    return np.sqrt(rss / max(dof, 1)), ok
+
+
+def _qr_rss(A, y):
+    """(the residual sum of squares (B,) of y (B, n) fitted by A's columns, by Householder QR:
+    within about cond(A) eps of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps);
+    whether cond(A) is surely under ``QR_COND`` (by ||R||_F ||R^-1||_F)) per patch."""
     Q, R = np.linalg.qr(A)
     d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
     tiny = ~(d > 1e-12 * np.maximum(d.max(axis=-1, keepdims=True), 1e-300))
@@ -306,4 +284,4 @@ def _qr_residual(A, y, dof):
         bound = np.sqrt(np.sum(R * R, axis=(1, 2)) * np.sum(Rinv * Rinv, axis=(1, 2)))
     ok = ~tiny.any(axis=-1) & (bound < QR_COND)
     r = y - (Q @ (np.swapaxes(Q, -1, -2) @ y[..., None]))[..., 0]
-    return np.sqrt(np.sum(r * r, axis=1) / max(dof, 1)), ok
+    return np.sum(r * r, axis=1), ok

@@ -366,10 +366,12 @@ def _stack(patches, req):
         except (DataError, InputError) as exc:
             results[j] = exc
     if prepared:
-        smooth = _by_size(dict(prepared), check_screens.no_jump)
-        for (j, prep), res in zip(prepared, _fit(prepared, req.jet), strict=True):
+        P, N, mask = _padded(prepared)
+        fits = _fit(prepared, req.jet, P, N, mask)
+        smooth = _smooth(fits, P, N, mask)
+        for b, ((j, prep), res) in enumerate(zip(prepared, fits, strict=True)):
             try:
-                passes = smooth[j] if _curved(res) else no_turn[j] and not tilted[j]
+                passes = smooth.get(b, True) if _curved(res) else no_turn[j] and not tilted[j]
                 if not passes:  # (screened: ``check_answer`` would pass ``res``)
                     edges.check_answer(prep, res)
             except DataError as exc:
@@ -386,9 +388,9 @@ def _bare(res):
     return res.with_traceback(None) if isinstance(res, BaseException) else res
 
 
-def _fit(prepared, jet):
-    """``jet_answers.outcomes`` of the prepared patches ((j, Prepared) each) fitted as one
-    padded stack (``jet``: the options they share, all but the noise)."""
+def _padded(prepared):
+    """(points, normals (B, n, 3), mask (B, n)) of the prepared patches ((j, Prepared) each)
+    as one stack padded to the largest (padding: normal z, masked out)."""
     n = max(len(prep.points) for _, prep in prepared)
     P = np.zeros((len(prepared), n, 3))
     N = np.zeros((len(prepared), n, 3))
@@ -397,6 +399,13 @@ def _fit(prepared, jet):
     for b, (_, prep) in enumerate(prepared):
         m = len(prep.points)
         P[b, :m], N[b, :m], mask[b, :m] = prep.points, prep.normals, True
+    return P, N, mask
+
+
+def _fit(prepared, jet, P, N, mask):
+    """``jet_answers.outcomes`` of the prepared patches ((j, Prepared) each) fitted as the
+    padded stack ``P``, ``N``, ``mask`` (``_padded``; ``jet``: the options they share, all
+    but the noise)."""
     noise = [[np.nan if (v := getattr(p.jet, k)) is None else v for _, p in prepared] for k in _OWN]
     stack = local_jet.fit(P, N, mask, *noise, jet.max_normal_angle)
     return jet_answers.outcomes(stack, jet, [prep.names for _, prep in prepared])
@@ -411,7 +420,7 @@ def _screens(preps):
 
 
 def _screen(P, N, opts):
-    return np.stack([*check_screens.clear(P, N, opts), check_screens.no_turn(P, N)], -1)
+    return np.stack(check_screens.screens(P, N, opts), -1)
 
 
 def _by_size(preps, screen):
@@ -431,6 +440,15 @@ def _curved(res):
     """Whether ``edges.check_answer`` looks only for a curvature jump in ``res``: a fitted
     answer, not ``plane`` (else only for an edge, by ``edges.find``, loose)."""
     return not isinstance(res, DataError) and res.centre.shape != "plane"
+
+
+def _smooth(fits, P, N, mask):
+    """{b: ``check_screens.no_jump``} of the fitted answers ``curvature_jump.check`` looks
+    at (``_curved``, not ``uncertain``) in the padded stack ``P``, ``N``, ``mask``."""
+    look = [b for b, res in enumerate(fits) if _curved(res) and res.centre.shape != "uncertain"]
+    if not look:
+        return {}
+    return dict(zip(look, check_screens.no_jump(P[look], N[look], mask[look]).tolist()))
 
 
 def _one(p, req):
