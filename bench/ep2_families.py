@@ -10,7 +10,7 @@ without ``--final`` (``families`` module docstring).  Estimators (``ESTIMATORS``
 
 - ``default``: ``tactile.ep2.analyze_patches`` as it is when run, in one call (each patch
   dict with its noise where the case states it), in a process whose allocator keeps its
-  freed heap (``stream.keep_heap``), as ``tactile ep2 analyze``'s is (every estimator shares it);
+  freed heap (``batch.keep_heap``), as ``tactile ep2 analyze``'s is (every estimator shares it);
 - ``jet2``: the batched numpy 2-jet with normals (``tactile_studies.ep2.jet2``);
 - ``spline``: ``analyze_patches(method="spline")``, in one call as ``default``;
 - ``jet2_positions``: the quadric jet of the heights alone (``jet2.positions``);
@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_args import add_split, check_split, positive_int  # noqa: E402
 
 from tactile.ep2 import analyze_patches  # noqa: E402
-from tactile.ep2.stream import keep_heap  # noqa: E402
+from tactile.ep2.batch import keep_heap  # noqa: E402
 from tactile_studies.ep2 import families, family_score, fitpack_peer, jet2  # noqa: E402
 
 DEFAULT_TRIALS = 5

@@ -14,7 +14,7 @@ directory (about 200 MB at 1M patches) with numpy and removed afterwards.
   ``tactile.ep2.analyze_patches`` (the default), the families bench's batched 2-jet
   (``tactile_studies.ep2.jet2.analyze``) and a lean batched numpy 2-jet (``lean_jet2``:
   one stacked least-squares solve per patch size, no per-patch Python), side by side, in a
-  process whose allocator keeps its freed heap (``stream.keep_heap``), as the CLI's is.
+  process whose allocator keeps its freed heap (``batch.keep_heap``), as the CLI's is.
 - ``cli``: each size through ``python -m tactile.cli.main ep2 analyze --json`` in a child
   process: wall, CPU (``RUSAGE_CHILDREN``) and peak RSS (the largest VmHWM of it and its
   workers, sampled from /proc every 0.1 s; not ``ru_maxrss`` of the children, which counts
@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 from timing import peak_rss_mb  # noqa: E402
 
 from tactile.ep2 import analyze_patches  # noqa: E402
-from tactile.ep2.stream import keep_heap  # noqa: E402
+from tactile.ep2.batch import keep_heap  # noqa: E402
 from tactile_sim.ep2 import make  # noqa: E402
 from tactile_studies.ep2 import jet2  # noqa: E402
 

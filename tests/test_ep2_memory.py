@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from tactile.ep2 import analyze_patch, patch_input, stream
+from tactile.ep2 import analyze_patch, batch, patch_input
 from tactile.errors import InputError
 
 CAP = 1536 * 2**20  # bytes of address space for the CLI run (Python, NumPy, OpenBLAS ~150 MB)
@@ -95,7 +95,7 @@ def test_the_api_refuses_a_patch_over_the_limit_before_fitting():
 )
 def test_stacks_keep_padding_within_the_row_budget(sizes, chunk, rows, want):
     order = sorted(range(len(sizes)), key=sizes.__getitem__)
-    got = stream.stacks(order, sizes, chunk, rows)
+    got = batch.stacks(order, sizes, chunk, rows)
     assert [len(s) for s in got] == want
     assert [j for s in got for j in s] == order  # every patch once, in size order
     for s in got:

@@ -109,15 +109,15 @@ def test_a_stack_runs_without_the_cyclic_collector_and_leaves_it_as_it_was(enabl
 
 
 def test_a_second_stack_reuses_the_heap_instead_of_faulting_its_pages_in():
-    """Once an application opts in (``stream.keep_heap``, as ``tactile ep2 analyze`` does),
-    glibc keeps ``stream.HEAP_PAD`` of freed heap: a stack's temporaries (MBs) reuse the
+    """Once an application opts in (``batch.keep_heap``, as ``tactile ep2 analyze`` does),
+    glibc keeps ``batch.HEAP_PAD`` of freed heap: a stack's temporaries (MBs) reuse the
     last stack's pages.  Without it each stack of 36-contact patches faults in about 10
     pages a patch (a tenth of the CPU)."""
     import resource
 
-    from tactile.ep2 import stream
+    from tactile.ep2 import batch
 
-    if not stream.keep_heap():
+    if not batch.keep_heap():
         pytest.skip("no glibc mallopt here")
     patches = _spheres(256, rows=36)
     analyze_patches(patches)
@@ -131,10 +131,10 @@ def test_the_library_leaves_the_allocator_alone_and_the_cli_opts_in(cli, tmp_pat
     """Setting the process's allocator is the application's choice: ``analyze_patches``
     never calls ``keep_heap``; ``tactile ep2 analyze`` does, once, before fitting."""
     from tactile.cli import cmd_ep2
-    from tactile.ep2 import stream
+    from tactile.ep2 import batch
 
-    spy = mocker.patch.object(cmd_ep2, "keep_heap", wraps=stream.keep_heap)
-    lib = mocker.patch.object(stream, "keep_heap")
+    spy = mocker.patch.object(cmd_ep2, "keep_heap", wraps=batch.keep_heap)
+    lib = mocker.patch.object(batch, "keep_heap")
     analyze_patches(_spheres(4, rows=12))
     assert lib.call_count == 0
     f = tmp_path / "c.csv"

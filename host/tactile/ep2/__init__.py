@@ -11,8 +11,8 @@ See docs/ep2.md for the math, conventions and benchmarks.
 """
 
 from tactile.ep2.api import PatchResult, analyze_patch, analyze_sweep
+from tactile.ep2.batch import analyze_patches
 from tactile.ep2.patch_input import JetOptions, SplineOptions
-from tactile.ep2.stream import analyze_patches
 
 __all__ = [
     "JetOptions",

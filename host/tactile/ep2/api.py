@@ -19,7 +19,7 @@ The steps: ``patch_input`` (a ``Request`` of options, validation, duplicates, ce
 ``Prepared``), ``edges`` and ``tilt`` (checks), ``local_jet`` (the fit: a ``JetStack``),
 ``jet_answers`` or ``spline_answers`` (refusals, intervals, labels: an ``Answer``), and
 here the ``PatchResult`` (its JSON record, and its assembly from the ``Answer``).  Many
-patches at once: ``stream.analyze_patches``.
+patches at once: ``batch.analyze_patches``.
 """
 
 from dataclasses import dataclass, field
@@ -106,7 +106,7 @@ def analyze_sweep(points, normals, finger=None, split=False, **kw):
 
 def sweep_parts(points, normals, finger, lines, split, break_angle=patch_input.BREAK_ANGLE_DEG):
     """The parts ``analyze_sweep`` fits (dicts of points, normals, finger, lines, as
-    ``stream.analyze_patches`` takes them), or None when it fits the patch whole (no
+    ``batch.analyze_patches`` takes them), or None when it fits the patch whole (no
     ``split``, or no break).  Raises as ``analyze_sweep`` does for normals it cannot use."""
     nrm = geometry.unit_normals(np.asarray(normals, float))
     (breaks,) = patch_input.find_breaks(nrm[None], [finger], break_angle)

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tactile.ep2 import edges, geometry, patch_input
-from tactile.ep2.stream import analyze_patches
+from tactile.ep2.batch import analyze_patches
 from tactile.errors import DataError, InputError
 
 NEIGHBOURS = 12
