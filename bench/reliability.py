@@ -6,7 +6,10 @@ Each ``bench/reliability_<area>.py`` module holds ``AREA`` (a title) and ``probe
 which yields ``(probe, promise, outcome)``: what was tried, what the user is promised
 (exit code, message, no data lost) and what happened, ``held`` or ``FAILED: why``.  The
 probes run the real CLI in subprocesses or in-process against real files, ptys and the
-emulator; ``tests/test_reliability.py`` runs them all and requires every one to hold.
+emulator; ``tests/test_reliability.py`` requires every one to hold.  A module's ``COVERED``
+maps a probe (its function) to the tests of ``tests/`` that make the same assertions on
+the same fault; the test leaves those probes to them (``covered=False``), this script runs
+every probe.
 """
 
 import argparse
@@ -22,11 +25,19 @@ def areas():
     return sorted(p.stem.removeprefix("reliability_") for p in HERE.glob("reliability_*.py"))
 
 
-def run_area(name):
-    """(title, [(probe, promise, outcome)]) of one area."""
-    sys.path.insert(0, str(HERE))
-    mod = importlib.import_module(f"reliability_{name}")
-    return mod.AREA, list(mod.probes())
+def module(name):
+    """The probe module of one area."""
+    if str(HERE) not in sys.path:
+        sys.path.insert(0, str(HERE))
+    return importlib.import_module(f"reliability_{name}")
+
+
+def run_area(name, covered=True):
+    """(title, [(probe, promise, outcome)]) of one area; ``covered=False`` leaves out the
+    probes its ``COVERED`` gives to a test of ``tests/``."""
+    mod = module(name)
+    skip = set(getattr(mod, "COVERED", {})) if not covered else set()
+    return mod.AREA, list(mod.probes(skip=skip) if skip else mod.probes())
 
 
 def table(title, rows):

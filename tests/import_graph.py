@@ -9,6 +9,7 @@ in are not counted as its imports (as import-linter counts them), so a package's
 """
 
 import ast
+import functools
 from typing import NamedTuple
 
 from conftest import ROOT
@@ -48,7 +49,17 @@ def product_files():
 
 
 def imports(files=None):
-    """Every import of a project module in ``files`` (default: the packages' modules)."""
+    """Every import of a project module in ``files`` (default: the packages' modules, read
+    once per process: the tests that ask only read them)."""
+    return _read(files) if files else list(_packages())
+
+
+@functools.cache
+def _packages():
+    return _read(None)
+
+
+def _read(files):
     known = modules()
     names = {path: name for name, path in known.items()}
     out = []

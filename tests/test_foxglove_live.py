@@ -176,7 +176,9 @@ def test_a_client_that_never_reads_costs_the_recording_nothing(cli, tmp_path):
     args = (*base, "-o", tmp_path / "stalled", "--foxglove", "--foxglove-port", port,
             "--foxglove-rate", "0")  # fmt: skip
     thread, result = _in_thread(lambda: cli(*args))
-    client = Client(port, max_queue=1)  # reads nothing more once one frame is queued
+    # reads nothing more once one frame is queued (nor the server's close frame: its own
+    # close then waits close_timeout for an answer that cannot come, 10 s by default)
+    client = Client(port, max_queue=1, close_timeout=0.1)
     client.subscribe(list(client.wait_for(["/tactile/sensor0/wrench"])))
     thread.join(60)
     code, _, err = result["r"]

@@ -5,6 +5,7 @@ a flash that keeps what was written to it across restarts, and, once flashed, th
 answering on the same port with its sensors read over the chip's own I2C controllers.
 """
 
+import os
 import time
 
 import pytest
@@ -62,6 +63,35 @@ def test_a_flashed_board_answers_with_its_sensor_read_over_i2c(pico_flashed):
     assert requests >= 12  # RESET, CONFIG0/1 written and read back, START: six converters
     # machine.unique_id(): its flash chip's id, one per emulated Pico (rp2040js's own: 0)
     assert info.board_id == flash_board_id(pico_flashed) != bytes(8)
+
+
+def _until_it_asks(chip, seconds=60.0):
+    """Read the chip's messages (type, 2-byte length, payload) until it asks an I2C question
+    ('A' or 'R'): it then waits for the answer, which nobody gives here."""
+    import select
+
+    buf, end = b"", time.monotonic() + seconds
+    while time.monotonic() < end:
+        if select.select([chip.fd], [], [], 0.1)[0]:
+            buf += os.read(chip.fd, 65536)
+        while len(buf) >= 3 and len(buf) >= 3 + int.from_bytes(buf[1:3], "little"):
+            if buf[:1] in (b"A", b"R"):
+                return
+            buf = buf[3 + int.from_bytes(buf[1:3], "little") :]
+    raise AssertionError("the chip asked nothing")
+
+
+def test_a_chip_waiting_for_an_answer_ends_when_closed_not_killed(pico_flashed):
+    """A server stopped while its chip waits for an I2C answer (what every run's end meets):
+    closing the pipes ends node there, at once; the order to quit alone was never read, and
+    each close waited 5 s for the kill."""
+    server = serve(flash=pico_flashed)
+    try:
+        chip = server.launch()
+        _until_it_asks(chip)
+    finally:
+        server.close()
+    assert chip.proc.returncode == 0  # it left by itself (a kill is -9)
 
 
 def _emulate(tmp_path, *args, env=None):

@@ -157,6 +157,7 @@ def test_a_real_file_size_limit_tears_nothing(cli, tmp_path):
     assert r.returncode == 5
     _one_line(r.stderr, "file too large", "kept")
     assert json.loads((out / "meta.json").read_text())["ended"] == "file too large"
+    assert (out / "frames.csv").read_bytes().endswith(b"\n")  # on a whole row
     _all_kept(out, cli)
 
 

@@ -108,6 +108,7 @@ def test_a_host_clock_that_steps_back_never_gives_negative_elapsed_time(scene, t
         seen.append(session.meta()["elapsed_s"])
 
     meta = _session(port, tmp_path / "run", duration_s=3.0, on_progress=on_progress).run()
+    _kept(tmp_path / "run", port)
     assert port.clock_offset and min(seen) >= 0 and seen == sorted(seen)
     assert meta["ended"] == "duration" and meta["elapsed_s"] == pytest.approx(3.0, abs=0.1)
     assert meta["device_time_s"] == pytest.approx(3.0, abs=0.2)  # not 3 s + 18.8 s

@@ -175,8 +175,12 @@ def test_a_board_killed_and_restarted_behind_link_is_one_reboot_and_nothing_lost
     assert meta["reboots"] == 1 and len(meta["gaps"]) == 1 and meta["gaps"][0]["rebooted"]
     d = meta["decoder"]
     assert (d["reboots"], d["lost_frames"], d["out_of_order"]) == (1, 0, 0)
-    _, replayed = decode_bytes((out / "capture.bin").read_bytes())
+    capture = (out / "capture.bin").read_bytes()
+    messages, replayed = decode_bytes(capture)
     assert (replayed.reboots, replayed.lost_frames) == (1, 0)  # the capture says the same
+    rows = (out / "frames.csv").read_text().splitlines()[2:]  # below units, header
+    readings = sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages)
+    assert meta["bytes"] == len(capture) and meta["samples"] == len(rows) == readings
 
 
 @pytest.mark.slow

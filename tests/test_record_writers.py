@@ -5,6 +5,7 @@ first is known to hold the folder (its capture.bin has bytes: it locks before it
 or the test holds the lock itself, as a first writer would."""
 
 import fcntl
+import functools
 import json
 import os
 import subprocess
@@ -14,6 +15,7 @@ import time
 import pytest
 from lying_device import LyingPort, lying_ports
 
+from tactile.board.client import BoardClient
 from tactile.board.stream_decoder import decode_bytes
 from tactile.recording.session import Session
 from tactile_protocol import constants as C
@@ -40,12 +42,13 @@ def _wait_for_bytes(path, more_than, proc, timeout_s=60):
 def _agree(out, sessions):
     """capture.bin decodes cleanly and meta.json accounts for every byte and row of it."""
     capture = (out / "capture.bin").read_bytes()
-    _, counters = decode_bytes(capture)
+    messages, counters = decode_bytes(capture)
     meta = json.loads((out / "meta.json").read_text())
     rows = (out / "frames.csv").read_text().splitlines()[2:]
     assert counters.crc_errors == 0 and counters.out_of_order == 0
     assert counters.reboots == sessions - 1  # each sim:// session is a fresh board
     assert meta["bytes"] == len(capture) and meta["samples"] == len(rows)
+    assert len(rows) == sum(m.type_name in ("SAMPLE", "CONTACT") for m in messages)
     assert len(meta.get("sessions", [meta])) == sessions
     return meta
 
@@ -192,8 +195,11 @@ def StreamPeek(data):  # noqa: N802 - the commands in ``data``
 
 
 @pytest.mark.parametrize("no_tare", [False, True])
-def test_meta_json_says_tared_only_for_a_tare_the_board_acknowledged(cli, tmp_path, no_tare):
-    out = tmp_path / "run"
+def test_meta_json_says_tared_only_for_a_tare_the_board_acknowledged(
+    cli, tmp_path, no_tare, monkeypatch
+):
+    out = tmp_path / "run"  # a TARE unanswered for 0.3 s is as unanswered as for its 5 s
+    monkeypatch.setattr(BoardClient, "tare", functools.partialmethod(BoardClient.tare, timeout=0.3))
     with lying_ports(_NoTare):
         code, _, err = cli("record", "--port", "/dev/ttyX", "--duration", "0.3", "-o", out,
                            *(["--no-tare"] if no_tare else []))  # fmt: skip

@@ -371,19 +371,28 @@ class PicoChip:
             self.fatal = said[-1] if said else f"node exited with status {self.proc.returncode}"
 
     def close(self):
+        """Quit the chip: 'Q', and the pipes closed, which ends it too where it is blocked
+        on one (a write to a full pipe nobody drains now, a read of an answer: it used to
+        sit there until the kill 5 s later); the flash file's lock last."""
         if self.proc.poll() is None:
             self._order(b"Q")
+        self._close_fds(self.fd, self.reply_fd, self.order_fd)
+        if self.proc.poll() is None:
             try:
                 self.proc.wait(5)
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait(5)
-        for fd in (self.fd, self.reply_fd, self.order_fd, self.lock):
+        self._close_fds(self.lock)
+        self.proc.stderr.close()
+
+    @staticmethod
+    def _close_fds(*fds):
+        for fd in fds:
             try:
                 os.close(fd)
             except OSError:
                 pass
-        self.proc.stderr.close()
 
 
 def _us(t):
