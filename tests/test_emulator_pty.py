@@ -64,7 +64,8 @@ def _drain(port, decoder, server, slow_reads=0):
 def test_fast_mode_waits_for_the_host_and_loses_nothing():
     board = EmulatedBoard(load_scene("press"))
     decoder = StreamDecoder()
-    with PtyServer(board, realtime=False, duration_s=2.0) as server:
+    # (the hold outlasts any stall a loaded machine gives this reader)
+    with PtyServer(board, realtime=False, duration_s=2.0, hold_limit_s=60.0) as server:
         time.sleep(0.1)
         assert board.t_us == 0  # nobody is reading: simulated time holds
         with serial.Serial(server.path, timeout=0.05) as port:

@@ -100,6 +100,21 @@ def test_a_host_that_stops_reading_holds_a_fast_run_for_a_bounded_time():
     assert rest  # what the pty held is still there for the host
 
 
+def test_a_longer_hold_limit_waits_out_a_host_stalled_past_the_default():
+    """``hold_limit_s``: a hold lasts that long in a row, not ``HOLD_LIMIT_S`` (a test's
+    in-process host can stall for seconds on a loaded machine); a drain's stall too."""
+    from tactile_sim.emulator.server import HoldLimit, Stalled
+
+    now = [0.0]
+    hold, stalled = HoldLimit(lambda: now[0], 60.0), Stalled(lambda: now[0], 60.0)
+    assert hold(True) and not stalled("same")
+    now[0] = 2 * HOLD_LIMIT_S  # past the default: a host stalled this long is still held
+    assert hold(True) and not stalled("same")
+    now[0] = 60.0
+    assert not hold(True) and stalled("same")
+    assert PtyServer(EmulatedBoard(load_scene("press")), hold_limit_s=60.0)._limit.limit_s == 60
+
+
 def test_emulate_help_says_duration_ends_the_run(capsys):
     from tactile.cli import main as cli_main
 

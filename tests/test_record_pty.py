@@ -24,12 +24,18 @@ def _analyze(cli, csv, *extra):
     return json.loads(out.splitlines()[0])
 
 
+HOST_STALL_S = 60.0  # far beyond any stall, and the run still ends
+
+
 def served_when_opened(scene, realtime=True):
     """``scene`` served on a pty once a host has the port open (a board powered by USB),
     for its motion's duration: ``with served_when_opened(scene) as served``."""
     board = EmulatedBoard(scene)
     duration = board.motion.duration_s + 0.1
-    return PtyServer(board, realtime=realtime, duration_s=duration, when_opened=True)
+    # a loaded machine can stall the in-process host for seconds (an import): as fast as
+    # possible, the board's time holds for it that long rather than run on and drop frames
+    return PtyServer(board, realtime=realtime, duration_s=duration, when_opened=True,
+                     hold_limit_s=HOST_STALL_S)  # fmt: skip
 
 
 def _scene_with(tmp_path, name, extra):

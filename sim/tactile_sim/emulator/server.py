@@ -53,8 +53,8 @@ class HoldLimit:
     at most ``HOLD_LIMIT_S`` in a row (``want`` false ends a hold).  Only a run with an end
     (``bounded``) needs the limit: without one, holding for a host costs nothing."""
 
-    def __init__(self, clock=time.monotonic):
-        self.clock, self.since, self.bounded = clock, None, True
+    def __init__(self, clock=time.monotonic, limit_s=HOLD_LIMIT_S):
+        self.clock, self.since, self.bounded, self.limit_s = clock, None, True, limit_s
 
     def __call__(self, want):
         if not want:
@@ -63,20 +63,20 @@ class HoldLimit:
         now = self.clock()
         if self.since is None:
             self.since = now
-        return not self.bounded or now - self.since < HOLD_LIMIT_S
+        return not self.bounded or now - self.since < self.limit_s
 
 
 class Stalled:
     """A host that takes nothing: ``stalled(state)`` turns true once ``state`` (what waits
-    for the host) has not changed for ``HOLD_LIMIT_S``."""
+    for the host) has not changed for ``limit_s``."""
 
-    def __init__(self, clock=time.monotonic):
-        self.clock, self.last, self.moved = clock, None, clock()
+    def __init__(self, clock=time.monotonic, limit_s=HOLD_LIMIT_S):
+        self.clock, self.last, self.moved, self.limit_s = clock, None, clock(), limit_s
 
     def __call__(self, state):
         if state != self.last:
             self.last, self.moved = state, self.clock()
-        return self.clock() - self.moved >= HOLD_LIMIT_S
+        return self.clock() - self.moved >= self.limit_s
 
 
 class Server:
@@ -90,14 +90,16 @@ class Server:
     with a duration, at most ``HOLD_LIMIT_S`` after serving began: no host, the run starts
     without one); ``replay``: each new host session plays the scene from its start;
     ``on_scene(t_us)``: told the board's clock at each start of the scene; ``clock``: the
-    wall clock (tests inject).
+    wall clock (tests inject); ``hold_limit_s``: how long a hold or a drain waits for a host
+    that takes nothing (``HOLD_LIMIT_S``; a test whose in-process host a loaded machine can
+    stall for seconds gives it longer).
     """
 
     SERVES_DISCONNECTS = False
 
     def __init__(self, board, link_path=None, realtime=True, faults=None, disconnects=(),
                  duration_s=None, when_opened=False, replay=False, on_scene=None,
-                 clock=None):  # fmt: skip
+                 clock=None, hold_limit_s=HOLD_LIMIT_S):  # fmt: skip
         if disconnects and not self.SERVES_DISCONNECTS:
             raise ValueError(f"{type(self).__name__} serves no [link] disconnect windows")
         self.board, self.link_path, self.realtime, self.faults = board, link_path, realtime, faults
@@ -118,7 +120,8 @@ class Server:
         self.end_us = None
         self.error = None  # what the serving thread raised
         self._present_since = None
-        self._limit = HoldLimit(self.clock)
+        self.hold_limit_s = hold_limit_s
+        self._limit = HoldLimit(self.clock, hold_limit_s)
         self._thread = None
 
     # --- what a core supplies ---------------------------------------------------------------
@@ -311,7 +314,7 @@ class Server:
     def _let_host_read(self):
         """As fast as possible: wait, the board's time held, while the host (if any) reads
         what is queued or in flight; give up on one that takes nothing for ``HOLD_LIMIT_S``."""
-        empty_since, stalled = None, Stalled(self.clock)
+        empty_since, stalled = None, Stalled(self.clock, self.hold_limit_s)
         self.draining = True
         try:
             while self.endpoint.host_present and not self.stop:
