@@ -108,12 +108,34 @@ def test_the_emulators_own_unplugged_port_coming_back_is_the_same_session(tmp_pa
             while board.t_us < 400_000:
                 port.read(4096)
         assert server.replays == 0 and starts == [] and board.scene_start_us == 0
-        while server.endpoint.host_present:  # (the host gone, as between two commands)
-            time.sleep(0.01)
         with serial.Serial(server.path, timeout=0.05) as port:  # a new host session
             while server.replays == 0:
                 port.read(4096)
     assert starts == [board.scene_start_us] and board.scene_start_us >= 400_000
+
+
+def test_a_host_that_closes_and_opens_again_at_once_is_a_new_session():
+    """A host that opens the port again before the server has looked (a script's next
+    command; a loaded machine) is a new session all the same: pyserial's open flushes the
+    port's input, which the pty's packet mode lets the server hear.  It used to be taken
+    for the host that had left, the scene not played again (a second record found the
+    robot's log over)."""
+    starts = []
+    board = EmulatedBoard(load_scene("press"))
+    server = PtyServer(board, realtime=False, replay=True, when_opened=True,
+                       on_scene=starts.append)  # fmt: skip
+    with server:
+        port = serial.Serial(server.path, timeout=0.5)
+        assert port.read(1)  # the first session: the board is sending
+        for k in range(1, 4):
+            port.close()
+            port = serial.Serial(server.path, timeout=0.5)  # at once: no wait for the server
+            until_us = board.t_us + 2_000_000  # (a new session comes long before)
+            while server.replays < k and board.t_us < until_us:
+                port.read(4096)
+            assert server.replays == k, f"open {k + 1}: taken for the host that had left"
+        port.close()
+    assert server.replays == 3 and len(starts) == 3
 
 
 @pytest.mark.parametrize("scene", ["ch5_convex", "ep2_sweep_sphere", "ep1_roll", "payload_poses"])

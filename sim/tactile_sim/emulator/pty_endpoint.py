@@ -1,12 +1,20 @@
 """The pseudo-terminal a server offers: a real tty the host opens with pyserial exactly as it
 opens ``/dev/ttyACM0``; the master side's reads, writes, presence and what the host has not
-read yet."""
+read yet.
+
+The master is in packet mode (``TIOCPKT``): besides the host's bytes it hears each flush of
+the host's input, which pyserial makes as every ``open()`` ends.  So a host that closes the
+port and opens it again before the server has looked (a script's next command, a loaded
+machine) is still seen to have come back (``opens``), where presence alone (POLLHUP only
+while nobody has the port open) would miss it.  A host's own flush mid-session reads the
+same: a new host, as a USB board sees a new DTR."""
 
 import errno
 import fcntl
 import os
 import select
 import struct
+import sys
 import termios
 import time
 import tty
@@ -21,6 +29,9 @@ class PtyEndpoint:
         self.path = os.ttyname(slave)
         os.close(slave)
         os.set_blocking(self.master, False)
+        self.packets = _packet_mode(self.master)
+        self.opens = 0  # the host's input flushes heard: one at each pyserial open
+        self._held = bytearray()  # the host's bytes read since the latest flush
         self._poll = select.poll()
         self._poll.register(self.master, select.POLLIN | select.POLLHUP)
         self.host_present = False
@@ -48,13 +59,37 @@ class PtyEndpoint:
         present = not (flags & select.POLLHUP)
         return bool(flags & select.POLLIN) and present, present
 
+    def pump(self):
+        """Take what the host sent (its bytes, and in packet mode its flushes) off the pty;
+        the bytes wait for ``read``, those before a flush dropped (their host has gone)."""
+        while True:
+            try:
+                packet = os.read(self.master, 4097)
+            except OSError as exc:  # EIO: no host has the slave open
+                if exc.errno in (errno.EIO, errno.EAGAIN):
+                    return
+                raise
+            if not packet:
+                return
+            if not self.packets:
+                self._held += packet
+            elif packet[0] == termios.TIOCPKT_DATA:
+                self._held += packet[1:]
+            elif packet[0] & termios.TIOCPKT_FLUSHREAD:
+                self.opens += 1
+                self._held.clear()
+
+    @property
+    def waiting(self):
+        """Whether ``pump`` took host bytes that no ``read`` has yet."""
+        return bool(self._held)
+
     def read(self):
-        try:
-            return os.read(self.master, 4096)
-        except OSError as exc:  # EIO: no host has the slave open
-            if exc.errno in (errno.EIO, errno.EAGAIN):
-                return b""
-            raise
+        """The host's bytes since the last call (``pump`` first)."""
+        self.pump()
+        data = bytes(self._held)
+        self._held.clear()
+        return data
 
     def write(self, data):
         """Write what the pty takes now; return bytes accepted."""
@@ -87,3 +122,12 @@ class PtyEndpoint:
         if self.master is not None:
             os.close(self.master)
             self.master = None
+
+
+def _packet_mode(fd):
+    """Put the pty master ``fd`` in packet mode; whether it took (not on every platform)."""
+    try:
+        fcntl.ioctl(fd, termios.TIOCPKT, (1).to_bytes(4, sys.byteorder))  # (an int, by address)
+    except (OSError, AttributeError):
+        return False
+    return True

@@ -5,7 +5,9 @@
 - **the endpoint** (``pty_endpoint``) and the stable ``--link`` to it (``pty_link``);
 - **host presence:** a host is announced once it has had the port open for
   ``OPEN_SETTLE_S`` (pyserial flushes its input at the end of ``open()``: a HELLO written
-  the instant the port opens would be discarded); only then does it read and write;
+  the instant the port opens would be discarded); only then does it read and write; that
+  flush, heard on the pty, also tells a host that closed and opened the port again before
+  the server looked (``PtyEndpoint.opens``): a new host;
 - **keep and drop:** what the board sends goes nowhere while no host is announced (as on
   USB), unless the core keeps it for one to come (``keeps_for_absent_host``); what waits
   for the host beyond ``KEEP_BYTES`` is dropped and counted (``dropped``);
@@ -120,6 +122,7 @@ class Server:
         self.end_us = None
         self.error = None  # what the serving thread raised
         self._present_since = None
+        self._opens = 0  # the endpoint's host opens (flushes) seen
         self.hold_limit_s = hold_limit_s
         self._limit = HoldLimit(self.clock, hold_limit_s)
         self._thread = None
@@ -216,7 +219,7 @@ class Server:
             except BaseException:
                 endpoint.close()
                 raise
-        self.endpoint = endpoint
+        self.endpoint, self._opens = endpoint, 0
         return self.path
 
     def close(self):
@@ -280,10 +283,14 @@ class Server:
         ep = self.endpoint
         readable, present = ep.wait(wait_s)
         now = time.monotonic()
+        if readable:
+            ep.pump()  # (its flushes too: a host that opened the port again)
         if not present:
             self._present_since = None
-        elif self._present_since is None:
-            self._present_since = now
+        elif self._present_since is None or ep.opens != self._opens:
+            if ep.opens != self._opens and ep.host_present:
+                ep.host_present = False  # gone and back before we looked: a new host
+            self._present_since, self._opens = now, ep.opens
         announced = present and now - self._present_since >= OPEN_SETTLE_S
         if not announced and not self.keeps_for_absent_host:
             self.to_host.clear()  # nobody is listening: the first thing a host sees is new
@@ -291,7 +298,7 @@ class Server:
             self._new_session()  # (before the host's first byte reaches the board)
             self.opened()
         ep.host_present, self.readable = announced, readable
-        if readable and announced:
+        if announced and (readable or ep.waiting):
             data = ep.read()
             if data:
                 self.write(data)
