@@ -15,7 +15,7 @@ ill-conditioned fit is always checked one at a time."""
 import numpy as np
 
 from tactile.ep2 import edges, tilt
-from tactile.ep2.curvature_jump import ABS, QR_COND, REL, no_jump  # noqa: F401 (no_jump: here with the others)
+from tactile.ep2.curvature_jump import ABS, QR_COND, REL, no_jump, qr_fit  # noqa: F401 (no_jump: here with the others)
 from tactile.ep2.curvature_jump import solve_stacked as _solve
 from tactile.ep2.curvature_jump import tangent_bases as _across
 
@@ -276,12 +276,5 @@ def _qr_rss(A, y):
     """(the residual sum of squares (B,) of y (B, n) fitted by A's columns, by Householder QR:
     within about cond(A) eps of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps);
     whether cond(A) is surely under ``QR_COND`` (by ||R||_F ||R^-1||_F)) per patch."""
-    Q, R = np.linalg.qr(A)
-    d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
-    tiny = ~(d > 1e-12 * np.maximum(d.max(axis=-1, keepdims=True), 1e-300))
-    Rinv = np.linalg.inv(R + np.eye(R.shape[-1]) * tiny[:, None, :])
-    with np.errstate(over="ignore", invalid="ignore"):
-        bound = np.sqrt(np.sum(R * R, axis=(1, 2)) * np.sum(Rinv * Rinv, axis=(1, 2)))
-    ok = ~tiny.any(axis=-1) & (bound < QR_COND)
-    r = y - (Q @ (np.swapaxes(Q, -1, -2) @ y[..., None]))[..., 0]
-    return np.sum(r * r, axis=1), ok
+    _, _, rss, ok = qr_fit(A, y[..., None])
+    return rss, ok

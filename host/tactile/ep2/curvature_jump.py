@@ -193,7 +193,7 @@ def no_jump(points, normals, mask=None):
     s = -np.stack([np.einsum("bnk,bk->bn", normals, t) for t in (t1, t2)], axis=-1) / nz[..., None]
     x, y = xy[..., 0], xy[..., 1]
     quad = np.stack([mask.astype(float), x, y, x * x, x * y, y * y], axis=-1)
-    Q, coef_q, res, ok = _qr_fit(quad, s)
+    Q, coef_q, res, ok = qr_fit(quad, s)
     Q3 = Q[..., :3]  # (Householder's first columns: the linear columns' own QR)
     flat = np.sum((s - Q3 @ (np.swapaxes(Q3, 1, 2) @ s)) ** 2, axis=(1, 2))
     sure &= ok  # (a subset of A's columns: cond no larger)
@@ -328,7 +328,7 @@ def _next_q(x, qs):
     return r / np.where(ok, size, 1.0)[..., None], ok
 
 
-def _qr_fit(A, Y):
+def qr_fit(A, Y):
     """(Q (B, n, k), coefficients (B, k, m), residual sum of squares (B,), whether cond(A)
     is surely under ``QR_COND`` (by ||R||_F ||R^-1||_F)) of Y (B, n, m) fitted by A's
     (B, n, k) columns, by Householder QR: within about cond(A) eps of ``np.linalg.lstsq``'s."""
