@@ -85,8 +85,7 @@ class PtyEndpoint:
         return bool(self._held)
 
     def read(self):
-        """The host's bytes since the last call (``pump`` first)."""
-        self.pump()
+        """The host's bytes that ``pump`` took since the last call."""
         data = bytes(self._held)
         self._held.clear()
         return data

@@ -298,10 +298,8 @@ class Server:
             self._new_session()  # (before the host's first byte reaches the board)
             self.opened()
         ep.host_present, self.readable = announced, readable
-        if announced and (readable or ep.waiting):
-            data = ep.read()
-            if data:
-                self.write(data)
+        if announced and ep.waiting:
+            self.write(ep.read())
 
     def _pump(self):
         """What the board sent, through the scene's link faults, to the host: kept while one
