@@ -349,3 +349,20 @@ def test_the_shipped_layout_reads_topics_we_publish():
     assert found == ours
     doc = (ROOT / "docs" / "foxglove.md").read_text()
     assert all(t.replace("0", "N") in doc for t in ours)
+
+
+@pytest.mark.parametrize("device, sensors", [(None, [0]), ({"cal_ids": [3, 4]}, [0, 1])])
+def test_a_client_that_connects_before_any_frame_is_told_every_sensors_topics(device, sensors):
+    """Channels made after a client connects race the SDK's own filing of them, and a quick
+    subscribe is refused (docs/foxglove.md: limits), so the server makes them first."""
+    from tactile.foxglove.live import LiveServer
+
+    server = LiveServer(port=0, rate_hz=0, device=device)
+    try:
+        client = Client(server.port)
+        topics = [f"/tactile/sensor{i}/{kind}" for i in sensors for kind in ("wrench", "contact")]
+        client.wait_for(topics, timeout_s=5)  # no frame fed: advertised at connection
+        assert sorted(client.channels) == sorted(topics)
+        client.ws.close()
+    finally:
+        server.close()

@@ -30,7 +30,7 @@ board -> host fit as it stands), else this server's own fit of the arrivals
 import time
 
 from tactile.board.client import info_dict
-from tactile.foxglove.topics import Topics, WebSocketSink, Worker, sdk
+from tactile.foxglove.topics import Topics, WebSocketSink, Worker, contact_topic, sdk, wrench_topic
 from tactile_protocol import constants as C
 from tactile_protocol.settings import wrench_si
 
@@ -79,6 +79,16 @@ class _Listener:
         """Nothing to do; the SDK calls it on every listener it is given."""
 
 
+def sensor_topics(device):
+    """The wrench and contact topics of every sensor ``device`` (``info_dict``) names, else of
+    sensor 0.  Made before the server starts: foxglove-sdk advertises a channel made later
+    to a connected client before it files the channel as that client's, so a client that
+    subscribes at once can be refused ("unknown channel", docs/foxglove.md: limits); the
+    channels a client finds at connection are filed before its messages are read."""
+    n = len(device["cal_ids"]) if device and device.get("cal_ids") else 1
+    return [topic(sensor) for sensor in range(n) for topic in (wrench_topic, contact_topic)]
+
+
 class LiveServer:
     """The server on ``host``:``port`` (0: any free port; ``port`` says which)."""
 
@@ -92,7 +102,12 @@ class LiveServer:
         self.decimator = Decimator(rate_hz)
         self.context = fox.Context()
         self.topics = Topics(fox, self.context)
+        self.topics.declare(*sensor_topics(device))  # before the server: see ``sensor_topics``
         self.scene = None
+        if pose_log is not None:
+            from tactile.foxglove.live_scene import ScenePublisher  # NumPy, EP2: start-up
+
+            self.scene = ScenePublisher(self.topics, pose_log, per_contact)
         listener = _Listener(self) if pose_log is not None else None
         self.sink = WebSocketSink(fox, self.context, host, port, BACKLOG, listener)
         self.host, self.port = host, self.sink.port
@@ -102,10 +117,6 @@ class LiveServer:
         self._info = None
         self._fit_at = 0.0
         self.worker = Worker("foxglove", self._publish, QUEUE_FRAMES)
-        if pose_log is not None:
-            from tactile.foxglove.live_scene import ScenePublisher  # NumPy, EP2: start-up
-
-            self.scene = ScenePublisher(self.topics, pose_log, per_contact)
 
     @property
     def url(self):
