@@ -381,7 +381,11 @@ def test_cli_foxglove_gets_the_contacts_the_patch_and_the_next_touch(
         def feed(msgs, arrivals=None):
             fed.extend(msgs)
 
-    monkeypatch.setattr(cmd_explore, "start_foxglove", lambda args, device=None: Live)
+    declared = []  # made before the server listens (docs/foxglove.md: limits)
+    monkeypatch.setattr(
+        cmd_explore, "start_foxglove",
+        lambda args, device=None, topics=(), port=None: declared.extend(topics) or Live,
+    )  # fmt: skip
     monkeypatch.setattr(cmd_explore, "stop_foxglove", lambda server, quiet=False: None)
     port, robot = emulated
     code, _, _ = cli("explore", "--port", port, "--robot", robot, "-o", tmp_path / "r",
@@ -390,6 +394,7 @@ def test_cli_foxglove_gets_the_contacts_the_patch_and_the_next_touch(
     assert {kind for _, kind in published} == {"SceneUpdate"}
     topics = [t for t, _ in published]  # before each touch its plan, after it the scene
     assert topics == ["/tactile/next_touch", "/tactile/contacts", "/tactile/patch"] * 4
+    assert sorted(declared) == sorted(set(topics))
 
 
 def test_a_contact_ep2_leaves_out_does_not_withhold_the_label():

@@ -366,3 +366,25 @@ def test_a_client_that_connects_before_any_frame_is_told_every_sensors_topics(de
         client.ws.close()
     finally:
         server.close()
+
+
+@pytest.mark.parametrize("simulated", [False, True])
+def test_a_board_on_simulated_time_is_stamped_as_fed_not_by_a_clock_fit(monkeypatch, simulated):
+    """Arrivals that pace board time like a clock, 1000 s ago: a real board's frames are
+    stamped by the fit (then); a simulated board's (``sim://`` unpaced) as they are fed (now),
+    as ``record`` claims no host time for it (docs/recording.md)."""
+    from tactile.foxglove.live import LiveServer
+
+    server = LiveServer(port=0, rate_hz=0, simulated=simulated)
+    logged = []
+    monkeypatch.setattr(server, "_log", lambda m, ns: logged.append(ns))
+    ago = time.monotonic() - 1000.0
+    frames = [Sample(i, 1000 * i, 0, 0, 1, 2, 3, 4, 5, 6) for i in range(4000)]
+    for k in range(0, 4000, 1000):
+        server.feed(frames[k : k + 1000], arrivals=[ago + 1e-3 * i for i in range(k, k + 1000)])
+        server._fit_at = 0.0  # refit at every batch (one a second otherwise)
+    server.close()
+    now_ns = time.time_ns()
+    assert len(logged) == 4000
+    last_s = (now_ns - logged[-1]) * 1e-9  # how long before now the last frame is stamped
+    assert (abs(last_s - 996.0) < 1.0) if not simulated else (0 <= last_s < 30)  # 4 s fed

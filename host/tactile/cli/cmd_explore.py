@@ -150,7 +150,8 @@ class Run:
 
     def run(self):
         try:
-            self.live = start_foxglove(self.args, self.device)
+            scene = (CONTACTS_TOPIC, PATCH_TOPIC, NEXT_TOUCH_TOPIC)
+            self.live = start_foxglove(self.args, self.device, topics=scene, port=self.client.port)
             self._start()
             self._loop()
         except KeyboardInterrupt:

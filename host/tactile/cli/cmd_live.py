@@ -77,7 +77,7 @@ def run(args):
     try:
         restore = None if args.as_is else _samples_on(client)
         posed = log if getattr(log, "kind", None) in ("pose", "scara") else None
-        live = start_foxglove(args, _device(client), pose_log=posed)
+        live = start_foxglove(args, _device(client), pose_log=posed, port=client.port)
         _view(client, args.duration, live, following)
     except PortLost:
         restore = None  # a dead port cannot be told anything: the error alone, once

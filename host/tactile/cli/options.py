@@ -67,17 +67,21 @@ def check_foxglove(args):
     require_foxglove()
 
 
-def start_foxglove(args, device=None, pose_log=None):
+def start_foxglove(args, device=None, pose_log=None, topics=(), port=None):
     """The ``LiveServer`` that ``args`` ask for (None without ``--foxglove``); says where.
-    ``pose_log``: a robot's ``PoseLog``, to serve the contacts, transforms and patch too."""
+    ``pose_log``: a robot's ``PoseLog``, to serve the contacts, transforms and patch too;
+    ``topics``: the caller's own, made before the server listens; ``port``: the board's
+    (its ``simulated_time``: no clock fit of its arrivals)."""
     if not args.foxglove:
         return None
     check_foxglove(args)
 
     per_contact = getattr(args, "per_contact", None)
+    simulated = bool(getattr(port, "simulated_time", False))
     server = LiveServer(
-        args.foxglove_host, args.foxglove_port, args.foxglove_rate, device, pose_log, per_contact
-    )
+        args.foxglove_host, args.foxglove_port, args.foxglove_rate, device, pose_log, per_contact,
+        topics, simulated,
+    )  # fmt: skip
     print(printable(f"foxglove: serving {server.url} ({_rate(args.foxglove_rate)})"),
           file=sys.stderr, flush=True)  # fmt: skip
     if args.foxglove_host not in LOOPBACK:

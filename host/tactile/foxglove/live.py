@@ -24,7 +24,9 @@ NumPy (the scene, the arrivals' fit) is imported when first used.
 Rate: ``rate_hz`` per sensor by the board's stamps (0: every frame); CONTACT frames that
 begin or end a contact always pass.  Stamps: the host UTC the caller gives (``record``: the
 board -> host fit as it stands), else this server's own fit of the arrivals
-(``tactile.recording.timebase.RecordingClock``), as ns.
+(``tactile.recording.timebase.RecordingClock``), as ns; for a board on simulated time
+(``simulated``: the port's ``simulated_time``), and until the fit is a clock's, the host's
+UTC as the frame is fed.
 """
 
 import time
@@ -94,7 +96,7 @@ class LiveServer:
 
     def __init__(
         self, host="127.0.0.1", port=8765, rate_hz=DEFAULT_RATE_HZ, device=None, pose_log=None,
-        per_contact=None,
+        per_contact=None, topics=(), simulated=False,
     ):  # fmt: skip
         fox, self.sdk_log = require_foxglove()  # adopted before the SDK's first line
         self.device = device
@@ -102,7 +104,9 @@ class LiveServer:
         self.decimator = Decimator(rate_hz)
         self.context = fox.Context()
         self.topics = Topics(fox, self.context)
-        self.topics.declare(*sensor_topics(device))  # before the server: see ``sensor_topics``
+        # before the server listens (see ``sensor_topics``): the caller's own topics too
+        self.topics.declare(*sensor_topics(device), *topics)
+        self.simulated = simulated  # the port's board runs on simulated time: no clock fit
         self.scene = None
         if pose_log is not None:
             from tactile.foxglove.live_scene import ScenePublisher  # NumPy, EP2: start-up
@@ -150,7 +154,7 @@ class LiveServer:
             self.scene.feed(msgs, host_times, self.device)
 
     def _stamp(self, msgs, arrivals):
-        if arrivals is None:
+        if arrivals is None or self.simulated:  # stamped as they are fed
             return [None] * len(msgs)
         if self._clock is None:
             from tactile.recording.timebase import RecordingClock  # NumPy: start-up
