@@ -24,6 +24,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from tactile.ep2.curvature_jump import tangent_basis
+
 MIN_POINTS = 10
 MIN_DEG = 1.0
 MAX_DEG = 10.0  # beyond this it is no sensor's tare: the normals are another surface's
@@ -33,18 +35,10 @@ NOISE_FLOOR = 1e-6  # of the patch size and rad: no noise is taken as zero
 
 
 def _frame(nrm):
+    """Rows x, y, z: two tangents across the normals' mean direction, then it."""
     m = nrm.sum(axis=0)
     m /= np.linalg.norm(m)
-    ref = np.array([1.0, 0.0, 0.0]) if abs(m[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    t1 = _cross(m, ref)
-    t1 /= np.linalg.norm(t1)
-    return np.array([t1, _cross(m, t1), m])  # rows: x, y, z
-
-
-def _cross(a, b):
-    """``np.cross`` of two 3-vectors, its products in its order (a tenth of its cost)."""
-    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+    return np.vstack([tangent_basis(m).T, m])
 
 
 def _rows(x, y):
