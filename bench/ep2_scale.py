@@ -2,7 +2,7 @@
 and CPU per patch of the default estimator beside two batched 2-jets, on one mixed set.
 
 Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python bench/ep2_scale.py [--sizes 10000,100000,1000000]
-[--jobs 1] [--cpu-patches 768] [--only cpu,cli]   (from a checkout:
+[--jobs 1] [--cpu-patches 768] [--only cpu,stages,cli]   (from a checkout:
 PYTHONPATH=protocol:firmware:host:sim:studies first).
 
 The mixed set: three-finger sweeps (3 fingers x 3..6 stops x 1..2 readings: 9..36 contacts)
@@ -15,6 +15,8 @@ directory (about 200 MB at 1M patches) with numpy and removed afterwards.
   (``tactile_studies.ep2.jet2.analyze``) and a lean batched numpy 2-jet (``lean_jet2``:
   one stacked least-squares solve per patch size, no per-patch Python), side by side, in a
   process whose allocator keeps its freed heap (``batch.keep_heap``), as the CLI's is.
+- ``stages``: where the default's CPU goes, on the same set: its stages' CPU per patch
+  (each stage's functions timed in place, in the best of 3 runs) against the lean 2-jet.
 - ``cli``: each size through ``python -m tactile.cli.main ep2 analyze --json`` in a child
   process: wall, CPU (``RUSAGE_CHILDREN``) and peak RSS (the largest VmHWM of it and its
   workers, sampled from /proc every 0.1 s; not ``ru_maxrss`` of the children, which counts
@@ -34,7 +36,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from timing import peak_rss_mb  # noqa: E402
 
-from tactile.ep2 import analyze_patches  # noqa: E402
+from tactile.ep2 import analyze_patches, batch, jet_answers, local_jet, patch_input  # noqa: E402
+from tactile.ep2.api import PatchResult  # noqa: E402
 from tactile.ep2.batch import keep_heap  # noqa: E402
 from tactile_sim.ep2 import make  # noqa: E402
 from tactile_studies.ep2 import jet2  # noqa: E402
@@ -160,25 +163,81 @@ def lean_jet2(patches):
     return out
 
 
+LEAN_REPEATS = 20
+
+
 def cpu_per_patch(n, repeats=3):
-    """{name: µs of CPU a patch} on ``mixed(n)``, each best of ``repeats``."""
+    """{name: µs of CPU a patch} on ``mixed(n)``, each best of ``repeats`` (the lean 2-jet,
+    a few ms a run, of ``LEAN_REPEATS``: its best of 3 moved by up to 50 %)."""
     patches = mixed(n)
     for_jet2 = [{**p, "stated": False, "noise_pos": NOISE, "noise_normal": NOISE} for p in patches]
     runs = {
         "default (analyze_patches)": lambda: analyze_patches(patches),
         "families bench 2-jet (jet2.analyze)": lambda: jet2.analyze(for_jet2),
-        "lean batched 2-jet": lambda: lean_jet2(patches),
+        "lean batched 2-jet": (lean := lambda: lean_jet2(patches)),
     }
     out = {}
     for name, fn in runs.items():
         fn()  # warm: imports, caches
         best = float("inf")
-        for _ in range(repeats):
+        for _ in range(LEAN_REPEATS if fn is lean else repeats):
             t0 = time.process_time()
             fn()
             best = min(best, time.process_time() - t0)
         out[name] = 1e6 * best / n
     return out
+
+
+STAGES = (  # (name, module or class, attribute): the default's stages, in the order run
+    ("input checked and centred", patch_input, "prepare_stack"),
+    ("edge, tilt and turn screens", batch, "_screens"),
+    ("fit: frames, rows, the noise and answer QR passes", local_jet, "_fit_once"),
+    ("fit: the outlier test", local_jet, "worst_contact"),
+    ("fit: the answer's jet and covariance", jet_answers, "answer"),
+    ("fit: positions against normals (consistency)", local_jet, "refuse_disagreeing"),
+    ("answers: S, k, 95 % intervals, labels", jet_answers, "outcomes"),
+    ("jump screen", batch, "_smooth"),
+    ("result objects", PatchResult, "of"),
+)
+
+
+def stage_cpu(n, repeats=3):
+    """[(stage, µs of CPU a patch)] of ``analyze_patches`` on ``mixed(n)``, the rest last,
+    from the best of ``repeats`` runs: each stage's function timed where it is looked up."""
+    patches = mixed(n)
+    spent = {name: 0.0 for name, _, _ in STAGES}
+
+    def timed(name, fn):
+        def run(*args, **kw):
+            t0 = time.process_time()
+            try:
+                return fn(*args, **kw)
+            finally:
+                spent[name] += time.process_time() - t0
+
+        return run
+
+    originals = [(owner, attr, owner.__dict__[attr]) for _, owner, attr in STAGES]
+    for name, owner, attr in STAGES:
+        wrapped = timed(name, getattr(owner, attr))
+        setattr(owner, attr, staticmethod(wrapped) if isinstance(owner, type) else wrapped)
+    try:
+        analyze_patches(patches)  # warm
+        best = None
+        for _ in range(repeats):
+            spent.update({name: 0.0 for name, _, _ in STAGES})
+            t0 = time.process_time()
+            analyze_patches(patches)
+            total = time.process_time() - t0
+            if best is None or total < best[0]:
+                best = (total, dict(spent))
+    finally:
+        for owner, attr, original in originals:
+            setattr(owner, attr, original)
+    total, spent = best
+    rows = [(name, 1e6 * v / n) for name, v in spent.items()]
+    return [*rows, ("the rest (stacking, padding, per-patch Python)", 1e6 * total / n - sum(
+        v for _, v in rows))]  # fmt: skip
 
 
 def run_cli(path, jobs):
@@ -215,11 +274,23 @@ def main(argv=None):
         us = cpu_per_patch(n)
         lean = us["lean batched 2-jet"]
         fam = us["families bench 2-jet (jet2.analyze)"]
-        print(f"\nCPU per patch, {n} mixed sweeps and grids of 9-36 contacts (best of 3):\n")
+        print(f"\nCPU per patch, {n} mixed sweeps and grids of 9-36 contacts (best of 3; the lean"
+              f" 2-jet of {LEAN_REPEATS}):\n")  # fmt: skip
         print("| estimator | CPU per patch (µs) | x families 2-jet | x lean 2-jet |")
         print("|---|---|---|---|")
         for name, v in us.items():
             print(f"| {name} | {v:.0f} | {v / fam:.1f} | {v / lean:.1f} |")
+    if "stages" in only:
+        n = args.cpu_patches
+        lean = cpu_per_patch(n)["lean batched 2-jet"]
+        rows = stage_cpu(n)
+        print(f"\nThe default's CPU per patch by stage, {n} mixed patches (best of 3):\n")
+        print("| stage | CPU per patch (µs) | x lean 2-jet |")
+        print("|---|---|---|")
+        for name, v in rows:
+            print(f"| {name} | {v:.0f} | {v / lean:.1f} |")
+        total = sum(v for _, v in rows)
+        print(f"| all | {total:.0f} | {total / lean:.1f} |")
     if "cli" in only:
         print("\n| patches | jobs | file (MB) | wall (s) | CPU (s) | peak RSS (MB) |")
         print("|---|---|---|---|---|---|")
