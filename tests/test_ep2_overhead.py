@@ -40,8 +40,10 @@ def test_vote_is_its_array_form(seed):
 
 
 def test_a_stacks_votes_are_each_patchs_vote():
-    """``votes`` (a stack's S votes at once) gives ``vote``'s label, confidence and shares,
-    bit for bit: S on and off the band edges, sds of 0 (one side or both), tiny, NaN."""
+    """``votes`` over a stack of 4,000 gives each patch's ``vote`` (its band rule where no sd,
+    else ``votes`` of that one alone, which ``test_vote_is_its_array_form`` checks against
+    the split normal's CDF) bit for bit: no row leaks into another; S on and off the band
+    edges, sds of 0 (one side or both), tiny, NaN."""
     rng = np.random.default_rng(7)
     s = rng.choice([*rng.uniform(-1.2, 1.2, 8), *S_EDGES, 1.0, -1.0, math.nan], 4000)
     lo, hi = (rng.choice([*rng.uniform(0, 0.4, 8), 0.0, -0.0, 1e-12, math.nan], 4000) for _ in "ab")

@@ -253,22 +253,15 @@ def vote(s_est, s_sd, p_flat=0.0):
     if not s_sd or not (any(s_sd) if type(s_sd) is tuple else np.any(s_sd)):
         return S_NAMES[int(s_class(s_est))], 1.0 - p_flat, {}
     lo, hi = s_sd if type(s_sd) is tuple or not np.isscalar(s_sd) else (s_sd, s_sd)
-    cdf = [split_normal_cdf(e, s_est, lo, hi) for e in _EDGES]
-    # Python floats, the same arithmetic as np.diff; argmax as numpy's (first NaN, else
-    # the first largest)
-    shares = [(b - a) * (1.0 - p_flat) for a, b in zip(cdf, cdf[1:], strict=False)]
-    nan = [i for i, v in enumerate(shares) if v != v]
-    best = nan[0] if nan else shares.index(max(shares))
-    votes = {S_NAMES[i]: float(c) for i, c in enumerate(shares) if c > 1e-4}
-    if shares[best] >= MIN_VOTE:
-        return S_NAMES[best], float(shares[best]), votes
-    return "uncertain", float(shares[best]), votes
+    return votes([s_est], [lo], [hi], [p_flat])[0]
 
 
 def votes(s, sd_lo, sd_hi, p_flat):
-    """``vote`` of a stack: S, its sds below and above it, the flatness p-values (each (B,)),
-    by the same arithmetic on arrays (``math.erf``/``erfc`` of each point, so each number is
-    ``vote``'s); a list of (label, confidence, votes)."""
+    """``vote`` of a stack (``vote`` with an sd is this of one): S, its sds below and above
+    it, the flatness p-values (each (B,)); ``split_normal_cdf`` at each band edge on arrays
+    (``math.erf``/``erfc`` of each point, so each number is its own), each band's share,
+    argmax as NumPy's (the first NaN, else the first largest); a list of (label,
+    confidence, votes)."""
     s, lo, hi, p_flat = (np.asarray(v, float)[:, None] for v in (s, sd_lo, sd_hi, p_flat))
     below = _EDGE_ARRAY <= s  # (``split_normal_cdf``'s branches)
     total = lo + hi
