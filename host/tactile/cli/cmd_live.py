@@ -65,7 +65,7 @@ def run(args):
         except BaseException:
             client.close()
             raise
-    if getattr(client.port, "realtime", True) is False:  # sim:// (tactile_sim.urlhandler)
+    if getattr(client.port, "simulated_time", False):  # sim:// unpaced (tactile_sim.urlhandler)
         print(
             printable(
                 f"tactile live: note: {args.port} runs faster than real time;"

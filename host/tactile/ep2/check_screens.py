@@ -15,7 +15,7 @@ ill-conditioned fit is always checked one at a time."""
 import numpy as np
 
 from tactile.ep2 import edges, tilt
-from tactile.ep2.curvature_jump import ABS, QR_COND, REL, no_jump, qr_fit  # noqa: F401 (no_jump: here with the others)
+from tactile.ep2.curvature_jump import ABS, REL, no_jump, qr_fit  # noqa: F401 (no_jump: here with the others)
 from tactile.ep2.curvature_jump import solve_stacked as _solve
 from tactile.ep2.curvature_jump import tangent_bases as _across
 
@@ -31,8 +31,7 @@ def screens(points, normals, opts):
     patch): whether ``edges.check`` passes (raises nothing), whether ``tilt.untilt`` leaves
     the patch as it is, and whether ``edges.find``, loose, surely finds no edge (then
     ``edges.check_answer`` has nothing to say of a ``plane`` or a refusal)."""
-    noise_pos = np.array([np.nan if o.noise_pos is None else o.noise_pos for o in opts], float)
-    noise_normal = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
+    noise_pos, noise_normal = _noise(opts, "noise_pos"), _noise(opts, "noise_normal")
     cosmax = np.cos(np.radians([o.max_normal_angle for o in opts]))
     strict, loose = _no_edges(points, normals, noise_normal)
     tilt_ok = _no_tilt(points, normals, noise_pos, noise_normal)
@@ -48,8 +47,12 @@ def no_turn(points, normals, opts):
     """(B,) whether ``edges.find``, loose, surely finds no edge, by the margins: it stops at
     its gate (too few contacts, or every normal within ``edges.GATE_DEG`` of the mean), or
     its faces' turn fails its tests (``_turn_fails``).  ``opts`` as ``clear`` takes them."""
-    noise = np.array([np.nan if o.noise_normal is None else o.noise_normal for o in opts])
-    return _no_edges(points, normals, noise)[1]
+    return _no_edges(points, normals, _noise(opts, "noise_normal"))[1]
+
+
+def _noise(opts, key):
+    """(B,) the options' stated noise ``key``, NaN where not stated."""
+    return np.array([np.nan if (v := getattr(o, key)) is None else v for o in opts], float)
 
 
 def _unit(v):
@@ -267,14 +270,7 @@ def _residual(A, y, dof):
 
 
 def _qr_residual(A, y, dof):
-    """``_residual`` of y (B, n) by ``_qr_rss``, and its ok."""
-    rss, ok = _qr_rss(A, y)
-    return np.sqrt(rss / max(dof, 1)), ok
-
-
-def _qr_rss(A, y):
-    """(the residual sum of squares (B,) of y (B, n) fitted by A's columns, by Householder QR:
-    within about cond(A) eps of ``np.linalg.lstsq``'s (the normal equations': cond^2 eps);
-    whether cond(A) is surely under ``QR_COND`` (by ||R||_F ||R^-1||_F)) per patch."""
+    """``_residual`` of y (B, n) by Householder QR (``curvature_jump.qr_fit``: within about
+    cond(A) eps of ``np.linalg.lstsq``'s, the normal equations' cond^2 eps), and its ok."""
     _, _, rss, ok = qr_fit(A, y[..., None])
-    return rss, ok
+    return np.sqrt(rss / max(dof, 1)), ok
