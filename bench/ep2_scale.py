@@ -34,6 +34,7 @@ import time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+from bench_args import positive_int  # noqa: E402
 from timing import peak_rss_mb  # noqa: E402
 
 from tactile.ep2 import analyze_patches, batch, jet_answers, local_jet, patch_input  # noqa: E402
@@ -260,15 +261,22 @@ def run_cli(path, jobs):
     return wall, cpu, peak, lines, proc.returncode
 
 
+def _counts(text):
+    """An ``argparse`` type: a comma-separated list of whole numbers of at least 1."""
+    return [positive_int(v) for v in text.split(",")]
+
+
 def main(argv=None):
     keep_heap()  # (as the CLI: the allocator keeps the stacks' pages)
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="10000,100000,1000000")
-    ap.add_argument("--jobs", default="1")
-    ap.add_argument("--cpu-patches", type=int, default=768)
+    ap.add_argument("--sizes", type=_counts, default="10000,100000,1000000")
+    ap.add_argument("--jobs", type=_counts, default="1")
+    ap.add_argument("--cpu-patches", type=positive_int, default=768)
     ap.add_argument("--only", default="cpu,cli")
     args = ap.parse_args(argv)
     only = set(args.only.split(","))
+    if not only <= {"cpu", "stages", "cli"}:
+        ap.error(f"--only: {args.only!r}: not a list of cpu, stages, cli")
     if "cpu" in only:
         n = args.cpu_patches
         us = cpu_per_patch(n)
@@ -295,11 +303,11 @@ def main(argv=None):
         print("\n| patches | jobs | file (MB) | wall (s) | CPU (s) | peak RSS (MB) |")
         print("|---|---|---|---|---|---|")
         with tempfile.TemporaryDirectory() as tmp:
-            for n in (int(s) for s in args.sizes.split(",")):
+            for n in args.sizes:
                 path = os.path.join(tmp, f"mixed_{n}.csv")
                 write_csv(path, n)
                 mb = os.path.getsize(path) / 1e6
-                for jobs in (int(j) for j in args.jobs.split(",")):
+                for jobs in args.jobs:
                     wall, cpu, rss, lines, code = run_cli(path, jobs)
                     assert code in (0, 3) and lines == n, (code, lines, n)
                     print(
